@@ -1,0 +1,1 @@
+"""The `interbot` command: demo, headless scenarios and benchmarks (a thin composition root)."""

@@ -1,0 +1,54 @@
+"""`interbot demo`: the simulated robot, the Base Station and the Tablet on this machine.
+
+All links stay on 127.0.0.1 with ports the OS picks. On a machine with no display this says so
+and how to proceed, instead of a Qt platform traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+
+NO_DISPLAY_HELP = """\
+interbot demo: no display found (neither DISPLAY nor WAYLAND_DISPLAY is set).
+The demo opens two windows (Base Station and Tablet). To proceed, either
+  * run it under a virtual X server:   xvfb-run -s '-screen 0 1920x1080x24' make demo
+    (Debian: apt-get install xvfb), then take screenshots with `make screenshots`; or
+  * run the robot stack headless:      .venv/bin/interbot scenario tour
+"""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--check", action="store_true", help="only check what the demo needs")
+
+
+def has_display() -> bool:
+    if os.environ.get("QT_QPA_PLATFORM", "").startswith(("offscreen", "minimal", "vnc")):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def missing_parts() -> list[str]:
+    parts = {
+        "robot daemon (issue 4)": "robot_daemon.daemon",
+        "Base Station (issue 5)": "base_station_app.main_window",
+        "Tablet (issue 6)": "tablet_app.main_window",
+    }
+    return [name for name, module in parts.items() if importlib.util.find_spec(module) is None]
+
+
+def run(args: argparse.Namespace) -> int:
+    from interbot_cli.main import NotBuiltError
+
+    if not has_display():
+        print(NO_DISPLAY_HELP, file=sys.stderr, end="")
+        return 2
+    missing = missing_parts()
+    if missing:
+        raise NotBuiltError("the demo needs parts that are not built yet: " + ", ".join(missing))
+    from interbot_cli import demo_launcher  # type: ignore[attr-defined]
+
+    return int(demo_launcher.launch(args))

@@ -1,0 +1,86 @@
+"""`interbot` command line: ``demo``, ``scenario`` and ``bench``.
+
+This package only composes the others (the core never imports the daemon or the apps); each
+subcommand validates its arguments and fails with a one-line message, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from interbot_cli import bench, demo
+
+logger = logging.getLogger(__name__)
+
+EXIT_USAGE = 2
+EXIT_NOT_BUILT = 3
+
+
+class NotBuiltError(RuntimeError):
+    """A part of the system this command needs does not exist yet."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="interbot", description="Interbot human-robot interaction stack."
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p_demo = sub.add_parser(
+        "demo", help="start the simulated robot, the Base Station and the Tablet"
+    )
+    demo.add_arguments(p_demo)
+
+    p_scn = sub.add_parser("scenario", help="run a thesis test scenario headless on simulated time")
+    p_scn.add_argument("name", help="odometry | tour | mission | latency")
+    p_scn.add_argument("--map", dest="map_yaml", help="map_server YAML (default: ISR floor 0)")
+    p_scn.add_argument("--topo", help="topological map YAML")
+    p_scn.add_argument("--seed", type=int, default=1)
+    p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
+
+    p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
+    bench.add_arguments(p_bench)
+    return parser
+
+
+def run_scenario(args: argparse.Namespace) -> int:
+    try:
+        from robot_daemon import scenarios  # type: ignore[attr-defined]
+    except ImportError:
+        raise NotBuiltError(
+            "scenarios are not built yet (robot daemon part 2, issue 4); "
+            "nothing to run for 'interbot scenario'"
+        ) from None
+    return int(scenarios.main(args))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        if args.command == "demo":
+            return demo.run(args)
+        if args.command == "scenario":
+            return run_scenario(args)
+        if args.command == "bench":
+            return bench.run(args)
+    except NotBuiltError as exc:
+        print(f"interbot {args.command}: {exc}", file=sys.stderr)
+        return EXIT_NOT_BUILT
+    except bench.BenchError as exc:
+        print(f"interbot bench: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    parser.error(f"unknown command {args.command!r}")
+    return EXIT_USAGE  # pragma: no cover  (parser.error exits)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,149 @@
+"""Virtual touch joystick: screen point to velocity command (thesis §5.2.2.3, eqs. 5.1 and 5.2).
+
+    linear_vel  = (center_Y - pressed_Y) / radius * linear_max       (5.1)
+    angular_vel = (center_X - pressed_X) / radius * angular_max      (5.2)
+
+Screen coordinates [px]: x grows right, y grows down. So pressing above the centre drives
+forward (positive linear) and pressing left of the centre turns left, which is a positive
+(counter-clockwise) angular velocity in REP-103. A point outside the circle is moved radially
+onto its edge (thesis: "the speed command relative to the outer edge of the white circle"), so
+the normalised command ``(linear/linear_max, angular/angular_max)`` never has a norm above 1.
+Releasing the touch commands zero.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+logger = logging.getLogger(__name__)
+
+
+class JoystickError(ValueError):
+    """Invalid joystick geometry or limits."""
+
+
+def _check_geometry(center_x: float, center_y: float, radius: float) -> None:
+    if not (math.isfinite(center_x) and math.isfinite(center_y)):
+        raise JoystickError(f"joystick centre must be finite, got ({center_x!r}, {center_y!r})")
+    if not math.isfinite(radius) or radius <= 0.0:
+        raise JoystickError(f"joystick radius must be finite and > 0 px, got {radius!r}")
+
+
+def _check_limits(linear_max: float, angular_max: float) -> None:
+    if not math.isfinite(linear_max) or linear_max < 0.0:
+        raise JoystickError(f"joystick linear_max must be finite and >= 0 m/s, got {linear_max!r}")
+    if not math.isfinite(angular_max) or angular_max < 0.0:
+        raise JoystickError(
+            f"joystick angular_max must be finite and >= 0 rad/s, got {angular_max!r}"
+        )
+
+
+def _clamp_unit(value: float) -> float:
+    return min(1.0, max(-1.0, value))
+
+
+def joystick_command(
+    center_x: float,
+    center_y: float,
+    pressed_x: float,
+    pressed_y: float,
+    radius: float,
+    linear_max: float,
+    angular_max: float,
+) -> tuple[float, float]:
+    """Eqs. 5.1/5.2: (linear [m/s], angular [rad/s]) for a press at (pressed_x, pressed_y) [px].
+
+    ``linear = (center_y - pressed_y) / radius * linear_max`` and
+    ``angular = (center_x - pressed_x) / radius * angular_max``, with the pressed point first
+    clamped radially onto the circle of ``radius`` around the centre.
+    """
+    _check_geometry(center_x, center_y, radius)
+    _check_limits(linear_max, angular_max)
+    if not (math.isfinite(pressed_x) and math.isfinite(pressed_y)):
+        raise JoystickError(f"pressed point must be finite, got ({pressed_x!r}, {pressed_y!r})")
+    u = (center_x - pressed_x) / radius  # + when pressed left of centre: turn left
+    v = (center_y - pressed_y) / radius  # + when pressed above centre: forward
+    norm = math.hypot(u, v)
+    if norm > 1.0:
+        u, v = u / norm, v / norm
+    # Rounding can leave an axis a few ulps above 1; the command must never exceed the maxima.
+    return _clamp_unit(v) * linear_max, _clamp_unit(u) * angular_max
+
+
+class JoystickState:
+    """Press / move / release of one touch on the joystick; each returns the command to send.
+
+    The geometry (centre, radius [px]) follows the widget's size; the maxima follow the sliders.
+    A move without a press is ignored (command stays zero).
+    """
+
+    def __init__(
+        self,
+        center_x: float,
+        center_y: float,
+        radius: float,
+        linear_max: float,
+        angular_max: float,
+    ) -> None:
+        _check_geometry(center_x, center_y, radius)
+        _check_limits(linear_max, angular_max)
+        self._center = (float(center_x), float(center_y))
+        self._radius = float(radius)
+        self._linear_max = float(linear_max)
+        self._angular_max = float(angular_max)
+        self._pressed_at: tuple[float, float] | None = None
+
+    @property
+    def pressed(self) -> bool:
+        return self._pressed_at is not None
+
+    @property
+    def linear_max(self) -> float:
+        return self._linear_max
+
+    @property
+    def angular_max(self) -> float:
+        return self._angular_max
+
+    @property
+    def command(self) -> tuple[float, float]:
+        """The current (linear [m/s], angular [rad/s]); zero when not pressed."""
+        if self._pressed_at is None:
+            return (0.0, 0.0)
+        return joystick_command(
+            self._center[0],
+            self._center[1],
+            self._pressed_at[0],
+            self._pressed_at[1],
+            self._radius,
+            self._linear_max,
+            self._angular_max,
+        )
+
+    def set_geometry(self, center_x: float, center_y: float, radius: float) -> None:
+        """The widget was resized: new centre and radius [px]."""
+        _check_geometry(center_x, center_y, radius)
+        self._center = (float(center_x), float(center_y))
+        self._radius = float(radius)
+
+    def set_limits(self, linear_max: float, angular_max: float) -> tuple[float, float]:
+        """New maxima from the sliders; returns the updated command."""
+        _check_limits(linear_max, angular_max)
+        self._linear_max, self._angular_max = float(linear_max), float(angular_max)
+        return self.command
+
+    def press(self, x: float, y: float) -> tuple[float, float]:
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise JoystickError(f"pressed point must be finite, got ({x!r}, {y!r})")
+        self._pressed_at = (float(x), float(y))
+        return self.command
+
+    def move(self, x: float, y: float) -> tuple[float, float]:
+        if self._pressed_at is None:
+            return (0.0, 0.0)
+        return self.press(x, y)
+
+    def release(self) -> tuple[float, float]:
+        self._pressed_at = None
+        return (0.0, 0.0)

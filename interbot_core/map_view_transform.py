@@ -1,0 +1,204 @@
+"""World (map frame) to widget pixel transform for map views (thesis §5.2.1.1, Algorithm 3).
+
+Thesis Algorithm 3 (receivePos) places the robot on the Tablet's map widget with
+
+    h_scale = height / 35,   w_scale = width / 70
+    pos_X = (x + 35) * w_scale,   pos_Y = (y + 14.25) * h_scale,   arc = a
+
+i.e. a 70 m x 35 m map whose lower-left corner is at (-35, -14.25) m, stretched to fill the
+widget. `MapViewTransform` generalises it to any map rectangle and widget size, and differs in
+two documented ways:
+
+* **y is flipped.** Qt widget y grows *down*, while map y (REP-103) grows up (left of the
+  robot's forward axis). Algorithm 3 did not flip, so its map appears mirrored top-to-bottom
+  unless the background image was mirrored to match. We flip, so the map is drawn upright
+  (north up) from an ordinary map image: ``py = offset_y + (top - y) * scale_y``. In thesis
+  terms ``py_ours = height - pos_Y_thesis`` when the aspect is not kept.
+* **aspect is kept by default** (``keep_aspect=True``): one isotropic scale
+  ``min(width / map_width, height / map_height)`` and the map centred with letterbox offsets, so
+  circles stay circles on any screen. ``keep_aspect=False`` stretches like the thesis.
+
+Headings follow the same flip: a counter-clockwise world yaw becomes a clockwise-on-screen
+widget angle, measured from the widget's +x axis towards its +y axis (down), which is what
+``QPainter.rotate(math.degrees(angle))`` expects.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+logger = logging.getLogger(__name__)
+
+
+class MapViewError(ValueError):
+    """Invalid map rectangle or widget size for a map view transform."""
+
+
+def _finite(name: str, value: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise MapViewError(f"map view {name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(name: str, value: float, unit: str) -> float:
+    value = _finite(name, value)
+    if value <= 0.0:
+        raise MapViewError(f"map view {name} must be > 0 {unit}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True, slots=True)
+class MapViewTransform:
+    """Map rectangle [m] (lower-left ``map_origin``, size) shown in a widget [px].
+
+    ``scale_x``/``scale_y`` are px per metre; ``offset_x``/``offset_y`` [px] the letterbox margins.
+    """
+
+    map_origin_x: float
+    map_origin_y: float
+    map_width_m: float
+    map_height_m: float
+    widget_width_px: float
+    widget_height_px: float
+    keep_aspect: bool = True
+    scale_x: float = field(init=False)
+    scale_y: float = field(init=False)
+    offset_x: float = field(init=False)
+    offset_y: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        setattr_ = object.__setattr__
+        setattr_(self, "map_origin_x", _finite("map_origin_x", self.map_origin_x))
+        setattr_(self, "map_origin_y", _finite("map_origin_y", self.map_origin_y))
+        setattr_(self, "map_width_m", _positive("map_width_m", self.map_width_m, "m"))
+        setattr_(self, "map_height_m", _positive("map_height_m", self.map_height_m, "m"))
+        setattr_(self, "widget_width_px", _positive("widget_width_px", self.widget_width_px, "px"))
+        setattr_(
+            self, "widget_height_px", _positive("widget_height_px", self.widget_height_px, "px")
+        )
+        sx = self.widget_width_px / self.map_width_m
+        sy = self.widget_height_px / self.map_height_m
+        if self.keep_aspect:
+            sx = sy = min(sx, sy)
+        setattr_(self, "scale_x", sx)
+        setattr_(self, "scale_y", sy)
+        setattr_(self, "offset_x", (self.widget_width_px - self.map_width_m * sx) / 2.0)
+        setattr_(self, "offset_y", (self.widget_height_px - self.map_height_m * sy) / 2.0)
+
+    @classmethod
+    def from_grid(
+        cls,
+        origin: Sequence[float],
+        resolution: float,
+        width_cells: int,
+        height_cells: int,
+        widget_width_px: float,
+        widget_height_px: float,
+        keep_aspect: bool = True,
+    ) -> MapViewTransform:
+        """From a ROS map_server grid: ``origin`` (x, y[, yaw]) [m, rad] of cell (0, 0)'s corner,
+        ``resolution`` [m/cell], size in cells. Rotated maps (yaw != 0) are not supported."""
+        if len(origin) not in (2, 3):
+            raise MapViewError(f"map origin must be (x, y) or (x, y, yaw), got {origin!r}")
+        if len(origin) == 3 and _finite("origin yaw", origin[2]) != 0.0:
+            raise MapViewError(
+                f"map origin yaw {origin[2]!r} rad is not supported: rotated maps cannot be "
+                "drawn axis-aligned; use yaw 0"
+            )
+        resolution = _positive("resolution", resolution, "m/cell")
+        for name, cells in (("width_cells", width_cells), ("height_cells", height_cells)):
+            if isinstance(cells, bool) or not isinstance(cells, int) or cells < 1:
+                raise MapViewError(f"map view {name} must be an integer >= 1, got {cells!r}")
+        return cls(
+            origin[0],
+            origin[1],
+            width_cells * resolution,
+            height_cells * resolution,
+            widget_width_px,
+            widget_height_px,
+            keep_aspect,
+        )
+
+    def resized(self, widget_width_px: float, widget_height_px: float) -> MapViewTransform:
+        """The same map shown in a widget of a new size."""
+        return MapViewTransform(
+            self.map_origin_x,
+            self.map_origin_y,
+            self.map_width_m,
+            self.map_height_m,
+            widget_width_px,
+            widget_height_px,
+            self.keep_aspect,
+        )
+
+    @property
+    def scale(self) -> float:
+        """Isotropic scale [px/m]: equals ``scale_x == scale_y`` when the aspect is kept, else the
+        smaller of the two (the largest circle-preserving scale, e.g. for the robot's outline)."""
+        return min(self.scale_x, self.scale_y)
+
+    @property
+    def map_top_y(self) -> float:
+        """World y of the map's top edge [m]."""
+        return self.map_origin_y + self.map_height_m
+
+    def map_rect_px(self) -> tuple[float, float, float, float]:
+        """Where the map image goes in the widget: (left, top, width, height) [px]."""
+        return (
+            self.offset_x,
+            self.offset_y,
+            self.map_width_m * self.scale_x,
+            self.map_height_m * self.scale_y,
+        )
+
+    def world_to_widget(self, x: float, y: float) -> tuple[float, float]:
+        """Map-frame point [m] to widget pixels (y down):
+        ``px = offset_x + (x - origin_x) * scale_x``, ``py = offset_y + (top - y) * scale_y``."""
+        px = self.offset_x + (x - self.map_origin_x) * self.scale_x
+        py = self.offset_y + (self.map_top_y - y) * self.scale_y
+        return (px, py)
+
+    def widget_to_world(self, px: float, py: float) -> tuple[float, float]:
+        """Widget pixels to a map-frame point [m]; the inverse of `world_to_widget`."""
+        x = self.map_origin_x + (px - self.offset_x) / self.scale_x
+        y = self.map_top_y - (py - self.offset_y) / self.scale_y
+        return (x, y)
+
+    def world_to_widget_array(self, xy: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Vectorised `world_to_widget` for an (N, 2) array of points [m] (paths, scans)."""
+        points = np.asarray(xy, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != 2:
+            raise MapViewError(f"expected an (N, 2) array of points, got shape {points.shape}")
+        out = np.empty_like(points)
+        out[:, 0] = self.offset_x + (points[:, 0] - self.map_origin_x) * self.scale_x
+        out[:, 1] = self.offset_y + (self.map_top_y - points[:, 1]) * self.scale_y
+        return out
+
+    def contains_world(self, x: float, y: float) -> bool:
+        """True when the point lies inside the map rectangle (edges included)."""
+        return (
+            self.map_origin_x <= x <= self.map_origin_x + self.map_width_m
+            and self.map_origin_y <= y <= self.map_top_y
+        )
+
+    def yaw_to_widget_angle(self, yaw: float) -> float:
+        """World yaw [rad, CCW from +x] to a widget angle [rad] from +x towards +y (clockwise on
+        screen), in (-pi, pi]. With an isotropic scale this is ``-yaw`` wrapped; with a stretched
+        view the direction is scaled per axis too: ``atan2(-sin(yaw) * sy, cos(yaw) * sx)``."""
+        if not math.isfinite(yaw):
+            raise MapViewError(f"yaw must be finite, got {yaw!r}")
+        angle = math.atan2(-math.sin(yaw) * self.scale_y, math.cos(yaw) * self.scale_x)
+        return math.pi if angle == -math.pi else angle
+
+    def widget_angle_to_yaw(self, angle: float) -> float:
+        """Inverse of `yaw_to_widget_angle`, in (-pi, pi]."""
+        if not math.isfinite(angle):
+            raise MapViewError(f"angle must be finite, got {angle!r}")
+        yaw = math.atan2(-math.sin(angle) / self.scale_y, math.cos(angle) / self.scale_x)
+        return math.pi if yaw == -math.pi else yaw

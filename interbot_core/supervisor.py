@@ -1,0 +1,633 @@
+"""The Base Station's task logic: a queue of tasks driven by poses and time (supervisory control).
+
+This is the goal-handling part of the thesis's ``clock()`` control loop (§5.3.6, Fig. 5.12) with
+the tasks a user orders from the tablet or the station (§5.2.2): go to a room, guided tour (§6.2),
+deliver a request between rooms, go home, go to a free pose. It is a pure state machine: the caller
+feeds it ``update(now, pose)`` from its clock (``now`` in monotonic seconds, ``pose`` in the ``map``
+frame or ``None`` while the robot is not localised) and user commands, and acts on the returned
+:class:`Event` values (send a route to the robot, show a dialog, ...). No Qt, no wall clock.
+
+Rules
+-----
+* Tasks run one at a time in queue order. A task starts only while the robot is localised
+  (``pose`` not ``None``; thesis §5.2.2.1: no autonomous motion before the initial pose is set).
+* Routes come from :class:`~interbot_core.route_planner.RoutePlanner` (Algorithms 2 and 5);
+  progress is judged by a :class:`~interbot_core.route_follower.RouteFollower`: intermediate goals
+  within ``approach_tolerance``, the final goal within ``goal_tolerance`` and ``yaw_tolerance``.
+* Guided tour: the tour stops (ring buffer starting at the stop nearest the robot) are driven to
+  one by one; at each the supervisor emits :class:`TourStopReached` and waits for
+  :meth:`Supervisor.tour_resume` or :meth:`Supervisor.tour_end`.
+* Delivery: drive to ``room`` (a node with ``requests: true``), show the request, wait up to
+  ``request_timeout`` for :meth:`Supervisor.request_response`; on accept carry it to
+  ``deliver_to``; on decline or time-out the task finishes unsuccessfully with the reason.
+* Commands (``submit``, ``pause``, ``cancel``, ...) validate at once, raise
+  :class:`TaskRejectedError` / :class:`SupervisorError` with an actionable message, and return the
+  events that follow from them directly. Anything that needs a pose (planning a route, judging
+  progress) or the time (request time-out) happens in :meth:`Supervisor.update`.
+* ``pause()`` is a navigation lock (the thesis's pause lock on the speed multiplexer): it persists
+  across tasks until ``resume()``; routes and time-outs keep running while paused.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from dataclasses import dataclass
+
+from interbot_core.geometry import Pose2D
+from interbot_core.route_follower import (
+    DEFAULT_APPROACH_TOLERANCE,
+    DEFAULT_GOAL_TOLERANCE,
+    DEFAULT_YAW_TOLERANCE,
+    RouteFollower,
+)
+from interbot_core.route_planner import RoutePlanner, RoutePlanningError
+from interbot_core.topological_map import TopologicalMap, TopologicalMapError
+
+logger = logging.getLogger(__name__)
+
+
+class SupervisorError(RuntimeError):
+    """A command does not fit the current state (e.g. ``tour_resume`` while no tour waits)."""
+
+
+class TaskRejectedError(ValueError):
+    """A task cannot run on this map (unknown node, room without requests, no tour stops)."""
+
+
+# ---------------------------------------------------------------------- tasks
+
+
+@dataclass(frozen=True)
+class GoTo:
+    """Drive to topological node ``node`` and face its arrival yaw."""
+
+    node: int
+
+
+@dataclass(frozen=True)
+class GuidedTour:
+    """Visit every ``tour: true`` node, pausing at each until the user resumes or ends the tour."""
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """Take ``request_text`` to ``room`` (requests allowed), then on acceptance to ``deliver_to``."""
+
+    request_text: str
+    room: int
+    deliver_to: int
+
+
+@dataclass(frozen=True)
+class GoHome:
+    """Drive to the map's home node."""
+
+
+@dataclass(frozen=True)
+class GoToPose:
+    """Drive straight to a free pose in the ``map`` frame (no topological route)."""
+
+    pose: Pose2D
+
+
+Task = GoTo | GuidedTour | Delivery | GoHome | GoToPose
+
+
+# ---------------------------------------------------------------------- events
+
+
+@dataclass(frozen=True)
+class TaskStarted:
+    task: Task
+
+
+@dataclass(frozen=True)
+class TaskFinished:
+    task: Task
+    ok: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class QueueChanged:
+    queue: tuple[Task, ...]
+
+
+@dataclass(frozen=True)
+class RouteStarted:
+    """Send the whole route to the robot. ``node_ids[i]`` is the node of ``waypoints[i]``
+    (``None`` for a free pose); ``final_node`` is the goal node (``None`` for a free pose)."""
+
+    waypoints: tuple[Pose2D, ...]
+    node_ids: tuple[int | None, ...]
+    final_node: int | None
+
+
+@dataclass(frozen=True)
+class RouteCancelled:
+    """Tell the robot to drop its route (task cancelled or tour ended while driving)."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
+class IntermediateGoalReached:
+    node: int | None
+    index: int  # waypoint index in the current route
+
+
+@dataclass(frozen=True)
+class GoalReached:
+    node: int | None
+    pose: Pose2D  # the goal pose that was reached
+
+
+@dataclass(frozen=True)
+class PauseNavigation:
+    paused: bool
+
+
+@dataclass(frozen=True)
+class TourStopReached:
+    node: int
+    info: str
+    name: str
+    visited: tuple[int, ...]
+    next_stop: int | None  # None at the last stop
+
+
+@dataclass(frozen=True)
+class RequestShown:
+    text: str
+    room: int
+    deliver_to: int
+    deadline: float  # [s] same clock as ``now``
+
+
+@dataclass(frozen=True)
+class RequestAccepted:
+    text: str
+    room: int
+    deliver_to: int
+
+
+@dataclass(frozen=True)
+class RequestDeclined:
+    text: str
+    room: int
+    deliver_to: int
+
+
+@dataclass(frozen=True)
+class RequestTimedOut:
+    text: str
+    room: int
+    deliver_to: int
+
+
+Event = (
+    TaskStarted
+    | TaskFinished
+    | QueueChanged
+    | RouteStarted
+    | RouteCancelled
+    | IntermediateGoalReached
+    | GoalReached
+    | PauseNavigation
+    | TourStopReached
+    | RequestShown
+    | RequestAccepted
+    | RequestDeclined
+    | RequestTimedOut
+)
+
+
+# ---------------------------------------------------------------------- configuration and state
+
+
+@dataclass(frozen=True)
+class SupervisorConfig:
+    """Goal tolerances (thesis Table 6.3) and the request time-out."""
+
+    approach_tolerance: float = DEFAULT_APPROACH_TOLERANCE  # [m] intermediate goals
+    goal_tolerance: float = DEFAULT_GOAL_TOLERANCE  # [m] final goal position
+    yaw_tolerance: float = DEFAULT_YAW_TOLERANCE  # [rad] final goal heading
+    request_timeout: float = 120.0  # [s] wait for an answer at the request room
+
+    def __post_init__(self) -> None:
+        for name in ("approach_tolerance", "goal_tolerance", "yaw_tolerance", "request_timeout"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f"SupervisorConfig.{name} must be a number, got {value!r}")
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"SupervisorConfig.{name} must be finite and > 0, got {value!r}")
+        if self.yaw_tolerance > math.pi:
+            raise ValueError(
+                f"SupervisorConfig.yaw_tolerance must be <= pi rad, got {self.yaw_tolerance!r}"
+            )
+
+
+class SupervisorState(enum.StrEnum):
+    IDLE = "idle"
+    WAITING_FOR_POSE = "waiting_for_pose"
+    NAVIGATING = "navigating"
+    PAUSED = "paused"  # navigating, but the pause lock is on
+    AT_TOUR_STOP = "at_tour_stop"
+    AWAITING_RESPONSE = "awaiting_response"
+
+
+class _Phase(enum.Enum):
+    NEED_ROUTE = enum.auto()  # a goal is set, the route is planned at the next localised update
+    FOLLOWING = enum.auto()
+    AT_TOUR_STOP = enum.auto()
+    AWAITING_RESPONSE = enum.auto()
+
+
+# ---------------------------------------------------------------------- the supervisor
+
+
+class Supervisor:
+    """Queue of tasks, run in order against poses and time (see the module docstring)."""
+
+    def __init__(
+        self,
+        topo: TopologicalMap,
+        planner: RoutePlanner | None = None,
+        config: SupervisorConfig | None = None,
+    ) -> None:
+        self.topo = topo
+        self.planner = planner if planner is not None else RoutePlanner(topo)
+        if self.planner.topo is not topo:
+            raise ValueError("the RoutePlanner was built for a different topological map")
+        self.config = config if config is not None else SupervisorConfig()
+        self._queue: list[Task] = []
+        self._paused = False
+        self._pose: Pose2D | None = None
+        self._localized = False
+        self._reset_task()
+
+    def _reset_task(self) -> None:
+        self._task: Task | None = None
+        self._phase: _Phase | None = None
+        self._goal_node: int | None = None
+        self._goal_pose: Pose2D | None = None
+        self._route: RouteStarted | None = None
+        self._follower: RouteFollower | None = None
+        self._tour_stops: tuple[int, ...] = ()
+        self._visited: list[int] = []
+        self._delivering = False  # Delivery: False on the way to the room, True after accept
+        self._deadline: float | None = None
+
+    # ------------------------------------------------------------------ read-only state
+
+    @property
+    def current_task(self) -> Task | None:
+        return self._task
+
+    @property
+    def state(self) -> SupervisorState:
+        if self._task is None:
+            if self._queue and not self._localized:
+                return SupervisorState.WAITING_FOR_POSE
+            return SupervisorState.IDLE
+        if self._phase is _Phase.AT_TOUR_STOP:
+            return SupervisorState.AT_TOUR_STOP
+        if self._phase is _Phase.AWAITING_RESPONSE:
+            return SupervisorState.AWAITING_RESPONSE
+        if self._phase is _Phase.NEED_ROUTE and not self._localized:
+            return SupervisorState.WAITING_FOR_POSE
+        return SupervisorState.PAUSED if self._paused else SupervisorState.NAVIGATING
+
+    @property
+    def queue(self) -> tuple[Task, ...]:
+        """Tasks waiting to start, in order (the current task is not included)."""
+        return tuple(self._queue)
+
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
+    @property
+    def pose(self) -> Pose2D | None:
+        """The last known pose (kept while localisation is lost)."""
+        return self._pose
+
+    @property
+    def localized(self) -> bool:
+        """Whether the latest ``update`` carried a pose."""
+        return self._localized
+
+    @property
+    def current_route(self) -> RouteStarted | None:
+        """The route last sent to the robot for the current task (kept after arrival)."""
+        return self._route
+
+    @property
+    def route_index(self) -> int | None:
+        """Index into ``current_route.waypoints`` of the goal being driven to."""
+        return None if self._follower is None else self._follower.current_index
+
+    @property
+    def current_goal_node(self) -> int | None:
+        """The node the current leg ends at (``None`` for a free pose or no task)."""
+        return self._goal_node
+
+    @property
+    def tour_stops(self) -> tuple[int, ...]:
+        """All stops of the running tour in visiting order (empty without a tour)."""
+        return self._tour_stops
+
+    @property
+    def visited_tour_stops(self) -> tuple[int, ...]:
+        return tuple(self._visited)
+
+    @property
+    def next_tour_stop(self) -> int | None:
+        """The first stop of the running tour not yet visited (the one being driven to)."""
+        remaining = self._tour_stops[len(self._visited) :]
+        return remaining[0] if remaining else None
+
+    @property
+    def request_deadline(self) -> float | None:
+        """When the shown request times out [s], while awaiting a response."""
+        return self._deadline
+
+    @property
+    def distance_to_next_goal(self) -> float | None:
+        """Straight-line distance from the last pose to the current target [m]."""
+        if self._follower is None or self._pose is None:
+            return None
+        return self._follower.distance_to_target(self._pose)
+
+    # ------------------------------------------------------------------ commands
+
+    def submit(self, task: Task) -> list[Event]:
+        """Validate ``task`` against the map and append it to the queue."""
+        self._validate(task)
+        self._queue.append(task)
+        logger.info("task queued: %s (queue length %d)", task, len(self._queue))
+        return [QueueChanged(self.queue)]
+
+    def pause(self) -> list[Event]:
+        """Engage the pause lock (navigation stops, the task is kept)."""
+        if self._paused:
+            return []
+        self._paused = True
+        return [PauseNavigation(True)]
+
+    def resume(self) -> list[Event]:
+        """Release the pause lock."""
+        if not self._paused:
+            return []
+        self._paused = False
+        return [PauseNavigation(False)]
+
+    def cancel(self) -> list[Event]:
+        """Abort the current task (the queue is untouched; the next task starts on update)."""
+        if self._task is None:
+            return []
+        return self._finish(False, "cancelled by the user", cancel_route=True)
+
+    def clear_queue(self) -> list[Event]:
+        """Drop every waiting task (the current task is untouched)."""
+        if not self._queue:
+            return []
+        self._queue.clear()
+        return [QueueChanged(self.queue)]
+
+    def reorder(self, from_index: int, to_index: int) -> list[Event]:
+        """Move the waiting task at ``from_index`` to ``to_index`` (0 runs next)."""
+        self._check_index(from_index)
+        self._check_index(to_index)
+        task = self._queue.pop(from_index)
+        self._queue.insert(to_index, task)
+        return [QueueChanged(self.queue)]
+
+    def remove(self, index: int) -> list[Event]:
+        """Drop the waiting task at ``index``."""
+        self._check_index(index)
+        del self._queue[index]
+        return [QueueChanged(self.queue)]
+
+    def tour_resume(self) -> list[Event]:
+        """Leave the tour stop the robot waits at: drive to the next one, or finish the tour."""
+        if self._phase is not _Phase.AT_TOUR_STOP:
+            raise SupervisorError(f"no tour is waiting at a stop (state: {self.state})")
+        next_stop = self.next_tour_stop
+        if next_stop is None:
+            n = len(self._tour_stops)
+            return self._finish(True, f"tour complete: visited all {n} stops")
+        self._set_goal(next_stop)
+        return []
+
+    def tour_end(self) -> list[Event]:
+        """End the running guided tour (at a stop or on the way)."""
+        if not isinstance(self._task, GuidedTour):
+            raise SupervisorError(f"no guided tour is running (state: {self.state})")
+        visited, n = len(self._visited), len(self._tour_stops)
+        return self._finish(
+            True, f"tour ended by the user after {visited} of {n} stops", cancel_route=True
+        )
+
+    def request_response(self, accepted: bool) -> list[Event]:
+        """Answer the request shown at the room: accept (deliver it) or decline (report back)."""
+        task = self._task
+        if self._phase is not _Phase.AWAITING_RESPONSE or not isinstance(task, Delivery):
+            raise SupervisorError(f"no request is waiting for a response (state: {self.state})")
+        self._deadline = None
+        if accepted:
+            self._delivering = True
+            self._set_goal(task.deliver_to)
+            return [RequestAccepted(task.request_text, task.room, task.deliver_to)]
+        events: list[Event] = [RequestDeclined(task.request_text, task.room, task.deliver_to)]
+        events += self._finish(False, f"request declined at {self._name(task.room)}")
+        return events
+
+    # ------------------------------------------------------------------ the clock
+
+    def update(self, now: float, pose: Pose2D | None) -> list[Event]:
+        """One control-loop step (thesis ``clock()``): start tasks, plan, judge progress, time out.
+
+        ``pose`` is the robot pose in the ``map`` frame, or ``None`` while it is not localised
+        (tasks and route planning then wait; a running route keeps its state).
+        """
+        if not math.isfinite(now):
+            raise ValueError(f"now must be a finite time [s], got {now!r}")
+        self._localized = pose is not None
+        if pose is not None:
+            self._pose = pose
+        events: list[Event] = []
+        # A task may finish within this step (goal already reached, time-out), so the next one
+        # may start at once; each pass either leaves a task running or consumes one from the queue.
+        for _ in range(len(self._queue) + 1):
+            if self._task is None:
+                if not self._queue or pose is None:
+                    break
+                self._start_next(pose, events)
+            if self._phase is _Phase.NEED_ROUTE and pose is not None:
+                self._start_route(pose, events)
+            if self._phase is _Phase.FOLLOWING and pose is not None:
+                self._follow(now, pose, events)
+            if (
+                self._phase is _Phase.AWAITING_RESPONSE
+                and self._deadline is not None
+                and now >= self._deadline
+            ):
+                self._time_out(events)
+            if self._task is not None:
+                break
+        return events
+
+    # ------------------------------------------------------------------ internals
+
+    def _validate(self, task: Task) -> None:
+        try:
+            if isinstance(task, GoTo):
+                self.topo.node(task.node, "goal")
+            elif isinstance(task, GuidedTour):
+                if not self.topo.tour_nodes():
+                    raise TaskRejectedError(
+                        f"no guided tour: no node of {self.topo.source} has 'tour: true'"
+                    )
+            elif isinstance(task, Delivery):
+                if not isinstance(task.request_text, str) or not task.request_text.strip():
+                    raise TaskRejectedError("a delivery needs a non-empty request text")
+                room = self.topo.node(task.room, "request room")
+                self.topo.node(task.deliver_to, "delivery target")
+                if not room.requests:
+                    allowed = ", ".join(f"{n.id} ({n.name})" for n in self.topo.request_nodes())
+                    raise TaskRejectedError(
+                        f"node {room.id} ({room.name}) does not take requests "
+                        f"('requests: false' in {self.topo.source}); "
+                        f"rooms that do: {allowed or 'none'}"
+                    )
+            elif isinstance(task, GoToPose):
+                if not isinstance(task.pose, Pose2D):
+                    raise TaskRejectedError(f"GoToPose needs a Pose2D, got {task.pose!r}")
+            elif not isinstance(task, GoHome):
+                raise TaskRejectedError(f"unknown task type {type(task).__name__}")
+        except TopologicalMapError as exc:
+            raise TaskRejectedError(str(exc)) from exc
+
+    def _check_index(self, index: int) -> None:
+        if not 0 <= index < len(self._queue):
+            raise SupervisorError(
+                f"queue index {index} out of range (queue holds {len(self._queue)} tasks)"
+            )
+
+    def _name(self, node_id: int) -> str:
+        return f"node {node_id} ({self.topo.nodes[node_id].name})"
+
+    def _set_goal(self, node_id: int | None, pose: Pose2D | None = None) -> None:
+        self._goal_node = node_id
+        self._goal_pose = pose
+        self._phase = _Phase.NEED_ROUTE
+
+    def _start_next(self, pose: Pose2D, events: list[Event]) -> None:
+        task = self._queue.pop(0)
+        self._task = task
+        events += [TaskStarted(task), QueueChanged(self.queue)]
+        logger.info("task started: %s", task)
+        if isinstance(task, GoTo):
+            self._set_goal(task.node)
+        elif isinstance(task, GoHome):
+            self._set_goal(self.topo.home_id)
+        elif isinstance(task, GoToPose):
+            self._set_goal(None, task.pose)
+        elif isinstance(task, Delivery):
+            self._set_goal(task.room)
+        else:
+            self._tour_stops = tuple(self.planner.tour_order(pose))
+            self._set_goal(self._tour_stops[0])
+
+    def _start_route(self, pose: Pose2D, events: list[Event]) -> None:
+        if self._goal_node is None:
+            if self._goal_pose is None:  # pragma: no cover - _set_goal always sets one
+                raise AssertionError("a goal without node or pose")
+            waypoints: tuple[Pose2D, ...] = (self._goal_pose,)
+            node_ids: tuple[int | None, ...] = (None,)
+        else:
+            try:
+                route = self.planner.plan(
+                    pose, self._goal_node, skip_start_within=self.config.approach_tolerance
+                )
+            except RoutePlanningError as exc:
+                events += self._finish(False, str(exc))
+                return
+            waypoints, node_ids = route.waypoints, route.node_ids
+        self._route = RouteStarted(waypoints, node_ids, self._goal_node)
+        self._follower = RouteFollower(
+            waypoints,
+            approach_tolerance=self.config.approach_tolerance,
+            goal_tolerance=self.config.goal_tolerance,
+            yaw_tolerance=self.config.yaw_tolerance,
+        )
+        self._phase = _Phase.FOLLOWING
+        events.append(self._route)
+
+    def _follow(self, now: float, pose: Pose2D, events: list[Event]) -> None:
+        follower, route = self._follower, self._route
+        if follower is None or route is None:  # pragma: no cover - FOLLOWING implies both
+            raise AssertionError("following without a route")
+        state = follower.update(pose)
+        last = len(route.waypoints) - 1
+        events += [IntermediateGoalReached(route.node_ids[i], i) for i in state.passed if i < last]
+        if state.reached_final:
+            self._arrived(now, events)
+
+    def _arrived(self, now: float, events: list[Event]) -> None:
+        task, node = self._task, self._goal_node
+        target = self._route.waypoints[-1] if self._route is not None else None
+        if isinstance(task, GuidedTour) and node is not None:
+            self._visited.append(node)
+            self._phase = _Phase.AT_TOUR_STOP
+            info = self.topo.nodes[node]
+            events.append(
+                TourStopReached(
+                    node, info.info, info.name, tuple(self._visited), self.next_tour_stop
+                )
+            )
+            return
+        if target is not None:
+            events.append(GoalReached(node, target))
+        if isinstance(task, Delivery) and not self._delivering:
+            self._phase = _Phase.AWAITING_RESPONSE
+            self._deadline = now + self.config.request_timeout
+            events.append(
+                RequestShown(task.request_text, task.room, task.deliver_to, self._deadline)
+            )
+        elif isinstance(task, Delivery):
+            events += self._finish(True, f"request delivered to {self._name(task.deliver_to)}")
+        elif node is not None:
+            events += self._finish(True, f"reached {self._name(node)}")
+        else:
+            events += self._finish(True, f"reached pose {target}")
+
+    def _time_out(self, events: list[Event]) -> None:
+        task = self._task
+        if not isinstance(task, Delivery):  # pragma: no cover - only deliveries wait for answers
+            raise AssertionError("awaiting a response without a delivery")
+        events.append(RequestTimedOut(task.request_text, task.room, task.deliver_to))
+        events += self._finish(
+            False,
+            f"no response within {self.config.request_timeout:g} s at {self._name(task.room)}",
+        )
+
+    def _finish(self, ok: bool, reason: str, cancel_route: bool = False) -> list[Event]:
+        task = self._task
+        if task is None:  # pragma: no cover - callers check
+            return []
+        events: list[Event] = []
+        driving = (
+            self._phase is _Phase.FOLLOWING
+            and self._follower is not None
+            and not self._follower.reached_final
+        )
+        if cancel_route and driving:
+            events.append(RouteCancelled(reason))
+        events.append(TaskFinished(task, ok, reason))
+        logger.info("task finished: %s ok=%s (%s)", task, ok, reason)
+        self._reset_task()
+        return events

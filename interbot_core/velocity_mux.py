@@ -1,0 +1,481 @@
+"""Priority velocity multiplexer with locks: twist_mux semantics (thesis §5.4.1.1, Listings 5.3/5.4).
+
+Reference: ros-teleop/twist_mux (``twist_mux.cpp``, ``topic_handle.hpp``). The rules are
+twist_mux's, exactly:
+
+* an input is *masked* when ``priority < highest active lock priority`` (strict: an input whose
+  priority equals the lock's passes);
+* an input is *expired* when ``timeout > 0 and now - stamp > timeout``; ``timeout == 0`` never
+  expires; an input is expired before its first message;
+* a lock is *active* when its last value is true, or when ``timeout > 0`` and it has been silent
+  for longer than ``timeout`` (a dead-man; also before its first message, as twist_mux's zero
+  stamp makes it);
+* the highest-priority input that is neither masked nor expired wins.
+
+What we do beyond twist_mux (see shared/FIELD_NOTES.md):
+
+* ``output(now)`` always returns a command. When no input is valid, or a lock masks every valid
+  input, the command is an explicit zero with ``source=None`` and a reason. twist_mux instead
+  publishes only when the winning input's message arrives, so a robot keeps its last speed
+  when inputs expire or a lock engages.
+* Locks listed in ``MuxConfig.latching_locks`` (default: the ``stop`` lock) *latch*: once a true
+  message engages one it stays active, even after a false message, until ``release_stop()``.
+  A latching lock that is active only as a dead-man (silence) does not latch: its heartbeat
+  coming back is the recovery.
+* Non-finite velocities are rejected: the message is ignored (counted in ``rejected_count``) and
+  the input keeps its previous command and stamp.
+
+Times are monotonic seconds passed in by the caller; nothing here reads a clock.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+logger = logging.getLogger(__name__)
+
+PRIORITY_MIN = 1
+PRIORITY_MAX = 255
+DEFAULT_LATCHING_LOCKS: tuple[str, ...] = ("stop",)
+
+
+class MuxError(Exception):
+    """Base class for velocity multiplexer errors."""
+
+
+class MuxConfigError(MuxError, ValueError):
+    """The multiplexer configuration is invalid; the message names the file and entry."""
+
+
+class UnknownTopicError(MuxError, KeyError):
+    """A message arrived on a topic that is not configured as an input (or lock)."""
+
+    def __str__(self) -> str:  # KeyError would quote the whole message
+        return str(self.args[0]) if self.args else ""
+
+
+def _check_priority(kind: str, name: str, priority: object) -> int:
+    if isinstance(priority, bool) or not isinstance(priority, int):
+        raise MuxConfigError(
+            f"{kind} {name!r}: priority must be an integer in "
+            f"{PRIORITY_MIN}..{PRIORITY_MAX}, got {priority!r}"
+        )
+    if not PRIORITY_MIN <= priority <= PRIORITY_MAX:
+        raise MuxConfigError(
+            f"{kind} {name!r}: priority {priority} is outside {PRIORITY_MIN}..{PRIORITY_MAX}"
+        )
+    return priority
+
+
+def _check_timeout(kind: str, name: str, timeout: object) -> float:
+    if isinstance(timeout, bool) or not isinstance(timeout, int | float):
+        raise MuxConfigError(
+            f"{kind} {name!r}: timeout must be a number of seconds >= 0, got {timeout!r}"
+        )
+    value = float(timeout)
+    if not math.isfinite(value) or value < 0.0:
+        raise MuxConfigError(
+            f"{kind} {name!r}: timeout must be finite and >= 0 s (0 = never expires), "
+            f"got {timeout!r}"
+        )
+    return value
+
+
+def _check_text(kind: str, what: str, value: object) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise MuxConfigError(f"{kind}: {what} must be a non-empty string, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True, slots=True)
+class MuxInput:
+    """One velocity input: ``timeout`` [s] (0 = never expires), ``priority`` 1..255 (higher wins)."""
+
+    name: str
+    topic: str
+    timeout: float
+    priority: int
+
+    def __post_init__(self) -> None:
+        _check_text("mux input", "name", self.name)
+        _check_text(f"mux input {self.name!r}", "topic", self.topic)
+        object.__setattr__(self, "timeout", _check_timeout("input", self.name, self.timeout))
+        _check_priority("input", self.name, self.priority)
+
+
+@dataclass(frozen=True, slots=True)
+class MuxLock:
+    """One lock: while active it masks inputs of lower priority. ``timeout`` > 0 is a dead-man [s]."""
+
+    name: str
+    topic: str
+    timeout: float
+    priority: int
+
+    def __post_init__(self) -> None:
+        _check_text("mux lock", "name", self.name)
+        _check_text(f"mux lock {self.name!r}", "topic", self.topic)
+        object.__setattr__(self, "timeout", _check_timeout("lock", self.name, self.timeout))
+        _check_priority("lock", self.name, self.priority)
+
+
+def _check_unique(kind: str, entries: Iterable[MuxInput | MuxLock], attr: str) -> None:
+    seen: dict[object, str] = {}
+    for entry in entries:
+        key = getattr(entry, attr)
+        if key in seen:
+            raise MuxConfigError(
+                f"{kind} {seen[key]!r} and {entry.name!r} have the same {attr} {key!r}; "
+                f"each {attr} must be unique"
+            )
+        seen[key] = entry.name
+
+
+@dataclass(frozen=True, slots=True)
+class MuxConfig:
+    """The multiplexer's inputs and locks (twist_mux ``topics:`` and ``locks:``).
+
+    ``latching_locks`` lists lock *topics* that latch (stay active until ``release_stop()``).
+    Each entry must name a configured lock, except the default ``"stop"``, which simply has no
+    effect in a configuration without a ``stop`` lock.
+    """
+
+    inputs: tuple[MuxInput, ...]
+    locks: tuple[MuxLock, ...] = ()
+    latching_locks: tuple[str, ...] = DEFAULT_LATCHING_LOCKS
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "inputs", tuple(self.inputs))
+        object.__setattr__(self, "locks", tuple(self.locks))
+        object.__setattr__(self, "latching_locks", tuple(self.latching_locks))
+        if not self.inputs:
+            raise MuxConfigError("mux config: at least one input topic is required")
+        for entry in self.inputs:
+            if not isinstance(entry, MuxInput):
+                raise MuxConfigError(f"mux config: inputs must be MuxInput, got {entry!r}")
+        for lock in self.locks:
+            if not isinstance(lock, MuxLock):
+                raise MuxConfigError(f"mux config: locks must be MuxLock, got {lock!r}")
+        _check_unique("inputs", self.inputs, "priority")
+        _check_unique("locks", self.locks, "priority")
+        everything: tuple[MuxInput | MuxLock, ...] = (*self.inputs, *self.locks)
+        _check_unique("entries", everything, "name")
+        _check_unique("entries", everything, "topic")
+        lock_topics = {lock.topic for lock in self.locks}
+        if len(set(self.latching_locks)) != len(self.latching_locks):
+            raise MuxConfigError(
+                f"mux config: latching_locks has duplicates: {self.latching_locks}"
+            )
+        for topic in self.latching_locks:
+            if topic not in lock_topics and topic not in DEFAULT_LATCHING_LOCKS:
+                raise MuxConfigError(
+                    f"mux config: latching lock {topic!r} is not a configured lock topic "
+                    f"(locks: {sorted(lock_topics)})"
+                )
+
+    def input_by_topic(self, topic: str) -> MuxInput:
+        for entry in self.inputs:
+            if entry.topic == topic:
+                return entry
+        raise UnknownTopicError(
+            f"{topic!r} is not a mux input topic (inputs: {[i.topic for i in self.inputs]})"
+        )
+
+    def lock_by_topic(self, topic: str) -> MuxLock:
+        for lock in self.locks:
+            if lock.topic == topic:
+                return lock
+        raise UnknownTopicError(
+            f"{topic!r} is not a mux lock topic (locks: {[lk.topic for lk in self.locks]})"
+        )
+
+
+#: Thesis Listings 5.3 (topics) and 5.4 (locks), used for most of the Chapter 6 tests.
+DEFAULT_MUX_CONFIG = MuxConfig(
+    inputs=(
+        MuxInput(name="station_vel", topic="station_vel", timeout=0.5, priority=100),
+        MuxInput(name="tablet_vel", topic="tablet_vel", timeout=0.5, priority=50),
+        MuxInput(name="planner_vel", topic="planner_vel", timeout=0.05, priority=10),
+    ),
+    locks=(
+        MuxLock(name="Pause Navigation", topic="pause_nav", timeout=0.0, priority=25),
+        MuxLock(name="Emergency Stop", topic="stop", timeout=0.0, priority=255),
+    ),
+)
+
+
+# --------------------------------------------------------------------------- YAML loading
+
+
+def _entries(raw: object, key: str, source: str) -> list[tuple[str, Mapping[str, Any]]]:
+    """Normalise a ``topics:``/``locks:`` value to ``[(label, mapping)]``.
+
+    Accepts twist_mux's ROS 1 list form (``- {name, topic, timeout, priority}``) and its ROS 2
+    mapping form (``name: {topic, timeout, priority}``).
+    """
+    if raw is None:
+        return []
+    if isinstance(raw, list):
+        out: list[tuple[str, Mapping[str, Any]]] = []
+        for index, item in enumerate(raw):
+            if not isinstance(item, Mapping):
+                raise MuxConfigError(
+                    f"{source}: {key}[{index}] must be a mapping with name/topic/timeout/priority,"
+                    f" got {item!r}"
+                )
+            out.append((f"{key}[{index}]", item))
+        return out
+    if isinstance(raw, Mapping):
+        out = []
+        for name, item in raw.items():
+            if not isinstance(item, Mapping):
+                raise MuxConfigError(
+                    f"{source}: {key}.{name} must be a mapping with topic/timeout/priority,"
+                    f" got {item!r}"
+                )
+            out.append((f"{key}.{name}", {"name": str(name), **item}))
+        return out
+    raise MuxConfigError(f"{source}: {key} must be a list of entries, got {type(raw).__name__}")
+
+
+_ENTRY_KEYS = {"name", "topic", "timeout", "priority", "short_desc"}
+
+
+def _parse_entry(
+    kind: type[MuxInput] | type[MuxLock], label: str, item: Mapping[str, Any], source: str
+) -> MuxInput | MuxLock:
+    unknown = set(item) - _ENTRY_KEYS
+    if unknown:
+        raise MuxConfigError(
+            f"{source}: {label} has unknown keys {sorted(unknown)} "
+            f"(allowed: name, topic, timeout, priority)"
+        )
+    missing = [k for k in ("topic", "timeout", "priority") if k not in item]
+    if missing:
+        raise MuxConfigError(f"{source}: {label} is missing {', '.join(missing)}")
+    topic = item["topic"]
+    name = item.get("name", topic)
+    try:
+        return kind(name=name, topic=topic, timeout=item["timeout"], priority=item["priority"])
+    except MuxConfigError as exc:
+        raise MuxConfigError(f"{source}: {label}: {exc}") from None
+
+
+def parse_mux_config(data: Mapping[str, Any], source: str = "<mux config>") -> MuxConfig:
+    """Build a `MuxConfig` from parsed twist_mux YAML (``topics:``, ``locks:``).
+
+    A ROS 2 parameter file (``<node>: {ros__parameters: {...}}``) is unwrapped. An optional
+    ``latching_locks:`` list (our extension) overrides the default ``[stop]``.
+    """
+    if not isinstance(data, Mapping):
+        raise MuxConfigError(f"{source}: expected a mapping with 'topics' and 'locks'")
+    if "topics" not in data and len(data) == 1:
+        (inner,) = data.values()
+        if isinstance(inner, Mapping) and isinstance(inner.get("ros__parameters"), Mapping):
+            data = inner["ros__parameters"]
+    unknown = set(data) - {"topics", "locks", "latching_locks"}
+    if unknown:
+        raise MuxConfigError(
+            f"{source}: unknown top-level keys {sorted(unknown)} "
+            f"(allowed: topics, locks, latching_locks)"
+        )
+    if "topics" not in data:
+        raise MuxConfigError(f"{source}: no 'topics:' list; at least one input is required")
+    inputs = [
+        _parse_entry(MuxInput, label, item, source)
+        for label, item in _entries(data["topics"], "topics", source)
+    ]
+    locks = [
+        _parse_entry(MuxLock, label, item, source)
+        for label, item in _entries(data.get("locks"), "locks", source)
+    ]
+    latching = data.get("latching_locks", DEFAULT_LATCHING_LOCKS)
+    if not isinstance(latching, list | tuple) or not all(isinstance(t, str) for t in latching):
+        raise MuxConfigError(f"{source}: latching_locks must be a list of lock topics")
+    try:
+        return MuxConfig(
+            inputs=tuple(i for i in inputs if isinstance(i, MuxInput)),
+            locks=tuple(lk for lk in locks if isinstance(lk, MuxLock)),
+            latching_locks=tuple(latching),
+        )
+    except MuxConfigError as exc:
+        raise MuxConfigError(f"{source}: {exc}") from None
+
+
+def load_mux_config(path: str | Path) -> MuxConfig:
+    """Read a twist_mux YAML file (see ``resources/config/twist_mux.yaml``)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise MuxConfigError(f"{path}: cannot read mux config: {exc.strerror}") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise MuxConfigError(f"{path}: not valid YAML: {exc}") from exc
+    config = parse_mux_config(data, str(path))
+    logger.info(
+        "mux config %s: inputs %s; locks %s; latching %s",
+        path,
+        ", ".join(f"{i.topic}(p{i.priority}, {i.timeout:g} s)" for i in config.inputs),
+        ", ".join(f"{lk.topic}(p{lk.priority}, {lk.timeout:g} s)" for lk in config.locks),
+        list(config.latching_locks),
+    )
+    return config
+
+
+# --------------------------------------------------------------------------- the multiplexer
+
+
+@dataclass(frozen=True, slots=True)
+class MuxOutput:
+    """The command to send: ``linear`` [m/s], ``angular`` [rad/s].
+
+    ``source`` is the winning input's name, or None for an explicit zero; ``reason`` says why;
+    ``active_locks`` names the active locks, highest priority first.
+    """
+
+    linear: float
+    angular: float
+    source: str | None
+    reason: str
+    active_locks: tuple[str, ...] = field(default=())
+
+
+@dataclass(slots=True)
+class _InputState:
+    stamp: float | None = None
+    linear: float = 0.0
+    angular: float = 0.0
+
+
+@dataclass(slots=True)
+class _LockState:
+    stamp: float | None = None
+    value: bool = False
+    latched: bool = False
+
+
+def _check_now(now: float) -> float:
+    if not math.isfinite(now):
+        raise ValueError(f"mux time must be finite seconds, got {now!r}")
+    return float(now)
+
+
+class VelocityMux:
+    """Priority multiplexer over the configured inputs, masked by locks (twist_mux rules)."""
+
+    def __init__(self, config: MuxConfig = DEFAULT_MUX_CONFIG) -> None:
+        self._config = config
+        self._inputs: dict[str, _InputState] = {i.topic: _InputState() for i in config.inputs}
+        self._locks: dict[str, _LockState] = {lk.topic: _LockState() for lk in config.locks}
+        self._latching = frozenset(config.latching_locks)
+        self._rejected = 0
+
+    @property
+    def config(self) -> MuxConfig:
+        return self._config
+
+    @property
+    def rejected_count(self) -> int:
+        """Messages ignored because a velocity was not finite."""
+        return self._rejected
+
+    def on_twist(self, topic: str, linear: float, angular: float, now: float) -> bool:
+        """A velocity message on ``topic``: ``linear`` [m/s], ``angular`` [rad/s].
+
+        Returns False (and counts it) when a velocity is not finite: the message is ignored.
+        """
+        entry = self._config.input_by_topic(topic)
+        now = _check_now(now)
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            self._rejected += 1
+            logger.warning(
+                "mux input %s: ignored non-finite command (%r, %r)", entry.name, linear, angular
+            )
+            return False
+        state = self._inputs[topic]
+        state.stamp, state.linear, state.angular = now, float(linear), float(angular)
+        return True
+
+    def on_lock(self, topic: str, engaged: bool, now: float) -> None:
+        """A lock message on ``topic`` (true = engage). Latching locks stay engaged."""
+        lock = self._config.lock_by_topic(topic)
+        now = _check_now(now)
+        state = self._locks[topic]
+        state.stamp, state.value = now, bool(engaged)
+        if engaged and topic in self._latching and not state.latched:
+            state.latched = True
+            logger.warning("mux lock %s (%s) engaged and latched", lock.name, topic)
+
+    def release_stop(self) -> tuple[str, ...]:
+        """Release every latched lock; returns the topics released.
+
+        A released lock stays active while its last message is still true (or it is silent
+        past its dead-man timeout).
+        """
+        released = tuple(t for t, s in self._locks.items() if s.latched)
+        for topic in released:
+            self._locks[topic].latched = False
+        if released:
+            logger.info("mux: released latched locks %s", list(released))
+        return released
+
+    def latched_locks(self) -> tuple[str, ...]:
+        """Topics of the locks that are currently latched."""
+        return tuple(t for t, s in self._locks.items() if s.latched)
+
+    def _lock_active(self, lock: MuxLock, now: float) -> bool:
+        state = self._locks[lock.topic]
+        if state.latched or state.value:
+            return True
+        # twist_mux's dead-man: silent longer than the timeout (stamp 0 before any message).
+        if lock.timeout > 0.0:
+            return state.stamp is None or now - state.stamp > lock.timeout
+        return False
+
+    def _input_expired(self, entry: MuxInput, now: float) -> bool:
+        stamp = self._inputs[entry.topic].stamp
+        if stamp is None:
+            return True
+        return entry.timeout > 0.0 and now - stamp > entry.timeout
+
+    def active_locks(self, now: float) -> tuple[MuxLock, ...]:
+        """The active locks, highest priority first."""
+        now = _check_now(now)
+        active = [lk for lk in self._config.locks if self._lock_active(lk, now)]
+        return tuple(sorted(active, key=lambda lk: lk.priority, reverse=True))
+
+    def valid_inputs(self, now: float) -> tuple[MuxInput, ...]:
+        """Inputs that have a message and have not expired, highest priority first."""
+        now = _check_now(now)
+        valid = [i for i in self._config.inputs if not self._input_expired(i, now)]
+        return tuple(sorted(valid, key=lambda i: i.priority, reverse=True))
+
+    def output(self, now: float) -> MuxOutput:
+        """The command to publish at ``now``: the winning input's, or an explicit zero."""
+        locks = self.active_locks(now)
+        lock_names = tuple(lk.name for lk in locks)
+        lock_priority = locks[0].priority if locks else 0
+        valid = self.valid_inputs(now)
+        for entry in valid:  # highest priority first
+            if entry.priority < lock_priority:
+                break  # this and every lower one are masked
+            state = self._inputs[entry.topic]
+            return MuxOutput(
+                state.linear, state.angular, entry.name, f"input {entry.name}", lock_names
+            )
+        top_input = max(i.priority for i in self._config.inputs)
+        if locks and (valid or lock_priority > top_input):
+            top = locks[0]
+            reason = f"masked by lock {top.topic} ({top.name!r}, priority {top.priority})"
+        else:
+            reason = "no valid input"
+        return MuxOutput(0.0, 0.0, None, reason, lock_names)

@@ -1,0 +1,57 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from robot_daemon.config import ConfigError, DaemonConfig, load_config, parse_config
+
+
+def test_defaults_are_valid_and_point_at_the_isr_floor() -> None:
+    cfg = DaemonConfig()
+    assert cfg.backend == "sim" and cfg.robot_id == "interbot1"
+    assert cfg.map_yaml.name == "isr_floor0.yaml"
+    assert cfg.zenoh.listen == ("tcp/127.0.0.1:7447",)
+
+
+def test_full_file_parses_with_relative_paths(tmp_path: Path) -> None:
+    (tmp_path / "robot.yaml").write_text(
+        "robot_id: bot-2\nmap: maps/m.yaml\nbackend: sim\n"
+        "rates: {controller_hz: 20}\nsim: {seed: 7, people: 0, odometry: perfect}\n"
+        "zenoh: {listen: ['tcp/127.0.0.1:9000'], connect: []}\n"
+    )
+    cfg = load_config(tmp_path / "robot.yaml")
+    assert cfg.robot_id == "bot-2"
+    assert cfg.map_yaml == (tmp_path / "maps" / "m.yaml").resolve()
+    assert cfg.rates.controller_hz == 20.0 and cfg.rates.localiser_hz == 10.0
+    assert cfg.sim.seed == 7 and cfg.sim.odometry == "perfect"
+    assert cfg.zenoh.listen == ("tcp/127.0.0.1:9000",)
+
+
+@pytest.mark.parametrize(
+    ("raw", "message"),
+    [
+        ({"robot_id": "bad id!"}, "robot_id"),
+        ({"backend": "ros"}, "backend"),
+        ({"speed": 3}, "unknown key"),
+        ({"rates": {"controller_hz": 0}}, "controller_hz"),
+        ({"rates": {"warp_hz": 1}}, "unknown key"),
+        ({"sim": {"people": -1}}, "people"),
+        ({"sim": {"odometry": "great"}}, "odometry"),
+        ({"zenoh": {"listen": ["udp/224.0.0.224:7446"]}}, "tcp/HOST:PORT"),
+        ({"zenoh": {"listen": [], "connect": []}}, "at least one"),
+        ({"map": 5}, "'map' must be a file path"),
+        ([1, 2], "mapping"),
+    ],
+)
+def test_bad_configuration_is_refused_with_a_clear_message(raw: object, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse_config(raw, "robot.yaml", Path("."))
+
+
+def test_unreadable_and_invalid_yaml(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "missing.yaml")
+    (tmp_path / "bad.yaml").write_text("robot_id: [unclosed\n")
+    with pytest.raises(ConfigError, match="invalid YAML"):
+        load_config(tmp_path / "bad.yaml")
