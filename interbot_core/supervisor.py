@@ -445,6 +445,24 @@ class Supervisor:
         events += self._finish(False, f"request declined at {self._name(task.room)}")
         return events
 
+    def robot_route_succeeded(self, now: float) -> list[Event]:
+        """The robot reports that it reached the final goal of the current route.
+
+        The robot judges arrival with its own (localiser) pose and tolerances; the station's
+        follower may not have seen the last pose yet, so the robot's word settles it.
+        """
+        if self._phase is not _Phase.FOLLOWING:
+            return []
+        events: list[Event] = []
+        self._arrived(now, events)
+        return events
+
+    def robot_route_aborted(self, reason: str) -> list[Event]:
+        """The robot gave up the current route (blocked, ...): the task fails with its reason."""
+        if self._phase is not _Phase.FOLLOWING or self._task is None:
+            return []
+        return self._finish(False, f"robot aborted the route: {reason}")
+
     # ------------------------------------------------------------------ the clock
 
     def update(self, now: float, pose: Pose2D | None) -> list[Event]:

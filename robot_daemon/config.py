@@ -26,7 +26,7 @@ import yaml
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = REPO_ROOT / "maps" / "isr_floor0.yaml"
 DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
-DEFAULT_MUX = REPO_ROOT / "resources" / "config" / "twist_mux.yaml"
+DEFAULT_MUX = REPO_ROOT / "resources" / "config" / "interbot_mux.yaml"
 ROBOT_ID_RE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
 

@@ -1,17 +1,89 @@
-"""Entry point of `interbot-tablet`."""
+"""Entry point of `interbot-tablet`: the Tablet human-robot interface (thesis §4.2.1, §5.2).
+
+    interbot-tablet [--host H] [--port P] [--windowed] [--lang en|pt] [--topo T.yaml]
+
+Connects to the Base Station's tablet server (default 127.0.0.1:5555), reconnecting by itself,
+and shows the main menu full screen (``--windowed`` for a 1280x800 window).
+"""
 
 from __future__ import annotations
 
+import argparse
+import logging
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+
+from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
+from interbot_core.topological_map import TopologicalMapError
+from tablet_app.floor_plan import FloorPlan, FloorPlanError, load_floor_plan
+
+logger = logging.getLogger(__name__)
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="interbot-tablet", description="Interbot Tablet: map, joystick and tasks."
+    )
+    parser.add_argument("--host", default="127.0.0.1", help="Base Station address")
+    parser.add_argument("--port", type=int, default=5555, help="Base Station tablet port")
+    parser.add_argument("--windowed", action="store_true", help="a window instead of full screen")
+    parser.add_argument("--lang", choices=("en", "pt"), default="en", help="UI language")
+    parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    args = parser.parse_args(argv)
+    if not 0 < args.port < 65536:
+        parser.error(f"--port must be in 1..65535, got {args.port}")
+    return args
+
+
+def load_plan(topo: Path) -> tuple[FloorPlan, OccupancyGrid | None]:
+    """The rooms, and the occupancy grid under them when it can be read (else None)."""
+    plan = load_floor_plan(topo)
+    grid = None
+    if plan.map_yaml is not None:
+        try:
+            grid = load_map(plan.map_yaml)
+        except MapLoadError as exc:
+            logger.warning("floor image not shown: %s", exc)
+    return plan, grid
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    print(
-        "interbot-tablet: not built yet: the Tablet (issue 6) does not exist in this version.",
-        file=sys.stderr,
+    args = parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
-    return 3
+    try:
+        plan, grid = load_plan(args.topo)
+    except (TopologicalMapError, FloorPlanError, OSError) as exc:
+        logger.error("cannot load the topological map: %s (use --topo FILE)", exc)
+        return 2
+
+    from PySide6.QtWidgets import QApplication
+
+    from tablet_app.main_window import TabletWindow
+    from tablet_app.tablet_connection import TabletConnection
+    from tablet_app.translations import LanguageSwitcher
+
+    app = QApplication.instance() or QApplication([sys.argv[0]])
+    languages = LanguageSwitcher()
+    languages.set_language(args.lang)
+    connection = TabletConnection(args.host, args.port)
+    window = TabletWindow(connection, plan, grid, languages)
+    if args.windowed:
+        window.resize(1280, 800)
+        window.show()
+    else:
+        window.showFullScreen()
+    connection.start()
+    code = app.exec()
+    connection.stop()
+    return int(code)
 
 
 if __name__ == "__main__":

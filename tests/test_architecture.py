@@ -66,3 +66,15 @@ def test_rule_catches_a_violation(tmp_path: Path) -> None:
     bad = tmp_path / "bad.py"
     bad.write_text("import PySide6.QtCore\nfrom zenoh import open\n", encoding="utf-8")
     assert {"PySide6", "zenoh"} <= imported_top_levels(bad)
+
+
+@pytest.mark.parametrize("path", package_files("interbot_link"), ids=lambda p: p.name)
+def test_link_has_no_qt(path: Path) -> None:
+    bad = imported_top_levels(path) & {"PySide6", "pyqtgraph", "base_station_app", "tablet_app"}
+    assert not bad, f"{path.relative_to(REPO)} imports {sorted(bad)}; the link is Qt-free"
+
+
+@pytest.mark.parametrize("path", package_files("interbot_qt"), ids=lambda p: p.name)
+def test_shared_qt_helpers_import_no_app(path: Path) -> None:
+    bad = imported_top_levels(path) & {"base_station_app", "tablet_app", "robot_daemon"}
+    assert not bad, f"{path.relative_to(REPO)} imports {sorted(bad)}; interbot_qt serves both apps"

@@ -395,3 +395,39 @@ def test_config_and_planner_validation(topo: TopologicalMap) -> None:
         Supervisor(topo, RoutePlanner(other))
     with pytest.raises(ValueError, match="finite time"):
         Supervisor(topo).update(math.nan, None)
+
+
+def test_robot_reported_success_settles_arrival(sup: Supervisor, topo: TopologicalMap) -> None:
+    """The robot stopped within its own tolerance; the station's follower had not seen it yet."""
+    sim = Sim(sup, Pose2D(0.0, 0.0, 0.0))
+    sup.submit(GoTo(3))
+    sim.tick()
+    assert sup.robot_route_succeeded(sim.now) == [
+        GoalReached(3, topo.node(3).pose),
+        TaskFinished(GoTo(3), True, "reached node 3 (Bar)"),
+    ]
+    assert sup.state is SupervisorState.IDLE
+    assert sup.robot_route_succeeded(sim.now) == []  # nothing to settle any more
+
+
+def test_robot_aborted_route_fails_the_task(sup: Supervisor) -> None:
+    sim = Sim(sup, Pose2D(0.0, 0.0, 0.0))
+    sup.submit(GoTo(3))
+    sup.submit(GoTo(1))
+    sim.tick()
+    events = sup.robot_route_aborted("blocked: no path")
+    assert events == [TaskFinished(GoTo(3), False, "robot aborted the route: blocked: no path")]
+    assert sup.current_task is None
+    sim.tick()
+    assert sup.current_task == GoTo(1)  # the queue goes on
+
+
+def test_robot_success_at_a_tour_stop_pauses_the_tour(sup: Supervisor) -> None:
+    sim = Sim(sup, Pose2D(3.0, 0.0, 0.0))  # 3 m from the first stop: still driving
+    sup.submit(GuidedTour())
+    sim.tick()
+    assert sup.state is SupervisorState.NAVIGATING
+    first = sup.tour_stops[0]
+    events = sup.robot_route_succeeded(sim.now)
+    assert [type(e) for e in events] == [TourStopReached]
+    assert sup.state is SupervisorState.AT_TOUR_STOP and sup.visited_tour_stops == (first,)

@@ -1,0 +1,908 @@
+"""Floor plans: an editable YAML description of an office floor, rasterised to an occupancy grid.
+
+The thesis's Tablet and Base Station work on an *a priori* map of ISR floor 0 (thesis §5.2.1.1,
+Algorithm 3: a 70 m x 35 m frame with x in [-35, 35], y in [-14.25, 20.75]) and on a topological
+map whose nodes stand at the entrance of every room, or inside the rooms that take requests
+(§5.2.2, §6.2). This module builds both from one floor plan (``maps/isr_floor0_plan.yaml``):
+
+* :func:`parse_floor_plan` / :func:`load_floor_plan` validate the plan into frozen dataclasses;
+  every error names the room (or corridor, door, node) and the field;
+* :func:`rasterise` draws it into an :class:`~interbot_core.occupancy_grid.OccupancyGrid`
+  (building = occupied, floors of rooms/corridors and door openings = free, furniture = occupied,
+  outside and courtyards = unknown), so walls are the gaps between floor rectangles;
+* :func:`topological_map_dict` derives the topological map (format of
+  :mod:`interbot_core.topological_map`, plus ``room``, ``kind`` and ``area`` per node) and checks
+  that every node has clearance and every arc is a straight segment clear of the inflated walls.
+
+Pure: no I/O except :func:`load_floor_plan`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+from scipy import ndimage
+
+from interbot_core.geometry import wrap_angle
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+
+logger = logging.getLogger(__name__)
+
+DOOR_WIDTH_MIN = 0.9  # [m]
+DOOR_WIDTH_MAX = 1.2  # [m]
+WALL_MIN = 0.1  # [m] floors (rooms, corridors) must be at least this far apart
+WALL_MAX = 0.5  # [m] a door may cross at most this much wall to reach a corridor
+DOOR_JAMB = 0.1  # [m] minimum wall left between a door and the room's corner
+DOOR_APPROACH_DEPTH = 1.0  # [m] furniture-free depth inside the room in front of a door
+DOOR_APPROACH_SIDE = 0.3  # [m] furniture-free margin either side of the door
+WALLS = ("north", "south", "east", "west")
+# Outward unit normal of each wall of a room.
+_NORMALS: dict[str, tuple[float, float]] = {
+    "north": (0.0, 1.0),
+    "south": (0.0, -1.0),
+    "east": (1.0, 0.0),
+    "west": (-1.0, 0.0),
+}
+
+
+class FloorPlanError(ValueError):
+    """A floor plan is malformed or inconsistent; the message names the file, item and field."""
+
+
+# ---------------------------------------------------------------------------- value types
+
+
+@dataclass(frozen=True)
+class Rect:
+    """An axis-aligned rectangle in the map frame [m], ``x0 < x1`` and ``y0 < y1``."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    def __post_init__(self) -> None:
+        values = (self.x0, self.y0, self.x1, self.y1)
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"rectangle coordinates must be finite, got {values}")
+        if not (self.x0 < self.x1 and self.y0 < self.y1):
+            raise ValueError(
+                f"rectangle needs x_min < x_max and y_min < y_max, got "
+                f"x [{self.x0}, {self.x1}], y [{self.y0}, {self.y1}]"
+            )
+
+    @property
+    def width(self) -> float:
+        return self.x1 - self.x0
+
+    @property
+    def height(self) -> float:
+        return self.y1 - self.y0
+
+    def contains(self, other: Rect, tol: float = 1e-9) -> bool:
+        """True if ``other`` lies inside this rectangle (touching the edges allowed)."""
+        return (
+            other.x0 >= self.x0 - tol
+            and other.x1 <= self.x1 + tol
+            and other.y0 >= self.y0 - tol
+            and other.y1 <= self.y1 + tol
+        )
+
+    def contains_point(self, x: float, y: float, tol: float = 1e-9) -> bool:
+        return self.x0 - tol <= x <= self.x1 + tol and self.y0 - tol <= y <= self.y1 + tol
+
+    def overlaps(self, other: Rect, gap: float = 0.0) -> bool:
+        """True if the rectangles come closer than ``gap`` [m] (overlap when gap is 0)."""
+        tol = 1e-9
+        return (
+            self.x0 < other.x1 + gap - tol
+            and other.x0 < self.x1 + gap - tol
+            and self.y0 < other.y1 + gap - tol
+            and other.y0 < self.y1 + gap - tol
+        )
+
+    def polygon(self) -> list[list[float]]:
+        """The corners counter-clockwise from the south-west one, as ``[[x, y], ...]``."""
+        return [
+            [self.x0, self.y0],
+            [self.x1, self.y0],
+            [self.x1, self.y1],
+            [self.x0, self.y1],
+        ]
+
+
+@dataclass(frozen=True)
+class Door:
+    """A door in one wall of a room: ``offset`` [m] from the wall's west/south end to its centre."""
+
+    wall: str
+    offset: float  # [m]
+    width: float  # [m]
+
+    def __post_init__(self) -> None:
+        if self.wall not in WALLS:
+            raise ValueError(f"'wall' must be one of {', '.join(WALLS)}, got {self.wall!r}")
+        if not DOOR_WIDTH_MIN - 1e-9 <= self.width <= DOOR_WIDTH_MAX + 1e-9:
+            raise ValueError(
+                f"'width' must be in [{DOOR_WIDTH_MIN}, {DOOR_WIDTH_MAX}] m, got {self.width}"
+            )
+
+
+@dataclass(frozen=True)
+class Furniture:
+    """An obstacle inside a room (table, shelf, bench), drawn as occupied."""
+
+    name: str
+    rect: Rect
+
+
+@dataclass(frozen=True)
+class Room:
+    """A room: its free floor rectangle, doors, furniture and what the tablet shows."""
+
+    name: str
+    rect: Rect
+    doors: tuple[Door, ...]
+    furniture: tuple[Furniture, ...] = ()
+    info: str = ""
+    tour: bool = False
+    requests: bool = False
+    home: bool = False
+    inside: tuple[float, float] | None = None  # [m] node inside the room (request rooms)
+
+
+@dataclass(frozen=True)
+class Area:
+    """A named rectangle: a corridor floor or a courtyard."""
+
+    name: str
+    rect: Rect
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """A corridor junction node that is not a room (tour: false)."""
+
+    name: str
+    x: float  # [m]
+    y: float  # [m]
+
+
+@dataclass(frozen=True)
+class DoorOpening:
+    """Where a door cuts through the wall: the free ``rect``, its centres and outward normal."""
+
+    room: str
+    index: int  # position in the room's ``doors``
+    rect: Rect  # the opening through the wall (room face to corridor face)
+    room_face: tuple[float, float]  # [m] centre of the door on the room's side
+    corridor_face: tuple[float, float]  # [m] centre of the door on the corridor's side
+    normal: tuple[float, float]  # outward unit vector (room -> corridor)
+    width: float  # [m]
+
+
+@dataclass(frozen=True)
+class PlanNode:
+    """A topological node derived from the plan (before ids are given)."""
+
+    name: str
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad] heading faced on arrival
+    kind: str  # "entrance", "inside" or "waypoint"
+    room: str | None
+    info: str = ""
+    tour: bool = False
+    requests: bool = False
+    home: bool = False
+    area: tuple[tuple[float, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class FloorPlan:
+    """A validated floor plan. Build it with :func:`parse_floor_plan`."""
+
+    name: str
+    resolution: float  # [m/cell]
+    origin_x: float  # [m]
+    origin_y: float  # [m]
+    width_m: float  # [m] map width along x
+    height_m: float  # [m] map height along y
+    map_file: str
+    topological_file: str
+    building: Rect
+    corridors: tuple[Area, ...]
+    courtyards: tuple[Area, ...]
+    rooms: tuple[Room, ...]
+    waypoints: tuple[Waypoint, ...]
+    ring: tuple[str, ...]
+    arcs: tuple[tuple[str, ...], ...]
+    entrance_distance: float = 0.9  # [m]
+    arc_clearance: float = 0.3  # [m]
+    node_clearance: float = 0.35  # [m]
+    source: str = "<memory>"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Grid (rows, cols)."""
+        return round(self.height_m / self.resolution), round(self.width_m / self.resolution)
+
+    @property
+    def map_rect(self) -> Rect:
+        return Rect(
+            self.origin_x,
+            self.origin_y,
+            self.origin_x + self.width_m,
+            self.origin_y + self.height_m,
+        )
+
+    def room(self, name: str) -> Room:
+        """The room called ``name``."""
+        for room in self.rooms:
+            if room.name == name:
+                return room
+        raise FloorPlanError(f"{self.source}: no room named {name!r}")
+
+
+# ---------------------------------------------------------------------------- parsing
+
+
+class _Reader:
+    """Typed access to parsed YAML with errors that name the file, item and field."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, label: str, message: str) -> FloorPlanError:
+        return FloorPlanError(f"{self.source}: {label}: {message}")
+
+    def mapping(self, raw: Any, label: str) -> Mapping[str, Any]:
+        if not isinstance(raw, Mapping):
+            raise self.fail(label, f"expected a mapping, got {raw!r}")
+        return raw
+
+    def known_keys(self, raw: Mapping[str, Any], allowed: tuple[str, ...], label: str) -> None:
+        unknown = sorted(str(key) for key in raw if key not in allowed)
+        if unknown:
+            raise self.fail(label, f"unknown field(s) {unknown}; allowed: {', '.join(allowed)}")
+
+    def field(self, raw: Mapping[str, Any], key: str, label: str) -> Any:
+        if key not in raw:
+            raise self.fail(label, f"missing field '{key}'")
+        return raw[key]
+
+    def number(self, value: Any, label: str, key: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(label, f"'{key}' must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise self.fail(label, f"'{key}' must be finite, got {value!r}")
+        return float(value)
+
+    def positive(self, value: Any, label: str, key: str) -> float:
+        number = self.number(value, label, key)
+        if number <= 0:
+            raise self.fail(label, f"'{key}' must be > 0, got {number}")
+        return number
+
+    def pair(self, value: Any, label: str, key: str) -> tuple[float, float]:
+        if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != 2:
+            raise self.fail(label, f"'{key}' must be a pair [a, b], got {value!r}")
+        return self.number(value[0], label, key), self.number(value[1], label, key)
+
+    def text(self, value: Any, label: str, key: str, allow_empty: bool = False) -> str:
+        if value is None and allow_empty:
+            return ""
+        if not isinstance(value, str) or (not allow_empty and not value.strip()):
+            raise self.fail(label, f"'{key}' must be a non-empty string, got {value!r}")
+        return value
+
+    def flag(self, raw: Mapping[str, Any], key: str, label: str) -> bool:
+        value = raw.get(key, False)
+        if not isinstance(value, bool):
+            raise self.fail(label, f"'{key}' must be true or false, got {value!r}")
+        return value
+
+    def rect(self, raw: Mapping[str, Any], label: str) -> Rect:
+        xs = self.pair(self.field(raw, "x", label), label, "x")
+        ys = self.pair(self.field(raw, "y", label), label, "y")
+        try:
+            return Rect(xs[0], ys[0], xs[1], ys[1])
+        except ValueError as exc:
+            raise self.fail(label, f"'x'/'y': {exc}") from None
+
+    def items(self, raw: Mapping[str, Any], key: str, label: str) -> list[Any]:
+        value = raw.get(key)
+        if value is None:
+            return []
+        if not isinstance(value, list):
+            raise self.fail(label, f"'{key}' must be a list, got {value!r}")
+        return value
+
+
+_ROOM_KEYS = ("name", "x", "y", "doors", "furniture", "info", "tour", "requests", "home", "inside")
+_PLAN_KEYS = (
+    "name",
+    "map",
+    "outputs",
+    "entrance_distance",
+    "arc_clearance",
+    "node_clearance",
+    "building",
+    "corridors",
+    "courtyards",
+    "waypoints",
+    "rooms",
+    "ring",
+    "arcs",
+)
+
+
+def _parse_room(reader: _Reader, raw_any: Any, index: int) -> Room:
+    raw = reader.mapping(raw_any, f"rooms[{index}]")
+    name = reader.text(reader.field(raw, "name", f"rooms[{index}]"), f"rooms[{index}]", "name")
+    label = f"room {name!r}"
+    reader.known_keys(raw, _ROOM_KEYS, label)
+    rect = reader.rect(raw, label)
+    doors: list[Door] = []
+    raw_doors = reader.items(raw, "doors", label)
+    if not raw_doors:
+        raise reader.fail(label, "'doors' must list at least one door to a corridor")
+    for d, raw_door_any in enumerate(raw_doors):
+        door_label = f"{label} doors[{d}]"
+        raw_door = reader.mapping(raw_door_any, door_label)
+        wall = reader.field(raw_door, "wall", door_label)
+        offset = reader.number(reader.field(raw_door, "offset", door_label), door_label, "offset")
+        width = reader.number(reader.field(raw_door, "width", door_label), door_label, "width")
+        try:
+            doors.append(Door(str(wall), offset, width))
+        except ValueError as exc:
+            raise reader.fail(door_label, str(exc)) from None
+    furniture: list[Furniture] = []
+    for f, raw_item_any in enumerate(reader.items(raw, "furniture", label)):
+        item_label = f"{label} furniture[{f}]"
+        raw_item = reader.mapping(raw_item_any, item_label)
+        item_name = reader.text(raw_item.get("name", "furniture"), item_label, "name")
+        furniture.append(Furniture(item_name, reader.rect(raw_item, item_label)))
+    inside: tuple[float, float] | None = None
+    if raw.get("inside") is not None:
+        raw_inside = reader.mapping(raw["inside"], f"{label} inside")
+        inside = (
+            reader.number(reader.field(raw_inside, "x", f"{label} inside"), label, "inside.x"),
+            reader.number(reader.field(raw_inside, "y", f"{label} inside"), label, "inside.y"),
+        )
+    return Room(
+        name=name,
+        rect=rect,
+        doors=tuple(doors),
+        furniture=tuple(furniture),
+        info=reader.text(raw.get("info", ""), label, "info", allow_empty=True),
+        tour=reader.flag(raw, "tour", label),
+        requests=reader.flag(raw, "requests", label),
+        home=reader.flag(raw, "home", label),
+        inside=inside,
+    )
+
+
+def _parse_areas(reader: _Reader, data: Mapping[str, Any], key: str) -> tuple[Area, ...]:
+    areas = []
+    for i, raw_any in enumerate(reader.items(data, key, key)):
+        raw = reader.mapping(raw_any, f"{key}[{i}]")
+        name = reader.text(reader.field(raw, "name", f"{key}[{i}]"), f"{key}[{i}]", "name")
+        areas.append(Area(name, reader.rect(raw, f"{key[:-1]} {name!r}")))
+    return tuple(areas)
+
+
+def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
+    """Validate parsed plan YAML ``data`` into a :class:`FloorPlan`.
+
+    Raises :class:`FloorPlanError` naming ``source``, the room / corridor / door and the field.
+    """
+    reader = _Reader(source)
+    top = reader.mapping(data, "plan")
+    reader.known_keys(top, _PLAN_KEYS, "plan")
+    map_raw = reader.mapping(reader.field(top, "map", "plan"), "map")
+    resolution = reader.positive(reader.field(map_raw, "resolution", "map"), "map", "resolution")
+    origin = reader.pair(reader.field(map_raw, "origin", "map"), "map", "origin")
+    size = reader.pair(reader.field(map_raw, "size", "map"), "map", "size")
+    if size[0] <= 0 or size[1] <= 0:
+        raise reader.fail("map", f"'size' must be positive [width, height] in m, got {size}")
+    outputs = reader.mapping(reader.field(top, "outputs", "plan"), "outputs")
+    waypoints = []
+    for i, raw_any in enumerate(reader.items(top, "waypoints", "plan")):
+        raw = reader.mapping(raw_any, f"waypoints[{i}]")
+        name = reader.text(reader.field(raw, "name", f"waypoints[{i}]"), f"waypoints[{i}]", "name")
+        label = f"waypoint {name!r}"
+        waypoints.append(
+            Waypoint(
+                name,
+                reader.number(reader.field(raw, "x", label), label, "x"),
+                reader.number(reader.field(raw, "y", label), label, "y"),
+            )
+        )
+    raw_rooms = reader.items(top, "rooms", "plan")
+    rooms = tuple(_parse_room(reader, raw, i) for i, raw in enumerate(raw_rooms))
+    ring = tuple(
+        reader.text(name, f"ring[{i}]", "name")
+        for i, name in enumerate(reader.items(top, "ring", "plan"))
+    )
+    arcs = []
+    for i, chain in enumerate(reader.items(top, "arcs", "plan")):
+        if not isinstance(chain, list) or len(chain) < 2:
+            raise reader.fail(f"arcs[{i}]", "an arc chain lists at least two node names")
+        arcs.append(tuple(reader.text(name, f"arcs[{i}]", "name") for name in chain))
+    plan = FloorPlan(
+        name=reader.text(top.get("name", "floor plan"), "plan", "name"),
+        resolution=resolution,
+        origin_x=origin[0],
+        origin_y=origin[1],
+        width_m=size[0],
+        height_m=size[1],
+        map_file=reader.text(reader.field(outputs, "map", "outputs"), "outputs", "map"),
+        topological_file=reader.text(
+            reader.field(outputs, "topological", "outputs"), "outputs", "topological"
+        ),
+        building=reader.rect(
+            reader.mapping(reader.field(top, "building", "plan"), "building"), "building"
+        ),
+        corridors=_parse_areas(reader, top, "corridors"),
+        courtyards=_parse_areas(reader, top, "courtyards"),
+        rooms=rooms,
+        waypoints=tuple(waypoints),
+        ring=ring,
+        arcs=tuple(arcs),
+        entrance_distance=reader.positive(
+            top.get("entrance_distance", 0.9), "plan", "entrance_distance"
+        ),
+        arc_clearance=reader.positive(top.get("arc_clearance", 0.3), "plan", "arc_clearance"),
+        node_clearance=reader.positive(top.get("node_clearance", 0.35), "plan", "node_clearance"),
+        source=source,
+    )
+    validate_floor_plan(plan)
+    return plan
+
+
+def load_floor_plan(path: str | Path) -> FloorPlan:
+    """Read and validate a floor-plan YAML file."""
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise FloorPlanError(f"{source}: cannot read floor plan ({exc.strerror})") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise FloorPlanError(f"{source}: invalid YAML ({exc})") from exc
+    plan = parse_floor_plan(data, source)
+    logger.info(
+        "loaded floor plan %s: %d rooms, %d corridors, %d nodes",
+        source,
+        len(plan.rooms),
+        len(plan.corridors),
+        len(plan.ring),
+    )
+    return plan
+
+
+# ---------------------------------------------------------------------------- validation
+
+
+def validate_floor_plan(plan: FloorPlan) -> None:
+    """Check the geometry and the node lists of ``plan``; raise :class:`FloorPlanError`."""
+    src = plan.source
+    if not plan.map_rect.contains(plan.building):
+        raise FloorPlanError(f"{src}: building: outline {plan.building} leaves the map frame")
+    names = [room.name for room in plan.rooms]
+    for name in names:
+        if names.count(name) > 1:
+            raise FloorPlanError(f"{src}: room {name!r}: the name is used twice")
+    floors = [(f"corridor {c.name!r}", c.rect) for c in plan.corridors]
+    floors += [(f"room {r.name!r}", r.rect) for r in plan.rooms]
+    for label, rect in floors + [(f"courtyard {c.name!r}", c.rect) for c in plan.courtyards]:
+        if not plan.building.contains(rect):
+            raise FloorPlanError(f"{src}: {label}: 'x'/'y' lie outside the building outline")
+    # Rooms keep a wall to every other floor and courtyard; corridors may overlap each other.
+    others = floors + [(f"courtyard {c.name!r}", c.rect) for c in plan.courtyards]
+    for room in plan.rooms:
+        for label, rect in others:
+            if label == f"room {room.name!r}":
+                continue
+            if room.rect.overlaps(rect, WALL_MIN):
+                raise FloorPlanError(
+                    f"{src}: room {room.name!r}: 'x'/'y' overlap {label} or leave less than "
+                    f"{WALL_MIN} m of wall to it"
+                )
+    for court in plan.courtyards:
+        for corridor in plan.corridors:
+            if court.rect.overlaps(corridor.rect, WALL_MIN):
+                raise FloorPlanError(
+                    f"{src}: courtyard {court.name!r}: overlaps corridor {corridor.name!r}"
+                )
+    homes = [room.name for room in plan.rooms if room.home]
+    if len(homes) != 1:
+        raise FloorPlanError(f"{src}: exactly one room needs home: true, found {homes}")
+    for room in plan.rooms:
+        _validate_room(plan, room)
+    _validate_nodes(plan)
+
+
+def _validate_room(plan: FloorPlan, room: Room) -> None:
+    src = plan.source
+    label = f"room {room.name!r}"
+    for index in range(len(room.doors)):
+        door_opening(plan, room, index)  # raises when the door does not reach a corridor
+        zone = door_approach_zone(room, index)
+        for f, item in enumerate(room.furniture):
+            if item.rect.overlaps(zone):
+                raise FloorPlanError(
+                    f"{src}: {label} furniture[{f}] ({item.name}): blocks doors[{index}]; keep "
+                    f"{DOOR_APPROACH_DEPTH} m in front of a door and {DOOR_APPROACH_SIDE} m "
+                    "either side free"
+                )
+    for f, item in enumerate(room.furniture):
+        if not room.rect.contains(item.rect):
+            raise FloorPlanError(
+                f"{src}: {label} furniture[{f}] ({item.name}): 'x'/'y' must lie inside the room "
+                f"x [{room.rect.x0}, {room.rect.x1}], y [{room.rect.y0}, {room.rect.y1}]"
+            )
+    if room.requests and room.inside is None:
+        raise FloorPlanError(
+            f"{src}: {label}: a room with requests: true needs 'inside: {{x, y}}', the node "
+            "inside the room where requests are handed over"
+        )
+    if room.inside is not None:
+        x, y = room.inside
+        if not room.rect.contains_point(x, y):
+            raise FloorPlanError(f"{src}: {label}: 'inside' ({x}, {y}) lies outside the room")
+        for f, item in enumerate(room.furniture):
+            if item.rect.contains_point(x, y):
+                raise FloorPlanError(
+                    f"{src}: {label}: 'inside' ({x}, {y}) lies on furniture[{f}] ({item.name})"
+                )
+
+
+def _validate_nodes(plan: FloorPlan) -> None:
+    src = plan.source
+    known = [node.name for node in plan_nodes(plan)]
+    for name in known:
+        if known.count(name) > 1:
+            raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
+    for i, name in enumerate(plan.ring):
+        if name not in known:
+            raise FloorPlanError(
+                f"{src}: ring[{i}]: {name!r} is not a node; nodes are {', '.join(known)}"
+            )
+        if plan.ring.count(name) > 1:
+            raise FloorPlanError(f"{src}: ring[{i}]: {name!r} is listed twice")
+    missing = [name for name in known if name not in plan.ring]
+    if missing:
+        raise FloorPlanError(f"{src}: ring: missing nodes {missing} (every node needs an id)")
+    for i, chain in enumerate(plan.arcs):
+        for name in chain:
+            if name not in known:
+                raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
+
+
+# ---------------------------------------------------------------------------- geometry
+
+
+def _wall_axis(room: Room, wall: str) -> tuple[float, float]:
+    """(start, end) of a wall along its own direction [m]: x for north/south, y for east/west."""
+    if wall in ("north", "south"):
+        return room.rect.x0, room.rect.x1
+    return room.rect.y0, room.rect.y1
+
+
+def door_opening(plan: FloorPlan, room: Room, index: int) -> DoorOpening:
+    """The opening that ``room.doors[index]`` cuts through the wall to the nearest corridor."""
+    door = room.doors[index]
+    label = f"{plan.source}: room {room.name!r} doors[{index}]"
+    start, end = _wall_axis(room, door.wall)
+    centre = start + door.offset
+    lo, hi = centre - door.width / 2, centre + door.width / 2
+    if lo < start + DOOR_JAMB - 1e-9 or hi > end - DOOR_JAMB + 1e-9:
+        raise FloorPlanError(
+            f"{label}: 'offset' {door.offset} puts the door outside the {door.wall} wall; allowed "
+            f"{DOOR_JAMB + door.width / 2:.2f}..{end - start - DOOR_JAMB - door.width / 2:.2f} m"
+        )
+    r = room.rect
+    best: tuple[float, Area] | None = None
+    for corridor in plan.corridors:
+        c = corridor.rect
+        if door.wall == "north":
+            gap, covers = c.y0 - r.y1, c.x0 <= lo and hi <= c.x1
+        elif door.wall == "south":
+            gap, covers = r.y0 - c.y1, c.x0 <= lo and hi <= c.x1
+        elif door.wall == "east":
+            gap, covers = c.x0 - r.x1, c.y0 <= lo and hi <= c.y1
+        else:
+            gap, covers = r.x0 - c.x1, c.y0 <= lo and hi <= c.y1
+        if covers and 0.0 < gap <= WALL_MAX + 1e-9 and (best is None or gap < best[0]):
+            best = (gap, corridor)
+    if best is None:
+        raise FloorPlanError(
+            f"{label}: the {door.wall} wall at 'offset' {door.offset} does not open onto a "
+            f"corridor (none within {WALL_MAX} m covering the door's full width)"
+        )
+    gap = best[0]
+    nx, ny = _NORMALS[door.wall]
+    if door.wall == "north":
+        rect, face = Rect(lo, r.y1, hi, r.y1 + gap), (centre, r.y1)
+    elif door.wall == "south":
+        rect, face = Rect(lo, r.y0 - gap, hi, r.y0), (centre, r.y0)
+    elif door.wall == "east":
+        rect, face = Rect(r.x1, lo, r.x1 + gap, hi), (r.x1, centre)
+    else:
+        rect, face = Rect(r.x0 - gap, lo, r.x0, hi), (r.x0, centre)
+    return DoorOpening(
+        room=room.name,
+        index=index,
+        rect=rect,
+        room_face=face,
+        corridor_face=(face[0] + nx * gap, face[1] + ny * gap),
+        normal=(nx, ny),
+        width=door.width,
+    )
+
+
+def door_approach_zone(room: Room, index: int) -> Rect:
+    """The furniture-free rectangle inside ``room`` in front of ``room.doors[index]``."""
+    door = room.doors[index]
+    start, _ = _wall_axis(room, door.wall)
+    half = door.width / 2 + DOOR_APPROACH_SIDE
+    c = start + door.offset
+    r, depth = room.rect, DOOR_APPROACH_DEPTH
+    if door.wall == "north":
+        return Rect(c - half, r.y1 - depth, c + half, r.y1)
+    if door.wall == "south":
+        return Rect(c - half, r.y0, c + half, r.y0 + depth)
+    if door.wall == "east":
+        return Rect(r.x1 - depth, c - half, r.x1, c + half)
+    return Rect(r.x0, c - half, r.x0 + depth, c + half)
+
+
+def door_openings(plan: FloorPlan) -> list[DoorOpening]:
+    """Every door of every room, in plan order."""
+    return [door_opening(plan, room, i) for room in plan.rooms for i in range(len(room.doors))]
+
+
+# ---------------------------------------------------------------------------- rasterising
+
+
+def _cell_border(distance: float, resolution: float) -> int:
+    """Index of the cell border nearest to ``distance`` [m]; halves round up (both edges alike,
+    so a rectangle a whole number of cells wide keeps that width wherever it starts)."""
+    return math.floor(distance / resolution + 0.5 + 1e-6)
+
+
+def _cell_slices(plan: FloorPlan, rect: Rect) -> tuple[slice, slice]:
+    """Rows and columns of the cells inside ``rect``, its edges snapped to cell borders."""
+    rows, cols = plan.shape
+    c0 = _cell_border(rect.x0 - plan.origin_x, plan.resolution)
+    c1 = _cell_border(rect.x1 - plan.origin_x, plan.resolution)
+    r0 = _cell_border(rect.y0 - plan.origin_y, plan.resolution)
+    r1 = _cell_border(rect.y1 - plan.origin_y, plan.resolution)
+    return (
+        slice(min(max(r0, 0), rows), min(max(r1, 0), rows)),
+        slice(min(max(c0, 0), cols), min(max(c1, 0), cols)),
+    )
+
+
+def rasterise(plan: FloorPlan) -> OccupancyGrid:
+    """Draw ``plan`` into an occupancy grid (row 0 at the bottom).
+
+    Order: unknown everywhere; building outline occupied; courtyards unknown; corridor and room
+    floors free; door openings free; furniture occupied. Rectangle edges snap to cell borders.
+    """
+    cells = np.full(plan.shape, UNKNOWN, dtype=np.int8)
+    cells[_cell_slices(plan, plan.building)] = OCCUPIED
+    for court in plan.courtyards:
+        cells[_cell_slices(plan, court.rect)] = UNKNOWN
+    for corridor in plan.corridors:
+        cells[_cell_slices(plan, corridor.rect)] = FREE
+    for room in plan.rooms:
+        cells[_cell_slices(plan, room.rect)] = FREE
+    for opening in door_openings(plan):
+        cells[_cell_slices(plan, opening.rect)] = FREE
+    for room in plan.rooms:
+        for item in room.furniture:
+            cells[_cell_slices(plan, item.rect)] = OCCUPIED
+    return OccupancyGrid(cells, plan.resolution, plan.origin_x, plan.origin_y, source=plan.name)
+
+
+def clearance_map(grid: OccupancyGrid) -> npt.NDArray[np.float64]:
+    """Distance [m] from each cell centre to the nearest blocked (occupied or unknown) cell centre.
+
+    Euclidean distance transform; cells outside the grid count as blocked.
+    """
+    free = np.pad(~grid.blocked(), 1, constant_values=False)
+    distance = ndimage.distance_transform_edt(free) * grid.resolution
+    return np.asarray(distance[1:-1, 1:-1], dtype=np.float64)
+
+
+def point_clearance(
+    grid: OccupancyGrid, clearance: npt.NDArray[np.float64], x: float, y: float
+) -> float:
+    """Clearance [m] at the cell holding (x, y); 0 outside the grid."""
+    row, col = grid.world_to_cell(x, y)
+    if not bool(grid.in_bounds(row, col)):
+        return 0.0
+    return float(clearance[int(row), int(col)])
+
+
+def segment_clearance(
+    grid: OccupancyGrid,
+    clearance: npt.NDArray[np.float64],
+    a: tuple[float, float],
+    b: tuple[float, float],
+) -> float:
+    """Smallest clearance [m] along the segment a-b, sampled every half cell."""
+    length = math.hypot(b[0] - a[0], b[1] - a[1])
+    n = max(2, math.ceil(length / (grid.resolution / 2)) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+    inside = grid.in_bounds(rows, cols)
+    if not bool(np.all(inside)):
+        return 0.0
+    return float(np.min(clearance[rows, cols]))
+
+
+# ---------------------------------------------------------------------------- topology
+
+
+def _round(value: float) -> float:
+    return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
+    """The topological nodes in plan order (rooms, then waypoints), before ring ordering.
+
+    Entrance node: ``entrance_distance`` beyond the corridor face of the room's first door, yaw
+    facing the door. Inside node (rooms with ``inside``): at that point, yaw pointing away from
+    the door into the room; it carries the room's name and flags, the entrance node becomes
+    "<room> door" with tour, requests and home false.
+    """
+    nodes: list[PlanNode] = []
+    for room in plan.rooms:
+        opening = door_opening(plan, room, 0)
+        nx, ny = opening.normal
+        ex = opening.corridor_face[0] + nx * plan.entrance_distance
+        ey = opening.corridor_face[1] + ny * plan.entrance_distance
+        area = tuple((float(p[0]), float(p[1])) for p in room.rect.polygon())
+        facing_door = wrap_angle(math.atan2(-ny, -nx)) + 0.0  # no -0.0
+        if room.inside is None:
+            nodes.append(
+                PlanNode(
+                    room.name,
+                    _round(ex),
+                    _round(ey),
+                    facing_door,
+                    "entrance",
+                    room.name,
+                    room.info,
+                    room.tour,
+                    room.requests,
+                    room.home,
+                    area,
+                )
+            )
+            continue
+        nodes.append(
+            PlanNode(
+                f"{room.name} door",
+                _round(ex),
+                _round(ey),
+                facing_door,
+                "entrance",
+                room.name,
+                room.info,
+                area=area,
+            )
+        )
+        ix, iy = room.inside
+        fx, fy = opening.room_face
+        nodes.append(
+            PlanNode(
+                room.name,
+                _round(ix),
+                _round(iy),
+                wrap_angle(math.atan2(iy - fy, ix - fx)),
+                "inside",
+                room.name,
+                room.info,
+                room.tour,
+                room.requests,
+                room.home,
+                area,
+            )
+        )
+    for waypoint in plan.waypoints:
+        nodes.append(
+            PlanNode(waypoint.name, _round(waypoint.x), _round(waypoint.y), 0.0, "waypoint", None)
+        )
+    return nodes
+
+
+def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> dict[str, Any]:
+    """The topological map of ``plan`` as a dict in the ``topological_map`` YAML format.
+
+    Node ids follow ``plan.ring``. Checks against ``grid`` (rasterised if not given) that each
+    node has ``node_clearance`` and each arc keeps ``arc_clearance`` to blocked cells, and that
+    the graph is connected; raises :class:`FloorPlanError` naming the node or arc otherwise.
+    """
+    grid = rasterise(plan) if grid is None else grid
+    clearance = clearance_map(grid)
+    by_name = {node.name: node for node in plan_nodes(plan)}
+    ids = {name: i for i, name in enumerate(plan.ring)}
+    src = plan.source
+    nodes_out: list[dict[str, Any]] = []
+    for i, name in enumerate(plan.ring):
+        node = by_name[name]
+        free = point_clearance(grid, clearance, node.x, node.y)
+        if free < plan.node_clearance:
+            raise FloorPlanError(
+                f"{src}: node {i} ({name!r}) at ({node.x}, {node.y}) has {free:.2f} m clearance, "
+                f"needs {plan.node_clearance} m: move the door, waypoint or 'inside' point"
+            )
+        nodes_out.append(
+            {
+                "id": i,
+                "name": name,
+                "x": node.x,
+                "y": node.y,
+                "yaw": node.yaw,
+                "info": node.info,
+                "tour": node.tour,
+                "requests": node.requests,
+                "home": node.home,
+                "room": node.room,
+                "kind": node.kind,
+                "area": [list(p) for p in node.area],
+            }
+        )
+    arcs: set[tuple[int, int]] = set()
+    for c, chain in enumerate(plan.arcs):
+        for a_name, b_name in itertools.pairwise(chain):
+            a, b = by_name[a_name], by_name[b_name]
+            if a_name == b_name:
+                raise FloorPlanError(f"{src}: arcs[{c}]: {a_name!r} is joined to itself")
+            free = segment_clearance(grid, clearance, (a.x, a.y), (b.x, b.y))
+            if free <= plan.arc_clearance:
+                raise FloorPlanError(
+                    f"{src}: arcs[{c}]: {a_name!r} -> {b_name!r} passes {free:.2f} m from a wall "
+                    f"or furniture (needs > {plan.arc_clearance} m): add a waypoint or move it"
+                )
+            u, v = ids[a_name], ids[b_name]
+            arcs.add((min(u, v), max(u, v)))
+    unreachable = _unreachable(len(plan.ring), arcs)
+    if unreachable:
+        names = [plan.ring[i] for i in unreachable]
+        raise FloorPlanError(f"{src}: arcs: nodes {names} cannot be reached from node 0")
+    return {
+        "map": plan.map_file,
+        "nodes": nodes_out,
+        "arcs": [list(arc) for arc in sorted(arcs)],
+    }
+
+
+def _unreachable(n: int, arcs: set[tuple[int, int]]) -> list[int]:
+    adjacency: dict[int, list[int]] = {i: [] for i in range(n)}
+    for u, v in arcs:
+        adjacency[u].append(v)
+        adjacency[v].append(u)
+    seen = {0}
+    stack = [0]
+    while stack:
+        for nxt in adjacency[stack.pop()]:
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append(nxt)
+    return [i for i in range(n) if i not in seen]

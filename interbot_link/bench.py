@@ -1,0 +1,78 @@
+"""One-way pose latency over the zenoh link on loopback: `RobotLink.publish_pose` to receipt.
+
+Two sessions in one process (robot listens on 127.0.0.1, station connects), the robot's
+`RobotLink` publishes a `PoseMsg` whose ``stamp`` is ``time.perf_counter()`` at send time and a
+station-side subscriber blocks in ``recv()`` on a FIFO channel and decodes it; one pose in
+flight at a time, so the figure is link latency, not queueing. Run:
+``.venv/bin/python -m interbot_link.bench``.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import statistics
+import sys
+import time
+
+import zenoh
+
+from interbot_core.topics import PoseMsg, Topic, decode, key
+from interbot_link.robot import RobotLink
+from interbot_link.session import open_session
+
+logger = logging.getLogger(__name__)
+
+
+def free_loopback_port() -> int:
+    """A TCP port on 127.0.0.1 the OS considers free right now (it may be taken again later)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def bench_link(samples: int = 2000, warmup: int = 100) -> dict[str, float]:
+    """Median, p99 and max one-way pose latency [ms] over ``samples`` sequential poses."""
+    endpoint = f"tcp/127.0.0.1:{free_loopback_port()}"
+    with open_session([endpoint], []) as robot_session, open_session([], [endpoint]) as station:
+        link = RobotLink(robot_session, "bench")
+        sub = station.declare_subscriber(key("bench", Topic.POSE), zenoh.handlers.FifoChannel(16))
+        try:
+            deadline = time.perf_counter() + 5.0
+            while not station.info.peers_zid() and time.perf_counter() < deadline:
+                time.sleep(0.01)  # wait for the TCP link
+            time.sleep(0.05)  # and for the subscription to reach the robot
+            latencies: list[float] = []
+            for i in range(samples + warmup):
+                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, stamp=time.perf_counter()))
+                sample = sub.recv()
+                pose = decode(Topic.POSE, sample.payload.to_bytes())
+                arrived = time.perf_counter()
+                if not isinstance(pose, PoseMsg):
+                    raise TypeError(f"expected a PoseMsg on {Topic.POSE}, got {pose!r}")
+                if i >= warmup:
+                    latencies.append((arrived - pose.stamp) * 1000.0)
+        finally:
+            sub.undeclare()
+            link.close()
+    latencies.sort()
+    return {
+        "samples": float(len(latencies)),
+        "median_ms": statistics.median(latencies),
+        "p99_ms": latencies[min(len(latencies) - 1, int(0.99 * len(latencies)))],
+        "max_ms": latencies[-1],
+    }
+
+
+def main() -> int:
+    result = bench_link()
+    sys.stdout.write(
+        "one-way pose latency on loopback: median {median_ms:.3f} ms, p99 {p99_ms:.3f} ms, "
+        "max {max_ms:.3f} ms over {samples:.0f} samples\n".format(**result)
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

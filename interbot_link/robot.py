@@ -1,0 +1,255 @@
+"""The robot daemon's end of the zenoh link (thesis Fig. 4.2: Processing Unit <-> Base Station).
+
+`RobotLink` publishes the robot's state on ``interbot/<robot_id>/<topic>``, receives the
+station's commands and hands them to the daemon loop through `RobotLink.poll_commands` (zenoh
+callbacks only append raw payloads to a bounded queue; decoding, validation and all daemon
+logic run on the caller's thread), declares the liveliness token ``interbot/<robot_id>/alive``
+while it is open, and answers the query ``interbot/<robot_id>/state`` with a snapshot of the
+latest state (the map, pose, route progress ...), so a station that joins late gets the map.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass
+from types import TracebackType
+from typing import cast
+
+import zenoh
+
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import (
+    COMMAND_TOPICS,
+    STATE_TOPICS,
+    Battery,
+    ConfigMsg,
+    GoalMsg,
+    ImageMsg,
+    InitialPose,
+    Lock,
+    MuxMsg,
+    Odom,
+    PoseMsg,
+    RangeEncoding,
+    RouteCancel,
+    RouteMsg,
+    RouteProgress,
+    Status,
+    StopRelease,
+    Topic,
+    TopicError,
+    Twist,
+    alive_key,
+    decode,
+    encode,
+    encode_scan,
+    encode_snapshot,
+    key,
+    parse_key,
+    robot_wildcard,
+    state_key,
+    to_topic,
+)
+from interbot_link.qos import declare_publisher
+from interbot_link.session import LinkError
+
+logger = logging.getLogger(__name__)
+
+CommandMessage = (
+    Twist | Lock | StopRelease | RouteMsg | RouteCancel | GoalMsg | InitialPose | ConfigMsg
+)
+
+SNAPSHOT_TOPICS = frozenset(STATE_TOPICS - {Topic.SCAN, Topic.IMAGE})
+"""State kept for the ``state`` query: everything but the streams (scan, image)."""
+
+
+class LinkClosedError(LinkError):
+    """A link was used after `close()`."""
+
+
+@dataclass(frozen=True)
+class Command:
+    """A decoded command from the station: its topic and message."""
+
+    topic: Topic
+    message: CommandMessage
+
+
+class RobotLink:
+    """Robot side of the link on an open session (the caller owns and closes the session).
+
+    ``notify`` (optional) is called on a zenoh thread after each received command: keep it
+    trivial and thread-safe (set an Event, write to a wake-up pipe).
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        robot_id: str,
+        *,
+        queue_capacity: int = 1024,
+        notify: Callable[[], None] | None = None,
+    ) -> None:
+        self._session = session
+        self._robot_id = robot_id
+        self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self._raw: list[tuple[str, bytes]] = []
+        self._capacity = queue_capacity
+        self._notify = notify
+        self._snapshot: dict[Topic, bytes] = {}
+        self._closed = False
+        self.decode_errors: Counter[str] = Counter()
+        """Dropped payloads per topic name: malformed, or not a command topic."""
+        self.overflow = 0
+        """Commands dropped because the queue was full (the daemon loop is not polling)."""
+        self._state_key = state_key(robot_id)
+        self._publishers = {
+            t: declare_publisher(session, key(robot_id, t), t) for t in STATE_TOPICS
+        }
+        self._subscriber = session.declare_subscriber(
+            robot_wildcard(robot_id), self._on_sample, allowed_origin=zenoh.Locality.REMOTE
+        )
+        self._queryable = session.declare_queryable(self._state_key, self._on_query)
+        self._token = session.liveliness().declare_token(alive_key(robot_id))
+        logger.info("robot link %r up (session %s)", robot_id, session.zid())
+
+    @property
+    def robot_id(self) -> str:
+        return self._robot_id
+
+    # ------------------------------------------------------------------ zenoh threads
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        """Runs on a zenoh thread: queue the raw payload, nothing else."""
+        if sample.kind != zenoh.SampleKind.PUT:
+            return
+        item = (str(sample.key_expr), sample.payload.to_bytes())
+        with self._cond:
+            if len(self._raw) >= self._capacity:
+                self.overflow += 1
+                return
+            self._raw.append(item)
+            self._cond.notify_all()
+        if self._notify is not None:
+            self._notify()
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        """Runs on a zenoh thread: reply with the stored, already encoded state."""
+        wanted = query.parameters.get("parts")
+        with self._lock:
+            parts = dict(self._snapshot)
+        if wanted:
+            names = set(wanted.split(","))
+            parts = {t: data for t, data in parts.items() if str(t) in names}
+        query.reply(self._state_key, encode_snapshot(parts))
+
+    # ------------------------------------------------------------------ daemon thread
+
+    def poll_commands(self) -> list[Command]:
+        """Decode and return every command received since the last call, oldest first.
+
+        Malformed payloads and state topics published by someone else are dropped, counted in
+        `decode_errors` and logged; they never reach the daemon.
+        """
+        with self._lock:
+            raw, self._raw = self._raw, []
+        commands: list[Command] = []
+        for key_expr, payload in raw:
+            try:
+                _, name = parse_key(key_expr)
+                topic = to_topic(name)
+                if topic not in COMMAND_TOPICS:
+                    raise TopicError(f"{topic} is not a command topic")
+                message = decode(topic, payload)
+            except TopicError as exc:
+                name = key_expr.rsplit("/", 1)[-1]
+                self.decode_errors[name] += 1
+                logger.warning("dropped a payload on %s: %s", key_expr, exc)
+                continue
+            commands.append(Command(topic, cast(CommandMessage, message)))
+        return commands
+
+    def wait_commands(self, timeout: float) -> bool:
+        """Block up to ``timeout`` [s] until a command is queued (for loops that can sleep)."""
+        with self._cond:
+            return self._cond.wait_for(lambda: bool(self._raw), timeout)
+
+    def subscribed(self, topic: Topic) -> bool:
+        """True if some station subscribes to state ``topic`` (skip encoding images if not)."""
+        status = self._publishers[topic].matching_status  # MatchingStatus in 1.10
+        return bool(getattr(status, "matching", status))
+
+    def publish(self, topic: Topic, message: object) -> None:
+        """Encode ``message`` for state ``topic`` and publish it (and keep it for the query)."""
+        self._put(topic, encode(topic, message))
+
+    def _put(self, topic: Topic, payload: bytes) -> None:
+        if self._closed:
+            raise LinkClosedError(f"robot link {self._robot_id!r} is closed")
+        if topic in SNAPSHOT_TOPICS:
+            with self._lock:
+                self._snapshot[topic] = payload
+        self._publishers[topic].put(payload)
+
+    def publish_pose(self, pose: PoseMsg) -> None:
+        self.publish(Topic.POSE, pose)
+
+    def publish_odom(self, odom: Odom) -> None:
+        self.publish(Topic.ODOM, odom)
+
+    def publish_cmd_vel(self, twist: Twist) -> None:
+        self.publish(Topic.CMD_VEL, twist)
+
+    def publish_scan(
+        self, scan: LaserScan, encoding: RangeEncoding = RangeEncoding.FLOAT32
+    ) -> None:
+        self._put(Topic.SCAN, encode_scan(scan, encoding))
+
+    def publish_map(self, grid: OccupancyGrid) -> None:
+        """Publish the map (zlib, ~20 ms for 1 M cells on the caller's thread) and keep it."""
+        self.publish(Topic.MAP, grid)
+
+    def publish_route_progress(self, progress: RouteProgress) -> None:
+        self.publish(Topic.ROUTE_PROGRESS, progress)
+
+    def publish_image(self, image: ImageMsg) -> None:
+        self.publish(Topic.IMAGE, image)
+
+    def publish_battery(self, battery: Battery) -> None:
+        self.publish(Topic.BATTERY, battery)
+
+    def publish_status(self, status: Status) -> None:
+        self.publish(Topic.STATUS, status)
+
+    def publish_mux(self, mux: MuxMsg) -> None:
+        self.publish(Topic.MUX, mux)
+
+    # ------------------------------------------------------------------ lifetime
+
+    def close(self) -> None:
+        """Undeclare everything (the token last but one: stations see the robot leave)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._subscriber.undeclare()
+        self._queryable.undeclare()
+        self._token.undeclare()
+        for publisher in self._publishers.values():
+            publisher.undeclare()
+        logger.info("robot link %r closed", self._robot_id)
+
+    def __enter__(self) -> RobotLink:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()

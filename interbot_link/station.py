@@ -1,0 +1,408 @@
+"""The Base Station's end of the zenoh link.
+
+`StationLink` watches the liveliness tokens ``interbot/*/alive`` (robots appearing and leaving,
+including those already present, through a liveliness subscriber with history and a liveliness
+get), follows one selected robot and sends it commands. High-rate state (scan, pose, odom,
+cmd_vel, image, battery, mux) is received with ``zenoh.handlers.RingChannel(1)``: `poll_state`
+returns only the newest sample of each, so a slow UI drops frames instead of falling behind.
+Events (route progress, status, map, robots appearing/leaving) go, in arrival order, to a
+bounded queue drained by `poll_events`. Zenoh callbacks only queue raw bytes; decoding happens on the caller's thread.
+
+Call `poll_state` / `poll_events` from one thread (the Qt timer); ``notify`` is invoked on a
+zenoh thread when an event is queued: emit a queued Qt signal from it, nothing more.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from types import TracebackType
+
+import zenoh
+
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import (
+    ALIVE,
+    ALIVE_WILDCARD,
+    COMMAND_TOPICS,
+    STATE_TOPICS,
+    TOPIC_SPECS,
+    ConfigMsg,
+    GoalMsg,
+    InitialPose,
+    Lock,
+    RouteCancel,
+    RouteMsg,
+    StopRelease,
+    Topic,
+    TopicError,
+    Twist,
+    decode,
+    decode_snapshot,
+    encode,
+    key,
+    parse_key,
+    robot_wildcard,
+    state_key,
+    validate_robot_id,
+)
+from interbot_link.qos import declare_publisher
+from interbot_link.robot import LinkClosedError
+from interbot_link.session import LinkError
+
+logger = logging.getLogger(__name__)
+
+LATEST_TOPICS = frozenset(t for t in STATE_TOPICS if TOPIC_SPECS[t].latest_only)
+EVENT_TOPICS = frozenset(STATE_TOPICS - LATEST_TOPICS)
+_EVENT_NAMES = frozenset(str(t) for t in EVENT_TOPICS)
+
+
+class NoRobotSelectedError(LinkError):
+    """A command was sent before `StationLink.select_robot`."""
+
+
+@dataclass(frozen=True)
+class RobotAppeared:
+    """A robot's liveliness token appeared."""
+
+    robot_id: str
+
+
+@dataclass(frozen=True)
+class RobotLeft:
+    """A robot's liveliness token went (clean exit, killed process, or link lease expired)."""
+
+    robot_id: str
+
+
+@dataclass(frozen=True)
+class StateMessage:
+    """A decoded event-topic message (route progress, status, map) from a robot."""
+
+    robot_id: str
+    topic: Topic
+    message: object
+
+
+LinkEvent = RobotAppeared | RobotLeft | StateMessage
+
+_Raw = tuple[str, str, bytes] | RobotAppeared | RobotLeft  # (robot_id, topic, payload) or event
+
+
+class StationLink:
+    """Station side of the link on an open session (the caller owns and closes the session)."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        *,
+        queue_capacity: int = 4096,
+        notify: Callable[[], None] | None = None,
+    ) -> None:
+        self._session = session
+        self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self._raw: list[_Raw] = []
+        self._capacity = queue_capacity
+        self._notify = notify
+        self._robots: set[str] = set()
+        self._heard: set[str] = set()  # robots the liveliness subscriber has reported
+        self._selected: str | None = None
+        self._rings: dict[Topic, zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]] = {}
+        self._event_subs: list[zenoh.Subscriber[None]] = []
+        self._publishers: dict[Topic, zenoh.Publisher] = {}
+        self._latest: dict[Topic, object] = {}
+        self._closed = False
+        self.decode_errors: Counter[str] = Counter()
+        """Dropped payloads per topic name."""
+        self.overflow = 0
+        """Events dropped because the queue was full (nobody polls)."""
+        liveliness = session.liveliness()
+        self._alive_sub = liveliness.declare_subscriber(
+            ALIVE_WILDCARD, self._on_alive, history=True
+        )
+        liveliness.get(ALIVE_WILDCARD, self._on_alive_reply)
+
+    # ------------------------------------------------------------------ zenoh threads
+
+    def _queue(self, item: _Raw) -> None:
+        with self._cond:
+            if len(self._raw) >= self._capacity:
+                self.overflow += 1
+                return
+            self._raw.append(item)
+            self._cond.notify_all()
+        if self._notify is not None:
+            self._notify()
+
+    def _robot_from_alive(self, key_expr: str) -> str | None:
+        try:
+            robot_id, name = parse_key(key_expr)
+        except TopicError:
+            return None
+        return robot_id if name == ALIVE else None
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        robot_id = self._robot_from_alive(str(sample.key_expr))
+        if robot_id is None:
+            return
+        present = sample.kind == zenoh.SampleKind.PUT
+        with self._lock:
+            self._heard.add(robot_id)
+            changed = (robot_id in self._robots) != present
+            if present:
+                self._robots.add(robot_id)
+            else:
+                self._robots.discard(robot_id)
+        if changed:
+            self._queue(RobotAppeared(robot_id) if present else RobotLeft(robot_id))
+
+    def _on_alive_reply(self, reply: zenoh.Reply) -> None:
+        sample = reply.ok
+        robot_id = None if sample is None else self._robot_from_alive(str(sample.key_expr))
+        if robot_id is None:
+            return
+        with self._lock:
+            # The subscriber (history=True) is authoritative once it has spoken about a robot.
+            new = robot_id not in self._heard and robot_id not in self._robots
+            if new:
+                self._robots.add(robot_id)
+        if new:
+            self._queue(RobotAppeared(robot_id))
+
+    def _on_event_sample(self, robot_id: str) -> Callable[[zenoh.Sample], None]:
+        """One subscriber for all event topics, so that their order is kept (one thread)."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            name = str(sample.key_expr).rsplit("/", 1)[-1]
+            if name in _EVENT_NAMES and sample.kind == zenoh.SampleKind.PUT:
+                self._queue((robot_id, name, sample.payload.to_bytes()))
+
+        return on_sample
+
+    def _on_state_reply(self, robot_id: str) -> Callable[[zenoh.Reply], None]:
+        def on_reply(reply: zenoh.Reply) -> None:
+            sample = reply.ok
+            if sample is not None:
+                self._queue((robot_id, "state", sample.payload.to_bytes()))
+
+        return on_reply
+
+    # ------------------------------------------------------------------ robots
+
+    @property
+    def robots(self) -> frozenset[str]:
+        """Robots whose liveliness token is present."""
+        with self._lock:
+            return frozenset(self._robots)
+
+    @property
+    def selected(self) -> str | None:
+        return self._selected
+
+    def refresh_robots(self, timeout: float = 1.0) -> frozenset[str]:
+        """Ask for the present liveliness tokens now (blocking up to ``timeout`` [s])."""
+        found: set[str] = set()
+        for reply in self._session.liveliness().get(ALIVE_WILDCARD, timeout=timeout):
+            sample = reply.ok
+            robot_id = None if sample is None else self._robot_from_alive(str(sample.key_expr))
+            if robot_id is not None:
+                found.add(robot_id)
+        return frozenset(found)
+
+    def select_robot(self, robot_id: str | None) -> None:
+        """Follow ``robot_id`` (None: none): subscribe to its state, ask for its snapshot."""
+        self._check_open()
+        self._unselect()
+        if robot_id is None:
+            return
+        validate_robot_id(robot_id)
+        session = self._session
+        for topic in LATEST_TOPICS:
+            self._rings[topic] = session.declare_subscriber(
+                key(robot_id, topic), zenoh.handlers.RingChannel(1)
+            )
+        # Event topics share one wildcard subscriber (one zenoh callback thread), so route
+        # progress and status arrive in the order the robot sent them; the callback ignores
+        # the other topics by name without touching their payloads.
+        self._event_subs.append(
+            session.declare_subscriber(
+                robot_wildcard(robot_id),
+                self._on_event_sample(robot_id),
+                allowed_origin=zenoh.Locality.REMOTE,
+            )
+        )
+        for topic in COMMAND_TOPICS:
+            self._publishers[topic] = declare_publisher(session, key(robot_id, topic), topic)
+        self._selected = robot_id
+        self.request_state(robot_id)
+        logger.info("station follows robot %r", robot_id)
+
+    def _unselect(self) -> None:
+        for ring in self._rings.values():
+            ring.undeclare()
+        for sub in self._event_subs:
+            sub.undeclare()
+        for pub in self._publishers.values():
+            pub.undeclare()
+        self._rings.clear()
+        self._event_subs.clear()
+        self._publishers.clear()
+        self._latest.clear()
+        self._selected = None
+
+    # ------------------------------------------------------------------ receiving
+
+    def _decode(self, robot_id: str, name: str, payload: bytes) -> list[StateMessage]:
+        try:
+            if name == "state":
+                parts = decode_snapshot(payload)
+                return [StateMessage(robot_id, t, decode(t, data)) for t, data in parts.items()]
+            topic = Topic(name)
+            return [StateMessage(robot_id, topic, decode(topic, payload))]
+        except TopicError as exc:
+            self.decode_errors[name] += 1
+            logger.warning("dropped a payload on interbot/%s/%s: %s", robot_id, name, exc)
+            return []
+
+    def poll_events(self) -> list[LinkEvent]:
+        """Robots appearing/leaving and decoded event messages since the last call, in order."""
+        with self._lock:
+            raw, self._raw = self._raw, []
+        events: list[LinkEvent] = []
+        for item in raw:
+            if isinstance(item, RobotAppeared | RobotLeft):
+                events.append(item)
+            else:
+                events.extend(self._decode(*item))
+        return events
+
+    def wait_events(self, timeout: float) -> bool:
+        """Block up to ``timeout`` [s] until an event is queued."""
+        with self._cond:
+            return self._cond.wait_for(lambda: bool(self._raw), timeout)
+
+    def poll_state(self) -> dict[Topic, object]:
+        """The newest message of each high-rate topic that has a new one since the last call."""
+        fresh: dict[Topic, object] = {}
+        robot_id = self._selected
+        for topic, ring in self._rings.items():
+            sample = ring.try_recv()
+            if sample is None or robot_id is None:
+                continue
+            for msg in self._decode(robot_id, str(topic), sample.payload.to_bytes()):
+                fresh[topic] = self._latest[topic] = msg.message
+        return fresh
+
+    def latest(self, topic: Topic) -> object | None:
+        """The last message `poll_state` returned for ``topic`` (None before the first)."""
+        return self._latest.get(topic)
+
+    def request_state(self, robot_id: str | None = None) -> None:
+        """Ask for the robot's state snapshot; its parts arrive as StateMessage events."""
+        robot_id = self._target(robot_id)
+        self._session.get(state_key(robot_id), self._on_state_reply(robot_id), timeout=5.0)
+
+    def fetch_state(
+        self, robot_id: str | None = None, parts: Iterable[Topic] = (), timeout: float = 2.0
+    ) -> dict[Topic, object]:
+        """Query the robot's state snapshot (blocking up to ``timeout`` [s]), decoded."""
+        robot_id = self._target(robot_id)
+        selector = state_key(robot_id)
+        names = ",".join(str(t) for t in parts)
+        if names:
+            selector += f"?parts={names}"
+        result: dict[Topic, object] = {}
+        for reply in self._session.get(selector, timeout=timeout):
+            sample = reply.ok
+            if sample is None:
+                continue
+            for msg in self._decode(robot_id, "state", sample.payload.to_bytes()):
+                result[msg.topic] = msg.message
+        return result
+
+    def fetch_map(self, robot_id: str | None = None, timeout: float = 2.0) -> OccupancyGrid | None:
+        """The robot's current map through the ``state`` query, or None if it has none."""
+        grid = self.fetch_state(robot_id, (Topic.MAP,), timeout).get(Topic.MAP)
+        return grid if isinstance(grid, OccupancyGrid) else None
+
+    # ------------------------------------------------------------------ sending
+
+    def _target(self, robot_id: str | None) -> str:
+        self._check_open()
+        if robot_id is not None:
+            return validate_robot_id(robot_id)
+        if self._selected is None:
+            raise NoRobotSelectedError("no robot selected: call select_robot(robot_id) first")
+        return self._selected
+
+    def send(self, topic: Topic, message: object) -> bool:
+        """Send a command to the selected robot; True if a robot subscriber matched it.
+
+        False means nobody received it (robot gone or not yet connected): the UI should say so.
+        """
+        self._target(None)
+        if topic not in COMMAND_TOPICS:
+            raise TopicError(f"{topic} is not a command topic")
+        publisher = self._publishers[topic]
+        publisher.put(encode(topic, message))
+        status = publisher.matching_status  # a MatchingStatus in 1.10 (the stub says bool)
+        return bool(getattr(status, "matching", status))
+
+    def send_station_vel(self, twist: Twist) -> bool:
+        return self.send(Topic.STATION_VEL, twist)
+
+    def send_tablet_vel(self, twist: Twist) -> bool:
+        return self.send(Topic.TABLET_VEL, twist)
+
+    def send_pause(self, lock: Lock) -> bool:
+        return self.send(Topic.PAUSE_NAV, lock)
+
+    def send_stop(self, lock: Lock) -> bool:
+        return self.send(Topic.STOP, lock)
+
+    def send_stop_release(self, release: StopRelease) -> bool:
+        return self.send(Topic.STOP_RELEASE, release)
+
+    def send_route(self, route: RouteMsg) -> bool:
+        return self.send(Topic.ROUTE, route)
+
+    def send_goal(self, goal: GoalMsg) -> bool:
+        return self.send(Topic.GOAL, goal)
+
+    def send_route_cancel(self, cancel: RouteCancel) -> bool:
+        return self.send(Topic.ROUTE_CANCEL, cancel)
+
+    def send_initial_pose(self, pose: InitialPose) -> bool:
+        return self.send(Topic.INITIAL_POSE, pose)
+
+    def send_config(self, config: ConfigMsg) -> bool:
+        return self.send(Topic.CONFIG, config)
+
+    # ------------------------------------------------------------------ lifetime
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise LinkClosedError("station link is closed")
+
+    def close(self) -> None:
+        """Undeclare every subscriber and publisher; idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        self._unselect()
+        self._alive_sub.undeclare()
+
+    def __enter__(self) -> StationLink:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()

@@ -1,0 +1,365 @@
+"""People walking in the office: circles that patrol routes, pause, yield and sometimes block.
+
+Each person is a disc (radius ~0.25 m, a shoulder-width ellipse seen by a laser at knee to waist
+height) walking at 0.8-1.3 m/s along a closed patrol route: a list of waypoints joined by
+collision-free paths. Paths are shortest paths on a lattice roadmap (pitch ``lattice`` m) whose
+nodes keep at least the person's radius from every wall (``World.clearance``), found with
+Dijkstra (``scipy.sparse.csgraph.dijkstra``) and shortened by line-of-sight string pulling, so
+people walk along corridors and through doorways but never through walls. Routes are given, or
+generated from random well-clear points of the largest free region.
+
+Behaviour per step (a small finite-state machine, deterministic for a seeded Generator):
+``walking`` toward the next path point; ``paused`` for 1-4 s at a waypoint (with probability
+``pause_probability``); ``yielding`` while the next position would come within
+``robot_margin`` of the robot body or into a wall (e.g. a newly added obstacle), unless the move
+takes them away from the robot; ``blocking``: a person flagged ``blocker`` who finds themselves in
+front of the robot (within ``blocker_trigger`` m ahead, within the robot's width plus 0.5 m
+sideways) stops there for a few seconds with probability ``blocker_probability`` — the scripted
+"someone stands in the robot's way" case of the thesis's navigation tests. People do not avoid
+each other (they pass through one another), which keeps them deadlock-free.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+import numpy.typing as npt
+from scipy import sparse
+from scipy.sparse import csgraph
+
+from interbot_core.geometry import Pose2D
+from robot_daemon.sim.diff_drive import RobotFootprint
+from robot_daemon.sim.world import World
+
+logger = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class PeopleConfigError(ValueError):
+    """A crowd parameter or a patrol route is invalid; the message says which."""
+
+
+class PersonState(Enum):
+    """What a person is doing."""
+
+    WALKING = "walking"
+    PAUSED = "paused"
+    YIELDING = "yielding"
+    BLOCKING = "blocking"
+
+
+@dataclass(frozen=True)
+class CrowdConfig:
+    """Behaviour parameters shared by all people."""
+
+    radius: float = 0.25  # [m]
+    speed_range: tuple[float, float] = (0.8, 1.3)  # [m/s]
+    pause_probability: float = 0.3  # at each route waypoint
+    pause_range: tuple[float, float] = (1.0, 4.0)  # [s]
+    robot_margin: float = 0.3  # [m] keep this far from the robot body
+    blocker_probability: float = 0.5  # per encounter, for people flagged as blockers
+    blocker_trigger: float = 2.5  # [m] ahead of the robot
+    blocker_duration: tuple[float, float] = (3.0, 8.0)  # [s]
+    blocker_cooldown: float = 15.0  # [s] before the same person blocks again
+    lattice: float = 0.2  # [m] roadmap pitch for route planning
+
+    def __post_init__(self) -> None:
+        if not 0.05 <= self.radius <= 1.0:
+            raise PeopleConfigError(f"CrowdConfig.radius must be in [0.05, 1] m, got {self.radius}")
+        for name in ("speed_range", "pause_range", "blocker_duration"):
+            lo, hi = getattr(self, name)
+            if not 0 <= lo <= hi:
+                raise PeopleConfigError(f"CrowdConfig.{name} must be (lo, hi) with 0 <= lo <= hi")
+        for name in ("pause_probability", "blocker_probability"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise PeopleConfigError(f"CrowdConfig.{name} must be in [0, 1]")
+        if not 0.05 <= self.lattice <= 1.0:
+            raise PeopleConfigError("CrowdConfig.lattice must be in [0.05, 1] m")
+
+
+@dataclass
+class Person:
+    """One walking person (mutable simulation state)."""
+
+    person_id: int
+    path: FloatArray  # (N, 2) closed polyline [m]
+    waypoint_mask: npt.NDArray[np.bool_]  # path points that are route waypoints
+    speed: float  # [m/s]
+    radius: float  # [m]
+    blocker: bool = False
+    x: float = 0.0
+    y: float = 0.0
+    target: int = 1
+    state: PersonState = PersonState.WALKING
+    timer: float = 0.0  # [s] left in PAUSED / BLOCKING
+    cooldown: float = 0.0  # [s] before blocking again
+    heading: float = 0.0  # [rad]
+
+
+class Roadmap:
+    """A lattice of wall-clear points with 8-connected edges, for shortest walking paths."""
+
+    def __init__(self, world: World, clearance: float, pitch: float) -> None:
+        self.world = world
+        self.clearance = clearance
+        g = world.grid
+        w_m, h_m = g.size_m
+        xs = g.origin_x + pitch / 2 + pitch * np.arange(max(1, int(w_m / pitch)))
+        ys = g.origin_y + pitch / 2 + pitch * np.arange(max(1, int(h_m / pitch)))
+        gx, gy = np.meshgrid(xs, ys)
+        ok = world.clearance(gx, gy) >= clearance
+        self.shape = ok.shape
+        node_of = np.full(ok.shape, -1, dtype=np.int64)
+        node_of[ok] = np.arange(int(ok.sum()))
+        self.xy = np.column_stack((gx[ok], gy[ok]))
+        rows, cols = [], []
+        weights = []
+        rows_h, cols_w = ok.shape
+        for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            # Pairs (r, c) -> (r + dr, c + dc); dr is 0 or 1, dc is -1, 0 or 1.
+            a = node_of[: rows_h - dr, max(0, -dc) : cols_w - max(0, dc)]
+            b = node_of[dr:, max(0, dc) : cols_w + min(0, dc)]
+            both = (a >= 0) & (b >= 0)
+            ia, ib = a[both], b[both]
+            mid = 0.5 * (self.xy[ia] + self.xy[ib])
+            good = world.clearance(mid[:, 0], mid[:, 1]) >= clearance
+            rows.append(ia[good])
+            cols.append(ib[good])
+            weights.append(np.full(int(good.sum()), pitch * math.hypot(dr, dc)))
+        n = len(self.xy)
+        r = np.concatenate(rows) if rows else np.empty(0, dtype=np.int64)
+        c = np.concatenate(cols) if cols else np.empty(0, dtype=np.int64)
+        wt = np.concatenate(weights) if weights else np.empty(0)
+        self.graph = sparse.csr_matrix((wt, (r, c)), shape=(n, n))
+        if n:
+            _, self.component = csgraph.connected_components(self.graph, directed=False)
+        else:
+            self.component = np.empty(0, dtype=np.int32)
+        logger.debug("roadmap: %d nodes, %d edges", n, len(wt))
+
+    def nearest(self, x: float, y: float) -> int:
+        """Index of the roadmap node nearest to a point."""
+        if not len(self.xy):
+            raise PeopleConfigError(f"{self.world.grid.source}: no space wide enough for people")
+        return int(np.argmin(np.hypot(self.xy[:, 0] - x, self.xy[:, 1] - y)))
+
+    def visible(self, a: FloatArray, b: FloatArray) -> bool:
+        """True if the straight segment a-b keeps the roadmap clearance from walls."""
+        n = max(2, math.ceil(float(np.hypot(*(b - a))) / (self.world.resolution / 2)) + 1)
+        s = np.linspace(0.0, 1.0, n)[:, None]
+        pts = a + s * (b - a)
+        return bool((self.world.clearance(pts[:, 0], pts[:, 1]) >= self.clearance).all())
+
+    def path(self, start: tuple[float, float], goal: tuple[float, float]) -> FloatArray:
+        """Shortest wall-clear polyline from start to goal (both snapped to the roadmap)."""
+        i, j = self.nearest(*start), self.nearest(*goal)
+        if self.component[i] != self.component[j]:
+            raise PeopleConfigError(
+                f"{self.world.grid.source}: no walkable path from {start} to {goal}"
+            )
+        _, pred = csgraph.dijkstra(self.graph, directed=False, indices=i, return_predecessors=True)
+        nodes = [j]
+        while nodes[-1] != i:
+            nodes.append(int(pred[nodes[-1]]))
+        pts = self.xy[nodes[::-1]]
+        return self._string_pull(pts)
+
+    def _string_pull(self, pts: FloatArray) -> FloatArray:
+        out = [pts[0]]
+        i = 0
+        while i < len(pts) - 1:
+            j = len(pts) - 1
+            while j > i + 1 and not self.visible(pts[i], pts[j]):
+                j = i + 1 + (j - i - 1) // 2 if j - i > 8 else j - 1
+            out.append(pts[j])
+            i = j
+        return np.array(out)
+
+
+class Crowd:
+    """All simulated people; step them with the robot's true pose and footprint."""
+
+    def __init__(
+        self, world: World, rng: np.random.Generator, config: CrowdConfig | None = None
+    ) -> None:
+        self.world = world
+        self.config = config or CrowdConfig()
+        self._rng = rng
+        self._people: list[Person] = []
+        self._next_id = 0
+        self._roadmap: Roadmap | None = None
+        self._roadmap_version = -1
+
+    @property
+    def people(self) -> tuple[Person, ...]:
+        """The people, in creation order."""
+        return tuple(self._people)
+
+    def roadmap(self) -> Roadmap:
+        """The walking roadmap for the current walls (rebuilt after an obstacle is added)."""
+        if self._roadmap is None or self._roadmap_version != self.world.version:
+            self._roadmap = Roadmap(self.world, self.config.radius + 0.05, self.config.lattice)
+            self._roadmap_version = self.world.version
+        return self._roadmap
+
+    def circles(self) -> FloatArray:
+        """(N, 3) rows of x [m], y [m], radius [m]."""
+        if not self._people:
+            return np.empty((0, 3))
+        return np.array([(p.x, p.y, p.radius) for p in self._people], dtype=np.float64)
+
+    def add_person(
+        self,
+        route: list[tuple[float, float]],
+        *,
+        blocker: bool = False,
+        speed: float | None = None,
+    ) -> int:
+        """Add a person patrolling ``route`` (>= 2 waypoints [m], closed loop); return its id."""
+        if len(route) < 2:
+            raise PeopleConfigError("a patrol route needs at least 2 waypoints")
+        roadmap = self.roadmap()
+        legs: list[FloatArray] = []
+        marks: list[npt.NDArray[np.bool_]] = []
+        for a, b in zip(route, [*route[1:], route[0]], strict=True):
+            leg = roadmap.path(a, b)[:-1]
+            legs.append(leg)
+            mark = np.zeros(len(leg), dtype=bool)
+            mark[0] = True
+            marks.append(mark)
+        path = np.vstack(legs)
+        lo, hi = self.config.speed_range
+        person = Person(
+            person_id=self._next_id,
+            path=path,
+            waypoint_mask=np.concatenate(marks),
+            speed=float(speed if speed is not None else self._rng.uniform(lo, hi)),
+            radius=self.config.radius,
+            blocker=blocker,
+            x=float(path[0, 0]),
+            y=float(path[0, 1]),
+            target=1 % len(path),
+        )
+        self._people.append(person)
+        self._next_id += 1
+        return person.person_id
+
+    def remove_person(self, person_id: int) -> None:
+        """Remove a person by id (KeyError if there is none)."""
+        for i, p in enumerate(self._people):
+            if p.person_id == person_id:
+                del self._people[i]
+                return
+        raise KeyError(f"no person with id {person_id}")
+
+    def get(self, person_id: int) -> Person:
+        """The person with this id."""
+        for p in self._people:
+            if p.person_id == person_id:
+                return p
+        raise KeyError(f"no person with id {person_id}")
+
+    def block(self, person_id: int, duration: float) -> None:
+        """Script a person to stand still where they are for ``duration`` [s]."""
+        p = self.get(person_id)
+        p.state = PersonState.BLOCKING
+        p.timer = duration
+
+    def random_route(
+        self, n_waypoints: int = 4, min_clearance: float = 0.6
+    ) -> list[tuple[float, float]]:
+        """Waypoints at well-clear points of the largest walkable region (spread apart)."""
+        roadmap = self.roadmap()
+        if not len(roadmap.xy):
+            raise PeopleConfigError(f"{self.world.grid.source}: no space wide enough for people")
+        counts = np.bincount(roadmap.component)
+        in_main = roadmap.component == int(counts.argmax())
+        clear = self.world.clearance(roadmap.xy[:, 0], roadmap.xy[:, 1]) >= min_clearance
+        candidates = np.flatnonzero(in_main & clear)
+        if candidates.size == 0:
+            candidates = np.flatnonzero(in_main)
+        picks = self._rng.choice(
+            candidates, size=n_waypoints, replace=candidates.size < n_waypoints
+        )
+        return [(float(roadmap.xy[k, 0]), float(roadmap.xy[k, 1])) for k in picks]
+
+    def spawn(self, n: int, n_waypoints: int = 4, blocker_fraction: float = 0.3) -> list[int]:
+        """Add ``n`` people on generated routes; about ``blocker_fraction`` of them block."""
+        ids = []
+        for _ in range(n):
+            route = self.random_route(n_waypoints)
+            ids.append(self.add_person(route, blocker=bool(self._rng.random() < blocker_fraction)))
+        return ids
+
+    # --- stepping ---------------------------------------------------------------------------
+
+    def step(self, dt: float, robot_pose: Pose2D, footprint: RobotFootprint) -> None:
+        """Advance every person by dt [s] given the robot's true pose."""
+        for p in self._people:
+            self._step_person(p, dt, robot_pose, footprint)
+
+    def _in_front_of_robot(self, p: Person, robot_pose: Pose2D, footprint: RobotFootprint) -> bool:
+        c, s = math.cos(robot_pose.yaw), math.sin(robot_pose.yaw)
+        dx, dy = p.x - robot_pose.x, p.y - robot_pose.y
+        local_x, local_y = c * dx + s * dy, -s * dx + c * dy
+        ahead = footprint.offset_x + footprint.length / 2
+        return (
+            ahead < local_x < ahead + self.config.blocker_trigger
+            and abs(local_y - footprint.offset_y) < footprint.width / 2 + 0.5
+        )
+
+    def _step_person(
+        self, p: Person, dt: float, robot_pose: Pose2D, footprint: RobotFootprint
+    ) -> None:
+        cfg = self.config
+        p.cooldown = max(0.0, p.cooldown - dt)
+        if p.state in (PersonState.PAUSED, PersonState.BLOCKING):
+            p.timer -= dt
+            if p.timer > 0:
+                return
+            if p.state is PersonState.BLOCKING:
+                p.cooldown = cfg.blocker_cooldown
+            p.state = PersonState.WALKING
+        if p.blocker and p.cooldown <= 0 and self._in_front_of_robot(p, robot_pose, footprint):
+            p.cooldown = cfg.blocker_cooldown
+            if self._rng.random() < cfg.blocker_probability:
+                p.state = PersonState.BLOCKING
+                p.timer = float(self._rng.uniform(*cfg.blocker_duration))
+                logger.debug("person %d blocks the robot for %.1f s", p.person_id, p.timer)
+                return
+        tx, ty = p.path[p.target]
+        dx, dy = tx - p.x, ty - p.y
+        dist = math.hypot(dx, dy)
+        step = p.speed * dt
+        if dist <= step:
+            nx, ny = float(tx), float(ty)
+        else:
+            nx, ny = p.x + dx / dist * step, p.y + dy / dist * step
+        if not self._move_allowed(p, nx, ny, robot_pose, footprint):
+            p.state = PersonState.YIELDING
+            return
+        p.state = PersonState.WALKING
+        if dist > 1e-9:
+            p.heading = math.atan2(dy, dx)
+        p.x, p.y = nx, ny
+        if dist <= step:
+            reached = p.target
+            p.target = (p.target + 1) % len(p.path)
+            if p.waypoint_mask[reached] and self._rng.random() < cfg.pause_probability:
+                p.state = PersonState.PAUSED
+                p.timer = float(self._rng.uniform(*cfg.pause_range))
+
+    def _move_allowed(
+        self, p: Person, nx: float, ny: float, robot_pose: Pose2D, footprint: RobotFootprint
+    ) -> bool:
+        if self.world.clearance_at(nx, ny) < p.radius:
+            return False
+        d_new = footprint.distance_to_point(robot_pose, nx, ny)
+        if d_new >= p.radius + self.config.robot_margin:
+            return True
+        return d_new > footprint.distance_to_point(robot_pose, p.x, p.y)

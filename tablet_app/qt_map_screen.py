@@ -1,0 +1,93 @@
+"""Map screen of the Tablet (thesis §5.2.1, §5.2.2, Fig. 5.3, Fig. 5.4, Fig. 6.2a).
+
+The interactive map (`tablet_app.qt_map_view.QtMapView`) with the room-independent actions
+beside it: Guided tour, Home, Back. When the robot is not localised (``initial_pose: false`` or
+``localisation: unset/lost``) a banner asks for help (§5.2.2.1): "Help me!" highlights the rooms
+and asks the user to drive the robot with the joystick to one of them and tap it.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QEvent, Signal
+from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+
+from tablet_app.qt_map_view import QtMapView
+
+
+class QtMapScreen(QWidget):
+    """Map plus actions; the window decides what a room tap means."""
+
+    tour_requested = Signal()
+    home_requested = Signal()
+    back_requested = Signal()
+    help_requested = Signal()
+    joystick_requested = Signal()
+
+    def __init__(self, map_view: QtMapView, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.map_view = map_view
+        self.help_banner = QFrame()
+        self.help_banner.setObjectName("helpBanner")
+        self.help_text = QLabel()
+        self.help_text.setWordWrap(True)
+        self.help_button = QPushButton()
+        self.help_button.setObjectName("helpButton")
+        self.drive_button = QPushButton()
+        banner = QVBoxLayout(self.help_banner)
+        banner.addWidget(self.help_text)
+        banner.addWidget(self.help_button)
+        banner.addWidget(self.drive_button)
+        self.help_banner.setVisible(False)
+        self.tour_button = QPushButton()
+        self.home_button = QPushButton()
+        self.back_button = QPushButton()
+        side = QVBoxLayout()
+        side.addWidget(self.help_banner)
+        side.addStretch(1)
+        side.addWidget(self.tour_button)
+        side.addWidget(self.home_button)
+        side.addWidget(self.back_button)
+        layout = QHBoxLayout(self)
+        layout.addWidget(map_view, 4)
+        layout.addLayout(side, 1)
+        self.tour_button.clicked.connect(self.tour_requested)
+        self.home_button.clicked.connect(self.home_requested)
+        self.back_button.clicked.connect(self.back_requested)
+        self.help_button.clicked.connect(self.help_requested)
+        self.drive_button.clicked.connect(self.joystick_requested)
+        self._lost = False
+        self._helping = False
+        self.retranslate()
+
+    def set_help_state(self, lost: bool, helping: bool) -> None:
+        """``lost``: the robot needs its initial pose; ``helping``: the user said they help."""
+        self._lost, self._helping = lost, helping
+        self.help_banner.setVisible(lost)
+        self.help_button.setVisible(lost and not helping)
+        self.drive_button.setVisible(lost and helping)
+        self.map_view.set_highlight(lost and helping)
+        self._show_help_text()
+
+    def _show_help_text(self) -> None:
+        if self._helping:
+            self.help_text.setText(
+                self.tr(
+                    "Drive me with the joystick to one of the highlighted rooms, "
+                    "then tap that room on the map."
+                )
+            )
+        else:
+            self.help_text.setText(self.tr("I do not know where I am."))
+
+    def retranslate(self) -> None:
+        self.help_button.setText(self.tr("Help me!"))
+        self.drive_button.setText(self.tr("Joystick"))
+        self.tour_button.setText(self.tr("Guided tour"))
+        self.home_button.setText(self.tr("Home"))
+        self.back_button.setText(self.tr("Menu"))
+        self._show_help_text()
+
+    def changeEvent(self, event: QEvent) -> None:
+        if event.type() == QEvent.Type.LanguageChange:
+            self.retranslate()
+        super().changeEvent(event)

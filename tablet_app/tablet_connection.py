@@ -1,0 +1,302 @@
+"""The Tablet's connection to the Base Station (thesis §4.2.1.2 Communication Handler, §5.3.1).
+
+`TabletConnection` owns the socket (through `interbot_qt.qt_tcp_connection.QtTcpConnection`),
+turns every validated Base Station message into a typed Qt signal and sends Tablet messages.
+Beyond the thesis it: says ``hello`` on connect (docs/protocol.md), answers pings, pings the
+station every second to keep the average round-trip latency shown on the main menu and beside
+the joystick, decides when the link is lossy (`tablet_app.link_health.LatencyMonitor`), and
+reconnects by itself with exponential back-off (`tablet_app.link_health.ReconnectBackoff`),
+for instance when the tablet moves to another Wi-Fi hotspot (§5.3.4).
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from PySide6.QtCore import QObject, Qt, QTimer, Signal
+
+from interbot_core.protocol import (
+    PROTOCOL_VERSION,
+    Cancel,
+    ErrorReport,
+    GoalStatus,
+    Hello,
+    InitialPose,
+    Localisation,
+    Message,
+    Permissions,
+    Ping,
+    Pong,
+    Pose,
+    ProtocolError,
+    Refused,
+    ShowRequest,
+    StatusInfo,
+    TourState,
+    Welcome,
+    decode_station_message,
+)
+from interbot_qt.qt_tcp_connection import QtTcpConnection
+from tablet_app.link_health import (
+    BackoffConfig,
+    LatencyConfig,
+    LatencyMonitor,
+    ReconnectBackoff,
+)
+
+logger = logging.getLogger(__name__)
+
+
+class ConnectionState(enum.StrEnum):
+    DISCONNECTED = "disconnected"  # not started, or stopped
+    CONNECTING = "connecting"
+    CONNECTED = "connected"
+    WAITING = "waiting"  # a reconnect is scheduled
+
+
+class TabletConnection(QObject):
+    """Client side of the Tablet <-> Base Station protocol over TCP."""
+
+    pose_received = Signal(object)  # Pose
+    initial_pose_received = Signal(object)  # InitialPose
+    goal_status_received = Signal(object)  # GoalStatus
+    tour_state_received = Signal(object)  # TourState
+    request_shown = Signal(object)  # ShowRequest
+    cancel_received = Signal(object)  # Cancel
+    permissions_received = Signal(object)  # Permissions
+    localisation_received = Signal(object)  # Localisation
+    status_received = Signal(object)  # StatusInfo
+    error_received = Signal(object)  # ErrorReport from the station
+    welcome_received = Signal(object)  # Welcome
+    refused = Signal(str)  # reason
+    protocol_error = Signal(str)  # a frame or message from the station we could not use
+    connected = Signal()
+    disconnected = Signal()
+    state_changed = Signal(str)  # ConnectionState value
+    reconnect_scheduled = Signal(float)  # delay [s]
+    latency_changed = Signal(float)  # mean round trip [ms]
+    link_lossy_changed = Signal(bool)
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 5555,
+        parent: QObject | None = None,
+        *,
+        ping_interval: float = 1.0,  # [s]
+        health_interval: float = 0.25,  # [s] how often "lossy" is re-evaluated
+        connect_timeout: float = 3.0,  # [s]
+        latency: LatencyConfig | None = None,
+        backoff: BackoffConfig | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        super().__init__(parent)
+        self.host, self.port = host, port
+        self._clock = clock
+        self._link = QtTcpConnection(parent=self)
+        self._monitor = LatencyMonitor(latency)
+        self._backoff = ReconnectBackoff(backoff)
+        self._state = ConnectionState.DISCONNECTED
+        self._running = False
+        self._lossy = True
+        self._seq = 0
+        self.robot_name = ""
+        self.permissions: Permissions | None = None
+        self.last_refusal = ""
+
+        self._ping_timer = self._timer(ping_interval, self._send_ping)
+        self._health_timer = self._timer(health_interval, self._check_health)
+        self._reconnect_timer = self._timer(0.5, self._connect_now, single_shot=True)
+        self._connect_timer = self._timer(connect_timeout, self._on_connect_timeout, True)
+
+        self._link.connected.connect(self._on_connected)
+        self._link.disconnected.connect(self._on_disconnected)
+        self._link.socket_error.connect(self._on_socket_error)
+        self._link.object_received.connect(self._on_object)
+        self._link.frame_error.connect(self._on_protocol_error)
+        self._handlers: dict[type[Message], Callable[[Any], None]] = {
+            Pose: self.pose_received.emit,
+            InitialPose: self.initial_pose_received.emit,
+            GoalStatus: self.goal_status_received.emit,
+            TourState: self.tour_state_received.emit,
+            ShowRequest: self.request_shown.emit,
+            Cancel: self.cancel_received.emit,
+            Permissions: self._on_permissions,
+            Localisation: self.localisation_received.emit,
+            StatusInfo: self.status_received.emit,
+            ErrorReport: self.error_received.emit,
+            Welcome: self._on_welcome,
+            Refused: self._on_refused,
+            Ping: self._on_ping,
+            Pong: self._on_pong,
+        }
+
+    def _timer(
+        self, interval: float, slot: Callable[[], None], single_shot: bool = False
+    ) -> QTimer:
+        timer = QTimer(self)
+        timer.setTimerType(Qt.TimerType.PreciseTimer)
+        timer.setInterval(round(interval * 1000))
+        timer.setSingleShot(single_shot)
+        timer.timeout.connect(slot)
+        return timer
+
+    # ---------------------------------------------------------------- public API
+    @property
+    def state(self) -> ConnectionState:
+        return self._state
+
+    @property
+    def is_connected(self) -> bool:
+        return self._state == ConnectionState.CONNECTED
+
+    @property
+    def is_lossy(self) -> bool:
+        """True while commands would not be obeyed: not connected, or pongs late/slow."""
+        return self._lossy
+
+    @property
+    def average_latency_ms(self) -> float | None:
+        average = self._monitor.average
+        return None if average is None else average * 1000.0
+
+    def start(self) -> None:
+        """Connect, and keep reconnecting until `stop`."""
+        self._running = True
+        self._backoff.reset()
+        self._connect_now()
+
+    def stop(self) -> None:
+        self._running = False
+        for timer in (self._ping_timer, self._health_timer, self._reconnect_timer):
+            timer.stop()
+        self._connect_timer.stop()
+        self._link.abort()
+        self._set_state(ConnectionState.DISCONNECTED)
+        self._set_lossy(True)
+
+    def send(self, msg: Message) -> bool:
+        """Send one message (one socket write); False when not connected."""
+        if not self.is_connected:
+            logger.info("not connected to the Base Station; %s not sent", msg.KEY)
+            return False
+        return self._link.send(msg)
+
+    # ---------------------------------------------------------------- connection life cycle
+    def _set_state(self, state: ConnectionState) -> None:
+        if state != self._state:
+            self._state = state
+            self.state_changed.emit(state.value)
+
+    def _set_lossy(self, lossy: bool) -> None:
+        if lossy != self._lossy:
+            self._lossy = lossy
+            self.link_lossy_changed.emit(lossy)
+
+    def _connect_now(self) -> None:
+        if not self._running:
+            return
+        self._link.abort()
+        self._set_state(ConnectionState.CONNECTING)
+        self._connect_timer.start()
+        self._link.connect_to_host(self.host, self.port)
+
+    def _schedule_reconnect(self) -> None:
+        self._ping_timer.stop()
+        self._health_timer.stop()
+        self._connect_timer.stop()
+        self._set_lossy(True)
+        if not self._running or self._reconnect_timer.isActive():
+            return
+        delay = self._backoff.next_delay()
+        self._reconnect_timer.setInterval(round(delay * 1000))
+        self._reconnect_timer.start()
+        self._set_state(ConnectionState.WAITING)
+        self.reconnect_scheduled.emit(delay)
+        logger.info("Base Station %s:%d unreachable; retry in %.1f s", self.host, self.port, delay)
+
+    def _on_connected(self) -> None:
+        self._connect_timer.stop()
+        self._backoff.reset()
+        self._monitor.reset()
+        self._set_state(ConnectionState.CONNECTED)
+        self._link.send(Hello(PROTOCOL_VERSION, "tablet"))
+        self._ping_timer.start()
+        self._health_timer.start()
+        self._set_lossy(False)
+        self.connected.emit()
+        logger.info("connected to the Base Station %s:%d", self.host, self.port)
+
+    def _on_disconnected(self) -> None:
+        was_connected = self._state == ConnectionState.CONNECTED
+        if was_connected:
+            logger.info("Base Station closed the connection")
+        self._schedule_reconnect()
+        if was_connected:
+            self.disconnected.emit()
+
+    def _on_socket_error(self, text: str) -> None:
+        logger.info("socket error: %s", text)
+        if self._state != ConnectionState.CONNECTED:
+            self._schedule_reconnect()
+
+    def _on_connect_timeout(self) -> None:
+        if self._state == ConnectionState.CONNECTING:
+            logger.info("connecting to %s:%d timed out", self.host, self.port)
+            self._link.abort()
+            self._schedule_reconnect()
+
+    # ---------------------------------------------------------------- latency
+    def _send_ping(self) -> None:
+        now = self._clock()
+        self._seq += 1
+        self._monitor.ping_sent(self._seq, now)
+        self._link.send(Ping(self._seq, now))
+        self._check_health()
+
+    def _on_pong(self, pong: Pong) -> None:
+        if self._monitor.pong_received(pong.seq, self._clock()) is not None:
+            average = self._monitor.average
+            assert average is not None
+            self.latency_changed.emit(average * 1000.0)
+        self._check_health()
+
+    def _check_health(self) -> None:
+        if self.is_connected:
+            self._set_lossy(self._monitor.is_lossy(self._clock()))
+
+    # ---------------------------------------------------------------- incoming messages
+    def _on_object(self, obj: object) -> None:
+        try:
+            msg = decode_station_message(obj)
+        except ProtocolError as exc:
+            self._on_protocol_error(exc)
+            return
+        handler = self._handlers.get(type(msg))
+        if handler is not None:
+            handler(msg)
+
+    def _on_protocol_error(self, exc: ProtocolError) -> None:
+        logger.warning("invalid message from the Base Station: %s", exc.message)
+        self._link.send(ErrorReport.from_exception(exc))
+        self.protocol_error.emit(exc.message)
+
+    def _on_ping(self, ping: Ping) -> None:
+        self._link.send(ping.pong())
+
+    def _on_welcome(self, welcome: Welcome) -> None:
+        self.robot_name = welcome.robot
+        self.welcome_received.emit(welcome)
+
+    def _on_refused(self, refused: Refused) -> None:
+        self.last_refusal = refused.reason
+        logger.warning("Base Station refused the tablet: %s", refused.reason)
+        self.refused.emit(refused.reason)
+
+    def _on_permissions(self, permissions: Permissions) -> None:
+        self.permissions = permissions
+        self.permissions_received.emit(permissions)

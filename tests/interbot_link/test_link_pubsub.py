@@ -1,0 +1,382 @@
+"""RobotLink <-> StationLink over two real zenoh sessions on 127.0.0.1 (ports the OS picks).
+
+Waiting is bounded and event-driven: `wait_commands` / `wait_events` block on a condition the
+zenoh callbacks notify; for the ring-channel state and subscription matching `wait_until` polls
+like pytest-qt's ``waitUntil`` (there is no callback to wait on by design).
+"""
+
+from __future__ import annotations
+
+import math
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack
+
+import numpy as np
+import pytest
+import zenoh
+
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import (
+    Battery,
+    ConfigMsg,
+    GoalMsg,
+    ImageMsg,
+    InitialPose,
+    Lock,
+    MuxMsg,
+    Odom,
+    PoseMsg,
+    RangeEncoding,
+    RouteMsg,
+    RouteProgress,
+    Status,
+    StopRelease,
+    Topic,
+    Twist,
+    key,
+    robot_wildcard,
+)
+from interbot_link import (
+    LinkClosedError,
+    LinkOpenError,
+    NoRobotSelectedError,
+    RobotAppeared,
+    RobotLeft,
+    RobotLink,
+    StateMessage,
+    StationLink,
+    open_session,
+)
+from interbot_link.bench import bench_link
+
+pytestmark = pytest.mark.timeout(20)
+
+ROBOT = "interbot_1"
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
+    """Poll ``predicate`` every 2 ms until true; fail after ``timeout`` [s]."""
+    deadline = time.monotonic() + timeout
+    pause = threading.Event()
+    while not predicate():
+        if time.monotonic() > deadline:
+            pytest.fail(f"condition not met within {timeout} s")
+        pause.wait(0.002)
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+class Pair:
+    def __init__(self, stack: ExitStack) -> None:
+        self.stack = stack
+        for attempt in range(2):  # the OS may hand the port to someone else in between
+            self.endpoint = f"tcp/127.0.0.1:{_free_port()}"
+            try:
+                self.robot_session = stack.enter_context(open_session([self.endpoint], []))
+                break
+            except LinkOpenError:
+                if attempt:
+                    raise
+        self.station_session = stack.enter_context(open_session([], [self.endpoint]))
+        self.robot = RobotLink(self.robot_session, ROBOT)
+        stack.callback(self.robot.close)
+        self.station = StationLink(self.station_session)
+        stack.callback(self.station.close)
+
+    def select(self) -> None:
+        wait_until(lambda: ROBOT in self.station.robots)
+        self.station.select_robot(ROBOT)
+        wait_until(lambda: self.robot.subscribed(Topic.POSE) and self.robot.subscribed(Topic.MAP))
+        wait_until(lambda: self.station.send(Topic.CONFIG, ConfigMsg({"probe": 1})))
+        self.robot.wait_commands(2.0)
+        self.robot.poll_commands()
+
+
+@pytest.fixture
+def pair() -> Iterator[Pair]:
+    threads_before = set(threading.enumerate())
+    with ExitStack() as stack:
+        yield Pair(stack)
+    # Every zenoh callback thread ends once its session is closed.
+    wait_until(lambda: set(threading.enumerate()) <= threads_before)
+
+
+def _grid() -> OccupancyGrid:
+    cells = np.zeros((40, 60), np.int8)
+    cells[0, :] = 100
+    cells[5:8, 5:9] = -1
+    return OccupancyGrid(cells, 0.05, -1.0, -2.0)
+
+
+def test_station_sees_the_robot_appear_and_leave_within_a_second(pair: Pair) -> None:
+    assert pair.station.wait_events(1.0)
+    assert RobotAppeared(ROBOT) in pair.station.poll_events()
+    assert pair.station.robots == {ROBOT}
+    assert pair.station.refresh_robots(1.0) == {ROBOT}
+    pair.robot_session.close()  # a clean exit of the daemon
+    start = time.monotonic()
+    assert pair.station.wait_events(1.0)
+    assert pair.station.poll_events() == [RobotLeft(ROBOT)]
+    assert time.monotonic() - start < 1.0
+    assert pair.station.robots == frozenset()
+
+
+def test_a_robot_already_present_is_found_by_a_late_station(pair: Pair) -> None:
+    with open_session([], [pair.endpoint]) as late_session, StationLink(late_session) as late:
+        wait_until(lambda: ROBOT in late.robots)
+        assert late.poll_events() == [RobotAppeared(ROBOT)]  # reported once, not twice
+
+
+def test_commands_reach_poll_commands_in_order(pair: Pair) -> None:
+    pair.select()
+    sent = [
+        (Topic.STATION_VEL, Twist(0.3, -0.2, 1.0)),
+        (Topic.TABLET_VEL, Twist(0.1, 0.0, 1.1)),
+        (Topic.PAUSE_NAV, Lock(True, 1.2)),
+        (Topic.STOP, Lock(True, 1.3)),
+        (Topic.STOP_RELEASE, StopRelease("tester", 1.4)),
+        (Topic.ROUTE, RouteMsg(5, ((0.0, 0.0, 0.0), (3.0, 1.0, math.pi / 2)), (1, 2))),
+        (Topic.GOAL, GoalMsg(3.0, 1.0, 0.0, node_id=2)),
+        (Topic.INITIAL_POSE, InitialPose(1.0, 2.0, -0.5)),
+        (Topic.CONFIG, ConfigMsg({"max_linear": 0.4})),
+    ]
+    senders = {
+        Topic.STATION_VEL: pair.station.send_station_vel,
+        Topic.TABLET_VEL: pair.station.send_tablet_vel,
+        Topic.PAUSE_NAV: pair.station.send_pause,
+        Topic.STOP: pair.station.send_stop,
+        Topic.STOP_RELEASE: pair.station.send_stop_release,
+        Topic.ROUTE: pair.station.send_route,
+        Topic.GOAL: pair.station.send_goal,
+        Topic.INITIAL_POSE: pair.station.send_initial_pose,
+        Topic.CONFIG: pair.station.send_config,
+    }
+    for topic, message in sent:
+        assert senders[topic](message) is True  # a robot subscriber matched
+    received: list[tuple[Topic, object]] = []
+
+    def collect() -> bool:
+        received.extend((c.topic, c.message) for c in pair.robot.poll_commands())
+        return len(received) >= len(sent)
+
+    wait_until(collect)
+    assert received == sent
+    assert pair.robot.decode_errors == {}
+
+
+def test_state_topics_reach_the_station(pair: Pair) -> None:
+    pair.select()
+    scan = LaserScan(2.0, -2.0, 0.01, 0.1, 30.0, np.linspace(0.2, 9.0, 401, dtype=np.float32))
+    image = ImageMsg(2.0, 320, 240, b"\xff\xd8" + bytes(1000) + b"\xff\xd9")
+    latest = {
+        Topic.POSE: PoseMsg(1.0, 2.0, 0.5, 2.0, "ok", 0.9),
+        Topic.ODOM: Odom(0.1, 0.2, 0.3, 0.4, 0.5, 2.0),
+        Topic.CMD_VEL: Twist(0.4, 0.1, 2.0),
+        Topic.BATTERY: Battery(25.2, 1.5, 0.7, 2.0),
+        Topic.MUX: MuxMsg("station_vel", "highest priority", (), 0.4, 0.1, 2.0),
+        Topic.IMAGE: image,
+    }
+    for topic, message in latest.items():
+        pair.robot.publish(topic, message)
+    pair.robot.publish_scan(scan)
+    seen: dict[Topic, object] = {}
+
+    def collect() -> bool:
+        seen.update(pair.station.poll_state())
+        return len(seen) == len(latest) + 1
+
+    wait_until(collect)
+    scan_back = seen.pop(Topic.SCAN)
+    assert isinstance(scan_back, LaserScan)
+    assert scan_back.ranges.tobytes() == scan.ranges.tobytes()
+    assert seen == latest
+    assert pair.station.latest(Topic.POSE) == latest[Topic.POSE]
+    assert pair.station.poll_state() == {}  # nothing new
+
+    events = [
+        (Topic.ROUTE_PROGRESS, RouteProgress(5, 1, False, "active", "", 2.0)),
+        (Topic.STATUS, Status("info", "going to room 3", "goal", 4.5, 2.0)),
+        (Topic.ROUTE_PROGRESS, RouteProgress(5, 1, True, "succeeded", "", 3.0)),
+    ]
+    pair.station.poll_events()  # the snapshot asked for on selection
+    for topic, message in events:
+        pair.robot.publish(topic, message)
+    got: list[tuple[Topic, object]] = []
+
+    def collect_events() -> bool:
+        got.extend(
+            (e.topic, e.message) for e in pair.station.poll_events() if isinstance(e, StateMessage)
+        )
+        return len(got) >= len(events)
+
+    wait_until(collect_events)
+    assert got == events
+
+
+def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
+    pair.select()
+    for i in range(50):
+        pair.robot.publish_pose(PoseMsg(float(i), 0.0, 0.0, float(i)))
+    wait_until(lambda: pair.station.poll_state().get(Topic.POSE) is not None)
+    newest = pair.station.latest(Topic.POSE)
+    assert isinstance(newest, PoseMsg)
+    wait_until(lambda: (pair.station.poll_state() or True) and _x(pair) == 49.0)
+
+
+def _x(pair: Pair) -> float:
+    pose = pair.station.latest(Topic.POSE)
+    return pose.x if isinstance(pose, PoseMsg) else -1.0
+
+
+def test_scans_in_millimetres_arrive_quantised(pair: Pair) -> None:
+    pair.select()
+    ranges = np.array([0.1234, 5.0, np.nan, 29.9999], dtype=np.float32)
+    pair.robot.publish_scan(LaserScan(1.0, -1.0, 0.5, 0.05, 30.0, ranges), RangeEncoding.UINT16_MM)
+    wait_until(lambda: pair.station.poll_state().get(Topic.SCAN) is not None)
+    scan = pair.station.latest(Topic.SCAN)
+    assert isinstance(scan, LaserScan)
+    np.testing.assert_allclose(scan.ranges, [0.123, 5.0, np.nan, 30.0], atol=1e-6)
+
+
+def test_the_state_query_returns_the_map_to_a_late_station(pair: Pair) -> None:
+    grid = _grid()
+    pair.robot.publish_map(grid)
+    pair.robot.publish_pose(PoseMsg(1.0, 1.0, 0.0))
+    wait_until(lambda: ROBOT in pair.station.robots)
+    fetched = pair.station.fetch_map(ROBOT)
+    assert fetched is not None
+    assert np.array_equal(fetched.cells, grid.cells)
+    assert (fetched.resolution, fetched.origin_x, fetched.origin_y) == (0.05, -1.0, -2.0)
+    state = pair.station.fetch_state(ROBOT)
+    assert set(state) == {Topic.MAP, Topic.POSE}
+    assert state[Topic.POSE] == PoseMsg(1.0, 1.0, 0.0)
+    # Selecting a robot asks for the snapshot: the map arrives as an event.
+    pair.station.select_robot(ROBOT)
+    maps: list[object] = []
+
+    def collect() -> bool:
+        maps.extend(
+            e.message
+            for e in pair.station.poll_events()
+            if isinstance(e, StateMessage) and e.topic is Topic.MAP
+        )
+        return bool(maps)
+
+    wait_until(collect)
+    assert isinstance(maps[0], OccupancyGrid) and np.array_equal(maps[0].cells, grid.cells)
+
+
+def test_fetch_map_is_none_when_the_robot_has_no_map(pair: Pair) -> None:
+    wait_until(lambda: ROBOT in pair.station.robots)
+    assert pair.station.fetch_map(ROBOT) is None
+
+
+def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
+    pair.select()
+    station_raw = pair.station_session
+    station_raw.put(key(ROBOT, Topic.ROUTE), b'{"route_id": 1, "waypoints": []}')
+    station_raw.put(key(ROBOT, Topic.STOP), b"\x00garbage")
+    station_raw.put(key(ROBOT, Topic.POSE), b'{"x": 0, "y": 0, "yaw": 0}')  # not a command
+    pair.station.send_stop(Lock(True))
+    commands: list[object] = []
+
+    def collect() -> bool:
+        commands.extend(c.message for c in pair.robot.poll_commands())
+        return bool(commands)
+
+    wait_until(collect)
+    assert commands == [Lock(True)]
+    assert pair.robot.decode_errors == {"route": 1, "stop": 1, "pose": 1}
+
+    robot_raw = pair.robot_session
+    robot_raw.put(key(ROBOT, Topic.POSE), b'{"x": "far"}')
+    robot_raw.put(key(ROBOT, Topic.STATUS), b"[]")
+    wait_until(lambda: not pair.station.poll_state() and pair.station.decode_errors["pose"] == 1)
+    wait_until(lambda: not pair.station.poll_events() and pair.station.decode_errors["status"] == 1)
+    pair.robot.publish_pose(PoseMsg(3.0, 3.0, 0.0))  # the subscriber still works
+    wait_until(lambda: pair.station.poll_state().get(Topic.POSE) == PoseMsg(3.0, 3.0, 0.0))
+
+
+def test_sending_without_a_robot_or_after_close_fails_clearly(pair: Pair) -> None:
+    with pytest.raises(NoRobotSelectedError, match="select_robot"):
+        pair.station.send_stop(Lock(True))
+    pair.station.select_robot(None)
+    assert pair.station.selected is None
+    pair.robot.close()
+    pair.robot.close()  # idempotent
+    with pytest.raises(LinkClosedError):
+        pair.robot.publish_pose(PoseMsg(0.0, 0.0, 0.0))
+    pair.station.close()
+    with pytest.raises(LinkClosedError):
+        pair.station.select_robot(ROBOT)
+
+
+def test_a_command_to_a_robot_that_is_gone_reports_no_match(pair: Pair) -> None:
+    pair.select()
+    pair.robot.close()
+    wait_until(lambda: not pair.station.send_stop(Lock(True)))
+
+
+def test_callbacks_run_off_the_caller_thread_and_notify(pair: Pair) -> None:
+    woken: list[str] = []
+    with StationLink(pair.station_session, notify=lambda: woken.append("x")) as other:
+        wait_until(lambda: ROBOT in other.robots)
+        assert woken  # called from a zenoh thread when the robot event was queued
+
+
+def test_bench_link_measures_a_plausible_latency() -> None:
+    result = bench_link(samples=30, warmup=5)
+    assert result["samples"] == 30
+    assert 0.0 < result["median_ms"] <= result["p99_ms"] <= result["max_ms"] < 1000.0
+
+
+def test_sessions_close_without_hanging_with_live_subscribers(pair: Pair) -> None:
+    pair.select()
+    pair.robot.publish_map(_grid())
+    start = time.monotonic()
+    pair.station_session.close()
+    pair.robot_session.close()
+    assert time.monotonic() - start < 1.0
+    assert pair.robot_session.is_closed() and pair.station_session.is_closed()
+
+
+def test_subscribed_counts_only_other_sessions(pair: Pair) -> None:
+    wait_until(lambda: ROBOT in pair.station.robots)
+    # The robot's own wildcard command subscriber must not count as a listener.
+    assert not pair.robot.subscribed(Topic.IMAGE)
+    pair.station.select_robot(ROBOT)
+    wait_until(lambda: pair.robot.subscribed(Topic.IMAGE))
+
+
+def test_must_arrive_commands_travel_with_congestion_control_block(pair: Pair) -> None:
+    pair.select()
+    seen: list[tuple[str, zenoh.CongestionControl]] = []
+    probe = pair.robot_session.declare_subscriber(
+        robot_wildcard(ROBOT), lambda s: seen.append((str(s.key_expr), s.congestion_control))
+    )
+    try:
+        wait_until(lambda: pair.station.send_stop(Lock(True)))
+        pair.station.send_station_vel(Twist(0.1, 0.0))
+        wait_until(lambda: len(seen) >= 2)
+    finally:
+        probe.undeclare()
+    assert seen[0] == (key(ROBOT, Topic.STOP), zenoh.CongestionControl.BLOCK)
+    assert seen[-1] == (key(ROBOT, Topic.STATION_VEL), zenoh.CongestionControl.DROP)
+
+
+def test_a_station_started_before_the_robot_finds_it() -> None:
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    with open_session([], [endpoint]) as station_session, StationLink(station_session) as station:
+        with open_session([endpoint], []) as robot_session, RobotLink(robot_session, ROBOT):
+            wait_until(lambda: ROBOT in station.robots, timeout=3.0)  # connect retries 200 ms
+        wait_until(lambda: ROBOT not in station.robots, timeout=1.0)
+        assert station.poll_events() == [RobotAppeared(ROBOT), RobotLeft(ROBOT)]

@@ -1,0 +1,135 @@
+"""People: stay in free space, follow routes through doorways, yield to and block the robot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid, load_map
+from robot_daemon.sim.diff_drive import RobotFootprint
+from robot_daemon.sim.people import Crowd, CrowdConfig, PeopleConfigError, PersonState
+from robot_daemon.sim.world import World
+
+WILLOW = Path("/work/shared/data/maps/willow.yaml")
+FAR_AWAY = Pose2D(-100.0, -100.0, 0.0)
+FP = RobotFootprint()
+
+
+def two_rooms() -> World:
+    """Two 5 x 4 m rooms side by side joined by a 1 m doorway at y 1.5-2.5 (0.05 m cells)."""
+    cells = np.full((80, 200), FREE, dtype=np.int8)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
+    cells[:, 99:101] = OCCUPIED
+    cells[30:50, 99:101] = FREE
+    return World(OccupancyGrid(cells, 0.05, 0.0, 0.0))
+
+
+def run(crowd: Crowd, world: World, seconds: float, robot: Pose2D = FAR_AWAY) -> float:
+    """Step the crowd; return the smallest wall clearance minus radius seen (must be >= 0)."""
+    worst = np.inf
+    for _ in range(int(seconds / 0.05)):
+        crowd.step(0.05, robot, FP)
+        c = crowd.circles()
+        worst = min(worst, float((world.clearance(c[:, 0], c[:, 1]) - c[:, 2]).min()))
+    return worst
+
+
+def test_person_walks_through_the_doorway_without_touching_walls() -> None:
+    world = two_rooms()
+    crowd = Crowd(world, np.random.default_rng(0), CrowdConfig(pause_probability=0.0))
+    pid = crowd.add_person([(2.0, 3.5), (8.0, 0.6)], speed=1.0)
+    xs = []
+    for _ in range(300):
+        crowd.step(0.05, FAR_AWAY, FP)
+        xs.append(crowd.get(pid).x)
+        c = crowd.circles()
+        assert float(world.clearance(c[0, 0], c[0, 1])) >= 0.25
+    assert min(xs) < 3.0 and max(xs) > 7.0  # it crossed to the other room and back
+    doorway = [p for p in crowd.get(pid).path if abs(p[0] - 5.0) < 0.3]
+    assert all(1.5 < y < 2.5 for _, y in doorway)
+
+
+def test_unreachable_waypoint_is_rejected() -> None:
+    cells = two_rooms().grid.cells.copy()
+    cells[:, 99:101] = OCCUPIED  # close the door
+    world = World(OccupancyGrid(cells, 0.05, 0.0, 0.0))
+    crowd = Crowd(world, np.random.default_rng(0))
+    with pytest.raises(PeopleConfigError, match="no walkable path"):
+        crowd.add_person([(2.0, 2.0), (8.0, 2.0)])
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not WILLOW.exists(), reason="willow map not available")
+def test_generated_people_stay_in_free_space_on_willow() -> None:
+    world = World(load_map(WILLOW))
+    crowd = Crowd(world, np.random.default_rng(7))
+    crowd.spawn(6)
+    assert run(crowd, world, 60.0) >= 0.0
+    moved = [p for p in crowd.people if p.x != p.path[0, 0] or p.y != p.path[0, 1]]
+    assert len(moved) == 6
+
+
+def test_person_yields_to_the_robot() -> None:
+    world = two_rooms()
+    crowd = Crowd(world, np.random.default_rng(0), CrowdConfig(pause_probability=0.0))
+    pid = crowd.add_person([(1.0, 3.0), (4.0, 3.0)], speed=1.0)
+    robot = Pose2D(2.5, 3.0, 0.0)  # standing in the person's way
+    for _ in range(100):
+        crowd.step(0.05, robot, FP)
+        p = crowd.get(pid)
+        assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
+    assert crowd.get(pid).state is PersonState.YIELDING
+    xs = []
+    for _ in range(40):  # the robot has left: the person walks on past where it stood
+        crowd.step(0.05, FAR_AWAY, FP)
+        xs.append(crowd.get(pid).x)
+    assert max(xs) > 3.0
+
+
+def test_blocker_stops_in_front_of_the_robot() -> None:
+    world = two_rooms()
+    cfg = CrowdConfig(pause_probability=0.0, blocker_probability=1.0, blocker_duration=(4.0, 4.0))
+    crowd = Crowd(world, np.random.default_rng(0), cfg)
+    pid = crowd.add_person([(4.5, 3.0), (4.5, 0.5)], blocker=True, speed=1.0)
+    robot = Pose2D(2.5, 2.0, 0.0)  # facing +x; the person walks across 2 m ahead
+    states = []
+    for _ in range(60):
+        crowd.step(0.05, robot, FP)
+        states.append(crowd.get(pid).state)
+    assert PersonState.BLOCKING in states
+    p = crowd.get(pid)
+    assert p.state is PersonState.BLOCKING
+    local = Pose2D(p.x, p.y, 0.0).relative_to(robot)
+    assert 0.3 < local.x < 0.3 + 2.5 and abs(local.y) < 0.8
+
+
+def test_scripted_block_and_remove() -> None:
+    crowd = Crowd(two_rooms(), np.random.default_rng(0))
+    pid = crowd.add_person([(1.0, 1.0), (4.0, 3.0)])
+    crowd.block(pid, 1.0)
+    x0 = crowd.get(pid).x
+    for _ in range(10):
+        crowd.step(0.05, FAR_AWAY, FP)
+    assert crowd.get(pid).x == x0
+    crowd.remove_person(pid)
+    assert crowd.circles().shape == (0, 3)
+    with pytest.raises(KeyError):
+        crowd.get(pid)
+
+
+def test_crowd_is_deterministic_for_a_seed() -> None:
+    def trajectory(seed: int) -> np.ndarray:
+        world = two_rooms()
+        crowd = Crowd(world, np.random.default_rng(seed))
+        crowd.spawn(3)
+        out = []
+        for _ in range(200):
+            crowd.step(0.05, FAR_AWAY, FP)
+            out.append(crowd.circles())
+        return np.array(out)
+
+    assert np.array_equal(trajectory(3), trajectory(3))
+    assert not np.array_equal(trajectory(3), trajectory(4))

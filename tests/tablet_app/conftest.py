@@ -1,0 +1,104 @@
+"""Fixtures for the Tablet tests: a small floor plan on disk, a fake Base Station on
+127.0.0.1 (port chosen by the OS) and a connected Tablet window."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from interbot_core.occupancy_grid import write_pgm
+from tablet_app.link_health import BackoffConfig, LatencyConfig
+
+# The offscreen platform warns on every top-level window; that is not a failure.
+OFFSCREEN_NOISE = "This plugin does not support propagateSizeHints"
+
+TOPO_YAML = """\
+map: floor.yaml
+nodes:
+  - {id: 0, name: Entrance, x: 1.0, y: 1.0, yaw: 0.0, info: "The main entrance.", tour: true,
+     home: true, area: [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]}
+  - {id: 1, name: Corridor corner, x: 5.0, y: 1.0, yaw: 0.0, area: []}
+  - {id: 2, name: Lab door, x: 8.0, y: 1.0, yaw: 1.57,
+     area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]]}
+  - {id: 3, name: Lab, x: 8.5, y: 3.5, yaw: 1.57, info: "Robots are built here.", tour: true,
+     requests: true, area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]]}
+  - {id: 4, name: Office, x: 3.0, y: 4.0, yaw: 3.14, info: "The director's office.",
+     tour: true, requests: true, area: [[2.0, 3.0], [5.0, 3.0], [5.0, 5.0], [2.0, 5.0]]}
+"""
+
+MAP_YAML = """\
+image: floor.pgm
+resolution: 0.1
+origin: [0.0, 0.0, 0.0]
+negate: 0
+occupied_thresh: 0.65
+free_thresh: 0.196
+"""
+
+
+@pytest.fixture
+def topo_path(tmp_path: Path) -> Path:
+    image = np.full((60, 110), 254, dtype=np.uint8)  # 11 m x 6 m, free
+    image[0, :] = image[-1, :] = image[:, 0] = image[:, -1] = 0  # walls
+    write_pgm(tmp_path / "floor.pgm", image)
+    (tmp_path / "floor.yaml").write_text(MAP_YAML, encoding="utf-8")
+    path = tmp_path / "topo.yaml"
+    path.write_text(TOPO_YAML, encoding="utf-8")
+    return path
+
+
+FAST_LATENCY = LatencyConfig(window=5, pong_timeout=0.4, ceiling=0.3)
+FAST_BACKOFF = BackoffConfig(initial=0.05, maximum=0.2)
+
+
+def commands(station: Any) -> list[dict[str, Any]]:
+    """What the tablet sent, without the latency pings/pongs."""
+    return [obj for obj in station.received if not ({"ping", "pong"} & obj.keys())]
+
+
+@pytest.fixture
+def station(qapp: Any) -> Iterator[Any]:
+    from tablet_app.fake_station import FakeStation
+
+    fake = FakeStation()
+    fake.listen()
+    yield fake
+    fake.close()
+    fake.deleteLater()
+
+
+@pytest.fixture
+def connection(qtbot: Any, station: Any) -> Iterator[Any]:
+    from tablet_app.tablet_connection import TabletConnection
+
+    conn = TabletConnection(
+        "127.0.0.1",
+        station.port,
+        ping_interval=0.1,
+        health_interval=0.05,
+        latency=FAST_LATENCY,
+        backoff=FAST_BACKOFF,
+    )
+    yield conn
+    conn.stop()
+    conn.deleteLater()
+
+
+@pytest.fixture
+def window(qtbot: Any, station: Any, connection: Any, topo_path: Path) -> Any:
+    """A shown Tablet window connected to the fake station, the hello already received."""
+    from tablet_app.main import load_plan
+    from tablet_app.main_window import TabletWindow
+
+    plan, grid = load_plan(topo_path)
+    win = TabletWindow(connection, plan, grid)
+    qtbot.addWidget(win)
+    win.resize(1280, 800)
+    win.show()
+    connection.start()
+    qtbot.waitUntil(lambda: bool(station.messages("hello")))
+    return win
