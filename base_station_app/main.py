@@ -1,17 +1,123 @@
-"""Entry point of `interbot-base-station`."""
+"""Entry point of ``interbot-base-station`` (thesis §5.3 start-up sequence).
+
+Start-up, as in the thesis: create the TCP server for the tablet and listen, connect the UI,
+start the timers, open the robot link (here a zenoh session with multicast scouting off and
+explicit connect endpoints) and load the topological map with every route precomputed. The
+zenoh session is closed from ``QApplication.aboutToQuit`` (and the window's ``closeEvent``), so
+the process never hangs at exit (zenoh-python#434).
+"""
 
 from __future__ import annotations
 
+import argparse
+import logging
+import signal
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+
+import zenoh
+
+from interbot_core.topological_map import TopologicalMapError, load_topological_map
+from interbot_link import LinkError, session_config
+
+logger = logging.getLogger(__name__)
+
+DEFAULT_TOPO = Path("maps/isr_floor0_topo.yaml")
+
+
+class StationSession:
+    """Owns the zenoh session; `close` is idempotent (called from aboutToQuit and closeEvent)."""
+
+    def __init__(self, connect: Sequence[str], lease_ms: int = 2500) -> None:
+        self.session: zenoh.Session | None = zenoh.open(
+            session_config([], list(connect), lease_ms=lease_ms)
+        )
+        logger.info("zenoh session open, connecting to %s", list(connect))
+
+    def close(self) -> None:
+        if self.session is not None:
+            session, self.session = self.session, None
+            session.close()
+            logger.info("zenoh session closed")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="interbot-base-station",
+        description="Interbot Base Station: monitor and control robots, serve the tablet.",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help="zenoh endpoint of a robot or router (repeatable; default tcp/127.0.0.1:7447)",
+    )
+    parser.add_argument(
+        "--tablet-host", default="127.0.0.1", help="address to listen on for the tablet"
+    )
+    parser.add_argument("--tablet-port", type=int, default=5555, help="TCP port for the tablet")
+    parser.add_argument("--robot", metavar="ID", help="robot to command (default: the first seen)")
+    parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
+    parser.add_argument("--log-level", default="INFO")
+    return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    print(
-        "interbot-base-station: not built yet: the Base Station (issue 5) does not exist in this version.",
-        file=sys.stderr,
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=getattr(logging, str(args.log_level).upper(), logging.INFO),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
-    return 3
+    try:
+        topo = load_topological_map(args.topo)
+    except (TopologicalMapError, OSError) as exc:
+        sys.stderr.write(f"interbot-base-station: {exc}\n")
+        return 2
+    if not 0 < args.tablet_port < 65536:
+        sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
+        return 2
+    try:
+        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"])
+    except (LinkError, zenoh.ZError) as exc:
+        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}\n")
+        return 2
+
+    from PySide6.QtCore import Qt
+    from PySide6.QtWidgets import QApplication
+
+    from base_station_app.main_window import MainWindow
+    from base_station_app.station_controller import StationController
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    controller = StationController(
+        topo,
+        holder.session,
+        topo_path=args.topo,
+        tablet_host=args.tablet_host,
+        tablet_port=args.tablet_port,
+        robot_id=args.robot,
+    )
+    window = MainWindow(controller)
+    window.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose, False)
+    app.aboutToQuit.connect(window.shutdown)
+    app.aboutToQuit.connect(holder.close)
+    # The frame timer runs Python every 25 ms, so these handlers are not starved by Qt.
+    previous = {s: signal.signal(s, lambda *_: app.quit()) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        if not controller.start():
+            return 1
+        window.resize(1600, 1000)
+        window.show()
+        window.map_view.fit_map()
+        return int(app.exec())
+    finally:
+        app.aboutToQuit.disconnect(window.shutdown)
+        app.aboutToQuit.disconnect(holder.close)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        window.close()
+        holder.close()
 
 
 if __name__ == "__main__":

@@ -21,8 +21,11 @@ The demo opens two windows (Base Station and Tablet). To proceed, either
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--check", action="store_true", help="only check what the demo needs")
+    parser.add_argument("--seed", type=int, default=1, help="simulation seed")
+    parser.add_argument("--people", type=int, default=4, help="people walking the corridors")
+    parser.add_argument(
+        "--duration", type=float, default=0.0, help="stop after this many seconds (0: run on)"
+    )
 
 
 def has_display() -> bool:
@@ -49,6 +52,6 @@ def run(args: argparse.Namespace) -> int:
     missing = missing_parts()
     if missing:
         raise NotBuiltError("the demo needs parts that are not built yet: " + ", ".join(missing))
-    from interbot_cli import demo_launcher  # type: ignore[attr-defined]
+    from interbot_cli import demo_launcher
 
     return int(demo_launcher.launch(args))

@@ -48,14 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run_scenario(args: argparse.Namespace) -> int:
-    try:
-        from robot_daemon import scenarios  # type: ignore[attr-defined]
-    except ImportError:
-        raise NotBuiltError(
-            "scenarios are not built yet (robot daemon part 2, issue 4); "
-            "nothing to run for 'interbot scenario'"
-        ) from None
-    return int(scenarios.main(args))
+    from robot_daemon import scenarios
+
+    return scenarios.main(args)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,17 +1,117 @@
-"""Entry point of `interbot-daemon`."""
+"""`interbot-daemon`: the robot daemon (simulated robot by default).
+
+    interbot-daemon --sim [--map M.yaml --topo T.yaml] [--seed N] --robot-id ID \\
+                    --listen tcp/127.0.0.1:PORT [--connect tcp/HOST:PORT] [--config robot.yaml]
+
+Bad configuration is refused with one clear line and exit status 2; SIGTERM and SIGINT stop
+the daemon cleanly (motors to zero, zenoh session closed).
+"""
 
 from __future__ import annotations
 
+import argparse
+import logging
+import signal
 import sys
+import threading
 from collections.abc import Sequence
+from pathlib import Path
+from types import FrameType
+
+from interbot_core.occupancy_grid import MapLoadError
+from interbot_core.topological_map import TopologicalMapError
+from interbot_core.velocity_mux import MuxError
+from interbot_link import LinkError
+from robot_daemon.config import (
+    ConfigError,
+    DaemonConfig,
+    SimSettings,
+    ZenohSettings,
+    load_config,
+    validate_endpoint,
+)
+
+logger = logging.getLogger("robot_daemon")
+
+EXIT_CONFIG = 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="interbot-daemon", description=__doc__.split("\n")[0])
+    p.add_argument("--config", type=Path, help="robot.yaml (backends, rates, zenoh endpoints)")
+    p.add_argument("--sim", action="store_true", help="simulated robot (the default backend)")
+    p.add_argument("--map", dest="map_yaml", type=Path, help="map_server YAML")
+    p.add_argument("--topo", dest="topo_yaml", type=Path, help="topological map YAML")
+    p.add_argument("--seed", type=int, help="simulation seed")
+    p.add_argument("--people", type=int, help="simulated people walking the corridors")
+    p.add_argument("--speed", type=float, help="simulated time per wall second (default 1)")
+    p.add_argument("--robot-id", help="robot id in interbot/<robot_id>/<topic>")
+    p.add_argument("--listen", action="append", default=[], help="zenoh endpoint tcp/HOST:PORT")
+    p.add_argument("--connect", action="append", default=[], help="zenoh endpoint to connect to")
+    p.add_argument(
+        "--auto-localise",
+        action="store_true",
+        help="simulation: set the initial pose at the start node (otherwise the station or "
+        "the tablet's 'Help me!' sets it, as in the thesis)",
+    )
+    p.add_argument("--start-node", type=int, help="simulation: start at this topological node")
+    p.add_argument("-v", "--verbose", action="store_true")
+    return p
+
+
+def resolve_config(args: argparse.Namespace) -> DaemonConfig:
+    """robot.yaml (or the defaults) with the command line's overrides; raises ConfigError."""
+    config = load_config(args.config) if args.config else DaemonConfig(source="command line")
+    if args.sim and config.backend != "sim":
+        config = config.with_overrides(backend="sim")
+    sim = config.sim
+    sim_changes = {"seed": args.seed, "people": args.people, "realtime_factor": args.speed}
+    if any(v is not None for v in sim_changes.values()):
+        merged = {**sim.__dict__, **{k: v for k, v in sim_changes.items() if v is not None}}
+        sim = SimSettings(**merged)
+    zenoh = config.zenoh
+    if args.listen or args.connect:
+        for endpoint in args.listen:
+            validate_endpoint("--listen", "listen", endpoint)
+        for endpoint in args.connect:
+            validate_endpoint("--connect", "connect", endpoint)
+        zenoh = ZenohSettings(tuple(args.listen), tuple(args.connect), zenoh.lease_ms)
+    return config.with_overrides(
+        robot_id=args.robot_id,
+        map_yaml=args.map_yaml.resolve() if args.map_yaml else None,
+        topo_yaml=args.topo_yaml.resolve() if args.topo_yaml else None,
+        sim=sim,
+        zenoh=zenoh,
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    print(
-        "interbot-daemon: not built yet: the robot daemon (issue 4) does not exist in this version.",
-        file=sys.stderr,
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
-    return 3
+    from robot_daemon.daemon import DaemonOptions, serve
+
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        logger.info("signal %s: stopping", signal.Signals(signum).name)
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    try:
+        config = resolve_config(args)
+        logger.info("configuration: %s", config.summary())
+        serve(config, DaemonOptions(args.auto_localise, args.start_node), stop)
+    except (ConfigError, MapLoadError, TopologicalMapError, MuxError) as exc:
+        print(f"interbot-daemon: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
+    except LinkError as exc:
+        print(f"interbot-daemon: {exc}", file=sys.stderr)
+        return 1
+    return 0
 
 
 if __name__ == "__main__":

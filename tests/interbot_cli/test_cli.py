@@ -63,3 +63,13 @@ def test_demo_reports_parts_not_built(
     monkeypatch.setattr(demo, "missing_parts", lambda: ["Tablet (issue 6)"])
     assert main(["demo"]) == EXIT_NOT_BUILT
     assert "not built yet: Tablet (issue 6)" in capsys.readouterr().err
+
+
+def test_demo_starts_three_programs_and_stops_them_cleanly(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`interbot demo` on the offscreen platform: all three run, then exit on SIGTERM."""
+    monkeypatch.setenv("QT_QPA_PLATFORM", "offscreen")
+    assert demo.missing_parts() == []
+    assert main(["demo", "--duration", "6", "--people", "0"]) == 0
+    assert "Base Station and Tablet running" in capsys.readouterr().out

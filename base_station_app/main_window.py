@@ -1,0 +1,222 @@
+"""The Base Station's main window: a composition root (STYLE.md; thesis §5.3, Appendix I Fig. 2).
+
+It creates the widgets around one `StationController`, the actions (emergency stop, pause,
+resume, pick modes, quit), wires signals, and reads/writes QSettings (window geometry and
+state, the station configuration, tablet permissions). It holds no protocol, planning or robot
+logic. The map view with the camera under it fill the left, the control tabs the right. Teleoperation stops at once when the window loses activation.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import fields
+
+from PySide6.QtCore import QEvent, QSettings, Qt
+from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
+from PySide6.QtWidgets import QMainWindow, QSplitter, QTabWidget, QToolBar, QWidget
+
+from base_station_app.qt_camera_view import QtCameraView
+from base_station_app.qt_config_panel import QtConfigPanel
+from base_station_app.qt_diagnostics_panel import QtDiagnosticsPanel
+from base_station_app.qt_map_view import QtMapView
+from base_station_app.qt_robots_panel import QtRobotsPanel
+from base_station_app.qt_state_panel import QtStatePanel
+from base_station_app.qt_tablet_panel import QtTabletPanel
+from base_station_app.qt_task_panel import QtTaskPanel
+from base_station_app.qt_teleop_panel import QtTeleopPanel
+from base_station_app.station_config import StationConfig
+from base_station_app.station_controller import StationController
+from base_station_app.tablet_session import PERMISSION_KINDS
+from interbot_core.geometry import Pose2D
+from interbot_core.supervisor import GoToPose
+
+logger = logging.getLogger(__name__)
+
+TAB_NAMES = ("state", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
+
+
+class MainWindow(QMainWindow):
+    """Map + camera + control tabs around a `StationController`."""
+
+    def __init__(
+        self,
+        controller: StationController,
+        settings: QSettings | None = None,
+        parent: QWidget | None = None,
+    ) -> None:
+        super().__init__(parent)
+        self.controller = controller
+        self.settings = settings if settings is not None else QSettings("Interbot", "BaseStation")
+        self.setWindowTitle("Interbot Base Station")
+        self._reading = False
+        self._create_widgets()
+        self._create_actions()
+        self._connect_signals()
+        self._read_settings()
+
+    # ------------------------------------------------------------------ composition
+    def _create_widgets(self) -> None:
+        c = self.controller
+        self.map_view = QtMapView(c)
+        self.camera_view = QtCameraView(c)
+        self.state_panel = QtStatePanel(c)
+        self.teleop_panel = QtTeleopPanel(c)
+        self.task_panel = QtTaskPanel(c)
+        self.tablet_panel = QtTabletPanel(c)
+        self.config_panel = QtConfigPanel(c)
+        self.diagnostics_panel = QtDiagnosticsPanel(c)
+        self.robots_panel = QtRobotsPanel(c)
+        self.tabs = QTabWidget()
+        for name, widget in zip(
+            TAB_NAMES,
+            (
+                self.state_panel,
+                self.teleop_panel,
+                self.task_panel,
+                self.tablet_panel,
+                self.config_panel,
+                self.diagnostics_panel,
+                self.robots_panel,
+            ),
+            strict=True,
+        ):
+            self.tabs.addTab(widget, name.capitalize())
+        # The floor plan is wide (70 m x 28 m): the camera goes under the map, beside it on
+        # screen, and the control tabs get the full height on the right.
+        left = QSplitter(Qt.Orientation.Vertical)
+        left.addWidget(self.map_view)
+        left.addWidget(self.camera_view)
+        left.setStretchFactor(0, 3)
+        left.setStretchFactor(1, 2)
+        left.setSizes([520, 400])
+        self.splitter = QSplitter(Qt.Orientation.Horizontal)
+        self.splitter.addWidget(left)
+        self.splitter.addWidget(self.tabs)
+        self.splitter.setStretchFactor(0, 3)
+        self.splitter.setStretchFactor(1, 2)
+        self.splitter.setSizes([900, 700])
+        self.setCentralWidget(self.splitter)
+        self.statusBar().showMessage("ready")
+
+    def _create_actions(self) -> None:
+        c = self.controller
+        bar = QToolBar("Main")
+        bar.setObjectName("main_toolbar")
+        self.addToolBar(bar)
+        self.estop_action = QAction("EMERGENCY STOP", self)
+        self.estop_action.setShortcut(QKeySequence(Qt.Key.Key_F12))
+        self.estop_action.setShortcutContext(Qt.ShortcutContext.ApplicationShortcut)
+        self.estop_action.triggered.connect(c.emergency_stop)
+        self.release_action = QAction("Release stop", self)
+        self.release_action.triggered.connect(c.release_stop)
+        self.pause_action = QAction("Pause", self)
+        self.pause_action.setShortcut(QKeySequence("Ctrl+P"))
+        self.pause_action.triggered.connect(c.pause)
+        self.resume_action = QAction("Resume", self)
+        self.resume_action.setShortcut(QKeySequence("Ctrl+R"))
+        self.resume_action.triggered.connect(c.resume)
+        self.goal_action = QAction("Goal on map", self)
+        self.goal_action.triggered.connect(lambda: self.map_view.set_pick_mode("goal"))
+        self.initial_action = QAction("Initial pose on map", self)
+        self.initial_action.triggered.connect(lambda: self.map_view.set_pick_mode("initial"))
+        self.fit_action = QAction("Fit map", self)
+        self.fit_action.triggered.connect(self.map_view.fit_map)
+        self.quit_action = QAction("Quit", self)
+        self.quit_action.setShortcut(QKeySequence.StandardKey.Quit)
+        self.quit_action.triggered.connect(self.close)
+        for action in (
+            self.estop_action,
+            self.release_action,
+            self.pause_action,
+            self.resume_action,
+            self.goal_action,
+            self.initial_action,
+            self.fit_action,
+            self.quit_action,
+        ):
+            bar.addAction(action)
+            self.addAction(action)
+
+    def _connect_signals(self) -> None:
+        c = self.controller
+        self.map_view.room_clicked.connect(self.task_panel.select_room)
+        self.map_view.pose_picked.connect(self._on_pose_picked)
+        self.map_view.pick_mode_changed.connect(self._on_pick_mode)
+        self.task_panel.pick_requested.connect(self.map_view.set_pick_mode)
+        c.config_changed.connect(lambda _: self._write_settings())
+        c.tablet_changed.connect(self._save_permissions)
+        c.log_added.connect(lambda level, text: self.statusBar().showMessage(text, 5000))
+        c.estop_changed.connect(self.release_action.setEnabled)
+        self.release_action.setEnabled(c.estop_latched)
+
+    # ------------------------------------------------------------------ settings
+    def _read_settings(self) -> None:
+        self._reading = True  # applying what was saved must not write it back half-read
+        try:
+            self._apply_settings()
+        finally:
+            self._reading = False
+
+    def _apply_settings(self) -> None:
+        s = self.settings
+        geometry = s.value("window/geometry")
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+        state = s.value("window/state")
+        if state is not None:
+            self.restoreState(state)
+        values = {f.name: s.value(f"config/{f.name}") for f in fields(StationConfig)}
+        values = {k: v for k, v in values.items() if v is not None}
+        if values:
+            config = StationConfig.from_mapping(values)
+            if config != self.controller.config:
+                self.controller.set_config(config)
+        for kind in PERMISSION_KINDS:
+            v = s.value(f"tablet/{kind}")
+            if v is not None:
+                allowed = v in (True, "true", "1", 1)
+                if allowed != self.controller.permissions.allows(kind):
+                    self.controller.set_permission(kind, allowed)
+
+    def _write_settings(self) -> None:
+        if self._reading:
+            return
+        s = self.settings
+        s.setValue("window/geometry", self.saveGeometry())
+        s.setValue("window/state", self.saveState())
+        for name, value in self.controller.config.to_dict().items():
+            s.setValue(f"config/{name}", value)
+        self._save_permissions()
+        s.sync()
+
+    def _save_permissions(self) -> None:
+        if self._reading:
+            return
+        for kind in PERMISSION_KINDS:
+            self.settings.setValue(f"tablet/{kind}", self.controller.permissions.allows(kind))
+
+    # ------------------------------------------------------------------ slots and events
+    def _on_pose_picked(self, mode: str, pose: Pose2D) -> None:
+        if mode == "goal":
+            self.controller.submit(GoToPose(pose))
+        else:
+            self.controller.set_initial_pose(pose)
+
+    def _on_pick_mode(self, mode: str) -> None:
+        if mode:
+            what = "goal" if mode == "goal" else "initial pose"
+            self.statusBar().showMessage(f"click the {what} on the map and drag its heading")
+
+    def changeEvent(self, event: QEvent) -> None:
+        if event.type() == QEvent.Type.ActivationChange and not self.isActiveWindow():
+            self.controller.release_all()  # never keep driving with a key held elsewhere
+        super().changeEvent(event)
+
+    def closeEvent(self, event: QCloseEvent) -> None:
+        self._write_settings()
+        self.controller.shutdown()
+        super().closeEvent(event)
+
+    def shutdown(self) -> None:
+        """Called from QApplication.aboutToQuit as well as on close (idempotent)."""
+        self.controller.shutdown()

@@ -1,0 +1,355 @@
+"""The station's map view (thesis §4.2.2.1: RViz's map, scan and pose, plus §5.3 "Tasks").
+
+pyqtgraph, as FIELD_NOTES recommends for 40 Hz: the occupancy grid is one row-major uint8
+`ImageItem` with fixed levels placed with ``setRect`` (row 0 at the bottom of the y-up view),
+the laser scan a ``PlotCurveItem(connect="finite")``, the robot a footprint polygon with a
+heading line, the route a polyline through its intermediate goals with the current one
+highlighted, the topological nodes with room labels, and the tour stops (visited green, next
+red). Items are created once and updated with ``setData`` from the controller's 25 ms
+``frame_ready``, only when something changed.
+
+Input: a click inside a room emits ``room_clicked(node)``; in a pick mode (``goal`` or
+``initial``) a press sets a point and dragging sets the heading, drawn as an arrow, and the
+release emits ``pose_picked(mode, Pose2D)``. While the view has focus the arrow keys and WASD
+teleoperate (auto-repeat ignored) and losing focus releases them.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import numpy.typing as npt
+import pyqtgraph as pg
+from PySide6.QtCore import QPointF, QRectF, Qt, Signal
+from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
+from PySide6.QtWidgets import QWidget
+
+from base_station_app.map_rooms import room_at
+from base_station_app.station_controller import StationController
+from base_station_app.teleop import Direction
+from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import OccupancyGrid
+
+logger = logging.getLogger(__name__)
+
+TELEOP_KEYS = {
+    Qt.Key.Key_Up: Direction.FORWARD,
+    Qt.Key.Key_W: Direction.FORWARD,
+    Qt.Key.Key_Down: Direction.BACKWARD,
+    Qt.Key.Key_S: Direction.BACKWARD,
+    Qt.Key.Key_Left: Direction.LEFT,
+    Qt.Key.Key_A: Direction.LEFT,
+    Qt.Key.Key_Right: Direction.RIGHT,
+    Qt.Key.Key_D: Direction.RIGHT,
+}
+
+ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
+CLICK_SLOP_PX = 5.0
+
+
+def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
+    """Cells (-1 unknown, 0..100 occupancy) to grey levels: free white, occupied black."""
+    cells = grid.cells.astype(np.int16)
+    image = (255 - cells * 255 // 100).astype(np.uint8)
+    image[cells < 0] = 200
+    return image
+
+
+def footprint_xy(
+    pose: Pose2D, radius: float = ROBOT_RADIUS, n: int = 24
+) -> npt.NDArray[np.float64]:
+    """Closed circle around the robot plus a heading line from its centre, as (x, y) rows."""
+    t = np.linspace(0.0, 2 * math.pi, n + 1)
+    circle = np.column_stack((pose.x + radius * np.cos(t), pose.y + radius * np.sin(t)))
+    tip = (pose.x + 1.6 * radius * math.cos(pose.yaw), pose.y + 1.6 * radius * math.sin(pose.yaw))
+    heading = np.array([[math.nan, math.nan], [pose.x, pose.y], tip])
+    return np.vstack((circle, heading))
+
+
+def scan_xy(
+    pose: Pose2D,
+    angles: npt.NDArray[np.float64],
+    ranges: npt.NDArray[np.float32],
+    valid: npt.NDArray[np.bool_],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Scan end points in the map frame; invalid beams become NaN (gaps with connect="finite")."""
+    r = np.where(valid, ranges.astype(np.float64), np.nan)
+    a = angles + pose.yaw
+    return pose.x + r * np.cos(a), pose.y + r * np.sin(a)
+
+
+def arrow_xy(x: float, y: float, yaw: float, length: float) -> npt.NDArray[np.float64]:
+    tip = (x + length * math.cos(yaw), y + length * math.sin(yaw))
+    head = 0.3 * length
+    left = (tip[0] - head * math.cos(yaw - 0.5), tip[1] - head * math.sin(yaw - 0.5))
+    right = (tip[0] - head * math.cos(yaw + 0.5), tip[1] - head * math.sin(yaw + 0.5))
+    return np.array([[x, y], tip, left, [math.nan, math.nan], tip, right])
+
+
+class QtMapView(pg.PlotWidget):
+    """Map, scan, robot, route and topological nodes; room clicks, pose picks, teleop keys."""
+
+    room_clicked = Signal(int)
+    pose_picked = Signal(str, object)  # mode ("goal" / "initial"), Pose2D
+    pick_mode_changed = Signal(str)
+
+    def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
+        super().__init__(parent, background=(235, 235, 235))
+        self._controller = controller
+        self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
+        self.setAspectLocked(True)
+        self.showGrid(x=False, y=False)
+        self.setLabel("bottom", "x [m]")
+        self.setLabel("left", "y [m]")
+        self.setMenuEnabled(False)
+        self._pick_mode = ""
+        self._press_pos: QPointF | None = None
+        self._pick_start: tuple[float, float] | None = None
+        self._drawn_key: object = None
+        self._map_version = -1
+        self._grid: OccupancyGrid | None = None
+        self._create_items()
+        self._draw_topology()
+        controller.frame_ready.connect(self.redraw)
+        controller.tasks_changed.connect(self._invalidate)
+        controller.route_sent.connect(self._invalidate)
+        self.redraw()
+        self.fit_map()
+
+    # ------------------------------------------------------------------ items
+    def _create_items(self) -> None:
+        plot = self.getPlotItem()
+        self.map_item = pg.ImageItem(axisOrder="row-major")
+        self.map_item.setZValue(-10)
+        plot.addItem(self.map_item)
+        self.rooms_item = pg.PlotCurveItem(pen=pg.mkPen((120, 160, 220), width=1), connect="finite")
+        plot.addItem(self.rooms_item)
+        self.nodes_item = pg.ScatterPlotItem(size=7, brush=pg.mkBrush(90, 90, 90), pen=None)
+        plot.addItem(self.nodes_item)
+        self.tour_item = pg.ScatterPlotItem(size=12, pen=pg.mkPen("k"))
+        plot.addItem(self.tour_item)
+        self.route_item = pg.PlotCurveItem(pen=pg.mkPen((30, 110, 220), width=3))
+        plot.addItem(self.route_item)
+        self.waypoints_item = pg.ScatterPlotItem(size=9, pen=pg.mkPen("w"))
+        plot.addItem(self.waypoints_item)
+        self.goal_item = pg.ScatterPlotItem(
+            size=18, symbol="star", brush=pg.mkBrush(255, 140, 0), pen=pg.mkPen("k")
+        )
+        plot.addItem(self.goal_item)
+        self.scan_item = pg.PlotCurveItem(pen=pg.mkPen((220, 30, 30), width=2), connect="finite")
+        plot.addItem(self.scan_item)
+        self.robot_item = pg.PlotCurveItem(pen=pg.mkPen((0, 140, 0), width=3), connect="finite")
+        plot.addItem(self.robot_item)
+        self.pick_item = pg.PlotCurveItem(pen=pg.mkPen((200, 0, 200), width=3), connect="finite")
+        plot.addItem(self.pick_item)
+        self.labels: list[pg.TextItem] = []
+        self._label_font = QFont()
+        self._label_font.setPointSize(7)
+
+    def _draw_topology(self) -> None:
+        c = self._controller
+        xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
+        self.nodes_item.setData(pos=xy)
+        kinds = {a.node_id: a.kind for a in c.rooms}
+        for node in c.topo.nodes:
+            if kinds.get(node.id) == "waypoint":
+                continue
+            label = pg.TextItem(f"{node.id} {node.name}", color=(40, 40, 40), anchor=(0.5, 1.1))
+            label.setFont(self._label_font)
+            label.setPos(node.pose.x, node.pose.y)
+            self.addItem(label)
+            self.labels.append(label)
+        polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
+        if polys:
+            pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
+            self.rooms_item.setData(pts[:, 0], pts[:, 1])
+
+    def fit_map(self) -> None:
+        grid = self._controller.grid
+        if grid is not None:
+            w, h = grid.size_m
+            self.setRange(QRectF(grid.origin_x, grid.origin_y, w, h), padding=0.02)
+
+    def _invalidate(self, *args: object) -> None:
+        self._drawn_key = None
+
+    # ------------------------------------------------------------------ drawing
+    def redraw(self) -> None:
+        c = self._controller
+        grid = c.grid
+        if grid is not None and (grid is not self._grid):
+            first = self._grid is None or self._grid.size_m != grid.size_m
+            self._grid = grid
+            self.map_item.setImage(grid_to_image(grid), levels=(0, 255), autoLevels=False)
+            w, h = grid.size_m
+            self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
+            if first:
+                self.fit_map()
+        sup = c.supervisor
+        key = (
+            c.state.version,
+            id(c.route),
+            sup.route_index,
+            sup.visited_tour_stops,
+            sup.tour_stops,
+        )
+        if key == self._drawn_key:
+            return
+        self._drawn_key = key
+        self._draw_robot()
+        self._draw_route()
+        self._draw_tour()
+
+    def _draw_robot(self) -> None:
+        state = self._controller.state
+        pose_msg = state.pose
+        if pose_msg is None or pose_msg.state == "unset":
+            self.robot_item.setData([], [])
+            self.scan_item.setData([], [])
+            return
+        pose = Pose2D(pose_msg.x, pose_msg.y, pose_msg.yaw)
+        pen = (0, 140, 0) if pose_msg.state == "ok" else (200, 120, 0)
+        self.robot_item.setPen(pg.mkPen(pen, width=3))
+        xy = footprint_xy(pose)
+        self.robot_item.setData(xy[:, 0], xy[:, 1])
+        scan = state.scan
+        if scan is None:
+            self.scan_item.setData([], [])
+        else:
+            xs, ys = scan_xy(pose, scan.angles, scan.ranges, scan.valid())
+            self.scan_item.setData(xs, ys)
+
+    def _draw_route(self) -> None:
+        c = self._controller
+        route = c.route if c.supervisor.current_task is not None else None
+        if route is None:
+            self.route_item.setData([], [])
+            self.waypoints_item.setData([])
+            self.goal_item.setData([])
+            return
+        wps = np.array([[w[0], w[1]] for w in route.waypoints])
+        pose = c.state.localised_pose
+        index = c.supervisor.route_index
+        index = c.route_index if index is None else index
+        index = min(index, len(wps) - 1)
+        pts = wps[index:]
+        if pose is not None:
+            pts = np.vstack(([[pose.x, pose.y]], pts))
+        self.route_item.setData(pts[:, 0], pts[:, 1])
+        passed, ahead = pg.mkBrush(150, 150, 150), pg.mkBrush(30, 110, 220)
+        self.waypoints_item.setData(
+            pos=wps, brush=[passed if i < index else ahead for i in range(len(wps))]
+        )
+        self.goal_item.setData(pos=wps[index : index + 1])
+
+    def _draw_tour(self) -> None:
+        sup = self._controller.supervisor
+        stops = sup.tour_stops
+        if not stops:
+            self.tour_item.setData([])
+            return
+        topo = self._controller.topo
+        visited = set(sup.visited_tour_stops)
+        nxt = sup.next_tour_stop
+        spots = []
+        for s in stops:
+            node = topo.nodes[s]
+            color = (0, 170, 0) if s in visited else (220, 0, 0) if s == nxt else (250, 220, 60)
+            spots.append({"pos": (node.pose.x, node.pose.y), "brush": pg.mkBrush(*color)})
+        self.tour_item.setData(spots)
+
+    # ------------------------------------------------------------------ picking
+    @property
+    def pick_mode(self) -> str:
+        return self._pick_mode
+
+    def set_pick_mode(self, mode: str) -> None:
+        """ "goal", "initial" or "" (pan and room clicks)."""
+        if mode not in ("", "goal", "initial"):
+            raise ValueError(f"unknown pick mode {mode!r}")
+        self._pick_mode = mode
+        self._pick_start = None
+        self.pick_item.setData([], [])
+        self.setCursor(Qt.CursorShape.CrossCursor if mode else Qt.CursorShape.ArrowCursor)
+        self.pick_mode_changed.emit(mode)
+
+    def map_point(self, pos: QPointF) -> tuple[float, float]:
+        """Widget position [px] to map coordinates [m]."""
+        p = self.getPlotItem().vb.mapSceneToView(self.mapToScene(pos.toPoint()))
+        return float(p.x()), float(p.y())
+
+    def mousePressEvent(self, event: QMouseEvent) -> None:
+        self.setFocus(Qt.FocusReason.MouseFocusReason)
+        if event.button() == Qt.MouseButton.LeftButton:
+            self._press_pos = event.position()
+            if self._pick_mode:
+                self._pick_start = self.map_point(event.position())
+                event.accept()
+                return
+        super().mousePressEvent(event)
+
+    def mouseMoveEvent(self, event: QMouseEvent) -> None:
+        if self._pick_mode and self._pick_start is not None:
+            x0, y0 = self._pick_start
+            x, y = self.map_point(event.position())
+            yaw = math.atan2(y - y0, x - x0)
+            length = max(0.8, math.hypot(x - x0, y - y0))
+            xy = arrow_xy(x0, y0, yaw, length)
+            self.pick_item.setData(xy[:, 0], xy[:, 1])
+            event.accept()
+            return
+        super().mouseMoveEvent(event)
+
+    def mouseReleaseEvent(self, event: QMouseEvent) -> None:
+        if event.button() != Qt.MouseButton.LeftButton:
+            super().mouseReleaseEvent(event)
+            return
+        press, self._press_pos = self._press_pos, None
+        if self._pick_mode and self._pick_start is not None:
+            x0, y0 = self._pick_start
+            x, y = self.map_point(event.position())
+            dragged = (
+                math.hypot(x - x0, y - y0) > 1e-6
+                and press is not None
+                and ((event.position() - press).manhattanLength() > CLICK_SLOP_PX)
+            )
+            yaw = math.atan2(y - y0, x - x0) if dragged else 0.0
+            mode = self._pick_mode
+            self.set_pick_mode("")
+            self.pose_picked.emit(mode, Pose2D(x0, y0, yaw))
+            event.accept()
+            return
+        super().mouseReleaseEvent(event)
+        if press is not None and (event.position() - press).manhattanLength() <= CLICK_SLOP_PX:
+            x, y = self.map_point(event.position())
+            node = room_at(x, y, self._controller.topo, self._controller.rooms)
+            if node is not None:
+                self.room_clicked.emit(node)
+
+    # ------------------------------------------------------------------ keys
+    def keyPressEvent(self, event: QKeyEvent) -> None:
+        direction = TELEOP_KEYS.get(Qt.Key(event.key()))
+        if direction is None:
+            if event.key() == Qt.Key.Key_Escape and self._pick_mode:
+                self.set_pick_mode("")
+                return
+            super().keyPressEvent(event)
+            return
+        if not event.isAutoRepeat():
+            self._controller.press(direction)
+        event.accept()
+
+    def keyReleaseEvent(self, event: QKeyEvent) -> None:
+        direction = TELEOP_KEYS.get(Qt.Key(event.key()))
+        if direction is None:
+            super().keyReleaseEvent(event)
+            return
+        if not event.isAutoRepeat():
+            self._controller.release(direction)
+        event.accept()
+
+    def focusOutEvent(self, event: QFocusEvent) -> None:
+        self._controller.release_all()
+        super().focusOutEvent(event)

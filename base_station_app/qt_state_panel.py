@@ -1,0 +1,136 @@
+"""Robot state (thesis §4.2.2.1): speeds, orientation, localisation, battery, the multiplexer's
+active source, the e-stop, the current task, the distance to the next goal and the status log
+(messages and errors). Refreshed from the controller's ``frame_ready`` / ``clocked`` signals.
+"""
+
+from __future__ import annotations
+
+import math
+
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import (
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from base_station_app.qt_speedometer import QtSpeedometer
+from base_station_app.station_controller import StationController
+
+LEVEL_COLOURS = {
+    "info": QColor(20, 20, 20),
+    "warning": QColor(170, 100, 0),
+    "error": QColor(200, 0, 0),
+}
+
+
+class QtStatePanel(QWidget):
+    """Speedometers, a state form and the status log."""
+
+    def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._controller = controller
+        self._version = -1
+        layout = QVBoxLayout(self)
+        dials = QHBoxLayout()
+        cfg = controller.config
+        self.linear_dial = QtSpeedometer(
+            "linear", "m/s", max(cfg.teleop_linear_max, cfg.planner_linear_max)
+        )
+        self.angular_dial = QtSpeedometer(
+            "angular", "rad/s", max(cfg.teleop_angular_max, cfg.planner_angular_max)
+        )
+        dials.addWidget(self.linear_dial)
+        dials.addWidget(self.angular_dial)
+        layout.addLayout(dials)
+        box = QGroupBox("Robot")
+        form = QFormLayout(box)
+        self.labels: dict[str, QLabel] = {}
+        for key, title in (
+            ("robot", "Robot"),
+            ("pose", "Position"),
+            ("orientation", "Orientation"),
+            ("localisation", "Localisation"),
+            ("battery", "Battery"),
+            ("mux", "Velocity source"),
+            ("estop", "Emergency stop"),
+            ("task", "Current task"),
+            ("distance", "Distance to next goal"),
+            ("status", "Status"),
+        ):
+            label = QLabel("–")
+            label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+            label.setWordWrap(True)
+            self.labels[key] = label
+            form.addRow(title + ":", label)
+        layout.addWidget(box)
+        layout.addWidget(QLabel("Status log"))
+        self.log_list = QListWidget()
+        layout.addWidget(self.log_list, 1)
+        for entry in controller.state.log:
+            self._add_log(entry.level, entry.text)
+        controller.log_added.connect(self._add_log)
+        controller.frame_ready.connect(self.refresh)
+        controller.clocked.connect(self.refresh_task)
+        controller.estop_changed.connect(lambda _: self.refresh_task())
+        self.refresh()
+        self.refresh_task()
+
+    def _add_log(self, level: str, text: str) -> None:
+        item = QListWidgetItem(f"[{level}] {text}")
+        item.setForeground(LEVEL_COLOURS.get(level, QColor(20, 20, 20)))
+        self.log_list.addItem(item)
+        while self.log_list.count() > 500:
+            self.log_list.takeItem(0)
+        self.log_list.scrollToBottom()
+
+    def refresh(self) -> None:
+        c = self._controller
+        s = c.state
+        if s.version == self._version:
+            return
+        self._version = s.version
+        L = self.labels
+        L["robot"].setText(c.selected_robot or "none selected")
+        speed = s.odom if s.odom is not None else s.cmd_vel
+        if speed is not None:
+            self.linear_dial.set_value(speed.linear)
+            self.angular_dial.set_value(speed.angular)
+        if s.pose is not None:
+            L["pose"].setText(f"x {s.pose.x:.2f} m, y {s.pose.y:.2f} m")
+            L["orientation"].setText(f"{math.degrees(s.pose.yaw):.1f}° ({s.pose.yaw:.3f} rad)")
+        loc = s.localisation
+        L["localisation"].setText(
+            {"ok": "localised", "lost": "LOST", "unset": "initial pose not set"}[loc]
+            + ("" if s.pose is None else f" (confidence {s.pose.confidence:.2f})")
+        )
+        if s.battery is not None:
+            b = s.battery
+            L["battery"].setText(f"{b.voltage:.1f} V, {b.soc * 100:.0f} %, {b.current:.1f} A")
+        if s.mux is not None:
+            locks = ", ".join(s.mux.active_locks) or "no locks"
+            L["mux"].setText(f"{s.mux.source or 'none (zero)'}; {locks}")
+
+    def refresh_task(self) -> None:
+        c = self._controller
+        L = self.labels
+        robot_stop = c.state.estop_engaged
+        L["estop"].setText(
+            ("LATCHED (release at the station)" if c.estop_latched else "released")
+            + (
+                ""
+                if robot_stop is None
+                else f"; robot reports {'engaged' if robot_stop else 'clear'}"
+            )
+        )
+        L["estop"].setStyleSheet("color: #c00; font-weight: bold;" if c.estop_latched else "")
+        L["task"].setText(c.task_text())
+        d = c.supervisor.distance_to_next_goal
+        L["distance"].setText("–" if d is None else f"{d:.2f} m")
+        L["status"].setText(c.status_text())

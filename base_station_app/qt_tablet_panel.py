@@ -1,0 +1,133 @@
+"""Tablet control (thesis §5.3 "Tablet Control", §5.3.4, §4.2.2.2).
+
+Connection state and peer, the round-trip latency (average and a live plot of the last pings),
+the watchdog (time since the last tablet speed command against the ceiling, commands
+discarded), which kinds of tablet requests are allowed (sent to the tablet as ``permissions``)
+and the tablet's current task, which the operator can take over, stop (pause) or cancel.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QVBoxLayout,
+    QWidget,
+)
+
+from base_station_app.station_controller import StationController
+from base_station_app.tablet_session import PERMISSION_KINDS, describe_task
+
+_TITLES = {
+    "teleop": "Teleoperation (joystick)",
+    "goals": "Goals and home",
+    "tours": "Guided tours",
+    "requests": "Requests / deliveries",
+}
+
+
+class QtTabletPanel(QWidget):
+    """Connection, latency plot, watchdog, permissions, the tablet's task."""
+
+    def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._controller = controller
+        layout = QVBoxLayout(self)
+        conn = QGroupBox("Connection")
+        form = QFormLayout(conn)
+        self.state_label = QLabel()
+        self.latency_label = QLabel()
+        self.watchdog_label = QLabel()
+        form.addRow("Tablet:", self.state_label)
+        form.addRow("Round trip:", self.latency_label)
+        form.addRow("Watchdog:", self.watchdog_label)
+        layout.addWidget(conn)
+        self.plot = pg.PlotWidget(background="w")
+        self.plot.setLabel("left", "round trip [ms]")
+        self.plot.setLabel("bottom", "ping #")
+        self.plot.setMinimumHeight(140)
+        self.latency_curve = self.plot.plot(pen=pg.mkPen((30, 110, 220), width=2))
+        layout.addWidget(self.plot, 1)
+
+        perms = QGroupBox("Allowed from the tablet")
+        plo = QVBoxLayout(perms)
+        self.permission_boxes: dict[str, QCheckBox] = {}
+        for kind in PERMISSION_KINDS:
+            box = QCheckBox(_TITLES[kind])
+            box.setChecked(controller.permissions.allows(kind))
+            box.toggled.connect(lambda on, k=kind: controller.set_permission(k, on))
+            plo.addWidget(box)
+            self.permission_boxes[kind] = box
+        layout.addWidget(perms)
+
+        task = QGroupBox("Tablet's task")
+        tlo = QVBoxLayout(task)
+        self.task_label = QLabel("none")
+        tlo.addWidget(self.task_label)
+        row = QHBoxLayout()
+        self.override_button = QPushButton("Take over")
+        self.stop_button = QPushButton("Stop (pause)")
+        self.cancel_button = QPushButton("Cancel")
+        for b in (self.override_button, self.stop_button, self.cancel_button):
+            row.addWidget(b)
+        tlo.addLayout(row)
+        layout.addWidget(task)
+
+        self.override_button.clicked.connect(controller.tablet_task_override)
+        self.stop_button.clicked.connect(controller.tablet_task_stop)
+        self.cancel_button.clicked.connect(controller.tablet_task_cancel)
+        controller.tablet_changed.connect(self.refresh)
+        controller.tasks_changed.connect(self.refresh)
+        controller.latency_added.connect(self._on_latency)
+        controller.clocked.connect(self._refresh_watchdog)
+        self.refresh()
+
+    def refresh(self) -> None:
+        c = self._controller
+        t = c.tablet
+        if t.is_connected:
+            mode = "" if t.greeted else " (no hello: compatibility mode)"
+            self.state_label.setText(f"connected from {t.peer}{mode}")
+        else:
+            self.state_label.setText(f"not connected (listening on port {t.port})")
+        lat = list(c.latencies)
+        self.latency_label.setText(
+            "–"
+            if not lat
+            else f"average {np.mean(lat) * 1000:.2f} ms, last {lat[-1] * 1000:.2f} ms ({len(lat)} pings)"
+        )
+        for kind, box in self.permission_boxes.items():
+            box.blockSignals(True)
+            box.setChecked(c.permissions.allows(kind))
+            box.blockSignals(False)
+        task = c.tablet_task
+        self.task_label.setText("none" if task is None else describe_task(task, c.names))
+        for b in (self.override_button, self.stop_button, self.cancel_button):
+            b.setEnabled(task is not None)
+        self._refresh_watchdog()
+
+    def _on_latency(self, rtt: float) -> None:
+        values = np.array(self._controller.latencies) * 1000.0
+        self.latency_curve.setData(np.arange(values.size), values)
+
+    def _refresh_watchdog(self) -> None:
+        c = self._controller
+        latency = c.watchdog.latency(c.clock())
+        since = (
+            "no speed command yet"
+            if math.isinf(latency)
+            else f"{latency * 1000:.0f} ms since last speed"
+        )
+        state = "forwarding" if c.tablet_speed is not None else "idle"
+        self.watchdog_label.setText(
+            f"{since}; ceiling {c.watchdog.ceiling_s * 1000:.0f} ms; {state}; "
+            f"discarded {c.tablet_discarded}"
+        )

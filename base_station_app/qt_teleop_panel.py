@@ -1,0 +1,149 @@
+"""Teleoperation (thesis §5.3 "Teleoperation"): arrow keypad, mouse joystick, speed limits,
+pause/resume of autonomous navigation and a latching EMERGENCY STOP with an explicit Release.
+
+The pad's `QToolButton`s have auto-repeat off; ``pressed`` / ``released`` drive the controller,
+which sends on ``station_vel`` every clock tick while held and a zero on release.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from PySide6.QtWidgets import (
+    QDoubleSpinBox,
+    QFormLayout,
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QToolButton,
+    QVBoxLayout,
+    QWidget,
+)
+
+from base_station_app.station_config import RANGES
+from base_station_app.station_controller import StationController
+from base_station_app.teleop import Direction
+from interbot_qt.qt_joystick import QtJoystick
+
+_PAD = (
+    (Direction.FORWARD, "▲", 0, 1),
+    (Direction.LEFT, "◀", 1, 0),
+    (Direction.RIGHT, "▶", 1, 2),
+    (Direction.BACKWARD, "▼", 2, 1),
+)
+
+
+class QtTeleopPanel(QWidget):
+    """Arrow pad, joystick, limits, pause/resume, e-stop and release."""
+
+    def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._controller = controller
+        layout = QVBoxLayout(self)
+
+        self.estop_button = QPushButton("EMERGENCY STOP")
+        self.estop_button.setMinimumHeight(56)
+        self.estop_button.setStyleSheet(
+            "QPushButton { background: #d00000; color: white; font-size: 18px; font-weight: bold; }"
+        )
+        self.release_button = QPushButton("Release emergency stop")
+        self.estop_label = QLabel()
+        layout.addWidget(self.estop_button)
+        row = QHBoxLayout()
+        row.addWidget(self.release_button)
+        row.addWidget(self.estop_label, 1)
+        layout.addLayout(row)
+
+        nav = QHBoxLayout()
+        self.pause_button = QPushButton("Pause navigation")
+        self.resume_button = QPushButton("Resume navigation")
+        nav.addWidget(self.pause_button)
+        nav.addWidget(self.resume_button)
+        layout.addLayout(nav)
+
+        drive = QHBoxLayout()
+        pad_box = QGroupBox("Arrow pad (or arrows / WASD on the map)")
+        grid = QGridLayout(pad_box)
+        self.pad: dict[Direction, QToolButton] = {}
+        for direction, arrow, r, col in _PAD:
+            button = QToolButton()
+            button.setText(arrow)
+            button.setStyleSheet("font-size: 28px;")
+            button.setAutoRepeat(False)
+            button.setMinimumSize(64, 64)
+            button.setToolTip(f"drive {direction.value}")
+            button.pressed.connect(lambda d=direction: controller.press(d))
+            button.released.connect(lambda d=direction: controller.release(d))
+            grid.addWidget(button, r, col)
+            self.pad[direction] = button
+        drive.addWidget(pad_box)
+        self.joystick = QtJoystick(
+            controller.config.teleop_linear_max, controller.config.teleop_angular_max
+        )
+        self.joystick.setMinimumSize(180, 180)
+        drive.addWidget(self.joystick, 1)
+        layout.addLayout(drive, 1)
+
+        limits = QGroupBox("Maximum teleoperation speeds")
+        form = QFormLayout(limits)
+        self.linear_max = self._spin("teleop_linear_max", " m/s")
+        self.angular_max = self._spin("teleop_angular_max", " rad/s")
+        form.addRow("linear", self.linear_max)
+        form.addRow("angular", self.angular_max)
+        layout.addWidget(limits)
+
+        self.estop_button.clicked.connect(controller.emergency_stop)
+        self.release_button.clicked.connect(controller.release_stop)
+        self.pause_button.clicked.connect(controller.pause)
+        self.resume_button.clicked.connect(controller.resume)
+        self.joystick.speed_changed.connect(self._on_joystick)
+        self.joystick.released.connect(lambda: controller.set_joystick(0.0, 0.0, False))
+        self.linear_max.editingFinished.connect(self._apply_limits)
+        self.angular_max.editingFinished.connect(self._apply_limits)
+        controller.estop_changed.connect(self._on_estop)
+        controller.config_changed.connect(self._on_config)
+        self._on_estop(controller.estop_latched)
+
+    def _spin(self, name: str, suffix: str) -> QDoubleSpinBox:
+        lo, hi, _ = RANGES[name]
+        spin = QDoubleSpinBox()
+        spin.setRange(lo, hi)
+        spin.setDecimals(2)
+        spin.setSingleStep(0.05)
+        spin.setSuffix(suffix)
+        spin.setValue(getattr(self._controller.config, name))
+        return spin
+
+    def _on_joystick(self, linear: float, angular: float) -> None:
+        self._controller.set_joystick(linear, angular, self.joystick.is_pressed)
+
+    def _apply_limits(self) -> None:
+        c = self._controller
+        new = replace(
+            c.config,
+            teleop_linear_max=self.linear_max.value(),
+            teleop_angular_max=self.angular_max.value(),
+        )
+        if new != c.config:
+            c.set_config(new)
+
+    def _on_config(self, config: object) -> None:
+        c = self._controller.config
+        for spin, value in (
+            (self.linear_max, c.teleop_linear_max),
+            (self.angular_max, c.teleop_angular_max),
+        ):
+            spin.blockSignals(True)
+            spin.setValue(value)
+            spin.blockSignals(False)
+        self.joystick.set_limits(c.teleop_linear_max, c.teleop_angular_max)
+
+    def _on_estop(self, latched: bool) -> None:
+        self.release_button.setEnabled(latched)
+        self.estop_label.setText("STOP LATCHED" if latched else "")
+        self.estop_label.setStyleSheet("color: #c00; font-weight: bold;")
+        for button in self.pad.values():
+            button.setEnabled(not latched)
+        self.joystick.setEnabled(not latched)

@@ -1,0 +1,112 @@
+"""What the station knows about the selected robot: the newest value of each state topic.
+
+Thesis §5.3.6: the station's ``clock()`` "obtains Interbot's current position and orientation"
+and speeds and shows them. Here the 25 ms frame timer polls the zenoh link and stores the newest
+message of each topic in a `RobotState`; ``version`` increases on every change so views redraw
+only when something is new, and the status log keeps the last ``log_capacity`` lines
+(messages and errors, thesis §4.2.2.1).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from dataclasses import dataclass
+
+from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import (
+    Battery,
+    ImageMsg,
+    MuxMsg,
+    Odom,
+    PoseMsg,
+    RouteProgress,
+    Status,
+    Topic,
+    Twist,
+)
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class LogEntry:
+    stamp: float  # [s] station clock
+    level: str  # info, warning, error
+    text: str
+
+
+class RobotState:
+    """Newest state of the selected robot (None until first received)."""
+
+    def __init__(self, log_capacity: int = 500) -> None:
+        self.log: deque[LogEntry] = deque(maxlen=log_capacity)
+        self.log_version = 0
+        self.clear()
+
+    def clear(self) -> None:
+        self.pose: PoseMsg | None = None
+        self.odom: Odom | None = None
+        self.cmd_vel: Twist | None = None
+        self.scan: LaserScan | None = None
+        self.grid: OccupancyGrid | None = None
+        self.image: ImageMsg | None = None
+        self.battery: Battery | None = None
+        self.mux: MuxMsg | None = None
+        self.progress: RouteProgress | None = None
+        self.status: Status | None = None
+        self.version = 0
+        self.map_version = 0
+        self.image_version = 0
+
+    @property
+    def localised_pose(self) -> Pose2D | None:
+        """The pose when the localiser reports ``ok``; None when unset or lost."""
+        p = self.pose
+        return None if p is None or p.state != "ok" else Pose2D(p.x, p.y, p.yaw)
+
+    @property
+    def localisation(self) -> str:
+        return "unset" if self.pose is None else self.pose.state
+
+    @property
+    def estop_engaged(self) -> bool | None:
+        """The robot's report: True when its mux has the stop lock active (None: no report)."""
+        return None if self.mux is None else "stop" in self.mux.active_locks
+
+    def apply(self, topic: Topic, message: object) -> None:
+        """Store one decoded message of ``topic``."""
+        if topic is Topic.POSE and isinstance(message, PoseMsg):
+            self.pose = message
+        elif topic is Topic.ODOM and isinstance(message, Odom):
+            self.odom = message
+        elif topic is Topic.CMD_VEL and isinstance(message, Twist):
+            self.cmd_vel = message
+        elif topic is Topic.SCAN and isinstance(message, LaserScan):
+            self.scan = message
+        elif topic is Topic.MAP and isinstance(message, OccupancyGrid):
+            self.grid = message
+            self.map_version += 1
+        elif topic is Topic.IMAGE and isinstance(message, ImageMsg):
+            self.image = message
+            self.image_version += 1
+        elif topic is Topic.BATTERY and isinstance(message, Battery):
+            self.battery = message
+        elif topic is Topic.MUX and isinstance(message, MuxMsg):
+            self.mux = message
+        elif topic is Topic.ROUTE_PROGRESS and isinstance(message, RouteProgress):
+            self.progress = message
+        elif topic is Topic.STATUS and isinstance(message, Status):
+            self.status = message
+        else:
+            logger.debug("ignored %s message %r", topic, type(message).__name__)
+            return
+        self.version += 1
+
+    def add_log(self, now: float, level: str, text: str) -> None:
+        self.log.append(LogEntry(now, level, text))
+        self.log_version += 1
+        log = logger.warning if level in ("warning", "error") else logger.info
+        log("status: %s", text)

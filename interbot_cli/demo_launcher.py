@@ -1,0 +1,119 @@
+"""Start the simulated robot, the Base Station and the Tablet as three processes on 127.0.0.1.
+
+Ports come from the OS; the robot daemon listens for zenoh on one, the station connects to it
+and serves the tablet on another. The launcher watches the three: when one exits (or on
+Ctrl-C / SIGTERM, or after ``--duration`` seconds) it stops the others with SIGTERM and waits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from dataclasses import dataclass
+from types import FrameType
+
+logger = logging.getLogger(__name__)
+
+ROBOT_ID = "interbot1"
+STOP_TIMEOUT = 10.0  # [s] before a process that ignores SIGTERM is killed
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+@dataclass(frozen=True)
+class DemoPlan:
+    """The three command lines of a demo run."""
+
+    daemon: list[str]
+    station: list[str]
+    tablet: list[str]
+
+
+def plan(seed: int, people: int, zenoh_port: int, tablet_port: int) -> DemoPlan:
+    python = sys.executable
+    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
+    return DemoPlan(
+        daemon=[
+            python, "-m", "robot_daemon.main", "--sim", "--robot-id", ROBOT_ID,
+            "--listen", endpoint, "--seed", str(seed), "--people", str(people),
+            "--auto-localise",
+        ],
+        station=[
+            python, "-m", "base_station_app.main", "--connect", endpoint,
+            "--tablet-host", "127.0.0.1", "--tablet-port", str(tablet_port), "--robot", ROBOT_ID,
+        ],
+        tablet=[
+            python, "-m", "tablet_app.main", "--host", "127.0.0.1", "--port", str(tablet_port),
+            "--windowed",
+        ],
+    )  # fmt: skip
+
+
+def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
+    """SIGTERM every running process, wait, kill stragglers; 0 if all exited cleanly."""
+    for proc in processes.values():
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+    worst = 0
+    for name, proc in processes.items():
+        try:
+            code = proc.wait(STOP_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            logger.error("%s ignored SIGTERM; killing it", name)
+            proc.kill()
+            code = proc.wait()
+        if code not in (0, -signal.SIGTERM):
+            logger.error("%s exited with status %s", name, code)
+            worst = 1
+    return worst
+
+
+def launch(args: argparse.Namespace) -> int:
+    """Run the demo until a program exits, Ctrl-C, SIGTERM or ``args.duration`` seconds."""
+    demo = plan(args.seed, args.people, free_port(), free_port())
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    processes: dict[str, subprocess.Popen[bytes]] = {}
+    try:
+        for name, cmd in (
+            ("daemon", demo.daemon),
+            ("station", demo.station),
+            ("tablet", demo.tablet),
+        ):
+            logger.info("starting %s: %s", name, " ".join(cmd))
+            processes[name] = subprocess.Popen(cmd)
+        print(
+            "interbot demo: simulated robot, Base Station and Tablet running "
+            "(Ctrl-C stops all three)",
+            flush=True,
+        )
+        waited = 0.0
+        while not stop.is_set():
+            exited = [name for name, p in processes.items() if p.poll() is not None]
+            if exited:
+                logger.info("%s exited; stopping the demo", ", ".join(exited))
+                break
+            if args.duration and waited >= args.duration:
+                break
+            stop.wait(0.2)
+            waited += 0.2
+        early = [n for n, p in processes.items() if p.poll() not in (None, 0)]
+        status = stop_all(processes)
+        return 1 if early else status
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -1,0 +1,316 @@
+"""The robot daemon process: `RobotStack` on a backend, linked to stations over zenoh.
+
+One thread runs everything that decides (thesis Fig. 4.5 in one loop): it takes the commands
+the zenoh callbacks queued (`RobotLink.poll_commands`), steps the stack, and publishes state at
+fixed rates. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
+as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
+service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh session closed.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import OccupancyGrid, load_map
+from interbot_core.route_planner import RoutePlanner, RoutePlanningError
+from interbot_core.topics import (
+    Battery,
+    ConfigMsg,
+    GoalMsg,
+    ImageMsg,
+    InitialPose,
+    Lock,
+    MuxMsg,
+    Odom,
+    PoseMsg,
+    RangeEncoding,
+    RouteCancel,
+    RouteMsg,
+    RouteProgress,
+    Status,
+    StopRelease,
+    Topic,
+    TopicError,
+    Twist,
+)
+from interbot_core.topological_map import TopologicalMap, TopologicalMapError, load_topological_map
+from interbot_core.velocity_mux import MuxError, load_mux_config
+from interbot_link import Command, RobotLink, open_session
+from robot_daemon.backend import RobotBackend
+from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.sim.odometry_model import OdometryErrorModel
+from robot_daemon.sim.simulator import SimConfig, Simulator
+from robot_daemon.sim_backend import SimBackend
+from robot_daemon.stack import Periodic, RobotStack, StackConfig, StackError
+from robot_daemon.systemd_notify import SystemdNotifier
+
+logger = logging.getLogger(__name__)
+
+LOOP_PERIOD = 0.02  # [s] wall time between passes of the control loop (50 Hz)
+MAP_REPUBLISH_PERIOD = 30.0  # [s]
+
+
+@dataclass(frozen=True)
+class DaemonOptions:
+    """Run-time choices that are not part of the robot's configuration."""
+
+    auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
+    start_node: int | None = None  # sim: start at this topological node (default: home)
+
+
+def odometry_model(name: str) -> OdometryErrorModel:
+    return {
+        "perfect": OdometryErrorModel.perfect,
+        "calibrated": OdometryErrorModel.calibrated,
+        "uncalibrated": OdometryErrorModel.uncalibrated,
+    }[name]()
+
+
+def build_sim_backend(
+    config: DaemonConfig, grid: OccupancyGrid, start: Pose2D, scan_rate_hz: float
+) -> SimBackend:
+    sim_config = SimConfig(
+        start_pose=start, n_people=config.sim.people, odometry=odometry_model(config.sim.odometry)
+    )
+    simulator = Simulator(grid, sim_config, rng_seed=config.sim.seed)
+    return SimBackend(simulator, scan_rate_hz=scan_rate_hz, camera_rate_hz=config.rates.image_hz)
+
+
+def build_hardware_backend(config: DaemonConfig) -> RobotBackend:
+    """The real devices (Hokuyo, RoboteQ, camera) from robot.yaml's ``hardware:`` section.
+
+    Their drivers stamp data with ``time.monotonic()``, the daemon's clock on a real robot.
+    """
+    from robot_daemon.hardware.config import HardwareConfig, HardwareConfigError
+    from robot_daemon.hardware.hardware_backend import HardwareBackend
+
+    try:
+        hardware = HardwareConfig.from_mapping(config.hardware, config.source)
+    except HardwareConfigError as exc:
+        raise ConfigError(str(exc)) from None
+    return HardwareBackend(hardware)
+
+
+class Daemon:
+    """Everything the daemon runs, built from a validated `DaemonConfig`."""
+
+    def __init__(
+        self,
+        config: DaemonConfig,
+        options: DaemonOptions | None = None,
+        *,
+        backend: RobotBackend | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.config = config
+        self.options = options = options or DaemonOptions()
+        self._clock = clock
+        self.grid = load_map(config.map_yaml)
+        self.topo: TopologicalMap | None = None
+        self.route_planner: RoutePlanner | None = None
+        try:
+            self.topo = load_topological_map(config.topo_yaml)
+            self.route_planner = RoutePlanner(self.topo)
+        except TopologicalMapError as exc:
+            logger.warning("no topological map (%s): goals by node id are refused", exc)
+        rates = config.rates
+        self.start_pose = self._start_pose(options.start_node)
+        if backend is None:
+            if config.backend == "hardware":
+                backend = build_hardware_backend(config)
+            else:
+                backend = build_sim_backend(
+                    config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
+                )
+        self.backend = backend
+        stack_config = StackConfig(rates=rates, mux=load_mux_config(config.mux_yaml))
+        self.stack = RobotStack(self.grid, backend, stack_config)
+        self._due = {
+            name: Periodic(hz)
+            for name, hz in (
+                ("pose", rates.pose_hz),
+                ("scan", rates.scan_hz),
+                ("status", rates.status_hz),
+                ("battery", rates.battery_hz),
+                ("image", rates.image_hz),
+                ("map", 1.0 / MAP_REPUBLISH_PERIOD),
+            )
+        }
+        self._progress_key: tuple[int, int, str] | None = None
+        self._route_ids = 10**9  # ids for routes the robot plans itself (goal messages)
+        self._time0 = clock()
+        self.now = 0.0  # [s] daemon time: simulated in sim mode
+        if options.auto_localise:
+            self.stack.set_initial_pose(self.start_pose, 0.0)
+
+    def _start_pose(self, start_node: int | None) -> Pose2D:
+        if self.topo is None:
+            return Pose2D(0.0, 0.0, 0.0)
+        node = self.topo.home_id if start_node is None else start_node
+        return self.topo.node(node).pose
+
+    # -- time ------------------------------------------------------------------------------
+
+    @property
+    def simulated(self) -> bool:
+        return isinstance(self.backend, SimBackend)
+
+    def _advance_time(self) -> float:
+        elapsed = self._clock() - self._time0
+        factor = self.config.sim.realtime_factor if self.simulated else 1.0
+        # Never step more than 0.2 s of robot time at once (a debugger pause, a slow machine).
+        self.now = max(self.now, min(elapsed * factor, self.now + 0.2))
+        if isinstance(self.backend, SimBackend):
+            self.backend.advance(self.now)
+        return self.now
+
+    # -- commands ----------------------------------------------------------------------------
+
+    def handle(self, command: Command, link: RobotLink | None = None) -> None:
+        """Apply one station command; a refusal is logged and reported on ``status``."""
+        now, msg, topic = self.now, command.message, command.topic
+        try:
+            if isinstance(msg, Twist):
+                self.stack.on_twist(topic.value, msg.linear, msg.angular, now)
+            elif isinstance(msg, Lock):
+                self.stack.on_lock(topic.value, msg.engaged, now)
+            elif isinstance(msg, StopRelease):
+                self.stack.release_stop(now, msg.operator)
+            elif isinstance(msg, RouteMsg):
+                self.stack.set_route(msg, now)
+            elif isinstance(msg, RouteCancel):
+                self.stack.cancel_route(now, msg.reason or "cancelled by the station")
+            elif isinstance(msg, InitialPose):
+                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now)
+            elif isinstance(msg, ConfigMsg):
+                self.stack.reconfigure(dict(msg.params), now)
+            elif isinstance(msg, GoalMsg):
+                self.stack.set_route(self._route_for_goal(msg), now)
+        except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
+            logger.warning("refused %s command: %s", topic.value, exc)
+            if link is not None:
+                link.publish_status(Status("error", f"refused {topic.value}: {exc}", stamp=now))
+
+    def _route_for_goal(self, goal: GoalMsg) -> RouteMsg:
+        """A route for a single goal: through the topological map to a node, or straight."""
+        self._route_ids += 1
+        target = Pose2D(goal.x, goal.y, goal.yaw)
+        pose = self.stack.pose
+        if goal.node_id is None or self.route_planner is None or pose is None:
+            return RouteMsg(self._route_ids, ((target.x, target.y, target.yaw),))
+        route = self.route_planner.plan(pose, goal.node_id)
+        waypoints = tuple((w.x, w.y, w.yaw) for w in route.waypoints)
+        return RouteMsg(self._route_ids, waypoints, tuple(route.node_ids))
+
+    # -- publishing -----------------------------------------------------------------------------
+
+    def publish(self, link: RobotLink) -> None:
+        now, stack, due = self.now, self.stack, self._due
+        if due["pose"](now):
+            pose = stack.pose
+            estimate = stack.last_estimate
+            confidence = estimate.confidence if estimate is not None else 0.0
+            state = stack.localisation_state.value
+            if pose is None:
+                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, "unset", 0.0))
+            else:
+                link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence))
+            odom = stack.last_odometry
+            if odom is not None:
+                p = odom.pose
+                link.publish_odom(Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
+            out = stack.last_output
+            link.publish_cmd_vel(Twist(out.linear, out.angular, now))
+            link.publish_mux(
+                MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
+            )
+        if due["scan"](now) and stack.last_scan is not None:
+            link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
+        if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
+            jpeg = stack.last_jpeg
+            link.publish_image(ImageMsg(now, *_jpeg_size(jpeg), jpeg))
+        if due["battery"](now) and stack.last_battery is not None:
+            b = stack.last_battery
+            link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
+        if due["map"](now):
+            link.publish_map(stack.localiser.updated_grid())
+        self._publish_route(link, force=due["status"](now))
+        for event in stack.drain_events():
+            link.publish_status(Status(event.level, event.text, stamp=event.stamp))
+
+    def _publish_route(self, link: RobotLink, force: bool) -> None:
+        route = self.stack.route
+        if route is None:
+            return
+        key = (route.route_id, route.index, route.state)
+        if key != self._progress_key or force:
+            self._progress_key = key
+            link.publish_route_progress(
+                RouteProgress(
+                    route.route_id,
+                    route.index,
+                    route.state == "succeeded",
+                    route.state,
+                    route.reason or (self.stack.suspended_reason or ""),
+                    self.now,
+                )
+            )
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
+        """Run until ``stop`` is set."""
+        link.publish_map(self.grid)
+        notifier.ready(f"robot {self.config.robot_id} serving")
+        logger.info("daemon ready: %s", self.config.summary())
+        next_tick = time.monotonic()
+        while not stop.is_set():
+            self._advance_time()
+            for command in link.poll_commands():
+                self.handle(command, link)
+            self.stack.step(self.now)
+            self.publish(link)
+            notifier.watchdog(time.monotonic())
+            next_tick += LOOP_PERIOD
+            delay = next_tick - time.monotonic()
+            if delay > 0:
+                stop.wait(delay)
+            else:
+                next_tick = time.monotonic()  # overran: do not try to catch up
+        self.backend.close()
+        notifier.stopping()
+
+
+def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
+    """(width, height) from a JPEG's SOF marker, without decoding it."""
+    i = 2
+    while i + 9 < len(jpeg):
+        if jpeg[i] != 0xFF:
+            break
+        marker, length = jpeg[i + 1], int.from_bytes(jpeg[i + 2 : i + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            height = int.from_bytes(jpeg[i + 5 : i + 7], "big")
+            width = int.from_bytes(jpeg[i + 7 : i + 9], "big")
+            return width, height
+        i += 2 + length
+    return 0, 0
+
+
+def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
+    """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
+    daemon = Daemon(config, options)
+    notifier = SystemdNotifier()
+    z = config.zenoh
+    with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
+        link = RobotLink(session, config.robot_id)
+        try:
+            daemon.run(link, stop, notifier)
+        finally:
+            link.close()
+            notifier.close()
+    logger.info("daemon stopped")

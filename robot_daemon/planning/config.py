@@ -1,0 +1,177 @@
+"""Navigation parameters: one frozen, validated :class:`PlannerConfig`.
+
+Defaults follow the thesis where it gives values (Table 6.3: maximum speeds 0.25 m/s and
+1 rad/s, minimum linear speed 0, goal tolerances 0.5 m and 0.1 rad; robot footprint 0.60 x
+0.55 m) and Nav2 / DWB elsewhere (inflation, progress checker, recoveries; see
+shared/FIELD_NOTES.md "Navigation reference values"). Change values at run time with
+``PlannerConfig.replace(**changes)`` (or ``Navigator.reconfigure``), which validates again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from robot_daemon.planning.costmap import CostmapConfig
+from robot_daemon.planning.global_planner import GlobalPlannerConfig
+
+
+class PlannerConfigError(ValueError):
+    """A navigation parameter is unknown or out of range; the message names it."""
+
+
+# field -> (lowest allowed, highest allowed, lowest is inclusive)
+_RANGES: dict[str, tuple[float, float, bool]] = {
+    "max_linear_speed": (0.0, 2.0, False),
+    "min_linear_speed": (-2.0, 2.0, True),
+    "max_angular_speed": (0.0, 2 * math.pi, False),
+    "linear_acceleration": (0.0, 10.0, False),
+    "angular_acceleration": (0.0, 20.0, False),
+    "goal_xy_tolerance": (0.0, 10.0, False),
+    "goal_yaw_tolerance": (0.0, math.pi, False),
+    "approach_tolerance": (0.0, 20.0, False),
+    "robot_length": (0.0, 5.0, False),
+    "robot_width": (0.0, 5.0, False),
+    "laser_x_offset": (-2.0, 2.0, True),
+    "inflation_radius": (0.0, 5.0, False),
+    "cost_scaling_factor": (0.0, 100.0, False),
+    "obstacle_persistence": (0.0, 60.0, False),
+    "obstacle_max_range": (0.0, 60.0, False),
+    "raytrace_max_range": (0.0, 60.0, False),
+    "planning_resolution": (0.0, 1.0, False),
+    "cost_weight": (0.0, 1e6, False),
+    "path_spacing": (0.0, 5.0, False),
+    "replan_period": (0.0, 60.0, False),
+    "sim_time": (0.0, 10.0, False),
+    "sim_dt": (0.0, 1.0, False),
+    "v_samples": (2, 101, True),
+    "w_samples": (3, 201, True),
+    "lookahead": (0.0, 10.0, False),
+    "local_grid_resolution": (0.0, 0.5, False),
+    "slowdown_clearance": (0.0, 5.0, False),
+    "slowdown_min_fraction": (0.0, 1.0, False),
+    "approach_slowdown_distance": (0.0, 10.0, False),
+    "rotate_to_heading_angle": (0.0, math.pi, False),
+    "yaw_gain": (0.0, 20.0, False),
+    "min_rotation_speed": (0.0, 2 * math.pi, True),
+    "progress_distance": (0.0, 100.0, False),
+    "progress_timeout": (0.0, 600.0, False),
+    "blocked_timeout": (0.0, 3600.0, False),
+    "spin_angle": (0.0, 2 * math.pi, False),
+    "backup_distance": (0.0, 5.0, True),
+    "backup_speed": (0.0, 2.0, False),
+    "wait_duration": (0.0, 600.0, True),
+}
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Everything the navigator, its planners and its costmap need (SI units)."""
+
+    # Velocity limits, thesis Table 6.3 (rotational minimum -1 rad/s = -max_angular_speed).
+    max_linear_speed: float = 0.25  # [m/s]
+    min_linear_speed: float = 0.0  # [m/s] 0: the controller never reverses (recoveries may)
+    max_angular_speed: float = 1.0  # [rad/s]
+    linear_acceleration: float = 0.5  # [m/s^2]
+    angular_acceleration: float = 2.0  # [rad/s^2]
+    # Goal checking, thesis Table 6.3; approach tolerance of intermediate goals (§5.3.6).
+    goal_xy_tolerance: float = 0.5  # [m]
+    goal_yaw_tolerance: float = 0.1  # [rad]
+    approach_tolerance: float = 0.7  # [m] Nav2 drops via-points within 0.7 m
+    # Robot: rectangular footprint, centred on the base_link origin.
+    robot_length: float = 0.60  # [m] along x
+    robot_width: float = 0.55  # [m] along y
+    laser_x_offset: float = 0.0  # [m] laser position ahead of base_link
+    # Costmap (Nav2 inflation layer and obstacle layer).
+    inflation_radius: float = 0.6  # [m]
+    cost_scaling_factor: float = 5.0  # [1/m]
+    obstacle_persistence: float = 2.0  # [s]
+    obstacle_max_range: float = 4.0  # [m]
+    raytrace_max_range: float = 5.0  # [m]
+    # Global planner.
+    planning_resolution: float = 0.1  # [m]
+    cost_weight: float = 100.0
+    path_spacing: float = 0.25  # [m]
+    replan_period: float = 1.0  # [s]
+    # Local planner (dynamic window approach).
+    sim_time: float = 1.5  # [s] trajectory horizon
+    sim_dt: float = 0.1  # [s] integration step of the rollouts
+    v_samples: int = 11
+    w_samples: int = 21
+    lookahead: float = 1.0  # [m] carrot distance along the path
+    local_grid_resolution: float = 0.05  # [m]
+    slowdown_clearance: float = 0.3  # [m] below this footprint clearance the speed limit drops
+    slowdown_min_fraction: float = 0.4  # speed limit at zero clearance, fraction of the maximum
+    approach_slowdown_distance: float = 1.0  # [m] final approach: limit = max * d / this
+    rotate_to_heading_angle: float = 1.2  # [rad] beyond this path-heading error, turn in place
+    yaw_gain: float = 1.5  # [1/s] P gain of the final in-place rotation
+    min_rotation_speed: float = 0.1  # [rad/s] rotation never slower than this until aligned
+    # Progress checker and recoveries (Nav2 behaviour tree defaults).
+    progress_distance: float = 0.5  # [m]
+    progress_timeout: float = 10.0  # [s]
+    blocked_timeout: float = 30.0  # [s] recoveries without progress -> "blocked"
+    spin_angle: float = math.pi / 2  # [rad]
+    backup_distance: float = 0.3  # [m]
+    backup_speed: float = 0.1  # [m/s]
+    wait_duration: float = 5.0  # [s]
+
+    def __post_init__(self) -> None:
+        for name, (low, high, inclusive) in _RANGES.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise PlannerConfigError(f"PlannerConfig.{name} must be a number, got {value!r}")
+            above = value >= low if inclusive else value > low
+            if not (math.isfinite(value) and above and value <= high):
+                bracket = "[" if inclusive else "("
+                raise PlannerConfigError(
+                    f"PlannerConfig.{name} = {value!r} is outside {bracket}{low}, {high}]"
+                )
+        for name in ("v_samples", "w_samples"):
+            if not isinstance(getattr(self, name), int):
+                raise PlannerConfigError(f"PlannerConfig.{name} must be an integer")
+        if self.min_linear_speed > self.max_linear_speed:
+            raise PlannerConfigError(
+                f"PlannerConfig.min_linear_speed ({self.min_linear_speed}) must be <="
+                f" max_linear_speed ({self.max_linear_speed})"
+            )
+        if self.inflation_radius < self.inscribed_radius:
+            raise PlannerConfigError(
+                f"PlannerConfig.inflation_radius ({self.inflation_radius} m) must be >= half the"
+                f" robot width ({self.inscribed_radius} m)"
+            )
+        if self.sim_dt > self.sim_time:
+            raise PlannerConfigError("PlannerConfig.sim_dt must be <= sim_time")
+
+    @property
+    def inscribed_radius(self) -> float:
+        """Half the robot width [m]: Nav2's inscribed radius."""
+        return 0.5 * self.robot_width
+
+    def replace(self, **changes: Any) -> PlannerConfig:
+        """A validated copy with ``changes``; unknown names raise :class:`PlannerConfigError`."""
+        known = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - known)
+        if unknown:
+            raise PlannerConfigError(
+                f"unknown PlannerConfig field(s) {unknown}; known: {sorted(known)}"
+            )
+        return dataclasses.replace(self, **changes)
+
+    def costmap_config(self) -> CostmapConfig:
+        return CostmapConfig(
+            inscribed_radius=self.inscribed_radius,
+            inflation_radius=self.inflation_radius,
+            cost_scaling_factor=self.cost_scaling_factor,
+            obstacle_persistence=self.obstacle_persistence,
+            obstacle_max_range=self.obstacle_max_range,
+            raytrace_max_range=self.raytrace_max_range,
+        )
+
+    def global_planner_config(self) -> GlobalPlannerConfig:
+        return GlobalPlannerConfig(
+            planning_resolution=self.planning_resolution,
+            cost_weight=self.cost_weight,
+            sample_spacing=self.path_spacing,
+        )

@@ -1,0 +1,274 @@
+"""A 2-D navigation costmap: the a-priori map plus live laser obstacles, inflated as in Nav2.
+
+The global costmap of the Hybrid Motion Planner (thesis §3.3.1): obstacles of the a-priori metric
+map (occupied *and* unknown cells are lethal) and obstacles the laser sees within
+``obstacle_max_range`` are inflated "to mark all the areas where the robot's position is not
+valid". Live obstacles are marked for ``obstacle_persistence`` seconds and cleared earlier when a
+later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does.
+
+Inflation follows Nav2's ``InflationLayer`` (navigation2/nav2_costmap_2d/inflation_layer.hpp)::
+
+    d = 0                               -> LETHAL_OBSTACLE   = 254
+    0 < d <= r_inscribed                -> INSCRIBED         = 253
+    r_inscribed < d <= r_inflation      -> floor(252 * exp(-k * (d - r_inscribed)))
+    d > r_inflation                     -> FREE_SPACE        = 0
+
+with ``d`` the Euclidean distance [m] from a cell centre to the nearest obstacle cell centre
+(``scipy.ndimage.distance_transform_edt``), ``r_inscribed`` half the robot width and ``k`` the
+cost scaling factor. A robot centre in a cell of cost >= 253 certainly collides.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+
+logger = logging.getLogger(__name__)
+
+CLEARING_BEAM_SPACING = math.radians(0.5)  # [rad] clearing uses beams at least this far apart
+
+LETHAL = 254
+INSCRIBED = 253
+MAX_NON_LETHAL = 252
+FREE_COST = 0
+
+
+class CostmapConfigError(ValueError):
+    """A costmap parameter is out of range; the message names the field and the allowed range."""
+
+
+@dataclass(frozen=True)
+class CostmapConfig:
+    """Inflation and obstacle-layer parameters (Nav2 names in comments)."""
+
+    inscribed_radius: float = 0.275  # [m] half the robot width (0.55 m)
+    inflation_radius: float = 0.6  # [m] inflation_radius
+    cost_scaling_factor: float = 5.0  # [1/m] cost_scaling_factor
+    obstacle_persistence: float = 2.0  # [s] how long a laser mark lives without a new hit
+    obstacle_max_range: float = 4.0  # [m] obstacle_max_range: beams beyond do not mark
+    raytrace_max_range: float = 5.0  # [m] raytrace_max_range: beams clear up to here
+
+    def __post_init__(self) -> None:
+        positive = (
+            ("inscribed_radius [m]", self.inscribed_radius),
+            ("cost_scaling_factor [1/m]", self.cost_scaling_factor),
+            ("obstacle_persistence [s]", self.obstacle_persistence),
+            ("obstacle_max_range [m]", self.obstacle_max_range),
+            ("raytrace_max_range [m]", self.raytrace_max_range),
+        )
+        for name, value in positive:
+            if not (math.isfinite(value) and value > 0.0):
+                raise CostmapConfigError(
+                    f"costmap {name} must be a finite number > 0, got {value!r}"
+                )
+        if not (
+            math.isfinite(self.inflation_radius) and self.inflation_radius >= self.inscribed_radius
+        ):
+            raise CostmapConfigError(
+                f"costmap inflation_radius [m] must be >= inscribed_radius ({self.inscribed_radius}),"
+                f" got {self.inflation_radius!r}"
+            )
+
+
+def inflation_cost(
+    distance: npt.ArrayLike,
+    inscribed_radius: float,
+    inflation_radius: float,
+    cost_scaling_factor: float,
+) -> npt.NDArray[np.uint8]:
+    """Nav2's cost of a cell at ``distance`` [m] from the nearest obstacle.
+
+    ``cost = 252 * exp(-k * (d - r_inscribed))`` for ``r_inscribed < d <= r_inflation``,
+    253 inside the inscribed radius, 254 on the obstacle (d == 0) and 0 beyond the inflation
+    radius. The value is truncated to an integer, as Nav2's ``unsigned char`` cast does.
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    factor = np.exp(-cost_scaling_factor * np.maximum(d - inscribed_radius, 0.0))
+    cost = np.floor(MAX_NON_LETHAL * factor)
+    cost = np.where(d > inflation_radius, FREE_COST, cost)
+    cost = np.where(d <= inscribed_radius, INSCRIBED, cost)
+    cost = np.where(d <= 0.0, LETHAL, cost)
+    return cost.astype(np.uint8)
+
+
+class Costmap:
+    """Static map layer + laser obstacle layer + inflation, on the map's own grid.
+
+    ``update(now, pose, scan)`` marks and clears live obstacles; ``costs(now)`` returns the
+    inflated uint8 cost grid (row 0 at the bottom, the geometry of ``grid``). Expired marks are
+    ignored at read time, so nothing needs a timer.
+    """
+
+    def __init__(self, grid: OccupancyGrid, config: CostmapConfig | None = None) -> None:
+        self.grid = grid
+        self.config = config or CostmapConfig()
+        self.resolution = grid.resolution
+        static = np.ascontiguousarray(grid.blocked())
+        static.setflags(write=False)
+        self._static_obstacles = static
+        self._static_distance = ndimage.distance_transform_edt(
+            ~static, sampling=self.resolution
+        ).astype(np.float32)
+        self._static_costs = self._costs_from_distance(self._static_distance)
+        self._static_costs.setflags(write=False)
+        # Time [s] until which each cell holds a live laser obstacle (-inf: none).
+        self._marked_until = np.full(static.shape, -np.inf, dtype=np.float64)
+        self._cache_key: tuple[float, int] | None = None
+        self._cache: npt.NDArray[np.uint8] = self._static_costs
+        self._version = 0
+
+    # -- configuration ---------------------------------------------------------------------
+
+    def reconfigure(self, config: CostmapConfig) -> None:
+        """Adopt new inflation / obstacle parameters (recomputes the static layer if needed)."""
+        old = self.config
+        self.config = config
+        if (old.inscribed_radius, old.inflation_radius, old.cost_scaling_factor) != (
+            config.inscribed_radius,
+            config.inflation_radius,
+            config.cost_scaling_factor,
+        ):
+            self._static_costs = self._costs_from_distance(self._static_distance)
+            self._static_costs.setflags(write=False)
+        self._touch()
+
+    def _costs_from_distance(self, distance: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:
+        c = self.config
+        return inflation_cost(
+            distance, c.inscribed_radius, c.inflation_radius, c.cost_scaling_factor
+        )
+
+    def _touch(self) -> None:
+        self._version += 1
+        self._cache_key = None
+
+    # -- obstacle layer ----------------------------------------------------------------------
+
+    def update(
+        self, now: float, pose: Pose2D, scan: LaserScan, sensor: Pose2D | None = None
+    ) -> None:
+        """Clear the cells the beams pass through, then mark the cells where they end.
+
+        ``pose`` is the robot pose in the map frame, ``sensor`` the laser pose in the robot frame
+        (default: at the robot centre, looking forward).
+        """
+        cfg = self.config
+        origin = pose.compose(sensor) if sensor is not None else pose
+        c, s = math.cos(origin.yaw), math.sin(origin.yaw)
+        valid = scan.valid()
+        ranges = scan.ranges.astype(np.float64)
+        angles = scan.angles
+        # Clearing: sample every other beam (0.5 degrees on the UTM-30LX: under 5 cm apart at
+        # the 5 m clearing range, one cell) every cell up to (range - 1 cell). Half-cell steps
+        # on every beam cost four times as much for the same cleared cells, give or take one.
+        stride = max(1, int(CLEARING_BEAM_SPACING / abs(scan.angle_increment) + 1e-9))
+        clear = np.zeros_like(valid)
+        clear[::stride] = valid[::stride]
+        reach = np.minimum(ranges[clear], cfg.raytrace_max_range) - self.resolution
+        beam_angles = angles[clear] + origin.yaw
+        if reach.size and float(reach.max()) > 0.0:
+            step = self.resolution
+            t = np.arange(0.0, float(reach.max()), step)
+            inside = t[None, :] < reach[:, None]
+            xs = origin.x + np.cos(beam_angles)[:, None] * t[None, :]
+            ys = origin.y + np.sin(beam_angles)[:, None] * t[None, :]
+            rows, cols = self.grid.world_to_cell(xs[inside], ys[inside])
+            ok = self.grid.in_bounds(rows, cols)
+            self._marked_until[rows[ok], cols[ok]] = -np.inf
+        # Marking: endpoints within obstacle_max_range.
+        mark = valid & (ranges <= cfg.obstacle_max_range)
+        px, py = ranges[mark] * np.cos(angles[mark]), ranges[mark] * np.sin(angles[mark])
+        wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
+        rows, cols = self.grid.world_to_cell(wx, wy)
+        ok = self.grid.in_bounds(rows, cols)
+        self._marked_until[rows[ok], cols[ok]] = now + cfg.obstacle_persistence
+        self._touch()
+
+    def mark_points(self, now: float, points: npt.ArrayLike) -> None:
+        """Mark map-frame points (N, 2) [m] as live obstacles (e.g. a sonar or a test)."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        rows, cols = self.grid.world_to_cell(pts[:, 0], pts[:, 1])
+        ok = self.grid.in_bounds(rows, cols)
+        self._marked_until[rows[ok], cols[ok]] = now + self.config.obstacle_persistence
+        self._touch()
+
+    def clear(self) -> None:
+        """Forget every live obstacle (the "clear costmap" recovery)."""
+        self._marked_until.fill(-np.inf)
+        self._touch()
+
+    def live_obstacles(self, now: float) -> npt.NDArray[np.bool_]:
+        """Cells holding an unexpired laser mark."""
+        live: npt.NDArray[np.bool_] = self._marked_until > now
+        return live
+
+    def obstacles(self, now: float) -> npt.NDArray[np.bool_]:
+        """Lethal cells: static obstacles (occupied or unknown) or live laser marks."""
+        obstacles: npt.NDArray[np.bool_] = self._static_obstacles | self.live_obstacles(now)
+        return obstacles
+
+    def obstacles_window(
+        self, now: float, row0: int, row1: int, col0: int, col1: int
+    ) -> npt.NDArray[np.bool_]:
+        """Lethal cells in ``[row0:row1, col0:col1]`` (clipped to the grid)."""
+        h, w = self._static_obstacles.shape
+        r0, r1, c0, c1 = max(row0, 0), min(row1, h), max(col0, 0), min(col1, w)
+        if r0 >= r1 or c0 >= c1:
+            return np.zeros((0, 0), dtype=bool)
+        window: npt.NDArray[np.bool_] = self._static_obstacles[r0:r1, c0:c1] | (
+            self._marked_until[r0:r1, c0:c1] > now
+        )
+        return window
+
+    # -- inflation -------------------------------------------------------------------------
+
+    def costs(self, now: float) -> npt.NDArray[np.uint8]:
+        """The inflated cost grid at time ``now`` (read-only; 254 lethal, 253 inscribed).
+
+        Only the bounding box of the live obstacles (grown by the inflation radius) is
+        recomputed: there the distance is ``min(static distance, distance to live marks)``.
+        """
+        live = self.live_obstacles(now)
+        key = (float(np.count_nonzero(live)), self._version)
+        if self._cache_key == key:
+            return self._cache
+        if not live.any():
+            result = self._static_costs
+        else:
+            rows = np.flatnonzero(live.any(axis=1))
+            cols = np.flatnonzero(live.any(axis=0))
+            pad = math.ceil(self.config.inflation_radius / self.resolution) + 1
+            h, w = live.shape
+            r0, r1 = max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)
+            c0, c1 = max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)
+            live_distance = ndimage.distance_transform_edt(
+                ~live[r0:r1, c0:c1], sampling=self.resolution
+            )
+            distance = np.minimum(self._static_distance[r0:r1, c0:c1], live_distance)
+            result = self._static_costs.copy()
+            result[r0:r1, c0:c1] = self._costs_from_distance(distance.astype(np.float32))
+            result.setflags(write=False)
+        self._cache_key = key
+        self._cache = result
+        return result
+
+    def cost_at(self, now: float, x: float, y: float) -> int:
+        """Cost of the cell holding map-frame point (x, y); outside the map is lethal."""
+        row, col = self.grid.world_to_cell(x, y)
+        if not bool(self.grid.in_bounds(row, col)):
+            return LETHAL
+        return int(self.costs(now)[int(row), int(col)])
+
+    @property
+    def static_costs(self) -> npt.NDArray[np.uint8]:
+        """The inflated a-priori map alone."""
+        return self._static_costs

@@ -1,0 +1,424 @@
+"""Global path planning: A* on an (optionally coarsened) inflated costmap, then smoothing.
+
+The first stage of the Hybrid Motion Planner's global planner (thesis §3.3.2): "the A* algorithm
+[25] in the low resolution costmap ... a quick approximation of a feasible path", followed by
+smoothing (§3.3.2.1; here line-of-sight shortcutting instead of elastic bands).
+
+Search. 8-connected grid, step cost ``len * (1 + (c_u + c_v) / (2 * cost_weight))`` with ``len``
+1 or sqrt(2) cells times the resolution [m] and ``c`` the Nav2 cell costs; cells of cost >= 253
+(inscribed or lethal) are not traversable. A* with the octile heuristic
+``h = res * (max(dx, dy) + (sqrt(2) - 1) * min(dx, dy))`` (admissible and consistent, since every
+step costs at least its length) is run as Dijkstra on the *reduced* costs
+``w'(u, v) = w(u, v) - h(u) + h(v) >= 0`` (the potential-function view of A*, Hart, Nilsson and
+Raphael 1968; Johnson 1977): the compiled ``scipy.sparse.csgraph.dijkstra`` then expands nodes in
+A*'s order, and its ``limit`` argument stops the search at an f-value bound that grows fourfold
+until the goal is reached, so only A*'s ellipse around the straight line is explored.
+
+Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
+takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
+all its fine cells are). A 0.9 m door still leaves a band of free coarse cells at 0.1 m.
+
+Smoothing. Greedy line-of-sight shortcutting on the fine cost grid: from each anchor the path jumps
+to the farthest later vertex whose straight segment stays out of inscribed space and never meets a
+cost higher than the highest cost the A* path itself met between the two vertices (so a shortcut
+never hugs a wall more closely than the optimal path did). The result is resampled every
+``sample_spacing`` metres.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.planning.costmap import INSCRIBED, LETHAL
+
+logger = logging.getLogger(__name__)
+
+SQRT2 = math.sqrt(2.0)
+# 8-connected neighbourhood (d_row, d_col) and step lengths [cells].
+_OFFSETS = np.array(
+    [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)], dtype=np.int64
+)
+_STEP = np.hypot(_OFFSETS[:, 0], _OFFSETS[:, 1])
+
+
+class PlanningError(RuntimeError):
+    """No path can be planned; subclasses say why."""
+
+
+class StartBlockedError(PlanningError):
+    """The start lies in an obstacle (or in inscribed space with no free cell nearby)."""
+
+
+class GoalBlockedError(PlanningError):
+    """The goal lies in an obstacle, in inscribed space or outside the map."""
+
+
+class NoPathError(PlanningError):
+    """Start and goal are in different free regions of the costmap."""
+
+
+class GlobalPlannerConfigError(ValueError):
+    """A global planner parameter is out of range."""
+
+
+@dataclass(frozen=True)
+class GlobalPlannerConfig:
+    """Parameters of :class:`GlobalPlanner`."""
+
+    planning_resolution: float = 0.1  # [m] coarse grid (rounded to a multiple of the map's)
+    cost_weight: float = 100.0  # step cost = len * (1 + cost / cost_weight)
+    sample_spacing: float = 0.25  # [m] spacing of the returned points
+    snap_radius: float = 0.5  # [m] how far a start/goal in inscribed space may be moved
+    smooth: bool = True
+    # [m] search first in the box around start and goal grown by this margin (0: whole map);
+    # only if that box holds no path is the whole map searched. Legs between topological
+    # nodes are 5-20 m, so this cuts a plan on a 70 x 35 m floor from ~50 ms to a few ms.
+    window_margin: float = 8.0
+
+    def __post_init__(self) -> None:
+        for name, value in (
+            ("planning_resolution [m]", self.planning_resolution),
+            ("cost_weight", self.cost_weight),
+            ("sample_spacing [m]", self.sample_spacing),
+        ):
+            if not (math.isfinite(value) and value > 0.0):
+                raise GlobalPlannerConfigError(
+                    f"global planner {name} must be a finite number > 0, got {value!r}"
+                )
+        if not (math.isfinite(self.window_margin) and self.window_margin >= 0.0):
+            raise GlobalPlannerConfigError(
+                f"global planner window_margin [m] must be >= 0, got {self.window_margin!r}"
+            )
+        if not (math.isfinite(self.snap_radius) and self.snap_radius >= 0.0):
+            raise GlobalPlannerConfigError(
+                f"global planner snap_radius [m] must be >= 0, got {self.snap_radius!r}"
+            )
+
+
+def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.uint8]:
+    """Max-pool ``costs`` over ``factor x factor`` blocks; a partial edge block counts as lethal
+    where it runs off the map."""
+    if factor == 1:
+        return costs
+    h, w = costs.shape
+    hc, wc = -(-h // factor), -(-w // factor)
+    padded = np.full((hc * factor, wc * factor), LETHAL, dtype=np.uint8)
+    padded[:h, :w] = costs
+    # f*f strided maxima are several times faster than reshape(...).max(axis=(1, 3)).
+    pooled: npt.NDArray[np.uint8] = padded[::factor, ::factor].copy()
+    for dr in range(factor):
+        for dc in range(factor):
+            if dr or dc:
+                np.maximum(pooled, padded[dr::factor, dc::factor], out=pooled)
+    return pooled
+
+
+def octile_distance(
+    rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], goal: tuple[int, int]
+) -> npt.NDArray[np.float64]:
+    """Octile distance [cells] from (rows, cols) to ``goal`` = (row, col)."""
+    dr = np.abs(rows - goal[0]).astype(np.float64)
+    dc = np.abs(cols - goal[1]).astype(np.float64)
+    result: npt.NDArray[np.float64] = np.maximum(dr, dc) + (SQRT2 - 1.0) * np.minimum(dr, dc)
+    return result
+
+
+def astar_cells(
+    costs: npt.NDArray[np.uint8],
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    cost_weight: float = 100.0,
+) -> tuple[list[tuple[int, int]], float]:
+    """Optimal 8-connected path of (row, col) cells on a cost grid, and its cost [cells].
+
+    Cells of cost >= 253 are not traversable. Raises :class:`NoPathError` when the goal cannot
+    be reached; start and goal must be traversable.
+    """
+    h, w = costs.shape
+    for name, (r, c) in (("start", start), ("goal", goal)):
+        if not (0 <= r < h and 0 <= c < w) or costs[r, c] >= INSCRIBED:
+            raise PlanningError(f"{name} cell {(r, c)} is outside the grid or not traversable")
+    if start == goal:
+        return [start], 0.0
+    # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
+    wp = w + 2
+    padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
+    padded[1:-1, 1:-1] = costs
+    flat_cost = padded.ravel()
+    free_flat = flat_cost < INSCRIBED
+    nodes = np.flatnonzero(free_flat)
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    compact[nodes] = np.arange(nodes.size)
+    node_rows, node_cols = np.divmod(nodes, wp)
+    goal_p = (goal[0] + 1, goal[1] + 1)
+    heuristic = octile_distance(node_rows, node_cols, goal_p)
+    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
+    neighbours = nodes[:, None] + offsets[None, :]
+    traversable = free_flat[neighbours]
+    # Dense (nodes x 8) arithmetic first, one masked extraction at the end: gathers are slow.
+    neighbour_h = octile_distance(
+        node_rows[:, None] + _OFFSETS[None, :, 0], node_cols[:, None] + _OFFSETS[None, :, 1], goal_p
+    )
+    cost_f = flat_cost.astype(np.float64)
+    weight = _STEP[None, :] * (
+        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    )
+    reduced_dense = weight - heuristic[:, None] + neighbour_h
+    reduced = reduced_dense[traversable]
+    neighbour_compact = compact[neighbours[traversable]]
+    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
+    np.maximum(reduced, 1e-12, out=reduced)
+    indptr = np.concatenate(([0], np.cumsum(traversable.sum(axis=1))))
+    graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size, nodes.size))
+    s = int(compact[(start[0] + 1) * wp + start[1] + 1])
+    g = int(compact[goal_p[0] * wp + goal_p[1]])
+    h_start = float(heuristic[s])
+    # Reduced distance to the goal = path cost - h(start): the detour beyond the straight line.
+    limit = max(0.5 * h_start, 20.0)
+    reached, previous_limit = -1, 0.0
+    max_edge = float(reduced.max(initial=0.0))
+    while True:
+        dist, pred = dijkstra(graph, indices=s, return_predecessors=True, limit=limit)
+        if math.isfinite(dist[g]) or limit == math.inf:
+            break
+        now_reached = int(np.count_nonzero(np.isfinite(dist)))
+        if now_reached == reached and limit - previous_limit > max_edge:
+            break  # nothing new within a band wider than any edge: the region is exhausted
+        reached, previous_limit = now_reached, limit
+        limit = limit * 4.0 if limit < 4.0 * h_start + 100.0 else math.inf
+    if not math.isfinite(dist[g]):
+        raise NoPathError(f"no traversable path from cell {start} to cell {goal}")
+    chain = [g]
+    while chain[-1] != s:
+        chain.append(int(pred[chain[-1]]))
+    chain.reverse()
+    cells_flat = nodes[np.asarray(chain)]
+    rows, cols = np.divmod(cells_flat, wp)
+    cells = [(int(r) - 1, int(c) - 1) for r, c in zip(rows, cols, strict=True)]
+    total = float(dist[g]) + h_start  # undo the potential: cost = reduced + h(s) - h(g), h(g)=0
+    return cells, total
+
+
+def path_cost(
+    costs: npt.NDArray[np.uint8], cells: list[tuple[int, int]], cost_weight: float = 100.0
+) -> float:
+    """Cost [cells] of a cell path under :func:`astar_cells`' step cost."""
+    total = 0.0
+    for (r0, c0), (r1, c1) in itertools.pairwise(cells):
+        step = math.hypot(r1 - r0, c1 - c0)
+        total += step * (1.0 + (float(costs[r0, c0]) + float(costs[r1, c1])) / (2.0 * cost_weight))
+    return total
+
+
+class GlobalPlanner:
+    """Plans map-frame paths on cost grids with the geometry of ``grid``."""
+
+    def __init__(self, grid: OccupancyGrid, config: GlobalPlannerConfig | None = None) -> None:
+        self.grid = grid
+        self.config = config or GlobalPlannerConfig()
+        self.factor = max(1, round(self.config.planning_resolution / grid.resolution))
+        self.coarse_resolution = self.factor * grid.resolution
+
+    def plan(
+        self,
+        costs: npt.NDArray[np.uint8],
+        start: tuple[float, float],
+        goal: tuple[float, float],
+    ) -> list[tuple[float, float]]:
+        """A path of map-frame points [m] from ``start`` to ``goal`` on the fine cost grid.
+
+        The first point is the start (or, if it lay in inscribed space, the nearest free
+        point), the last the goal; points are about ``sample_spacing`` apart.
+        """
+        grid = self.grid
+        if costs.shape != grid.cells.shape:
+            raise ValueError(f"cost grid shape {costs.shape} != map shape {grid.cells.shape}")
+        start_cost = self._fine_cost(costs, start)
+        goal_cost = self._fine_cost(costs, goal)
+        if start_cost == LETHAL:
+            raise StartBlockedError(
+                f"start ({start[0]:.2f}, {start[1]:.2f}) is in an obstacle or outside"
+                f" {grid.source}; move the robot or relocalise"
+            )
+        if goal_cost == LETHAL:
+            raise GoalBlockedError(
+                f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is in an obstacle, unknown space or outside"
+                f" {grid.source}; pick a goal in free space"
+            )
+        windows: list[tuple[int, int, int, int] | None] = [None]
+        if self.config.window_margin > 0.0:
+            windows.insert(0, self._window(start, goal, costs.shape))
+        for window in windows:
+            r0, r1, c0, c1 = window or (0, costs.shape[0], 0, costs.shape[1])
+            coarse = coarsen_costs(costs[r0:r1, c0:c1], self.factor)
+            offset = (r0 // self.factor, c0 // self.factor)
+            start_cell = self._snap(coarse, start, "start", offset)
+            goal_cell = self._snap(coarse, goal, "goal", offset)
+            try:
+                cells, _ = astar_cells(coarse, start_cell, goal_cell, self.config.cost_weight)
+                break
+            except NoPathError as exc:
+                if window is None:
+                    raise NoPathError(
+                        f"no path from ({start[0]:.2f}, {start[1]:.2f}) to "
+                        f"({goal[0]:.2f}, {goal[1]:.2f}) in {grid.source}: "
+                        "they are separated by obstacles"
+                    ) from exc
+                logger.debug("no path inside the search window; searching the whole map")
+        rows = np.array([c[0] for c in cells], dtype=np.float64) + offset[0]
+        cols = np.array([c[1] for c in cells], dtype=np.float64) + offset[1]
+        points = np.column_stack(
+            (
+                grid.origin_x + (cols + 0.5) * self.coarse_resolution,
+                grid.origin_y + (rows + 0.5) * self.coarse_resolution,
+            )
+        )
+        # Replace the end cells' centres by the true start/goal where those are traversable.
+        if start_cost < INSCRIBED:
+            points[0] = start
+        if goal_cost < INSCRIBED:
+            points[-1] = goal
+        if len(points) == 1:
+            points = np.vstack((points, points))
+        if self.config.smooth:
+            points = shortcut(points, costs, grid)
+        resampled = resample(points, self.config.sample_spacing)
+        return [(float(x), float(y)) for x, y in resampled]
+
+    def _fine_cost(self, costs: npt.NDArray[np.uint8], point: tuple[float, float]) -> int:
+        row, col = self.grid.world_to_cell(point[0], point[1])
+        if not bool(self.grid.in_bounds(row, col)):
+            return LETHAL
+        return int(costs[int(row), int(col)])
+
+    def _window(
+        self, start: tuple[float, float], goal: tuple[float, float], shape: tuple[int, ...]
+    ) -> tuple[int, int, int, int]:
+        """Fine-grid (row0, row1, col0, col1) of the search box, aligned to coarse blocks."""
+        grid, f = self.grid, self.factor
+        margin = self.config.window_margin
+        xs, ys = (start[0], goal[0]), (start[1], goal[1])
+        rows, cols = grid.world_to_cell(
+            [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
+        )
+        r0 = max(int(rows[0]) // f * f, 0)
+        c0 = max(int(cols[0]) // f * f, 0)
+        r1 = min((int(rows[1]) // f + 1) * f, shape[0])
+        c1 = min((int(cols[1]) // f + 1) * f, shape[1])
+        return r0, r1, c0, c1
+
+    def _snap(
+        self,
+        coarse: npt.NDArray[np.uint8],
+        point: tuple[float, float],
+        name: str,
+        offset: tuple[int, int] = (0, 0),
+    ) -> tuple[int, int]:
+        """The coarse cell of ``point`` in ``coarse`` (whose cell (0, 0) is the full coarse
+        grid's ``offset``), or the nearest traversable one within snap_radius."""
+        grid = self.grid
+        res = self.coarse_resolution
+        col = math.floor((point[0] - grid.origin_x) / res) - offset[1]
+        row = math.floor((point[1] - grid.origin_y) / res) - offset[0]
+        h, w = coarse.shape
+        if 0 <= row < h and 0 <= col < w and coarse[row, col] < INSCRIBED:
+            return row, col
+        k = max(1, math.ceil(self.config.snap_radius / res))
+        r0, r1 = max(row - k, 0), min(row + k + 1, h)
+        c0, c1 = max(col - k, 0), min(col + k + 1, w)
+        window = coarse[r0:r1, c0:c1]
+        rr, cc = np.nonzero(window < INSCRIBED)
+        if rr.size:
+            cx = grid.origin_x + (cc + c0 + offset[1] + 0.5) * res
+            cy = grid.origin_y + (rr + r0 + offset[0] + 0.5) * res
+            d = np.hypot(cx - point[0], cy - point[1])
+            best = int(np.argmin(d))
+            if d[best] <= self.config.snap_radius + res:
+                logger.debug("%s snapped %.2f m to a free cell", name, float(d[best]))
+                return int(rr[best] + r0), int(cc[best] + c0)
+        error = StartBlockedError if name == "start" else GoalBlockedError
+        raise error(
+            f"{name} ({point[0]:.2f}, {point[1]:.2f}) is within the robot's inscribed radius of an"
+            f" obstacle and no free cell lies within {self.config.snap_radius} m"
+        )
+
+
+def segment_costs(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    grid: OccupancyGrid,
+) -> npt.NDArray[np.uint8]:
+    """Max cost along each segment a[i] -> b[i] (sampled every half cell); (N,) uint8."""
+    lengths = np.hypot(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1])
+    n = max(2, math.ceil(float(lengths.max(initial=0.0)) / (0.5 * grid.resolution)) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    xs = a[:, 0, None] + (b[:, 0] - a[:, 0])[:, None] * t[None, :]
+    ys = a[:, 1, None] + (b[:, 1] - a[:, 1])[:, None] * t[None, :]
+    rows, cols = grid.world_to_cell(xs, ys)
+    inside = grid.in_bounds(rows, cols)
+    sampled = np.full(xs.shape, LETHAL, dtype=np.uint8)
+    sampled[inside] = costs[rows[inside], cols[inside]]
+    result: npt.NDArray[np.uint8] = sampled.max(axis=1)
+    return result
+
+
+def shortcut(
+    points: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    grid: OccupancyGrid,
+    window: int = 120,
+) -> npt.NDArray[np.float64]:
+    """Greedy line-of-sight shortcutting that respects the costmap (see module docstring)."""
+    n = len(points)
+    if n <= 2:
+        return points
+    vertex_rows, vertex_cols = grid.world_to_cell(points[:, 0], points[:, 1])
+    inside = grid.in_bounds(vertex_rows, vertex_cols)
+    vertex_cost = np.full(n, LETHAL, dtype=np.int64)
+    vertex_cost[inside] = costs[vertex_rows[inside], vertex_cols[inside]]
+    # Cost met by the A* path on each leg i -> i+1.
+    leg_cost = segment_costs(points[:-1], points[1:], costs, grid).astype(np.int64)
+    kept = [0]
+    i = 0
+    while i < n - 1:
+        j_max = min(n - 1, i + window)
+        candidates = np.arange(i + 1, j_max + 1)
+        allowed = np.maximum.accumulate(
+            np.maximum(leg_cost[i:j_max], vertex_cost[i + 1 : j_max + 1])
+        )
+        allowed = np.maximum(allowed, vertex_cost[i])
+        seg = segment_costs(
+            np.repeat(points[i : i + 1], candidates.size, axis=0), points[candidates], costs, grid
+        ).astype(np.int64)
+        ok = (seg <= allowed) & (seg < INSCRIBED)
+        ok[0] = True  # the A* leg itself is always acceptable
+        j = int(candidates[np.flatnonzero(ok)[-1]])
+        kept.append(j)
+        i = j
+    result: npt.NDArray[np.float64] = points[kept]
+    return result
+
+
+def resample(points: npt.NDArray[np.float64], spacing: float) -> npt.NDArray[np.float64]:
+    """Points every ``spacing`` metres along the polyline, always keeping both ends."""
+    seg = np.hypot(np.diff(points[:, 0]), np.diff(points[:, 1]))
+    s = np.concatenate(([0.0], np.cumsum(seg)))
+    total = float(s[-1])
+    if total <= 0.0:
+        return points[:1].copy()
+    count = max(1, math.ceil(total / spacing))
+    targets = np.linspace(0.0, total, count + 1)
+    xs = np.interp(targets, s, points[:, 0])
+    ys = np.interp(targets, s, points[:, 1])
+    result: npt.NDArray[np.float64] = np.column_stack((xs, ys))
+    return result

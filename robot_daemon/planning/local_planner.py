@@ -1,0 +1,335 @@
+"""Local planning with the dynamic window approach (Fox, Burgard and Thrun 1997).
+
+Fox et al., "The dynamic window approach to collision avoidance", IEEE Robotics & Automation
+Magazine 4(1), 1997; the D-DWA of the Hybrid Motion Planner (thesis §3.3.2.2) is a variant.
+
+Search space. Velocities reachable within one control period ``dt`` under the acceleration limits
+(the *dynamic window*) intersected with the speed limits::
+
+    V_d = [v0 - a_v dt, v0 + a_v dt] x [w0 - a_w dt, w0 + a_w dt]
+    V_s = [v_min, v_max] x [-w_max, w_max]
+
+sampled ``v_samples x w_samples`` times. Each (v, w) is held for ``sim_time`` seconds; the robot
+moves on a circular arc ``x = v/w sin(w t)``, ``y = v/w (1 - cos(w t))``, ``theta = w t``.
+
+Admissibility. The rectangular footprint (``robot_length x robot_width``) is covered by ``n``
+circles on its long axis (radius ``sqrt((L / 2n)^2 + (W / 2)^2)``); a pose collides when the
+Euclidean distance transform of a robot-centred obstacle grid (live scan points and the
+costmap's lethal cells) at a circle centre is below its radius. All trajectories x all steps x
+all circles are checked in one vectorised lookup.
+
+Objective (lower is better; Fox's heading, dist and velocity terms, DWB-style)::
+
+    G = w_prog * |p_end - carrot| + w_head * |angle to carrot| + w_path * d(p_end, path)
+        + w_clear * max(0, 1 - clearance / 0.2 m) + w_speed * (v_max - v) / v_max
+
+where the *carrot* is the path point ``lookahead`` metres past the point nearest the robot.
+The speed limit shrinks with the footprint's clearance (doors, people) and, on the final leg, with
+the distance to the goal. A path heading error beyond ``rotate_to_heading_angle`` is first
+turned away in place (as Nav2's rotation shim does).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+from interbot_core.geometry import Pose2D, wrap_angle
+from robot_daemon.planning.config import PlannerConfig
+
+logger = logging.getLogger(__name__)
+
+# Weights of the objective's terms.
+W_PROGRESS = 1.0
+W_HEADING = 0.05
+W_PATH = 0.1
+W_CLEARANCE = 0.4
+W_SPEED = 0.2
+# Clearance [m] below which a trajectory is penalised. Small on purpose: a larger reference makes
+# every longer (faster) trajectory through a door look worse than standing still.
+CLEARANCE_REF = 0.2
+
+
+@dataclass(frozen=True)
+class LocalPlan:
+    """One control decision: the command and why."""
+
+    linear: float  # [m/s]
+    angular: float  # [rad/s]
+    valid: bool  # False: no admissible trajectory; the command brakes
+    mode: str  # "dwa", "rotate_to_heading", "rotate_to_goal" or "brake"
+    clearance: float  # [m] footprint clearance at the current pose
+    admissible: int = 0  # number of collision-free trajectories
+
+
+def footprint_circles(length: float, width: float) -> tuple[npt.NDArray[np.float64], float]:
+    """Centres (x offsets [m]) and common radius [m] of circles covering the rectangle."""
+    n = max(1, math.ceil(2.0 * length / width))
+    segment = length / n
+    offsets: npt.NDArray[np.float64] = -0.5 * length + segment * (
+        np.arange(n, dtype=np.float64) + 0.5
+    )
+    radius = math.hypot(0.5 * segment, 0.5 * width)
+    return offsets, radius
+
+
+class ObstacleField:
+    """Distance [m] to the nearest obstacle point, on a square robot-centred grid."""
+
+    def __init__(self, points: npt.ArrayLike, half_size: float, resolution: float) -> None:
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        self.half_size = half_size
+        self.resolution = resolution
+        self.n = math.ceil(2.0 * half_size / resolution)
+        idx = np.floor((pts + half_size) / resolution).astype(np.int64)
+        inside = np.all((idx >= 0) & (idx < self.n), axis=1)
+        idx = idx[inside]
+        if idx.size == 0:
+            self.distance: npt.NDArray[np.float64] = np.full((self.n, self.n), np.inf)
+        else:
+            free = np.ones((self.n, self.n), dtype=bool)
+            free[idx[:, 1], idx[:, 0]] = False  # [row = y, col = x]
+            self.distance = ndimage.distance_transform_edt(free, sampling=resolution)
+
+    def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Distance at robot-frame points; outside the grid counts as far from everything."""
+        col = np.floor((np.asarray(x) + self.half_size) / self.resolution).astype(np.int64)
+        row = np.floor((np.asarray(y) + self.half_size) / self.resolution).astype(np.int64)
+        inside = (row >= 0) & (row < self.n) & (col >= 0) & (col < self.n)
+        result = np.full(col.shape, np.inf)
+        result[inside] = self.distance[row[inside], col[inside]]
+        return result
+
+
+def rollout(
+    v: npt.NDArray[np.float64], w: npt.NDArray[np.float64], times: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Poses (x, y, theta), each (S, K), of S constant-(v, w) arcs at K times, from the origin."""
+    theta = w[:, None] * times[None, :]
+    dist = v[:, None] * times[None, :]
+    small = np.abs(theta) < 1e-9
+    safe = np.where(small, 1.0, theta)
+    sin_ratio = np.where(small, 1.0, np.sin(safe) / safe)
+    cos_ratio = np.where(small, 0.5 * theta, (1.0 - np.cos(safe)) / safe)
+    return dist * sin_ratio, dist * cos_ratio, theta
+
+
+def limit_step(target: float, current: float, max_step: float, low: float, high: float) -> float:
+    """``target`` clipped to ``[low, high]`` and to within ``max_step`` of ``current``."""
+    return float(min(max(min(max(target, low), high), current - max_step), current + max_step))
+
+
+class DWAPlanner:
+    """Dynamic window local planner; stateless apart from its configuration."""
+
+    def __init__(self, config: PlannerConfig | None = None) -> None:
+        self.config = config or PlannerConfig()
+
+    def field_half_size(self) -> float:
+        """Half side [m] of the robot-centred obstacle grid: covers every rollout."""
+        c = self.config
+        reach = max(c.max_linear_speed, abs(c.min_linear_speed)) * c.sim_time
+        return reach + math.hypot(0.5 * c.robot_length, 0.5 * c.robot_width) + 0.6
+
+    def make_field(self, obstacles_robot: npt.ArrayLike) -> ObstacleField:
+        return ObstacleField(
+            obstacles_robot, self.field_half_size(), self.config.local_grid_resolution
+        )
+
+    def footprint_clearance(self, field: ObstacleField, x: float, y: float, yaw: float) -> float:
+        """Clearance [m] of the footprint (circle cover) at a robot-frame pose (<0: collision)."""
+        offsets, radius = footprint_circles(self.config.robot_length, self.config.robot_width)
+        d = field.lookup(x + math.cos(yaw) * offsets, y + math.sin(yaw) * offsets)
+        return float(d.min() - radius)
+
+    def compute(
+        self,
+        pose: Pose2D,
+        velocity: tuple[float, float],
+        path: npt.ArrayLike,
+        field: ObstacleField,
+        dt: float,
+        goal_distance: float | None = None,
+    ) -> LocalPlan:
+        """The command for the next ``dt`` seconds.
+
+        ``velocity`` is the current (v [m/s], w [rad/s]); ``path`` the global path (N, 2) in the
+        map frame; ``field`` the robot-frame obstacle field; ``goal_distance`` [m] is given on
+        the final leg (it limits the approach speed).
+        """
+        c = self.config
+        v0, w0 = velocity
+        dv, dw = c.linear_acceleration * dt, c.angular_acceleration * dt
+        offsets, radius = footprint_circles(c.robot_length, c.robot_width)
+        margin = 0.5 * c.local_grid_resolution
+        clearance = self.footprint_clearance(field, 0.0, 0.0, 0.0)
+
+        # Speed limits: near obstacles and on the final approach.
+        fraction = min(max(clearance / c.slowdown_clearance, c.slowdown_min_fraction), 1.0)
+        v_cap = c.max_linear_speed * fraction
+        if goal_distance is not None:
+            v_cap = min(
+                v_cap,
+                max(0.05, c.max_linear_speed * goal_distance / c.approach_slowdown_distance),
+            )
+
+        pts = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+        local = _to_robot_frame(pts, pose)
+        carrot, local_path = _carrot(local, c.lookahead)
+        carrot_angle = math.atan2(carrot[1], carrot[0])
+
+        # Turn towards the path first if it lies far off the heading.
+        if abs(carrot_angle) > c.rotate_to_heading_angle and np.hypot(*carrot) > 1e-3:
+            w_target = math.copysign(
+                max(min(abs(c.yaw_gain * carrot_angle), c.max_angular_speed), c.min_rotation_speed),
+                carrot_angle,
+            )
+            v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
+            w = limit_step(w_target, w0, dw, -c.max_angular_speed, c.max_angular_speed)
+            x, y, th = rollout(np.array([v]), np.array([w]), _times(c))
+            d = field.lookup(
+                x[..., None] + np.cos(th)[..., None] * offsets,
+                y[..., None] + np.sin(th)[..., None] * offsets,
+            )
+            if float(d.min()) - radius > margin:
+                return LocalPlan(v, w, True, "rotate_to_heading", clearance, 1)
+
+        # The dynamic window.
+        v_lo = max(c.min_linear_speed, v0 - dv)
+        v_hi = max(v_lo, min(v_cap, v0 + dv))
+        w_lo = max(-c.max_angular_speed, w0 - dw)
+        w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
+        vs, ws = np.meshgrid(
+            np.linspace(v_lo, v_hi, c.v_samples),
+            np.linspace(w_lo, w_hi, c.w_samples),
+            indexing="ij",
+        )
+        v_s, w_s = vs.ravel(), ws.ravel()
+        x, y, th = rollout(v_s, w_s, _times(c))
+        cos_t, sin_t = np.cos(th), np.sin(th)
+        d = field.lookup(
+            x[..., None] + cos_t[..., None] * offsets, y[..., None] + sin_t[..., None] * offsets
+        )
+        traj_clearance = d.reshape(len(v_s), -1).min(axis=1) - radius
+        admissible = traj_clearance > margin
+        count = int(admissible.sum())
+        if count == 0:
+            v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
+            w = limit_step(0.0, w0, dw, -c.max_angular_speed, c.max_angular_speed)
+            return LocalPlan(v, w, False, "brake", clearance, 0)
+
+        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
+        progress = np.hypot(carrot[0] - xe, carrot[1] - ye) / (
+            c.lookahead + c.max_linear_speed * c.sim_time
+        )
+        heading = np.abs(_wrap(np.arctan2(carrot[1] - ye, carrot[0] - xe) - te)) / math.pi
+        if local_path.shape[0]:
+            gaps = np.hypot(
+                xe[:, None] - local_path[None, :, 0], ye[:, None] - local_path[None, :, 1]
+            )
+            path_term = np.minimum(gaps.min(axis=1) / 0.5, 1.0)
+        else:
+            path_term = np.zeros_like(xe)
+        clear_term = np.clip(1.0 - traj_clearance / CLEARANCE_REF, 0.0, 1.0)
+        speed_term = (c.max_linear_speed - v_s) / c.max_linear_speed
+        score = (
+            W_PROGRESS * progress
+            + W_HEADING * heading
+            + W_PATH * path_term
+            + W_CLEARANCE * clear_term
+            + W_SPEED * speed_term
+        )
+        score = np.where(admissible, score, np.inf)
+        best = int(np.argmin(score))
+        return LocalPlan(float(v_s[best]), float(w_s[best]), True, "dwa", clearance, count)
+
+    def rotate_to_yaw(
+        self, pose: Pose2D, goal_yaw: float, angular_velocity: float, dt: float
+    ) -> tuple[float, bool]:
+        """In-place rotation to ``goal_yaw``: (w [rad/s], aligned).
+
+        ``w = clip(k * e, +-w_max)`` with ``|w| >= min_rotation_speed`` and
+        ``|w| <= sqrt(2 a_w |e|)`` (can still stop in time), acceleration-limited; aligned (and
+        w = 0) once ``|e| <= goal_yaw_tolerance``.
+        """
+        c = self.config
+        error = wrap_angle(goal_yaw - pose.yaw)
+        dw = c.angular_acceleration * dt
+        if abs(error) <= c.goal_yaw_tolerance:
+            return limit_step(
+                0.0, angular_velocity, dw, -c.max_angular_speed, c.max_angular_speed
+            ), True
+        magnitude = min(
+            abs(c.yaw_gain * error),
+            c.max_angular_speed,
+            math.sqrt(2.0 * c.angular_acceleration * abs(error)),
+        )
+        magnitude = max(magnitude, c.min_rotation_speed)
+        w = limit_step(
+            math.copysign(magnitude, error),
+            angular_velocity,
+            dw,
+            -c.max_angular_speed,
+            c.max_angular_speed,
+        )
+        return w, False
+
+
+def _times(config: PlannerConfig) -> npt.NDArray[np.float64]:
+    steps = max(1, round(config.sim_time / config.sim_dt))
+    times: npt.NDArray[np.float64] = config.sim_dt * np.arange(1, steps + 1, dtype=np.float64)
+    return times
+
+
+def _wrap(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    wrapped: npt.NDArray[np.float64] = (angle + np.pi) % (2.0 * np.pi) - np.pi
+    return wrapped
+
+
+def _to_robot_frame(points: npt.NDArray[np.float64], pose: Pose2D) -> npt.NDArray[np.float64]:
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    dx, dy = points[:, 0] - pose.x, points[:, 1] - pose.y
+    local: npt.NDArray[np.float64] = np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+    return local
+
+
+def _carrot(
+    local: npt.NDArray[np.float64], lookahead: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The point ``lookahead`` metres along the path past its point nearest the robot, and the
+    path points from the nearest one up to ``2 * lookahead`` further (robot frame)."""
+    if local.shape[0] == 0:
+        return np.zeros(2), local
+    nearest = int(np.argmin(np.hypot(local[:, 0], local[:, 1])))
+    ahead = local[nearest:]
+    seg = np.hypot(np.diff(ahead[:, 0]), np.diff(ahead[:, 1]))
+    s = np.concatenate(([0.0], np.cumsum(seg)))
+    if s[-1] <= lookahead:
+        carrot = ahead[-1]
+    else:
+        carrot = np.array(
+            [np.interp(lookahead, s, ahead[:, 0]), np.interp(lookahead, s, ahead[:, 1])]
+        )
+    window = ahead[s <= 2.0 * lookahead]
+    return carrot, window
+
+
+def obstacle_points_near(
+    obstacles: npt.NDArray[np.bool_],
+    row0: int,
+    col0: int,
+    resolution: float,
+    origin_x: float,
+    origin_y: float,
+    pose: Pose2D,
+) -> npt.NDArray[np.float64]:
+    """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0)."""
+    rows, cols = np.nonzero(obstacles)
+    x = origin_x + (cols + col0 + 0.5) * resolution
+    y = origin_y + (rows + row0 + 0.5) * resolution
+    return _to_robot_frame(np.column_stack((x, y)), pose)

@@ -1,0 +1,50 @@
+"""Headless runs of the thesis's test scenarios on simulated time (``interbot scenario``)."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
+from robot_daemon.scenarios.runner import ScenarioOptions, ScenarioResult
+
+SCENARIOS = ("odometry", "tour", "mission", "latency")
+
+
+def load_scenario(name: str) -> Callable[[ScenarioOptions], ScenarioResult]:
+    """The ``run`` function of scenario ``name`` (imported on demand)."""
+    if name not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
+    module = importlib.import_module(f"robot_daemon.scenarios.{name}")
+    run: Callable[[ScenarioOptions], ScenarioResult] = module.run
+    return run
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``args.name`` and print its table; with ``--json`` the last line is the figures."""
+    if args.name not in SCENARIOS:
+        print(
+            f"interbot scenario: unknown scenario {args.name!r}; "
+            f"choose one of {', '.join(SCENARIOS)}",
+            file=sys.stderr,
+        )
+        return 2
+    options = ScenarioOptions(
+        map_yaml=Path(args.map_yaml) if args.map_yaml else DEFAULT_MAP,
+        topo_yaml=Path(args.topo) if args.topo else DEFAULT_TOPO,
+        seed=args.seed,
+    )
+    try:
+        run = load_scenario(args.name)
+    except ModuleNotFoundError:
+        print(f"interbot scenario: {args.name!r} is not built yet", file=sys.stderr)
+        return 3
+    result = run(options)
+    print(result.table)
+    if args.json:
+        print(json.dumps(result.figures, sort_keys=True))
+    return 0

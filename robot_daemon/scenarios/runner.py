@@ -1,0 +1,308 @@
+"""The whole robot stack and the Base Station's logic, headless on simulated time.
+
+`SimulatedSystem` wires what runs on three machines in the thesis into one loop: the simulator
+(the robot's body and sensors), the `RobotStack` (the Processing Unit: localiser, navigator,
+multiplexer) stepped at the daemon's 50 Hz, and the station's `Supervisor` driven at the
+``clock()`` period of 100 ms, whose route/pause/cancel events go to the stack as the zenoh link
+would carry them. `Metrics` samples the simulator's ground truth, for figures only: nothing from
+it reaches the robot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from interbot_core.geometry import Pose2D, angle_diff
+from interbot_core.occupancy_grid import OccupancyGrid, load_map
+from interbot_core.route_planner import RoutePlanner
+from interbot_core.supervisor import (
+    Event,
+    GoalReached,
+    PauseNavigation,
+    RequestShown,
+    RouteCancelled,
+    RouteStarted,
+    Supervisor,
+    SupervisorConfig,
+    TaskFinished,
+    TourStopReached,
+)
+from interbot_core.topics import RouteMsg
+from interbot_core.topological_map import TopologicalMap, load_topological_map
+from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
+from robot_daemon.localisation.localiser import LocaliserState
+from robot_daemon.sim.odometry_model import OdometryErrorModel
+from robot_daemon.sim.simulator import SimConfig, Simulator
+from robot_daemon.sim_backend import SimBackend
+from robot_daemon.stack import RobotStack, StackConfig
+
+logger = logging.getLogger(__name__)
+
+STACK_DT = 0.02  # [s] the daemon's loop period
+SIM_DT = 0.02  # [s] simulator substep: 1 cm of travel at 0.5 m/s, collisions bisected within it
+CLOCK_DT = 0.1  # [s] the Base Station's clock() period (thesis §5.3.6)
+NAV_TOLERANCE_SHARE = 0.8  # the robot stops inside 80 % of the station's arrival tolerances
+
+
+@dataclass(frozen=True)
+class ScenarioOptions:
+    map_yaml: Path = DEFAULT_MAP
+    topo_yaml: Path = DEFAULT_TOPO
+    seed: int = 1
+    people: int = 4
+    odometry: str = "calibrated"
+    max_sim_time: float = 3600.0  # [s]
+
+
+@dataclass
+class ScenarioResult:
+    """A scenario's table (thesis form) and its figures (the JSON line)."""
+
+    name: str
+    table: str
+    figures: dict[str, Any]
+
+
+def odometry_model(name: str) -> OdometryErrorModel:
+    models = {
+        "perfect": OdometryErrorModel.perfect,
+        "calibrated": OdometryErrorModel.calibrated,
+        "uncalibrated": OdometryErrorModel.uncalibrated,
+    }
+    if name not in models:
+        raise ValueError(f"odometry model must be one of {sorted(models)}, got {name!r}")
+    return models[name]()
+
+
+@dataclass
+class Metrics:
+    """Ground-truth figures sampled every station clock period (METRICS ONLY)."""
+
+    max_linear: float
+    distance_m: float = 0.0
+    moving_time_s: float = 0.0
+    moving_speed_sum: float = 0.0
+    corridor_speed_sum: float = 0.0
+    corridor_samples: int = 0
+    clearances: list[float] = field(default_factory=list)
+    loc_errors: list[float] = field(default_factory=list)
+    heading_errors: list[float] = field(default_factory=list)
+    losses: int = 0
+    _last_pose: Pose2D | None = None
+    _last_state: LocaliserState | None = None
+
+    def sample(self, sim: Simulator, stack: RobotStack, dt: float) -> None:
+        truth = sim.true_pose()
+        if self._last_pose is not None:
+            self.distance_m += truth.distance_to(self._last_pose)
+        self._last_pose = truth
+        linear, angular = sim.true_velocity()
+        moving = abs(linear) > 0.02
+        if moving:
+            self.moving_time_s += dt
+            self.moving_speed_sum += abs(linear) * dt
+            self.clearances.append(sim.min_clearance())
+            # "Open corridor": driving straight with room around the footprint.
+            if abs(angular) < 0.15 and self.clearances[-1] > 0.6:
+                self.corridor_speed_sum += abs(linear)
+                self.corridor_samples += 1
+        estimate = stack.pose
+        state = stack.localisation_state
+        if state == LocaliserState.LOST and self._last_state != LocaliserState.LOST:
+            self.losses += 1
+        self._last_state = state
+        if estimate is not None and state == LocaliserState.OK:
+            self.loc_errors.append(estimate.distance_to(truth))
+            self.heading_errors.append(abs(angle_diff(estimate.yaw, truth.yaw)))
+
+    def figures(self) -> dict[str, float]:
+        loc = np.asarray(self.loc_errors) if self.loc_errors else np.zeros(1)
+        heading = np.asarray(self.heading_errors) if self.heading_errors else np.zeros(1)
+        clear = np.asarray(self.clearances) if self.clearances else np.full(1, math.nan)
+        corridor = self.corridor_speed_sum / self.corridor_samples if self.corridor_samples else 0.0
+        return {
+            "distance_m": round(self.distance_m, 2),
+            "localisation_losses": self.losses,
+            "mean_speed_mps": round(
+                self.moving_speed_sum / self.moving_time_s if self.moving_time_s else 0.0, 4
+            ),
+            "corridor_speed_mps": round(corridor, 4),
+            "corridor_speed_ratio": round(corridor / self.max_linear, 3),
+            "min_clearance_m": round(float(clear.min()), 3),
+            "max_clearance_m": round(float(clear.max()), 3),
+            "mean_clearance_m": round(float(clear.mean()), 3),
+            "loc_rms_m": round(float(np.sqrt(np.mean(loc**2))), 4),
+            "loc_max_m": round(float(loc.max()), 4),
+            "loc_heading_rms_deg": round(float(np.degrees(np.sqrt(np.mean(heading**2)))), 3),
+            "loc_heading_max_deg": round(float(np.degrees(heading.max())), 3),
+        }
+
+
+class SimulatedSystem:
+    """Simulator + robot stack + the station's supervisor on one simulated clock."""
+
+    def __init__(
+        self,
+        options: ScenarioOptions,
+        *,
+        start_node: int | None = None,
+        start_pose: Pose2D | None = None,
+        supervisor_config: SupervisorConfig | None = None,
+        wall_clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
+        self.options = options
+        self.grid: OccupancyGrid = load_map(options.map_yaml)
+        self.topo: TopologicalMap = load_topological_map(options.topo_yaml)
+        self.route_planner = RoutePlanner(self.topo)
+        if start_pose is None:
+            start_pose = self.topo.node(
+                self.topo.home_id if start_node is None else start_node
+            ).pose
+        self.start_pose = start_pose
+        sim_config = SimConfig(
+            internal_dt=SIM_DT,
+            start_pose=start_pose,
+            n_people=options.people,
+            odometry=odometry_model(options.odometry),
+        )
+        self.sim = Simulator(self.grid, sim_config, rng_seed=options.seed)
+        stack_config = StackConfig()
+        rates = stack_config.rates
+        self.backend = SimBackend(
+            self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0
+        )
+        self.stack = RobotStack(self.grid, self.backend, stack_config)
+        self.supervisor = Supervisor(self.topo, self.route_planner, supervisor_config)
+        self.metrics = Metrics(stack_config.planner.max_linear_speed)
+        self.now = 0.0
+        self.events: list[tuple[float, Event]] = []
+        self.hooks: list[Callable[[SimulatedSystem, Event], None]] = []
+        # (when [s], action): what a person at the tablet does a little later.
+        self.pending: list[tuple[float, Callable[[], list[Event]]]] = []
+        self._route_ids = 0
+        self._next_clock = 0.0
+        self._wall_clock = wall_clock
+        self._wall_start = wall_clock()
+        self._robot_route_seen: tuple[int, str] | None = None
+
+    # -- the station's side ------------------------------------------------------------------
+
+    def localise(self) -> None:
+        """The operator sets the initial pose where the robot stands (thesis: required)."""
+        self.stack.set_initial_pose(self.start_pose, self.now)
+
+    def _route_message(self, started: RouteStarted) -> RouteMsg:
+        self._route_ids += 1
+        cfg = self.supervisor.config
+        waypoints = tuple((w.x, w.y, w.yaw) for w in started.waypoints)
+        ids = started.node_ids
+        node_ids = tuple(i for i in ids if i is not None) if None not in ids else ()
+        return RouteMsg(
+            self._route_ids,
+            waypoints,
+            node_ids,
+            approach_tolerance=cfg.approach_tolerance,
+            goal_tolerance=cfg.goal_tolerance * NAV_TOLERANCE_SHARE,
+            yaw_tolerance=cfg.yaw_tolerance * NAV_TOLERANCE_SHARE,
+        )
+
+    def apply(self, events: list[Event]) -> None:
+        """Carry supervisor events to the robot as the station does over the link."""
+        for event in events:
+            self.events.append((self.now, event))
+            if isinstance(event, RouteStarted):
+                self.stack.set_route(self._route_message(event), self.now)
+            elif isinstance(event, RouteCancelled):
+                self.stack.cancel_route(self.now, event.reason)
+            elif isinstance(event, PauseNavigation):
+                self.stack.on_lock("pause_nav", event.paused, self.now)
+            for hook in self.hooks:
+                hook(self, event)
+
+    def _station_clock(self) -> None:
+        due = [item for item in self.pending if item[0] <= self.now + 1e-9]
+        for item in due:
+            self.pending.remove(item)
+            self.apply(item[1]())
+        route = self.stack.route
+        if route is not None and route.finished:
+            key = (route.route_id, route.state)
+            if key != self._robot_route_seen:
+                self._robot_route_seen = key
+                if route.state == "succeeded":
+                    self.apply(self.supervisor.robot_route_succeeded(self.now))
+                elif route.state == "aborted":
+                    self.apply(self.supervisor.robot_route_aborted(route.reason))
+        self.apply(self.supervisor.update(self.now, self.stack.pose))
+        self.metrics.sample(self.sim, self.stack, CLOCK_DT)
+
+    # -- the loop -------------------------------------------------------------------------------
+
+    def step(self) -> None:
+        """One daemon loop pass (and the station's clock() when due)."""
+        self.now = round(self.now + STACK_DT, 9)
+        self.backend.advance(self.now)
+        self.stack.step(self.now)
+        if self.now + 1e-9 >= self._next_clock:
+            self._next_clock += CLOCK_DT
+            self._station_clock()
+
+    def run_until(self, done: Callable[[], bool], max_time: float | None = None) -> bool:
+        """Step until ``done()`` or ``max_time`` [s] of simulated time; True if done."""
+        limit = self.now + (max_time if max_time is not None else self.options.max_sim_time)
+        while self.now < limit:
+            self.step()
+            if done():
+                return True
+        return False
+
+    def realtime_factor(self) -> float:
+        wall = self._wall_clock() - self._wall_start
+        return self.now / wall if wall > 0 else math.inf
+
+    def of(self, kind: type) -> list[tuple[float, Any]]:
+        return [(t, e) for t, e in self.events if isinstance(e, kind)]
+
+
+def auto_resume_tour(dwell_s: float) -> Callable[[SimulatedSystem, Event], None]:
+    """A visitor at each tour stop who reads the room's information and taps Resume."""
+
+    def hook(system: SimulatedSystem, event: Event) -> None:
+        if isinstance(event, TourStopReached):
+            resume_at = system.now + dwell_s
+            system.pending.append((resume_at, system.supervisor.tour_resume))
+
+    return hook
+
+
+def auto_answer_requests(
+    dwell_s: float, accept: bool = True
+) -> Callable[[SimulatedSystem, Event], None]:
+    """Whoever is in the room reads the request on the tablet and accepts (or declines) it."""
+
+    def hook(system: SimulatedSystem, event: Event) -> None:
+        if isinstance(event, RequestShown):
+            system.pending.append(
+                (system.now + dwell_s, lambda: system.supervisor.request_response(accept))
+            )
+
+    return hook
+
+
+__all__ = [
+    "GoalReached",
+    "ScenarioOptions",
+    "ScenarioResult",
+    "SimulatedSystem",
+    "TaskFinished",
+    "auto_answer_requests",
+    "auto_resume_tour",
+]

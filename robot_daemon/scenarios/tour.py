@@ -1,0 +1,61 @@
+"""Test Scenario 2 (thesis §6.2, Table 6.4): the guided tour of the floor with people walking.
+
+The robot starts at home, localised by the operator; the visitor asks for a guided tour; at each
+stop the robot pauses, shows the room's information and the visitor taps Resume a few seconds
+later. Figures come from the simulator's ground truth; the realtime factor is simulated time
+over wall time for the whole stack (localiser, planner, multiplexer, simulator, supervisor).
+"""
+
+from __future__ import annotations
+
+from interbot_core.supervisor import GuidedTour, TaskFinished, TourStopReached
+from robot_daemon.scenarios.runner import (
+    ScenarioOptions,
+    ScenarioResult,
+    SimulatedSystem,
+    auto_resume_tour,
+)
+
+STOP_DWELL_S = 5.0  # [s] the visitor reads the room's information, then taps Resume
+
+
+def run(options: ScenarioOptions) -> ScenarioResult:
+    system = SimulatedSystem(options)
+    system.hooks.append(auto_resume_tour(STOP_DWELL_S))
+    system.localise()
+    system.apply(system.supervisor.submit(GuidedTour()))
+    start = system.now
+    completed = system.run_until(lambda: bool(system.of(TaskFinished)))
+    finished = system.of(TaskFinished)
+    ok = bool(finished) and finished[0][1].ok
+    stops = system.of(TourStopReached)
+    total = len(system.supervisor.tour_stops) or len(system.topo.tour_nodes())
+    duration = system.now - start
+    figures = {
+        "completed": bool(completed and ok),
+        "reason": finished[0][1].reason if finished else "time limit reached",
+        "duration_s": round(duration, 1),
+        "collisions": system.sim.collisions,
+        "stops_visited": len(stops),
+        "stops_total": total,
+        "people": options.people,
+        "seed": options.seed,
+        **system.metrics.figures(),
+        "realtime_factor": round(system.realtime_factor(), 1),
+    }
+    minutes, seconds = divmod(round(duration), 60)
+    table = "\n".join(
+        [
+            "Test Scenario 2: guided tour (thesis Table 6.4)",
+            "Duration  Success  Distance(m)  Collisions  Loc.losses  Mean linear speed (m/s)",
+            f"{minutes:02d}:{seconds:02d}     {'YES' if figures['completed'] else 'NO ':<7}"
+            f"  {figures['distance_m']:>11.2f}  {figures['collisions']:>10}"
+            f"  {figures['localisation_losses']:>10}  {figures['mean_speed_mps']:>23.4f}",
+            f"stops {len(stops)}/{total}; localisation RMS {figures['loc_rms_m'] * 100:.1f} cm, "
+            f"max {figures['loc_max_m'] * 100:.1f} cm; min clearance "
+            f"{figures['min_clearance_m'] * 100:.1f} cm; corridor speed "
+            f"{figures['corridor_speed_ratio'] * 100:.0f} % of max; "
+            f"{figures['realtime_factor']:.1f}x real time",
+        ]
+    )
+    return ScenarioResult("tour", table, figures)

@@ -1,0 +1,339 @@
+"""The robot's control loop: localiser, navigator and velocity multiplexer over one backend.
+
+This is the thesis's Processing Unit (§4.2.3, Fig. 4.5) as one object with time passed in, so
+the same code runs in the daemon (monotonic time) and in headless scenarios (simulated time):
+
+* **Localisation.** Odometry at every step is the prior; scans are matched at ``localiser_hz``.
+  The localiser works in the laser's frame (its scans are polar about the laser), so the stack
+  converts rigidly: ``laser = base ⊕ mount`` and ``base = laser ⊕ mount⁻¹``.
+* **Route.** The station sends the whole route (``RouteMsg``); the navigator advances the
+  intermediate goals itself, so the robot finishes the route if the station disappears (the
+  thesis robot only reached its current intermediate goal).
+* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset`` or
+  ``lost``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
+  control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
+  the robot is, so no progress timer counts the suspension as being stuck.
+* **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
+  input is valid or a lock masks them; the emergency stop latches until `release_stop`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import RouteMsg
+from interbot_core.velocity_mux import MuxConfig, MuxOutput, VelocityMux, load_mux_config
+from robot_daemon.backend import BatteryReading, OdometryReading, RobotBackend
+from robot_daemon.config import DEFAULT_MUX, Rates
+from robot_daemon.localisation.localiser import (
+    Localiser,
+    LocaliserConfig,
+    LocaliserEstimate,
+    LocaliserState,
+)
+from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
+from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
+
+logger = logging.getLogger(__name__)
+
+PLANNER_TOPIC = "planner_vel"
+PAUSE_TOPIC = "pause_nav"
+STOP_TOPIC = "stop"
+DEFAULT_LASER_MOUNT = Pose2D(0.2, 0.0, 0.0)  # [m, m, rad] laser in base_link
+
+
+class StackError(ValueError):
+    """A command the stack cannot accept (the message says why); nothing was changed."""
+
+
+@dataclass(frozen=True)
+class StackConfig:
+    """How the stack is put together; every part validates itself."""
+
+    rates: Rates = field(default_factory=Rates)
+    mux: MuxConfig = field(default_factory=lambda: load_mux_config(DEFAULT_MUX))
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
+    laser_mount: Pose2D = DEFAULT_LASER_MOUNT
+
+
+@dataclass
+class RouteState:
+    """The route the robot is driving, in the station's numbering."""
+
+    route_id: int
+    goals: tuple[Pose2D, ...]
+    node_ids: tuple[int, ...]
+    approach_tolerance: float
+    goal_tolerance: float
+    yaw_tolerance: float
+    index: int = 0  # goal the robot is heading for
+    state: str = "active"  # active | paused | succeeded | aborted | canceled
+    reason: str = ""
+    offset: int = 0  # goal index at which the navigator's current (re)plan starts
+
+    @property
+    def finished(self) -> bool:
+        return self.state in ("succeeded", "aborted", "canceled")
+
+
+@dataclass(frozen=True)
+class StackEvent:
+    """Something worth a line in the station's status log."""
+
+    stamp: float
+    level: str  # info | warning | error
+    text: str
+
+
+class Periodic:
+    """A periodic deadline on the injected clock."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period = 1.0 / rate_hz
+        self.next = -math.inf
+
+    def __call__(self, now: float) -> bool:
+        if now + 1e-9 < self.next:
+            return False
+        # Keep the phase; skip missed periods instead of bursting to catch up.
+        self.next = max(self.next + self.period, now + self.period * 0.5)
+        return True
+
+
+class RobotStack:
+    """Localiser + navigator + multiplexer + backend, stepped with ``step(now)``."""
+
+    def __init__(
+        self, grid: OccupancyGrid, backend: RobotBackend, config: StackConfig | None = None
+    ) -> None:
+        self.config = config = config or StackConfig()
+        self.grid = grid
+        self.backend = backend
+        self.mux = VelocityMux(config.mux)
+        planner = config.planner
+        if planner.laser_x_offset != config.laser_mount.x:
+            planner = planner.replace(laser_x_offset=config.laser_mount.x)
+        self.navigator = Navigator(grid, planner)
+        self.localiser = Localiser(grid, config.localiser)
+        self._mount = config.laser_mount
+        self._mount_inv = config.laser_mount.inverse()
+        self._localise_due = Periodic(config.rates.localiser_hz)
+        self._control_due = Periodic(config.rates.controller_hz)
+        self.route: RouteState | None = None
+        self._suspended_reason: str | None = None
+        self.last_odometry: OdometryReading | None = None
+        self.last_scan: LaserScan | None = None
+        self._scan_localised: LaserScan | None = None
+        self.last_estimate: LocaliserEstimate | None = None
+        self.last_nav: NavCommand | None = None
+        self.last_output = MuxOutput(0.0, 0.0, None, "not started")
+        self.last_battery: BatteryReading | None = None
+        self.last_jpeg: bytes | None = None
+        self._events: deque[StackEvent] = deque(maxlen=200)
+        self._localisation_state = LocaliserState.UNSET
+        for name in ("station_vel", "tablet_vel", PLANNER_TOPIC):
+            config.mux.input_by_topic(name)  # raises if the mux config lacks an input we need
+        for name in (PAUSE_TOPIC, STOP_TOPIC):
+            config.mux.lock_by_topic(name)
+
+    # -- events ----------------------------------------------------------------------------
+
+    def _event(self, now: float, level: str, text: str) -> None:
+        log = {"info": logger.info, "warning": logger.warning, "error": logger.error}[level]
+        log("%s", text)
+        self._events.append(StackEvent(now, level, text))
+
+    def drain_events(self) -> list[StackEvent]:
+        """Status-log lines since the last call."""
+        events = list(self._events)
+        self._events.clear()
+        return events
+
+    # -- commands (from the link or a scenario script) --------------------------------------
+
+    def on_twist(self, topic: str, linear: float, angular: float, now: float) -> None:
+        """A teleoperation command on ``station_vel`` or ``tablet_vel``."""
+        if topic == PLANNER_TOPIC:
+            raise StackError("planner_vel is the robot's own planner; it is not a command input")
+        self.mux.on_twist(topic, linear, angular, now)
+
+    def on_lock(self, topic: str, engaged: bool, now: float) -> None:
+        """``pause_nav`` or ``stop``; the stop lock latches until `release_stop`."""
+        self.mux.on_lock(topic, engaged, now)
+        if topic == STOP_TOPIC and engaged:
+            self._event(now, "warning", "emergency stop engaged (latched until released)")
+        elif topic == PAUSE_TOPIC:
+            self._event(now, "info", "navigation paused" if engaged else "navigation resumed")
+
+    def release_stop(self, now: float, operator: str = "") -> None:
+        released = self.mux.release_stop()
+        if released:
+            who = f" by {operator}" if operator else ""
+            self._event(now, "info", f"emergency stop released{who}")
+
+    def set_initial_pose(self, pose: Pose2D, now: float) -> None:
+        """The station's (or tablet's "Help me!") initial pose of base_link in ``map``."""
+        if not self.grid.is_free(pose.x, pose.y):
+            raise StackError(
+                f"initial pose ({pose.x:.2f}, {pose.y:.2f}) is not in free space of {self.grid.source}"
+            )
+        self.localiser.set_initial_pose(pose.compose(self._mount), now)
+        self._event(
+            now, "info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})"
+        )
+
+    def set_route(self, msg: RouteMsg, now: float) -> None:
+        """Drive the whole route; replaces any route in progress."""
+        goals = tuple(Pose2D(x, y, yaw) for x, y, yaw in msg.waypoints)
+        if not self.grid.is_free(goals[-1].x, goals[-1].y):
+            raise StackError(
+                f"route {msg.route_id}: goal ({goals[-1].x:.2f}, {goals[-1].y:.2f}) "
+                f"is not in free space of {self.grid.source}"
+            )
+        self.route = RouteState(
+            msg.route_id,
+            goals,
+            msg.node_ids,
+            msg.approach_tolerance,
+            msg.goal_tolerance,
+            msg.yaw_tolerance,
+        )
+        self._suspended_reason = "new route"
+        self.navigator.cancel()
+        self._event(now, "info", f"route {msg.route_id}: {len(goals)} goal(s)")
+
+    def cancel_route(self, now: float, reason: str = "cancelled") -> None:
+        if self.route is not None and not self.route.finished:
+            self.route.state, self.route.reason = "canceled", reason
+            self._event(now, "info", f"route {self.route.route_id} {reason}")
+        self.navigator.cancel()
+        self._suspended_reason = None
+
+    def reconfigure(self, params: dict[str, Any], now: float) -> None:
+        """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
+        allowed = {f.name for f in fields(PlannerConfig)}
+        unknown = set(params) - allowed
+        if unknown:
+            raise StackError(f"unknown planner parameter(s) {sorted(unknown)}")
+        try:
+            self.navigator.reconfigure(**params)
+        except PlannerConfigError as exc:
+            raise StackError(str(exc)) from None
+        self._suspended_reason = self._suspended_reason or "reconfigured"
+        self._event(now, "info", f"planner reconfigured: {params}")
+
+    # -- state -------------------------------------------------------------------------------
+
+    @property
+    def pose(self) -> Pose2D | None:
+        """base_link in ``map`` now: the last match moved by odometry since (None if unset)."""
+        laser = self.localiser.current_pose
+        return None if laser is None else laser.compose(self._mount_inv)
+
+    @property
+    def localisation_state(self) -> LocaliserState:
+        return self.localiser.state
+
+    @property
+    def suspended_reason(self) -> str | None:
+        return self._suspended_reason
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def step(self, now: float) -> MuxOutput:
+        """One pass of the control loop at time ``now`` [s]; returns what went to the motors."""
+        odom = self.backend.read_odometry(now)
+        if odom is not None:
+            self.last_odometry = odom
+            self.localiser.on_odometry(odom.pose.compose(self._mount), now)
+        scan = self.backend.read_scan(now)
+        if scan is not None:
+            self.last_scan = scan
+        if (
+            self.last_scan is not None
+            and self.last_scan is not self._scan_localised
+            and self._localise_due(now)
+        ):
+            self._scan_localised = self.last_scan
+            self.last_estimate = self.localiser.on_scan(self.last_scan, now)
+            self._track_localisation(now)
+        if self._control_due(now):
+            self._control(now)
+        output = self.mux.output(now)
+        self.backend.set_cmd_vel(output.linear, output.angular, now)
+        self.last_output = output
+        battery = self.backend.read_battery(now)
+        if battery is not None:
+            self.last_battery = battery
+        jpeg = self.backend.read_camera_jpeg(now)
+        if jpeg is not None:
+            self.last_jpeg = jpeg
+        return output
+
+    def _track_localisation(self, now: float) -> None:
+        state = self.localiser.state
+        if state != self._localisation_state:
+            level = "error" if state == LocaliserState.LOST else "info"
+            self._event(now, level, f"localisation {state.value}")
+            self._localisation_state = state
+
+    def _autonomy_blocker(self, now: float) -> str | None:
+        """Why the planner may not drive now, or None."""
+        state = self.localiser.state
+        if state != LocaliserState.OK:
+            return f"localisation {state.value}"
+        locks = {lock.topic for lock in self.mux.active_locks(now)}
+        if STOP_TOPIC in locks:
+            return "emergency stop"
+        if PAUSE_TOPIC in locks:
+            return "paused"
+        planner_priority = self.config.mux.input_by_topic(PLANNER_TOPIC).priority
+        for entry in self.mux.valid_inputs(now):
+            if entry.priority > planner_priority:
+                return f"manual control ({entry.name})"
+        return None
+
+    def _control(self, now: float) -> None:
+        route = self.route
+        if route is None or route.finished:
+            return
+        blocker = self._autonomy_blocker(now)
+        pose = self.pose
+        if blocker is not None or pose is None:
+            if self._suspended_reason is None:
+                self.navigator.cancel()
+                self._event(now, "info", f"route {route.route_id} suspended: {blocker}")
+            self._suspended_reason = blocker or "no pose"
+            route.state = "paused"
+            return
+        if self._suspended_reason is not None:
+            remaining = route.goals[route.index :]
+            self.navigator.set_route(
+                remaining,
+                approach_tolerance=route.approach_tolerance,
+                goal_xy_tol=route.goal_tolerance,
+                goal_yaw_tol=route.yaw_tolerance,
+                now=now,
+            )
+            route.offset = route.index
+            route.state = "active"
+            self._suspended_reason = None
+        command = self.navigator.update(now, pose, self.last_scan)
+        self.last_nav = command
+        route.index = min(route.offset + command.goal_index, len(route.goals) - 1)
+        if command.state == NavState.SUCCEEDED:
+            route.index = len(route.goals) - 1
+            route.state, route.reason = "succeeded", "goal reached"
+            self._event(now, "info", f"route {route.route_id} done: goal reached")
+        elif command.state == NavState.BLOCKED:
+            route.state, route.reason = "aborted", command.reason or "blocked"
+            self._event(now, "error", f"route {route.route_id} blocked: {route.reason}")
+        self.mux.on_twist(PLANNER_TOPIC, command.linear, command.angular, now)

@@ -1,0 +1,71 @@
+"""End to end: the station controller against the real simulated robot daemon
+(``python -m robot_daemon.main --sim``) on loopback zenoh."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+
+import pytest
+import zenoh
+
+from base_station_app.station_controller import StationController, Timing
+from base_station_app.teleop import Direction
+from interbot_core.supervisor import GoTo
+from interbot_link import session_config
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port: int = s.getsockname()[1]
+        return port
+
+
+@pytest.mark.slow
+def test_station_drives_the_simulated_daemon(qtbot, repo_root, topo, tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    log = (tmp_path / "daemon.log").open("w")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", "sim1", "--listen", endpoint],
+        cwd=repo_root, stdout=subprocess.DEVNULL, stderr=log,
+    )  # fmt: skip
+    session = zenoh.open(session_config([], [endpoint]))
+    c = StationController(
+        topo,
+        session,
+        topo_path=repo_root / "maps" / "isr_floor0_topo.yaml",
+        tablet_port=0,
+        timing=Timing(clock_ms=100, frame_ms=25, ping_ms=1000),
+    )
+    try:
+        c.start()
+        qtbot.waitUntil(
+            lambda: c.state.pose is not None and c.state.grid is not None, timeout=15000
+        )
+        assert c.selected_robot == "sim1"
+        c.set_initial_pose_room(0)
+        qtbot.waitUntil(lambda: c.state.localisation == "ok", timeout=5000)
+        start = c.state.localised_pose
+        c.press(Direction.FORWARD)  # node 0 faces west (yaw pi): forward is -x
+        qtbot.waitUntil(lambda: c.state.pose.x < start.x - 0.2, timeout=5000)
+        c.release(Direction.FORWARD)
+        assert c.state.mux is not None and c.state.mux.source is not None
+        c.submit(GoTo(2))
+        qtbot.waitUntil(
+            lambda: (
+                c.route is not None
+                and c.state.progress is not None
+                and c.state.progress.route_id == c.route.route_id
+            ),
+            timeout=5000,
+        )
+        assert c.route.node_ids[-1] == 2
+        assert any("route" in e.text and e.text.startswith("robot:") for e in c.state.log)
+    finally:
+        c.shutdown()
+        session.close()
+        proc.terminate()
+        proc.wait(timeout=10)
+        log.close()

@@ -1,0 +1,188 @@
+"""Pure (Qt-free) parts of the Base Station: configuration, teleop merging, tablet policy,
+room picking and the robot state model."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from base_station_app.map_rooms import RoomArea, load_room_areas, point_in_polygon, room_at
+from base_station_app.robot_state import RobotState
+from base_station_app.station_config import RANGES, StationConfig, StationConfigError
+from base_station_app.tablet_session import (
+    ErrorBudget,
+    TabletPermissions,
+    describe_task,
+    permission_for,
+)
+from base_station_app.teleop import Direction, TeleopInput
+from interbot_core import protocol as p
+from interbot_core.geometry import Pose2D
+from interbot_core.supervisor import Delivery, GoHome, GoTo, GoToPose, GuidedTour
+from interbot_core.topics import MuxMsg, PoseMsg, Topic
+
+
+# ------------------------------------------------------------------ StationConfig
+def test_config_defaults_are_valid_and_map_to_supervisor():
+    c = StationConfig()
+    s = c.supervisor_config()
+    assert (s.approach_tolerance, s.goal_tolerance, s.yaw_tolerance) == (0.7, 0.25, 0.25)
+    assert c.planner_params()["max_linear_speed"] == c.planner_linear_max
+
+
+@pytest.mark.parametrize("name", sorted(RANGES))
+def test_config_rejects_out_of_range_naming_field_and_range(name):
+    _, hi, _ = RANGES[name]
+    with pytest.raises(StationConfigError, match=rf"{name} = .* outside the allowed range"):
+        StationConfig(**{name: hi * 2 + 1})
+    with pytest.raises(StationConfigError, match=name):
+        StationConfig(**{name: math.nan})
+    with pytest.raises(StationConfigError, match="must be a number"):
+        StationConfig(**{name: True})
+
+
+def test_config_from_saved_values_keeps_defaults_for_bad_entries():
+    c = StationConfig.from_mapping(
+        {"latency_ceiling": "0.8", "goal_tolerance": "banana", "yaw_tolerance": 99, "other": 1}
+    )
+    assert c.latency_ceiling == 0.8
+    assert c.goal_tolerance == StationConfig().goal_tolerance
+    assert c.yaw_tolerance == StationConfig().yaw_tolerance
+    assert StationConfig.from_mapping(c.to_dict()) == c
+
+
+# ------------------------------------------------------------------ TeleopInput
+def test_teleop_keys_combine_and_release():
+    t = TeleopInput(0.5, 1.0)
+    assert not t.active and t.command() == (0.0, 0.0)
+    t.press(Direction.FORWARD)
+    t.press(Direction.RIGHT)
+    assert t.command() == (0.5, -1.0)
+    t.press(Direction.BACKWARD)  # opposite keys cancel
+    assert t.command() == (0.0, -1.0)
+    t.release_all()
+    assert not t.active and t.command() == (0.0, 0.0)
+
+
+def test_teleop_joystick_wins_and_is_clamped():
+    t = TeleopInput(0.5, 1.0)
+    t.press(Direction.FORWARD)
+    t.set_joystick(-2.0, 0.3, pressed=True)
+    assert t.command() == (-0.5, 0.3)
+    t.set_joystick(0.0, 0.0, pressed=False)
+    assert t.command() == (0.5, 0.0)
+    with pytest.raises(ValueError, match="linear_max"):
+        t.set_limits(0.0, 1.0)
+
+
+@settings(max_examples=100)
+@given(
+    keys=st.sets(st.sampled_from(list(Direction))),
+    lin=st.floats(0.01, 2.0),
+    ang=st.floats(0.01, 3.0),
+    joy=st.none() | st.tuples(st.floats(-10, 10), st.floats(-10, 10)),
+)
+def test_teleop_command_never_exceeds_limits(keys, lin, ang, joy):
+    t = TeleopInput(lin, ang)
+    for k in keys:
+        t.press(k)
+    if joy is not None:
+        t.set_joystick(*joy, pressed=True)
+    v, w = t.command()
+    assert abs(v) <= lin and abs(w) <= ang
+    assert t.active == bool(keys or joy is not None)
+
+
+# ------------------------------------------------------------------ tablet policy
+def test_permission_kinds_of_tablet_messages():
+    assert permission_for(p.Speed(0.1, 0.0)) == "teleop"
+    assert permission_for(p.Goal(3)) == "goals"
+    assert permission_for(p.Home()) == "goals"
+    assert permission_for(p.Tour(True)) == "tours"
+    assert permission_for(p.TourControl("resume")) == "tours"
+    assert permission_for(p.RequestFrom("x", 1, 2, True)) == "requests"
+    for always in (p.Pause(True), p.Stop(True), p.InitialPoseRoom(2), p.Malfunction("other", "")):
+        assert permission_for(always) is None
+    perms = TabletPermissions().with_kind("tours", False)
+    assert not perms.allows("tours") and perms.allows("goals") and perms.allows(None)
+    assert perms.to_message() == p.Permissions(True, True, False, True)
+    with pytest.raises(ValueError, match="unknown permission"):
+        perms.allows("flying")
+
+
+def test_error_budget_closes_after_repeated_errors_in_window_or_fatal():
+    b = ErrorBudget(max_errors=3, window_s=10.0)
+    assert not any(b.record(t) for t in (0.0, 1.0, 2.0))
+    assert b.record(3.0)  # the fourth within 10 s
+    b.reset()
+    assert not any(b.record(t) for t in (0.0, 20.0, 40.0, 60.0))  # spread out: fine
+    assert b.record(61.0, fatal=True)
+
+
+def test_describe_task_names_rooms():
+    names = {3: "Restrooms", 7: "Lab"}
+    assert describe_task(GoTo(3), names) == "go to Restrooms (3)"
+    assert describe_task(GuidedTour()) == "guided tour"
+    assert describe_task(GoHome()) == "go home"
+    assert (
+        describe_task(Delivery("pen", 7, 3), names) == "deliver 'pen' from Lab (7) to Restrooms (3)"
+    )
+    assert describe_task(GoToPose(Pose2D(1, 2, 0))).startswith("go to pose (1.00, 2.00")
+
+
+# ------------------------------------------------------------------ rooms
+def test_point_in_polygon_square():
+    square = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]
+    assert point_in_polygon(1.0, 1.0, square)
+    assert not point_in_polygon(3.0, 1.0, square)
+    assert not point_in_polygon(1.0, -0.1, square)
+
+
+@settings(max_examples=100)
+@given(x=st.floats(-5, 5), y=st.floats(-5, 5), dx=st.floats(-3, 3), dy=st.floats(-3, 3))
+def test_point_in_polygon_matches_rectangle_test(x, y, dx, dy):
+    rect = [(dx, dy), (dx + 2, dy), (dx + 2, dy + 1), (dx, dy + 1)]
+    inside = dx < x < dx + 2 and dy < y < dy + 1
+    on_edge = any(math.isclose(a, b) for a, b in ((x, dx), (x, dx + 2), (y, dy), (y, dy + 1)))
+    if not on_edge:
+        assert point_in_polygon(x, y, rect) == inside
+
+
+def test_room_at_prefers_inside_node_then_snaps(topo):
+    from pathlib import Path
+
+    areas = load_room_areas(
+        Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml", topo
+    )
+    assert len(areas) == len(topo)
+    by_id = {a.node_id: a for a in areas}
+    assert by_id[1].kind == "waypoint" and by_id[7].kind == "inside"
+    door, inside = by_id[6], by_id[7]
+    assert door.room == inside.room and inside.polygon
+    cx = sum(q[0] for q in inside.polygon) / len(inside.polygon)
+    cy = sum(q[1] for q in inside.polygon) / len(inside.polygon)
+    assert room_at(cx, cy, topo, areas) == 7  # the room's own (inside) node
+    # a waypoint never snaps; far from everything is None
+    wp = topo.nodes[1].pose
+    assert room_at(wp.x, wp.y, topo, [RoomArea(a.node_id, a.room, a.kind, ()) for a in areas]) != 1
+    assert room_at(500.0, 500.0, topo, areas) is None
+
+
+# ------------------------------------------------------------------ RobotState
+def test_robot_state_versions_and_derived_fields():
+    s = RobotState(log_capacity=3)
+    assert s.localisation == "unset" and s.localised_pose is None and s.estop_engaged is None
+    s.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.5, state="lost"))
+    assert s.version == 1 and s.localisation == "lost" and s.localised_pose is None
+    s.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.5))
+    assert s.localised_pose == Pose2D(1.0, 2.0, 0.5)
+    s.apply(Topic.MUX, MuxMsg(None, "stop", ("stop",)))
+    assert s.estop_engaged is True
+    s.apply(Topic.POSE, "not a pose")  # ignored
+    assert s.version == 3
+    for i in range(5):
+        s.add_log(float(i), "info", f"line {i}")
+    assert [e.text for e in s.log] == ["line 2", "line 3", "line 4"]

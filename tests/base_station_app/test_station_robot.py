@@ -1,0 +1,198 @@
+"""The station against a fake robot on loopback zenoh: teleop twists, the e-stop latch, routes,
+tour stops, initial pose, configuration, robots list."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+from base_station_app.station_config import StationConfig
+from base_station_app.teleop import Direction
+from interbot_core.geometry import Pose2D
+from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
+from interbot_core.topics import (
+    ConfigMsg,
+    InitialPose,
+    Lock,
+    RouteCancel,
+    RouteMsg,
+    StopRelease,
+    Twist,
+)
+
+
+def test_teleop_sends_station_vel_every_tick_and_zero_on_release(
+    qtbot, linked, station, robot, localise, clock
+):
+    station.press(Direction.FORWARD)
+    for _ in range(3):
+        clock.advance(0.1)
+        station.tick()
+    station.release(Direction.FORWARD)
+    qtbot.waitUntil(lambda: bool(len(robot.of("station_vel")) >= 5), timeout=3000)
+    twists = robot.of("station_vel")
+    assert all(isinstance(t, Twist) for t in twists)
+    assert [t.linear for t in twists] == [0.4, 0.4, 0.4, 0.4, 0.0]
+    # stamps of the repeated commands are the clock ticks, 100 ms apart
+    assert [round(t.stamp - twists[0].stamp, 3) for t in twists[1:4]] == [0.1, 0.2, 0.3]
+    clock.advance(0.1)
+    station.tick()  # nothing held: no more commands
+    qtbot.wait(50)
+    assert len(robot.of("station_vel")) == 5
+
+
+def test_precise_clock_timer_sends_every_100_ms(qtbot, linked, station, robot, localise):
+    import time
+
+    station.clock = time.monotonic
+    station.press(Direction.LEFT)
+    station.clock_timer.start()
+    qtbot.waitUntil(lambda: bool(len(robot.of("station_vel")) >= 6), timeout=3000)
+    station.release(Direction.LEFT)
+    twists = robot.of("station_vel")
+    assert twists[1].angular == station.config.teleop_angular_max
+    periods = [b.stamp - a.stamp for a, b in itertools.pairwise(twists[1:6])]
+    assert 0.08 < sum(periods) / len(periods) < 0.13, periods  # a loaded CI box jitters
+    assert all(0.02 < p < 0.25 for p in periods), periods
+    assert station.clock_periods.count >= 4
+
+
+def test_emergency_stop_latches_until_release(qtbot, linked, station, robot, localise, clock):
+    station.emergency_stop()
+    qtbot.waitUntil(lambda: bool(len(robot.of("stop")) == 1), timeout=3000)
+    assert robot.of("stop") == [Lock(True, stamp=clock.now)]
+    assert station.estop_latched
+    station.press(Direction.FORWARD)  # ignored while latched
+    station.tick()
+    assert not station.teleop.active
+    clock.advance(5.0)
+    station.tick()
+    assert station.estop_latched  # still latched: only Release clears it
+    station.release_stop()
+    qtbot.waitUntil(lambda: bool(len(robot.of("stop_release")) == 1), timeout=3000)
+    assert robot.of("stop")[-1] == Lock(False, stamp=clock.now)
+    assert isinstance(robot.of("stop_release")[0], StopRelease)
+    assert not station.estop_latched
+    assert robot.of("station_vel") == []
+
+
+def test_room_task_sends_whole_route(qtbot, linked, station, robot, localise, topo):
+    localise(topo.nodes[0].pose)
+    assert station.submit(GoTo(5))
+    station.tick()
+    qtbot.waitUntil(lambda: bool(len(robot.of("route")) == 1), timeout=3000)
+    route = robot.of("route")[0]
+    assert isinstance(route, RouteMsg)
+    assert route.node_ids[-1] == 5
+    planned = station.planner.plan(topo.nodes[0].pose, 5, skip_start_within=0.7)
+    assert route.node_ids == planned.node_ids
+    assert route.waypoints[-1] == (
+        topo.nodes[5].pose.x,
+        topo.nodes[5].pose.y,
+        topo.nodes[5].pose.yaw,
+    )
+    assert route.approach_tolerance == station.config.approach_tolerance
+    # The robot drives through the waypoints: the task finishes at the last one.
+    for x, y, yaw in route.waypoints:
+        localise(Pose2D(x, y, yaw))
+        station.tick()
+    assert station.supervisor.current_task is None
+    assert station.goal_reached
+
+
+def test_cancel_sends_route_cancel(qtbot, linked, station, robot, localise, topo):
+    start = topo.nodes[0].pose
+    localise(start)
+    station.submit(GoTo(9))
+    station.tick()
+    assert station.cancel_task()
+    qtbot.waitUntil(lambda: len(robot.of("route_cancel")) == 1, timeout=3000)
+    cancel = robot.of("route_cancel")[0]
+    assert isinstance(cancel, RouteCancel)
+    assert cancel.route_id == robot.of("route")[0].route_id
+    assert cancel.reason == "cancelled by the user"
+    assert station.route is None
+
+
+def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise, topo):
+    first = topo.tour_nodes()[0]
+    localise(first.pose)
+    station.submit(GuidedTour())
+    station.tick()  # at the first stop already
+    assert station.supervisor.state is SupervisorState.AT_TOUR_STOP
+    assert station.supervisor.paused
+    qtbot.waitUntil(
+        lambda: bool(robot.of("pause_nav")[-1:] == [Lock(True, stamp=station.clock())]),
+        timeout=3000,
+    )
+    assert station.tour_resume()
+    qtbot.waitUntil(lambda: bool(robot.of("pause_nav")[-1].engaged is False), timeout=3000)
+    station.tick()
+    assert station.supervisor.state is SupervisorState.NAVIGATING
+    qtbot.waitUntil(lambda: bool(len(robot.of("route")) >= 2), timeout=3000)
+    assert robot.of("route")[-1].node_ids[-1] == station.supervisor.next_tour_stop
+
+
+def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, localise, topo):
+    station.set_initial_pose_room(3)
+    node = topo.nodes[3].pose
+    qtbot.waitUntil(lambda: bool(len(robot.of("initial_pose")) == 1), timeout=3000)
+    msg = robot.of("initial_pose")[0]
+    assert isinstance(msg, InitialPose)
+    assert (msg.x, msg.y, msg.yaw) == (node.x, node.y, node.yaw)
+    new = StationConfig(planner_linear_max=0.3, approach_tolerance=1.0, latency_ceiling=0.3)
+    station.set_config(new)
+    qtbot.waitUntil(
+        lambda: bool(any(c.params.get("max_linear_speed") == 0.3 for c in robot.of("config"))),
+        timeout=3000,
+    )
+    assert station.supervisor.config.approach_tolerance == 1.0
+    assert station.watchdog.ceiling_s == 0.3
+    assert isinstance(robot.of("config")[-1], ConfigMsg)
+
+
+def test_robot_state_scan_and_lost_robot(qtbot, linked, station, robot, localise):
+    robot.publish_pose(1.0, 2.0, math.pi / 2)
+    robot.publish_scan()
+
+    def got() -> bool:
+        station.poll_link()
+        return station.state.scan is not None and station.state.pose is not None
+
+    qtbot.waitUntil(got, timeout=3000)
+    assert station.robots == {"r1": True}
+    robot.link.close()
+
+    def lost() -> bool:
+        station.poll_link()
+        return station.robots == {"r1": False}
+
+    qtbot.waitUntil(lost, timeout=3000)
+    assert any("lost" in e.text for e in station.state.log)
+
+
+def test_restarted_robot_gets_route_and_config_again(qtbot, linked, station, robot, localise, topo):
+    from interbot_link import RobotLink
+
+    localise(topo.nodes[0].pose)
+    station.submit(GoTo(9))
+    station.tick()
+    qtbot.waitUntil(lambda: len(robot.of("route")) == 1, timeout=3000)
+    first = robot.of("route")[0]
+    robot.link.close()
+
+    def gone() -> bool:
+        station.poll_link()
+        return station.robots["r1"] is False
+
+    qtbot.waitUntil(gone, timeout=3000)
+    robot.link = RobotLink(robot.session, "r1")
+    robot.commands.clear()
+
+    def back() -> bool:
+        station.poll_link()
+        station.tick()
+        return robot.of("route") == [first]
+
+    qtbot.waitUntil(back, timeout=5000)
+    assert any(isinstance(c, ConfigMsg) for c in robot.of("config"))

@@ -1,0 +1,243 @@
+"""The tablet TCP server and its policy, with a raw `socket.socket` tablet on 127.0.0.1 speaking
+the thesis's bare JSON objects (no newlines, split across sends)."""
+
+from __future__ import annotations
+
+import json
+
+from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
+from interbot_core.topics import RouteMsg, Twist
+
+
+def handshake(qtbot, tablet_factory):
+    t = tablet_factory()
+    raw = json.dumps({"hello": {"protocol": 1, "client": "tablet"}}, indent=2).encode()
+    for i in range(0, len(raw), 7):  # split across several sends, no newline at the end
+        t.send_raw(raw[i : i + 7])
+    qtbot.waitUntil(lambda: bool(t.of("welcome") and t.of("permissions")), timeout=3000)
+    return t
+
+
+def test_hello_split_across_sends_gets_welcome_and_permissions(qtbot, station, tablet_factory):
+    t = handshake(qtbot, tablet_factory)
+    assert t.of("welcome") == [{"protocol": 1, "robot": "r1"}]
+    assert t.of("permissions") == [{"teleop": True, "goals": True, "tours": True, "requests": True}]
+    assert station.tablet.greeted
+
+
+def test_pose_stream_initial_pose_false_until_localised(
+    qtbot, station, tablet_factory, localise, topo, clock
+):
+    t = handshake(qtbot, tablet_factory)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("initial_pose") == [False]), timeout=3000)
+    assert t.of("localisation") == ["unset"]
+    node = topo.nodes[2].pose
+    localise(node)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(len(t.of("pose")) == 1), timeout=3000)
+    assert t.of("pose")[0] == {"x_pos": node.x, "y_pos": node.y, "angle": node.yaw}
+    assert t.of("localisation") == ["unset", "ok"]
+
+
+def test_thesis_client_goal_without_newlines_drives_a_route(
+    qtbot, linked, station, robot, tablet_factory, localise, topo
+):
+    localise(topo.nodes[0].pose)
+    t = tablet_factory()  # the thesis's client: no hello, bare objects back to back
+    t.send_raw(b'{"goal": 7}{"pau')
+    t.send_raw(b'se": false}')
+    qtbot.waitUntil(
+        lambda: bool(station.supervisor.queue or station.supervisor.current_task), timeout=3000
+    )
+    station.tick()
+    qtbot.waitUntil(lambda: bool(len(robot.of("route")) == 1), timeout=3000)
+    assert isinstance(robot.of("route")[0], RouteMsg)
+    assert robot.of("route")[0].node_ids[-1] == 7
+    qtbot.waitUntil(lambda: bool(t.of("goal")), timeout=3000)
+    assert t.of("goal")[-1] == {"goal": 7, "reached": False, "tourReached": False}
+    assert station.tablet_task == GoTo(7)
+    assert not station.tablet.greeted
+
+
+def test_second_tablet_is_refused_and_closed(qtbot, station, tablet_factory):
+    first = handshake(qtbot, tablet_factory)
+    second = tablet_factory()
+    qtbot.waitUntil(lambda: bool(second.pump() is True), timeout=3000)
+    assert "another tablet" in second.of("refused")[0]["reason"]
+    assert station.tablet.is_connected
+    first.send({"ping": {"seq": 1, "t": 2.5}})
+    qtbot.waitUntil(lambda: bool(first.of("pong") == [{"seq": 1, "t": 2.5}]), timeout=3000)
+
+
+def test_listens_again_after_disconnect(qtbot, station, tablet_factory):
+    first = handshake(qtbot, tablet_factory)
+    first.close()
+    qtbot.waitUntil(lambda: bool(not station.tablet.is_connected), timeout=3000)
+    second = handshake(qtbot, tablet_factory)
+    assert second.of("welcome")
+    assert station.tablet.is_connected
+
+
+def test_bad_json_gets_error_reply_and_repeated_errors_close(qtbot, station, tablet_factory):
+    t = handshake(qtbot, tablet_factory)
+    t.send_raw(b'{"goal": }')
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert t.of("error")[0]["code"] == "invalid_json"
+    t.send({"goal": 999})
+    qtbot.waitUntil(lambda: bool(len(t.of("error")) == 2), timeout=3000)
+    assert t.of("error")[1]["code"] == "out_of_range"
+    assert station.tablet.is_connected
+    for _ in range(5):
+        t.send({"nonsense": 1})
+    qtbot.waitUntil(lambda: bool(t.pump() is True), timeout=3000)
+    assert t.of("error")[-1]["code"] == "unknown_message"
+    qtbot.waitUntil(lambda: bool(not station.tablet.is_connected), timeout=3000)
+
+
+def test_frame_too_large_closes(qtbot, station, tablet_factory):
+    t = handshake(qtbot, tablet_factory)
+    t.send_raw(b'{"malfunction": {"kind": "other", "text": "' + b"x" * 70000 + b'"}}')
+    qtbot.waitUntil(lambda: bool(t.pump() is True), timeout=3000)
+    assert t.of("error")[-1]["code"] == "frame_too_large"
+
+
+def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tablet_factory, clock):
+    t = handshake(qtbot, tablet_factory)
+    t.send({"speed": {"linear": 0.3, "angular": -0.2}})
+    qtbot.waitUntil(lambda: bool(station.tablet_speed is not None), timeout=3000)
+    clock.advance(0.1)
+    station.tick()  # fresh: forwarded
+    clock.advance(station.config.latency_ceiling + 0.05)
+    station.tick()  # stale: discarded, one explicit zero
+    clock.advance(0.1)
+    station.tick()  # nothing more
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 2), timeout=3000)
+    qtbot.wait(50)
+    sent = robot.of("tablet_vel")
+    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.0, 0.0)]
+    assert all(isinstance(v, Twist) for v in sent)
+    assert station.tablet_discarded == 1
+    assert station.tablet_speed is None
+
+
+def test_speed_period_statistics(qtbot, station, tablet_factory, clock):
+    t = handshake(qtbot, tablet_factory)
+    for k in range(4):
+        t.send({"speed": {"linear": 0.1, "angular": 0.0}})
+        qtbot.waitUntil(lambda: station.watchdog.last_feed == clock.now, timeout=3000)
+        assert station.tablet_periods.total_count == k
+        clock.advance(0.1)
+    assert station.tablet_periods.count == 3
+    assert abs(station.tablet_periods.mean() - 0.1) < 1e-9
+
+
+def test_permissions_refuse_goal_and_teleop(qtbot, station, tablet_factory, clock):
+    t = handshake(qtbot, tablet_factory)
+    station.set_permission("goals", False)
+    qtbot.waitUntil(lambda: bool(len(t.of("permissions")) == 2), timeout=3000)
+    assert t.of("permissions")[-1]["goals"] is False
+    t.send({"goal": 3})
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert t.of("error")[0]["code"] == "not_permitted"
+    assert station.supervisor.queue == () and station.supervisor.current_task is None
+    station.set_permission("teleop", False)
+    t.send({"speed": {"linear": 0.1, "angular": 0.0}})
+    qtbot.waitUntil(lambda: bool(len(t.of("error")) == 2), timeout=3000)
+    assert station.tablet_speed is None
+
+
+def test_station_pings_and_measures_latency(qtbot, station, tablet_factory, clock):
+    t = handshake(qtbot, tablet_factory)
+    station.tablet.ping()
+    qtbot.waitUntil(lambda: bool(t.of("ping")), timeout=3000)
+    ping = t.of("ping")[0]
+    clock.advance(0.012)
+    t.send({"pong": ping})
+    qtbot.waitUntil(lambda: bool(len(station.latencies) == 1), timeout=3000)
+    assert abs(station.latencies[0] - 0.012) < 1e-9
+
+
+def test_tablet_tour_stop_pause_and_resume(
+    qtbot, linked, station, robot, tablet_factory, localise, topo
+):
+    first = topo.tour_nodes()[0]
+    localise(first.pose)
+    t = handshake(qtbot, tablet_factory)
+    t.send({"tour": True})
+    qtbot.waitUntil(lambda: bool(station.supervisor.queue == (GuidedTour(),)), timeout=3000)
+    station.tick()
+    assert station.supervisor.state is SupervisorState.AT_TOUR_STOP
+    qtbot.waitUntil(
+        lambda: bool({"goal": first.id, "reached": True, "tourReached": True} in t.of("goal")),
+        timeout=3000,
+    )
+    qtbot.waitUntil(lambda: bool(t.of("tour_state")), timeout=3000)
+    assert t.of("tour_state")[-1]["visited"] == [first.id]
+    t.send({"tour_control": "resume"})
+    qtbot.waitUntil(
+        lambda: bool(station.supervisor.state is not SupervisorState.AT_TOUR_STOP), timeout=3000
+    )
+    assert not station.supervisor.paused
+    qtbot.waitUntil(
+        lambda: bool([lock.engaged for lock in robot.of("pause_nav")] == [True, False]),
+        timeout=3000,
+    )
+
+
+def test_malfunction_goes_to_status_log_and_cancel_by_operator(
+    qtbot, station, tablet_factory, localise, topo
+):
+    t = handshake(qtbot, tablet_factory)
+    t.send({"malfunction": {"kind": "collision", "text": "hit a chair"}})
+    qtbot.waitUntil(
+        lambda: bool(any("hit a chair" in e.text for e in station.state.log)), timeout=3000
+    )
+    assert [e.level for e in station.state.log if "hit a chair" in e.text] == ["error"]
+    localise(topo.nodes[0].pose)
+    t.send({"goal": 9})
+    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    station.tick()
+    assert station.tablet_task == GoTo(9)
+    station.tablet_task_cancel()
+    qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)
+    assert station.supervisor.current_task is None
+
+
+def test_other_protocol_version_is_refused(qtbot, station, tablet_factory):
+    t = tablet_factory()
+    t.send({"hello": {"protocol": 2, "client": "future tablet"}})
+    qtbot.waitUntil(lambda: t.pump() is True, timeout=3000)
+    assert "protocol 2 is not supported" in t.of("refused")[0]["reason"]
+    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=3000)
+
+
+def test_request_shown_at_room_and_answered_from_tablet(
+    qtbot, linked, station, robot, tablet_factory, localise, topo
+):
+    room = topo.request_nodes()[0]
+    t = handshake(qtbot, tablet_factory)
+    localise(room.pose)  # the robot already stands at the request room
+    t.send(
+        {
+            "requestFrom": {
+                "request": "the blue folder",
+                "room": room.id,
+                "deliverTo": 0,
+                "status": True,
+            }
+        }
+    )
+    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    station.tick()
+    assert station.supervisor.state is SupervisorState.AWAITING_RESPONSE
+    qtbot.waitUntil(lambda: bool(t.of("show_request")), timeout=3000)
+    shown = t.of("show_request")[0]
+    assert shown == {"id": 1, "request": "the blue folder", "room": room.id, "deliver_to": 0}
+    t.send({"request_answer": {"id": 1, "accepted": True}})
+    qtbot.waitUntil(
+        lambda: station.supervisor.state is not SupervisorState.AWAITING_RESPONSE, timeout=3000
+    )
+    station.tick()
+    # on the way to deliver it
+    qtbot.waitUntil(lambda: [r.node_ids[-1] for r in robot.of("route")][-1:] == [0], timeout=3000)

@@ -1,0 +1,52 @@
+"""The hardware: section of robot.yaml, and the example for the real robot (deploy/robot.yaml)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from robot_daemon.config import load_config
+from robot_daemon.hardware.config import HardwareConfig, HardwareConfigError
+
+DEPLOY = Path(__file__).resolve().parents[3] / "deploy" / "robot.yaml"
+
+
+def test_defaults_are_valid() -> None:
+    config = HardwareConfig.from_mapping({})
+    assert config.motors.command == "G"
+    assert config.motors.right_channel == 2
+    assert config.motors.geometry.metres_per_count > 0
+
+
+def test_deploy_example_parses() -> None:
+    daemon = load_config(DEPLOY)
+    assert daemon.backend == "hardware"
+    hw = HardwareConfig.from_mapping(daemon.hardware, str(DEPLOY))
+    assert hw.laser.port == "/dev/ttyACM0"
+    assert hw.motors.port == "/dev/ttyUSB0"
+    assert hw.motors.watchdog_ms == 500
+    assert (hw.camera.width, hw.camera.height) == (320, 240)
+
+
+@pytest.mark.parametrize(
+    ("raw", "message"),
+    [
+        ({"motors": {"track": -1}}, r"hardware\.motors\.track = -1 is outside"),
+        ({"motors": {"command": "P"}}, r"hardware\.motors\.command must be G or S"),
+        ({"motors": {"watchdog_ms": 10.5}}, r"hardware\.motors\.watchdog_ms must be an integer"),
+        ({"motors": {"left_sign": 2}}, r"hardware\.motors\.left_sign must be 1 or -1"),
+        ({"motors": {"wheel_radius": "big"}}, r"hardware\.motors\.wheel_radius must be a number"),
+        ({"laser": {"port": ""}}, r"hardware\.laser\.port must be a device path"),
+        ({"laser": {"speed": 3}}, r"unknown key\(s\) \['speed'\] in 'hardware\.laser'"),
+        ({"camera": {"device": True}}, r"hardware\.camera\.device must be an index or a path"),
+        ({"camera": {"jpeg_quality": 0}}, r"hardware\.camera\.jpeg_quality = 0 is outside"),
+        ({"lidar": {}}, r"unknown key\(s\) \['lidar'\] in 'hardware'"),
+        ({"motors": []}, r"'hardware\.motors' must be a mapping"),
+    ],
+)
+def test_errors_name_the_key(raw: dict[str, Any], message: str) -> None:
+    with pytest.raises(HardwareConfigError, match=message) as info:
+        HardwareConfig.from_mapping(raw, "robot.yaml")
+    assert str(info.value).startswith("robot.yaml: ")

@@ -1,0 +1,250 @@
+"""Navigator in closed loop: a kinematic robot, a ray-cast laser and synthetic maps.
+
+The loop integrates (v, w) exactly over each 0.1 s step; scans are cast in the *true* world,
+which may hold obstacles the navigator's a-priori map lacks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from interbot_core.geometry import Pose2D, wrap_angle
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
+from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
+from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
+
+RES = 0.05
+DT = 0.1
+BEAMS = 271  # 1 degree over 270 degrees: enough for tests, cheap to cast
+
+
+def two_rooms() -> OccupancyGrid:
+    """8 x 5 m, outer walls, a wall at x = 4 m with a 0.9 m door centred at y = 2.5 m."""
+    cells = np.full((100, 160), FREE, dtype=np.int8)
+    cells[:2, :] = cells[-2:, :] = OCCUPIED
+    cells[:, :2] = cells[:, -2:] = OCCUPIED
+    cells[:, 80:82] = OCCUPIED
+    cells[41:59, 80:82] = FREE  # 18 cells = 0.9 m
+    return OccupancyGrid(cells, RES, 0.0, 0.0, source="two_rooms")
+
+
+def corridor() -> OccupancyGrid:
+    """10 x 3 m room with a 1.2 m wide, 5 m long corridor in the middle leading to a room."""
+    cells = np.full((60, 200), OCCUPIED, dtype=np.int8)
+    cells[2:-2, 2:60] = FREE  # west room, 2.8 m wide
+    cells[18:42, 60:160] = FREE  # corridor y 0.9..2.1
+    cells[2:-2, 160:198] = FREE  # east room
+    return OccupancyGrid(cells, RES, 0.0, 0.0, source="corridor")
+
+
+def with_box(grid: OccupancyGrid, x0: float, y0: float, x1: float, y1: float) -> OccupancyGrid:
+    cells = grid.cells.copy()
+    r0, c0 = grid.world_to_cell(x0, y0)
+    r1, c1 = grid.world_to_cell(x1, y1)
+    cells[int(r0) : int(r1) + 1, int(c0) : int(c1) + 1] = OCCUPIED
+    return grid.with_cells(cells)
+
+
+def cast_scan(world: OccupancyGrid, pose: Pose2D, now: float, max_range: float = 8.0) -> LaserScan:
+    """Vectorised ray casting: march every beam in half-cell steps to the first blocked cell."""
+    angles = np.linspace(-0.75 * math.pi, 0.75 * math.pi, BEAMS)
+    t = np.arange(0.0, max_range, 0.5 * RES)
+    xs = pose.x + np.cos(angles + pose.yaw)[:, None] * t[None, :]
+    ys = pose.y + np.sin(angles + pose.yaw)[:, None] * t[None, :]
+    rows, cols = world.world_to_cell(xs, ys)
+    inside = world.in_bounds(rows, cols)
+    hit = np.ones(xs.shape, dtype=bool)
+    hit[inside] = world.blocked()[rows[inside], cols[inside]]
+    first = np.where(hit.any(axis=1), hit.argmax(axis=1), -1)
+    ranges = np.where(first >= 0, t[np.maximum(first, 0)], np.inf).astype(np.float32)
+    return LaserScan(now, float(angles[0]), float(angles[1] - angles[0]), 0.05, max_range, ranges)
+
+
+def integrate(pose: Pose2D, v: float, w: float, dt: float = DT) -> Pose2D:
+    if abs(w) < 1e-12:
+        delta = Pose2D(v * dt, 0.0, 0.0)
+    else:
+        delta = Pose2D(v / w * math.sin(w * dt), v / w * (1.0 - math.cos(w * dt)), w * dt)
+    return pose.compose(delta)
+
+
+def footprint_clearance(world: OccupancyGrid, pose: Pose2D) -> float:
+    """Exact clearance [m] of the 0.60 x 0.55 m rectangle to blocked cell centres nearby."""
+    r, c = world.world_to_cell(pose.x, pose.y)
+    k = 20
+    rows, cols = np.nonzero(world.blocked()[max(r - k, 0) : r + k + 1, max(c - k, 0) : c + k + 1])
+    if rows.size == 0:
+        return math.inf
+    x, y = world.cell_to_world(rows + max(r - k, 0), cols + max(c - k, 0))
+    cy, sy = math.cos(pose.yaw), math.sin(pose.yaw)
+    lx = cy * (x - pose.x) + sy * (y - pose.y)
+    ly = -sy * (x - pose.x) + cy * (y - pose.y)
+    gap = np.hypot(np.maximum(np.abs(lx) - 0.30, 0.0), np.maximum(np.abs(ly) - 0.275, 0.0))
+    return float(gap.min()) - 0.5 * RES  # cell half-size
+
+
+def run(
+    nav: Navigator,
+    world: OccupancyGrid,
+    pose: Pose2D,
+    seconds: float,
+    now: float = 0.0,
+    until: set[NavState] | None = None,
+    move: bool = True,
+) -> tuple[Pose2D, list[NavCommand], list[Pose2D], float]:
+    until = until if until is not None else {NavState.SUCCEEDED, NavState.BLOCKED}
+    commands: list[NavCommand] = []
+    poses = [pose]
+    for _ in range(round(seconds / DT)):
+        cmd = nav.update(now, pose, cast_scan(world, pose, now))
+        commands.append(cmd)
+        if move:
+            pose = integrate(pose, cmd.linear, cmd.angular)
+        poses.append(pose)
+        now += DT
+        if cmd.state in until:
+            break
+    return pose, commands, poses, now
+
+
+def check_limits(commands: list[NavCommand], config: PlannerConfig) -> None:
+    v = np.array([c.linear for c in commands])
+    w = np.array([c.angular for c in commands])
+    assert v.max() <= config.max_linear_speed + 1e-9
+    assert np.abs(w).max() <= config.max_angular_speed + 1e-9
+    assert np.abs(np.diff(np.r_[0.0, v])).max() <= config.linear_acceleration * DT + 1e-9
+    assert np.abs(np.diff(np.r_[0.0, w])).max() <= config.angular_acceleration * DT + 1e-9
+
+
+def test_reaches_a_goal_through_a_door() -> None:
+    grid = two_rooms()
+    nav = Navigator(grid)
+    assert nav.state is NavState.IDLE
+    nav.set_goal(Pose2D(6.5, 3.5, math.pi / 2), now=0.0)
+    assert nav.state is NavState.PLANNING
+    pose, commands, poses, _ = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 80.0)
+    states = [c.state for c in commands]
+    assert states[-1] is NavState.SUCCEEDED, commands[-1]
+    assert NavState.FOLLOWING in states and NavState.ROTATING in states
+    assert NavState.RECOVERING not in states
+    assert math.hypot(pose.x - 6.5, pose.y - 3.5) <= 0.5
+    assert abs(wrap_angle(pose.yaw - math.pi / 2)) <= 0.1
+    assert min(footprint_clearance(grid, p) for p in poses) > 0.0
+    assert commands[-1].linear == 0.0 and commands[-1].angular == 0.0
+    check_limits(commands, nav.config)
+    # Stays put once succeeded.
+    assert nav.update(100.0, pose).state is NavState.SUCCEEDED
+
+
+def test_route_advances_through_intermediate_goals() -> None:
+    grid = two_rooms()
+    nav = Navigator(grid)
+    route = [Pose2D(2.5, 2.5, 0.0), Pose2D(5.0, 2.5, 0.0), Pose2D(6.0, 1.5, -math.pi / 2)]
+    nav.set_route(route, approach_tolerance=0.7, goal_xy_tol=0.3, goal_yaw_tol=0.05, now=0.0)
+    pose, commands, _, _ = run(nav, grid, Pose2D(1.0, 2.5, 0.0), 60.0)
+    assert commands[-1].state is NavState.SUCCEEDED
+    indices = [c.goal_index for c in commands]
+    assert indices == sorted(indices) and set(indices) == {0, 1, 2}
+    assert math.hypot(pose.x - 6.0, pose.y - 1.5) <= 0.3
+    assert abs(wrap_angle(pose.yaw + math.pi / 2)) <= 0.05
+
+
+def test_replans_around_a_new_obstacle() -> None:
+    grid = two_rooms()
+    world = with_box(grid, 2.0, 1.6, 2.6, 3.4)  # a cabinet the map does not know
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(3.4, 2.5, 0.0), now=0.0)
+    _pose, commands, poses, _ = run(nav, world, Pose2D(0.8, 2.5, 0.0), 70.0)
+    assert commands[-1].state is NavState.SUCCEEDED, commands[-1]
+    assert min(footprint_clearance(world, p) for p in poses) > 0.0
+    assert max(abs(p.y - 2.5) for p in poses) > 0.9  # it drove around the cabinet
+
+
+def test_initial_path_is_replaced_when_the_obstacle_is_seen() -> None:
+    grid = two_rooms()
+    world = with_box(grid, 2.0, 1.6, 2.6, 3.4)
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(3.4, 2.5, 0.0), now=0.0)
+    pose = Pose2D(0.8, 2.5, 0.0)
+    nav.update(0.0, pose)  # no scan yet: plans on the a-priori map only
+    straight = np.asarray(nav.path)
+    assert np.abs(straight[:, 1] - 2.5).max() < 0.05
+    nav.update(1.0, pose, cast_scan(world, pose, 1.0))  # 1 s later the replan sees the box
+    around = np.asarray(nav.path)
+    assert np.abs(around[:, 1] - 2.5).max() > 0.9
+
+
+def test_reports_blocked_in_a_dead_end_after_recoveries() -> None:
+    grid = corridor()
+    world = with_box(grid, 7.5, 0.9, 7.8, 2.1)  # a trolley closes the far end of the corridor
+    config = PlannerConfig(blocked_timeout=15.0, wait_duration=2.0)
+    nav = Navigator(grid, config)
+    nav.set_goal(Pose2D(9.0, 1.5, 0.0), now=0.0)
+    pose, commands, poses, now = run(nav, world, Pose2D(1.0, 1.5, 0.0), 90.0)
+    states = [c.state for c in commands]
+    assert states[-1] is NavState.BLOCKED, commands[-1]
+    assert NavState.RECOVERING in states
+    reasons = " ".join(c.reason for c in commands)
+    for behaviour in ("clear_costmap", "spin", "back_up", "wait"):
+        assert behaviour in reasons
+    assert "no path" in commands[-1].reason and "15 s" in commands[-1].reason
+    assert min(footprint_clearance(world, p) for p in poses) > 0.0
+    assert max(p.x for p in poses) > 3.5  # it drove into the corridor before seeing the trolley
+    assert pose.x < 7.5 - 0.3
+    # Blocked is terminal until a new goal: zero commands, no oscillation.
+    later = [nav.update(now + i * DT, pose, cast_scan(world, pose, now)) for i in range(5)]
+    assert all(c.state is NavState.BLOCKED and c.linear == c.angular == 0.0 for c in later)
+
+
+def test_goal_inside_a_wall_is_blocked_at_once() -> None:
+    grid = two_rooms()
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(4.05, 1.0, 0.0), now=0.0)
+    cmd = nav.update(0.0, Pose2D(1.0, 1.0, 0.0))
+    assert cmd.state is NavState.BLOCKED
+    assert "unreachable" in cmd.reason and "two_rooms" in cmd.reason
+
+
+def test_progress_checker_starts_recovery_when_the_robot_does_not_move() -> None:
+    grid = two_rooms()
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(3.0, 1.0, 0.0), now=0.0)
+    # The wheels slip: commands have no effect.
+    _, commands, _, _ = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 11.0, until=set(), move=False)
+    first = next(
+        i for i, c in enumerate(commands) if c.state is NavState.RECOVERING or "clear" in c.reason
+    )
+    assert 9.9 <= first * DT <= 10.5
+    assert "progress" in commands[first].reason
+
+
+def test_cancel_and_reconfigure() -> None:
+    grid = two_rooms()
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(3.0, 1.0, 0.0), now=0.0)
+    nav.reconfigure(max_linear_speed=0.1)
+    _, commands, _, now = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 5.0)
+    assert max(c.linear for c in commands) == pytest.approx(0.1)
+    nav.cancel()
+    cmd = nav.update(now, Pose2D(1.0, 1.0, 0.0))
+    assert (cmd.linear, cmd.angular, cmd.state) == (0.0, 0.0, NavState.IDLE)
+    with pytest.raises(PlannerConfigError, match="max_linear_speed"):
+        nav.reconfigure(max_linear_speed=-1.0)
+    with pytest.raises(PlannerConfigError, match="unknown"):
+        nav.reconfigure(max_speed=1.0)
+    assert nav.config.max_linear_speed == 0.1
+
+
+def test_defaults_are_the_thesis_values() -> None:
+    config = PlannerConfig()
+    assert (config.max_linear_speed, config.max_angular_speed) == (0.25, 1.0)
+    assert (config.goal_xy_tolerance, config.goal_yaw_tolerance) == (0.5, 0.1)
+    assert config.min_linear_speed == 0.0
+    with pytest.raises(PlannerConfigError, match="goal_yaw_tolerance"):
+        PlannerConfig(goal_yaw_tolerance=4.0)
+    with pytest.raises(PlannerConfigError, match="inflation_radius"):
+        PlannerConfig(inflation_radius=0.2)

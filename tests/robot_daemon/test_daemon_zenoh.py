@@ -1,0 +1,212 @@
+"""The robot daemon driven over zenoh on loopback, as the Base Station drives it.
+
+The daemon runs in a thread of this process on simulated time (8x real time) so tests can also
+look inside it; one test runs the real `interbot-daemon` process and stops it with SIGTERM.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+
+import pytest
+
+from interbot_core.topics import (
+    InitialPose,
+    Lock,
+    PoseMsg,
+    RouteMsg,
+    RouteProgress,
+    StopRelease,
+    Topic,
+    Twist,
+)
+from interbot_link import RobotLink, StateMessage, StationLink, open_session
+from robot_daemon.config import DaemonConfig, SimSettings, ZenohSettings
+from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.systemd_notify import SystemdNotifier
+
+ROBOT = "testbot"
+pytestmark = pytest.mark.timeout(120)
+
+
+@dataclass
+class Rig:
+    daemon: Daemon
+    station: StationLink
+    stop: threading.Event
+    close_station: Callable[[], None]
+    seen: dict[Topic, object] = field(default_factory=dict)
+
+    def latest(self, topic: Topic) -> object | None:
+        """The newest message on ``topic``: high-rate state and events, as a station pumps them."""
+        self.seen.update(self.station.poll_state())
+        for event in self.station.poll_events():
+            if isinstance(event, StateMessage):
+                self.seen[event.topic] = event.message
+        return self.seen.get(topic)
+
+    def progress(self) -> RouteProgress | None:
+        latest = self.latest(Topic.ROUTE_PROGRESS)
+        return latest if isinstance(latest, RouteProgress) else None
+
+
+@pytest.fixture
+def rig(free_tcp_port: Callable[[], int], wait_until: Callable[..., None]) -> Iterator[Rig]:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    config = DaemonConfig(
+        robot_id=ROBOT,
+        sim=SimSettings(seed=3, people=0, odometry="calibrated", realtime_factor=8.0),
+        zenoh=ZenohSettings((endpoint,), ()),
+    )
+    daemon = Daemon(config, DaemonOptions(auto_localise=False))
+    stop = threading.Event()
+    with ExitStack() as robot_side:
+        robot_session = robot_side.enter_context(open_session([endpoint], []))
+        link = RobotLink(robot_session, ROBOT)
+        robot_side.callback(link.close)
+        thread = threading.Thread(
+            target=daemon.run, args=(link, stop, SystemdNotifier({})), daemon=True
+        )
+        thread.start()
+        station_side = ExitStack()
+        station_session = station_side.enter_context(open_session([], [endpoint]))
+        station = StationLink(station_session)
+        station_side.callback(station.close)
+        wait_until(lambda: ROBOT in station.robots, 10.0, "the robot's liveliness token")
+        station.select_robot(ROBOT)
+        try:
+            yield Rig(daemon, station, stop, station_side.close)
+        finally:
+            station_side.close()
+            stop.set()
+            thread.join(10.0)
+            assert not thread.is_alive(), "daemon loop did not stop"
+
+
+def _localise_at_home(rig: Rig, wait_until: Callable[..., None]) -> None:
+    home = rig.daemon.start_pose
+    rig.station.send_initial_pose(InitialPose(home.x, home.y, home.yaw))
+
+    def localised() -> bool:
+        pose = rig.latest(Topic.POSE)
+        return isinstance(pose, PoseMsg) and pose.state == "ok"
+
+    wait_until(localised, 10.0, "pose state ok after the initial pose")
+
+
+def _short_route(rig: Rig) -> RouteMsg:
+    """Home (node 0) to the next node of the ring, in the map frame."""
+    topo = rig.daemon.topo
+    assert topo is not None
+    node = topo.node(1).pose
+    return RouteMsg(7, ((node.x, node.y, node.yaw),), (1,), 1.0, 0.5, 0.1)
+
+
+def test_goal_in_route_done_pose_out(rig: Rig, wait_until: Callable[..., None]) -> None:
+    pose = rig.latest(Topic.POSE)
+    assert pose is None or (isinstance(pose, PoseMsg) and pose.state == "unset")
+    _localise_at_home(rig, wait_until)
+    route = _short_route(rig)
+    assert rig.station.send_route(route)
+
+    def done() -> bool:
+        p = rig.progress()
+        return p is not None and p.route_id == 7 and p.state == "succeeded"
+
+    wait_until(done, 60.0, "route 7 to succeed")
+    progress = rig.progress()
+    assert progress is not None and progress.reached_final
+    final = rig.latest(Topic.POSE)
+    goal = route.waypoints[-1]
+    assert isinstance(final, PoseMsg)
+    assert abs(final.x - goal[0]) < 0.6 and abs(final.y - goal[1]) < 0.6
+
+
+def test_emergency_stop_latches_until_released(rig: Rig, wait_until: Callable[..., None]) -> None:
+    def driving() -> bool:
+        rig.station.send_station_vel(Twist(0.2, 0.0))
+        return rig.daemon.stack.last_output.source == "Base Station"
+
+    wait_until(driving, 10.0, "station_vel to win the mux")
+    rig.station.send_stop(Lock(True))
+    rig.station.send_stop(Lock(False))  # a false value does not release a latched stop
+    for _ in range(20):
+        rig.station.send_station_vel(Twist(0.2, 0.0))
+        time.sleep(0.02)
+    out = rig.daemon.stack.last_output
+    assert (out.linear, out.angular, out.source) == (0.0, 0.0, None)
+    assert "Emergency Stop" in out.active_locks
+    rig.station.send_stop_release(StopRelease("test operator"))
+    wait_until(driving, 10.0, "station_vel to drive again after the release")
+
+
+def test_station_loss_mid_route_still_finishes_the_route(
+    rig: Rig, wait_until: Callable[..., None]
+) -> None:
+    _localise_at_home(rig, wait_until)
+    rig.station.send_route(_short_route(rig))
+    wait_until(
+        lambda: (r := rig.daemon.stack.route) is not None and r.state == "active",
+        10.0,
+        "the route to start",
+    )
+    rig.close_station()  # the Base Station disappears
+    wait_until(
+        lambda: rig.daemon.stack.route is not None and rig.daemon.stack.route.finished,
+        60.0,
+        "the robot to finish the route on its own",
+    )
+    assert rig.daemon.stack.route is not None and rig.daemon.stack.route.state == "succeeded"
+
+
+def test_teleop_from_a_vanished_station_stops_within_the_mux_timeout(
+    rig: Rig, wait_until: Callable[..., None]
+) -> None:
+    def driving() -> bool:
+        rig.station.send_station_vel(Twist(0.3, 0.1))
+        return rig.daemon.stack.last_output.linear > 0.0
+
+    wait_until(driving, 10.0, "teleoperation to drive")
+    rig.close_station()
+    lost_at = rig.daemon.now
+    wait_until(lambda: rig.daemon.stack.last_output.source is None, 5.0, "the mux to time out")
+    out = rig.daemon.stack.last_output
+    assert (out.linear, out.angular) == (0.0, 0.0)
+    # station_vel times out after 0.5 s of robot time (plus one loop pass of slack).
+    assert rig.daemon.now - lost_at < 0.5 + 0.2 + 0.5
+
+
+def test_daemon_process_exits_cleanly_on_sigterm(
+    free_tcp_port: Callable[[], int], wait_until: Callable[..., None]
+) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    cmd = [sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", "proc1"]
+    cmd += ["--listen", endpoint, "--people", "0"]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+    try:
+        with open_session([], [endpoint]) as session:
+            station = StationLink(session)
+            try:
+                wait_until(lambda: "proc1" in station.robots, 30.0, "the daemon process")
+                proc.send_signal(signal.SIGTERM)
+                assert proc.wait(15.0) == 0
+                wait_until(lambda: "proc1" not in station.robots, 5.0, "the robot to leave")
+            finally:
+                station.close()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        output = proc.stdout.read().decode() if proc.stdout else ""
+        if proc.stdout:
+            proc.stdout.close()
+    assert "daemon ready" in output and "daemon stopped" in output
