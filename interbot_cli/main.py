@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from interbot_cli import bench, demo
+from interbot_cli import bench, calibrate, demo
 
 logger = logging.getLogger(__name__)
 
@@ -44,6 +44,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
     bench.add_arguments(p_bench)
+
+    p_cal = sub.add_parser(
+        "calibrate", help="calibrate the robot (odometry: thesis Test Scenario 1)"
+    )
+    calibrate.add_arguments(p_cal)
     return parser
 
 
@@ -67,6 +72,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return run_scenario(args)
         if args.command == "bench":
             return bench.run(args)
+        if args.command == "calibrate":
+            return calibrate.run(args)
     except NotBuiltError as exc:
         print(f"interbot {args.command}: {exc}", file=sys.stderr)
         return EXIT_NOT_BUILT

@@ -284,6 +284,9 @@ class RobotStack:
             level = "error" if state == LocaliserState.LOST else "info"
             self._event(now, level, f"localisation {state.value}")
             self._localisation_state = state
+            if state == LocaliserState.LOST:
+                # Stop now: do not drive blind on the planner's last command until it times out.
+                self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
 
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""

@@ -46,8 +46,8 @@ from robot_daemon.stack import RobotStack, StackConfig
 
 logger = logging.getLogger(__name__)
 
-STACK_DT = 0.02  # [s] the daemon's loop period
-SIM_DT = 0.02  # [s] simulator substep: 1 cm of travel at 0.5 m/s, collisions bisected within it
+STACK_DT = 0.05  # [s] loop period headless (the daemon runs 50 Hz; controller and localiser 10 Hz)
+SIM_DT = 0.05  # [s] simulator substep: 2.5 cm at 0.5 m/s; collisions are bisected within it
 CLOCK_DT = 0.1  # [s] the Base Station's clock() period (thesis §5.3.6)
 NAV_TOLERANCE_SHARE = 0.8  # the robot stops inside 80 % of the station's arrival tolerances
 
@@ -306,3 +306,105 @@ __all__ = [
     "auto_answer_requests",
     "auto_resume_tour",
 ]
+
+
+# -- generic helpers for scripted scenarios (odometry, mission, latency) ----------------------
+
+
+@dataclass(frozen=True)
+class StraightSegment:
+    """A straight, collision-free stretch between two topological nodes (map frame)."""
+
+    start: tuple[float, float]  # [m]
+    end: tuple[float, float]  # [m]
+    clearance: float  # [m] smallest free-space distance along it
+    nodes: tuple[int, int]
+
+    @property
+    def length(self) -> float:
+        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
+
+    @property
+    def heading(self) -> float:
+        return math.atan2(self.end[1] - self.start[1], self.end[0] - self.start[0])
+
+    def distance_to(self, x: float, y: float) -> float:
+        """Distance [m] from (x, y) to the segment."""
+        ax, ay = self.start
+        dx, dy = self.end[0] - ax, self.end[1] - ay
+        t = max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / max(self.length**2, 1e-12)))
+        return math.hypot(x - ax - t * dx, y - ay - t * dy)
+
+
+def free_space_distance(grid: OccupancyGrid) -> np.ndarray:
+    """Distance [m] from each cell to the nearest blocked (occupied/unknown) cell."""
+    from scipy import ndimage
+
+    return np.asarray(
+        ndimage.distance_transform_edt(~grid.blocked(), sampling=grid.resolution),
+        dtype=np.float64,
+    )
+
+
+def straight_segments(
+    grid: OccupancyGrid, topo: TopologicalMap, min_clearance: float = 0.7
+) -> list[StraightSegment]:
+    """Every straight node-to-node segment whose free-space distance stays >= ``min_clearance``,
+    longest first (ties by node ids, so the choice is deterministic)."""
+    distance = free_space_distance(grid)
+    found: list[StraightSegment] = []
+    nodes = topo.nodes
+    for i, a in enumerate(nodes):
+        for b in nodes[i + 1 :]:
+            length = a.pose.distance_to(b.pose)
+            if length < 1.0:
+                continue
+            n = max(2, int(length / (0.5 * grid.resolution)) + 1)
+            xs = np.linspace(a.pose.x, b.pose.x, n)
+            ys = np.linspace(a.pose.y, b.pose.y, n)
+            rows, cols = grid.world_to_cell(xs, ys)
+            inside = grid.in_bounds(rows, cols)
+            if not bool(np.all(inside)):
+                continue
+            clearance = float(distance[rows, cols].min())
+            if clearance >= min_clearance:
+                found.append(
+                    StraightSegment(
+                        (a.pose.x, a.pose.y), (b.pose.x, b.pose.y), clearance, (a.id, b.id)
+                    )
+                )
+    found.sort(key=lambda s: (-round(s.length, 6), s.nodes))
+    return found
+
+
+def drive_to_pose(system: SimulatedSystem, pose: Pose2D, max_time: float = 600.0) -> bool:
+    """Let the supervisor drive the robot autonomously to ``pose``; True if it got there."""
+    from interbot_core.supervisor import GoToPose
+
+    before = len(system.of(TaskFinished))
+    system.apply(system.supervisor.submit(GoToPose(pose)))
+    done = system.run_until(lambda: len(system.of(TaskFinished)) > before, max_time)
+    finished = system.of(TaskFinished)
+    return done and bool(finished[-1][1].ok)
+
+
+def run_ticks(
+    system: SimulatedSystem,
+    tick: Callable[[float], bool],
+    max_time: float,
+    period: float = CLOCK_DT,
+    on_step: Callable[[float], None] | None = None,
+) -> bool:
+    """Step the system, calling ``tick(now)`` every ``period`` [s] (a controller's loop) until it
+    returns True or ``max_time`` [s] passes; ``on_step(now)`` runs after every daemon step."""
+    limit = system.now + max_time
+    next_tick = system.now
+    while system.now < limit:
+        if system.now + 1e-9 >= next_tick:
+            next_tick += period
+            if tick(system.now):
+                return True
+        system.step()
+        if on_step is not None:
+            on_step(system.now)
+    return False

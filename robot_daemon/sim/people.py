@@ -62,6 +62,10 @@ class CrowdConfig:
     pause_probability: float = 0.3  # at each route waypoint
     pause_range: tuple[float, float] = (1.0, 4.0)  # [s]
     robot_margin: float = 0.3  # [m] keep this far from the robot body
+    # [s] a person blocked by the robot waits this long, then sidesteps away from it and walks
+    # on (otherwise a person yielding on the robot's goal and the robot waiting for them to
+    # leave would wait for each other forever)
+    yield_patience: float = 3.0
     blocker_probability: float = 0.5  # per encounter, for people flagged as blockers
     blocker_trigger: float = 2.5  # [m] ahead of the robot
     blocker_duration: tuple[float, float] = (3.0, 8.0)  # [s]
@@ -78,6 +82,8 @@ class CrowdConfig:
         for name in ("pause_probability", "blocker_probability"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise PeopleConfigError(f"CrowdConfig.{name} must be in [0, 1]")
+        if not 0.0 <= self.yield_patience <= 600.0:
+            raise PeopleConfigError("CrowdConfig.yield_patience must be in [0, 600] s")
         if not 0.05 <= self.lattice <= 1.0:
             raise PeopleConfigError("CrowdConfig.lattice must be in [0.05, 1] m")
 
@@ -99,6 +105,7 @@ class Person:
     timer: float = 0.0  # [s] left in PAUSED / BLOCKING
     cooldown: float = 0.0  # [s] before blocking again
     heading: float = 0.0  # [rad]
+    yielded: float = 0.0  # [s] spent yielding to the robot since the last free step
 
 
 class Roadmap:
@@ -341,8 +348,14 @@ class Crowd:
         else:
             nx, ny = p.x + dx / dist * step, p.y + dy / dist * step
         if not self._move_allowed(p, nx, ny, robot_pose, footprint):
-            p.state = PersonState.YIELDING
+            p.yielded += dt
+            if p.yielded < cfg.yield_patience or not self._sidestep(
+                p, dx, dy, dist, step, robot_pose, footprint
+            ):
+                p.state = PersonState.YIELDING
             return
+        if footprint.distance_to_point(robot_pose, nx, ny) > p.radius + cfg.robot_margin + 0.25:
+            p.yielded = 0.0  # clear of the robot: patience restored
         p.state = PersonState.WALKING
         if dist > 1e-9:
             p.heading = math.atan2(dy, dx)
@@ -353,6 +366,36 @@ class Crowd:
             if p.waypoint_mask[reached] and self._rng.random() < cfg.pause_probability:
                 p.state = PersonState.PAUSED
                 p.timer = float(self._rng.uniform(*cfg.pause_range))
+
+    def _sidestep(
+        self,
+        p: Person,
+        dx: float,
+        dy: float,
+        dist: float,
+        step: float,
+        robot_pose: Pose2D,
+        footprint: RobotFootprint,
+    ) -> bool:
+        """Walk around the robot: a step tangent to it and slightly outward, on the side that
+        leads towards the walking target first; True if the person moved."""
+        ax, ay = p.x - robot_pose.x, p.y - robot_pose.y
+        norm = math.hypot(ax, ay)
+        if norm <= 1e-9:
+            return False
+        ax, ay = ax / norm, ay / norm
+        tangents = [(-ay, ax), (ay, -ax)]
+        tangents.sort(key=lambda t: -(t[0] * dx + t[1] * dy))
+        for tx, ty in tangents:
+            ux, uy = 0.9 * tx + 0.45 * ax, 0.9 * ty + 0.45 * ay
+            scale = step / math.hypot(ux, uy)
+            nx, ny = p.x + ux * scale, p.y + uy * scale
+            if self._move_allowed(p, nx, ny, robot_pose, footprint):
+                p.x, p.y = nx, ny
+                p.heading = math.atan2(uy, ux)
+                p.state = PersonState.WALKING
+                return True
+        return False
 
     def _move_allowed(
         self, p: Person, nx: float, ny: float, robot_pose: Pose2D, footprint: RobotFootprint

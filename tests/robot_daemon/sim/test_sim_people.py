@@ -74,7 +74,8 @@ def test_generated_people_stay_in_free_space_on_willow() -> None:
 
 def test_person_yields_to_the_robot() -> None:
     world = two_rooms()
-    crowd = Crowd(world, np.random.default_rng(0), CrowdConfig(pause_probability=0.0))
+    cfg = CrowdConfig(pause_probability=0.0, yield_patience=60.0)
+    crowd = Crowd(world, np.random.default_rng(0), cfg)
     pid = crowd.add_person([(1.0, 3.0), (4.0, 3.0)], speed=1.0)
     robot = Pose2D(2.5, 3.0, 0.0)  # standing in the person's way
     for _ in range(100):
@@ -87,6 +88,22 @@ def test_person_yields_to_the_robot() -> None:
         crowd.step(0.05, FAR_AWAY, FP)
         xs.append(crowd.get(pid).x)
     assert max(xs) > 3.0
+
+
+def test_patient_person_goes_around_a_parked_robot() -> None:
+    """After yield_patience a person sidesteps away from the robot and walks on past it."""
+    world = two_rooms()
+    cfg = CrowdConfig(pause_probability=0.0, yield_patience=2.0)
+    crowd = Crowd(world, np.random.default_rng(0), cfg)
+    pid = crowd.add_person([(1.0, 3.0), (4.0, 3.0)], speed=1.0)
+    robot = Pose2D(2.5, 3.0, 0.0)  # parked in the person's way for good
+    xs = []
+    for _ in range(300):
+        crowd.step(0.05, robot, FP)
+        p = crowd.get(pid)
+        assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
+        xs.append(p.x)
+    assert max(xs) > 3.5  # got past the robot, which never moved
 
 
 def test_blocker_stops_in_front_of_the_robot() -> None:
