@@ -693,6 +693,10 @@ class StationController(QObject):
             self.watchdog.feed(now)
             self.tablet_periods.add_arrival(now)
             self.tablet_speed = msg
+            # Forward at once (fresh by definition); clock() republishes it every period while
+            # the watchdog keeps it fresh, as the thesis's speed section does (§5.3.6).
+            self._send(Topic.TABLET_VEL, Twist(msg.linear, msg.angular, stamp=now))
+            self.tablet_forwarding = True
         elif isinstance(msg, p.Goal):
             self.submit(GoTo(msg.node), from_tablet=True)
         elif isinstance(msg, p.Home):

@@ -130,8 +130,13 @@ def loop_poses(n: int, rate_hz: float = 40.0, speed: float = 0.6) -> list[Pose2D
     return out
 
 
-def run(n_scans: int = 1000, seed: int = 1) -> dict[str, float]:
-    """Time `Localiser.on_scan` over ``n_scans`` simulated scans; errors vs the true poses."""
+def run(quick: bool = False, n_scans: int | None = None, seed: int = 1) -> dict[str, float]:
+    """Time `Localiser.on_scan` over ``n_scans`` simulated scans; errors vs the true poses.
+
+    ``n_scans`` defaults to 1000 (150 with ``quick``, a smoke run).
+    """
+    if n_scans is None:
+        n_scans = 150 if quick else 1000
     rng = np.random.default_rng(seed)
     grid = office_grid()
     truth = loop_poses(n_scans)

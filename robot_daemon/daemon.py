@@ -271,17 +271,31 @@ class Daemon:
         next_tick = time.monotonic()
         while not stop.is_set():
             self._advance_time()
-            for command in link.poll_commands():
+            commands = link.poll_commands()
+            for command in commands:
                 self.handle(command, link)
-            self.stack.step(self.now)
-            self.publish(link)
-            notifier.watchdog(time.monotonic())
-            next_tick += LOOP_PERIOD
-            delay = next_tick - time.monotonic()
-            if delay > 0:
-                stop.wait(delay)
-            else:
-                next_tick = time.monotonic()  # overran: do not try to catch up
+            if time.monotonic() >= next_tick:
+                self.stack.step(self.now)
+                self.publish(link)
+                notifier.watchdog(time.monotonic())
+                next_tick += LOOP_PERIOD
+                if next_tick < time.monotonic():
+                    next_tick = time.monotonic()  # overran: do not try to catch up
+            elif commands:
+                # A command between two passes goes to the motors now, not up to 20 ms later.
+                output = self.stack.apply_output(self.now)
+                link.publish_mux(
+                    MuxMsg(
+                        output.source,
+                        output.reason,
+                        output.active_locks,
+                        output.linear,
+                        output.angular,
+                        self.now,
+                    )
+                )
+            # Sleep until the next pass, or until a command arrives.
+            link.wait_commands(max(0.0, next_tick - time.monotonic()))
         self.backend.close()
         notifier.stopping()
 

@@ -267,15 +267,20 @@ class RobotStack:
             self._track_localisation(now)
         if self._control_due(now):
             self._control(now)
-        output = self.mux.output(now)
-        self.backend.set_cmd_vel(output.linear, output.angular, now)
-        self.last_output = output
+        output = self.apply_output(now)
         battery = self.backend.read_battery(now)
         if battery is not None:
             self.last_battery = battery
         jpeg = self.backend.read_camera_jpeg(now)
         if jpeg is not None:
             self.last_jpeg = jpeg
+        return output
+
+    def apply_output(self, now: float) -> MuxOutput:
+        """Send the multiplexer's current output to the motors (also between loop passes)."""
+        output = self.mux.output(now)
+        self.backend.set_cmd_vel(output.linear, output.angular, now)
+        self.last_output = output
         return output
 
     def _track_localisation(self, now: float) -> None:

@@ -105,17 +105,18 @@ def test_frame_too_large_closes(qtbot, station, tablet_factory):
 def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tablet_factory, clock):
     t = handshake(qtbot, tablet_factory)
     t.send({"speed": {"linear": 0.3, "angular": -0.2}})
-    qtbot.waitUntil(lambda: bool(station.tablet_speed is not None), timeout=3000)
+    # Forwarded on arrival, before any clock() tick.
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 1), timeout=3000)
     clock.advance(0.1)
-    station.tick()  # fresh: forwarded
+    station.tick()  # still fresh: republished
     clock.advance(station.config.latency_ceiling + 0.05)
     station.tick()  # stale: discarded, one explicit zero
     clock.advance(0.1)
     station.tick()  # nothing more
-    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 2), timeout=3000)
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 3), timeout=3000)
     qtbot.wait(50)
     sent = robot.of("tablet_vel")
-    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.0, 0.0)]
+    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.3, -0.2), (0.0, 0.0)]
     assert all(isinstance(v, Twist) for v in sent)
     assert station.tablet_discarded == 1
     assert station.tablet_speed is None

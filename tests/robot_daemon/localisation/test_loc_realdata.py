@@ -1,5 +1,6 @@
 """Localisation on real laser logs (Radish / Freiburg CARMEN logs in ../shared/data).
 
+The method lives in `robot_daemon.localisation.log_replay` (shared with bench/bench_reallogs.py).
 A map is built with `grid_from_scans` from the first part of a log and its logged (GMapping-
 corrected) poses. The scans of the later part that revisit the mapped area (logged pose within
 1 m of a mapping pose) are localised in runs, each run starting from its first logged pose, with
@@ -11,7 +12,6 @@ are themselves SLAM estimates (a few centimetres), not ground truth.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from pathlib import Path
 
@@ -20,8 +20,8 @@ import pytest
 from scipy import ndimage
 
 from interbot_core.carmen_log import LaserRecord, read_laser_records
-from interbot_core.geometry import Pose2D
-from robot_daemon.localisation import Localiser, LocaliserState, grid_from_scans
+from robot_daemon.localisation import grid_from_scans
+from robot_daemon.localisation.log_replay import localise_revisits
 from robot_daemon.localisation.mapping import scan_points_in_map
 
 LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "data" / "laser_logs"
@@ -34,73 +34,6 @@ def _log(name: str) -> Path:
     if not path.is_file():
         pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
     return path
-
-
-def _revisit_runs(records: list[LaserRecord], split: int, min_len: int) -> list[list[LaserRecord]]:
-    mapped = np.array([[r.pose.x, r.pose.y] for r in records[:split]])
-    runs: list[list[LaserRecord]] = []
-    current: list[LaserRecord] = []
-    for r in records[split:]:
-        if np.min(np.hypot(mapped[:, 0] - r.pose.x, mapped[:, 1] - r.pose.y)) < 1.0:
-            current.append(r)
-            continue
-        if len(current) >= min_len:
-            runs.append(current)
-        current = []
-    if len(current) >= min_len:
-        runs.append(current)
-    return runs
-
-
-def localise_revisits(
-    path: Path, split_fraction: float, map_stride: int, loc_stride: int, seed: int = 0
-) -> dict[str, float]:
-    """Map the first part, localise the revisits of the rest; error statistics."""
-    records = read_laser_records(path)
-    split = int(split_fraction * len(records))
-    mapping = records[:split:map_stride]
-    grid = grid_from_scans([r.scan for r in mapping], [r.pose for r in mapping], 0.05)
-    rng = np.random.default_rng(seed)
-    errors: list[float] = []
-    yaw_errors: list[float] = []
-    odom_errors: list[float] = []  # dead reckoning alone, for comparison
-    lost = 0
-    runs = _revisit_runs(records, split, 10 * loc_stride)
-    for run in runs:
-        run = run[::loc_stride]
-        loc = Localiser(grid)
-        odom = Pose2D(0.0, 0.0, 0.0)
-        loc.on_odometry(odom, run[0].timestamp)
-        loc.set_initial_pose(run[0].pose, run[0].timestamp)
-        loc.on_scan(run[0].scan, run[0].timestamp)
-        for prev, cur in itertools.pairwise(run):
-            inc = cur.pose.relative_to(prev.pose)
-            dist = math.hypot(inc.x, inc.y)
-            noisy = Pose2D(
-                1.05 * inc.x + rng.normal(0.0, 0.01),
-                1.05 * inc.y + rng.normal(0.0, 0.01),
-                inc.yaw + 0.02 * dist + rng.normal(0.0, 0.005),
-            )
-            odom = odom.compose(noisy)
-            odom_errors.append(run[0].pose.compose(odom).distance_to(cur.pose))
-            loc.on_odometry(odom, cur.timestamp)
-            est = loc.on_scan(cur.scan, cur.timestamp)
-            assert est.pose is not None
-            lost += est.state is LocaliserState.LOST
-            errors.append(est.pose.distance_to(cur.pose))
-            yaw_errors.append(abs(math.remainder(est.pose.yaw - cur.pose.yaw, math.tau)))
-    err, yerr = np.array(errors), np.array(yaw_errors)
-    return {
-        "runs": float(len(runs)),
-        "scans": float(err.size),
-        "rms_m": float(np.sqrt(np.mean(err**2))),
-        "median_m": float(np.median(err)),
-        "max_m": float(err.max()),
-        "rms_yaw_rad": float(np.sqrt(np.mean(yerr**2))),
-        "max_yaw_rad": float(yerr.max()),
-        "lost_scans": float(lost),
-        "odometry_only_rms_m": float(np.sqrt(np.mean(np.square(odom_errors)))),
-    }
 
 
 def test_intel_lab_revisits(record_property) -> None:
