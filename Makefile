@@ -30,10 +30,11 @@ pytest: $(STAMP)
 test: lint typecheck pytest
 
 bench: $(STAMP)
-	$(BIN)/interbot bench
+	QT_QPA_PLATFORM=offscreen $(BIN)/interbot bench --json
 
 screenshots: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_tablet.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_station.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache *.egg-info

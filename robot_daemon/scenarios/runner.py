@@ -156,8 +156,12 @@ class SimulatedSystem:
         start_node: int | None = None,
         start_pose: Pose2D | None = None,
         supervisor_config: SupervisorConfig | None = None,
+        stack_config: StackConfig | None = None,
+        send_routes: bool = True,
         wall_clock: Callable[[], float] = time.perf_counter,
     ) -> None:
+        """``send_routes=False`` keeps the station's routes from the robot (pure teleoperation:
+        the operator drives and the supervisor only judges arrival)."""
         self.options = options
         self.grid: OccupancyGrid = load_map(options.map_yaml)
         self.topo: TopologicalMap = load_topological_map(options.topo_yaml)
@@ -174,7 +178,7 @@ class SimulatedSystem:
             odometry=odometry_model(options.odometry),
         )
         self.sim = Simulator(self.grid, sim_config, rng_seed=options.seed)
-        stack_config = StackConfig()
+        stack_config = stack_config or StackConfig()
         rates = stack_config.rates
         self.backend = SimBackend(
             self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0
@@ -182,6 +186,7 @@ class SimulatedSystem:
         self.stack = RobotStack(self.grid, self.backend, stack_config)
         self.supervisor = Supervisor(self.topo, self.route_planner, supervisor_config)
         self.metrics = Metrics(stack_config.planner.max_linear_speed)
+        self.send_routes = send_routes
         self.now = 0.0
         self.events: list[tuple[float, Event]] = []
         self.hooks: list[Callable[[SimulatedSystem, Event], None]] = []
@@ -218,9 +223,9 @@ class SimulatedSystem:
         """Carry supervisor events to the robot as the station does over the link."""
         for event in events:
             self.events.append((self.now, event))
-            if isinstance(event, RouteStarted):
+            if isinstance(event, RouteStarted) and self.send_routes:
                 self.stack.set_route(self._route_message(event), self.now)
-            elif isinstance(event, RouteCancelled):
+            elif isinstance(event, RouteCancelled) and self.send_routes:
                 self.stack.cancel_route(self.now, event.reason)
             elif isinstance(event, PauseNavigation):
                 self.stack.on_lock("pause_nav", event.paused, self.now)
