@@ -9,6 +9,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     backend: sim                        # sim | hardware (hardware: issue 7)
     mux: ../resources/config/twist_mux.yaml
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}
+    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
 """
@@ -105,6 +106,35 @@ class ZenohSettings:
         _number("zenoh", "lease_ms", self.lease_ms, 500, 60_000)
 
 
+MAP_SURFACES = ("cell_face", "cell_centre")
+
+
+@dataclass(frozen=True)
+class LocaliserSettings:
+    """Where a wall lies in an occupied map cell, for the scan matcher.
+
+    ``cell_face``: on the cell's boundary with free space, true when the world *is* the grid
+    (the simulator) or the map was rasterised from a floor plan. ``cell_centre``: through the
+    cell, true on average for maps built from laser end points (SLAM: gmapping, Hector,
+    Cartographer). ``auto`` picks ``cell_face`` for the simulator and ``cell_centre`` for real
+    hardware.
+    """
+
+    map_surface: str = "auto"
+
+    def __post_init__(self) -> None:
+        if self.map_surface not in ("auto", *MAP_SURFACES):
+            raise ConfigError(
+                f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
+                f"got {self.map_surface!r}"
+            )
+
+    def surface_for(self, backend: str) -> str:
+        if self.map_surface != "auto":
+            return self.map_surface
+        return "cell_face" if backend == "sim" else "cell_centre"
+
+
 @dataclass(frozen=True)
 class DaemonConfig:
     robot_id: str = "interbot1"
@@ -115,6 +145,7 @@ class DaemonConfig:
     rates: Rates = field(default_factory=Rates)
     sim: SimSettings = field(default_factory=SimSettings)
     zenoh: ZenohSettings = field(default_factory=ZenohSettings)
+    localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
     source: str = "<defaults>"
 
@@ -140,7 +171,18 @@ class DaemonConfig:
         )
 
 
-_TOP_KEYS = {"robot_id", "map", "topo", "mux", "backend", "rates", "sim", "zenoh", "hardware"}
+_TOP_KEYS = {
+    "robot_id",
+    "map",
+    "topo",
+    "mux",
+    "backend",
+    "rates",
+    "sim",
+    "zenoh",
+    "localiser",
+    "hardware",
+}
 
 
 def _section(source: str, raw: dict[str, Any], key: str, cls: type) -> Any:
@@ -194,6 +236,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         rates=_section(source, raw, "rates", Rates),
         sim=_section(source, raw, "sim", SimSettings),
         zenoh=_section(source, raw, "zenoh", ZenohSettings),
+        localiser=_section(source, raw, "localiser", LocaliserSettings),
         hardware=hardware,
         source=source,
     )

@@ -43,6 +43,8 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
@@ -128,7 +130,12 @@ class Daemon:
                     config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
                 )
         self.backend = backend
-        stack_config = StackConfig(rates=rates, mux=load_mux_config(config.mux_yaml))
+        surface = config.localiser.surface_for(config.backend)
+        stack_config = StackConfig(
+            rates=rates,
+            mux=load_mux_config(config.mux_yaml),
+            localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+        )
         self.stack = RobotStack(self.grid, backend, stack_config)
         self._due = {
             name: Periodic(hz)

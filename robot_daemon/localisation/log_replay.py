@@ -21,8 +21,9 @@ import numpy as np
 
 from interbot_core.carmen_log import LaserRecord, read_laser_records
 from interbot_core.geometry import Pose2D
-from robot_daemon.localisation.localiser import Localiser, LocaliserState
+from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.mapping import grid_from_scans
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 
 REVISIT_RADIUS_M = 1.0  # [m] a scan revisits the map when its pose is this close to a mapping pose
 
@@ -69,6 +70,8 @@ def localise_revisits(
     if not mapping:
         raise LogReplayError(f"{path}: no scans to build a map from ({len(records)} records)")
     grid = grid_from_scans([r.scan for r in mapping], [r.pose for r in mapping], 0.05)
+    # A map of binned end points: a wall lies anywhere in its cell, on average mid-cell.
+    config = LocaliserConfig(matcher=ScanMatcherConfig(surface="cell_centre"))
     rng = np.random.default_rng(seed)
     errors: list[float] = []
     yaw_errors: list[float] = []
@@ -77,7 +80,7 @@ def localise_revisits(
     runs = revisit_runs(records, split, 10 * loc_stride)
     for run in runs:
         run = run[::loc_stride]
-        loc = Localiser(grid)
+        loc = Localiser(grid, config)
         odom = Pose2D(0.0, 0.0, 0.0)
         loc.on_odometry(odom, run[0].timestamp)
         loc.set_initial_pose(run[0].pose, run[0].timestamp)

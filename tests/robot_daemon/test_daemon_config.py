@@ -55,3 +55,14 @@ def test_unreadable_and_invalid_yaml(tmp_path: Path) -> None:
     (tmp_path / "bad.yaml").write_text("robot_id: [unclosed\n")
     with pytest.raises(ConfigError, match="invalid YAML"):
         load_config(tmp_path / "bad.yaml")
+
+
+def test_map_surface_follows_the_backend_unless_set(tmp_path: Path) -> None:
+    """Simulated walls are the grid's cell faces; SLAM maps put walls through cell centres."""
+    assert DaemonConfig().localiser.surface_for("sim") == "cell_face"
+    assert DaemonConfig().localiser.surface_for("hardware") == "cell_centre"
+    (tmp_path / "robot.yaml").write_text("localiser: {map_surface: cell_face}\n")
+    cfg = load_config(tmp_path / "robot.yaml")
+    assert cfg.localiser.surface_for("hardware") == "cell_face"
+    with pytest.raises(ConfigError, match="map_surface"):
+        parse_config({"localiser": {"map_surface": "edge"}}, "robot.yaml", tmp_path)
