@@ -40,6 +40,7 @@ from base_station_app.teleop import Direction, TeleopInput
 from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
+from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
     Delivery,
@@ -72,6 +73,7 @@ from interbot_core.topics import (
     Lock,
     RouteCancel,
     RouteMsg,
+    RouteProgress,
     StopRelease,
     Topic,
     Twist,
@@ -157,6 +159,7 @@ class StationController(QObject):
         self.shown_request: tuple[int, RequestShown] | None = None
         self.goal_reached = False
         self._route_id = 0
+        self._verdict_of: int | None = None  # route whose end the robot reported, if handled
         self._last_clock: float | None = None
         self._tour_state_sent: p.TourState | None = None
         self._status_sent: p.StatusInfo | None = None
@@ -288,7 +291,19 @@ class StationController(QObject):
             progress, route = self.state.progress, self.route
             if progress is not None and route is not None and progress.route_id == route.route_id:
                 self.route_index = progress.index
+                self._robot_verdict(progress)
         self.frame_ready.emit()
+
+    def _robot_verdict(self, progress: RouteProgress) -> None:
+        """The robot finished or gave up the current route: its word settles the task."""
+        if progress.state not in ("succeeded", "aborted") or progress.route_id == self._verdict_of:
+            return
+        self._verdict_of = progress.route_id
+        if progress.state == "succeeded":
+            self._handle(self.supervisor.robot_route_succeeded(self.clock()))
+        else:
+            self.log("error", f"robot gave up route {progress.route_id}: {progress.reason}")
+            self._handle(self.supervisor.robot_route_aborted(progress.reason))
 
     def _on_link_event(self, event: object) -> None:
         if isinstance(event, RobotAppeared):
@@ -464,8 +479,8 @@ class StationController(QObject):
             tuple((w.x, w.y, w.yaw) for w in route.waypoints),
             node_ids,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance,
-            yaw_tolerance=cfg.yaw_tolerance,
+            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
+            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
         )
         self.route = msg
         self.route_index = 0

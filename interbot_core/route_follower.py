@@ -28,6 +28,12 @@ DEFAULT_GOAL_TOLERANCE = 0.5  # [m] thesis Table 6.3
 DEFAULT_YAW_TOLERANCE = 0.1  # [rad] thesis Table 6.3
 
 
+# The station sends the robot its arrival tolerances scaled by this, so that where the robot
+# stops (inside its tolerance, judged on its own pose) the station's follower, judging the
+# published pose against the full tolerance, agrees that the goal was reached.
+ROBOT_TOLERANCE_SHARE = 0.8
+
+
 @dataclass(frozen=True)
 class FollowerState:
     """Result of one :meth:`RouteFollower.update`.

@@ -104,6 +104,7 @@ class TabletWindow(QMainWindow):
         self.languages = languages or LanguageSwitcher(parent=self)
         self._goal: int | None = None
         self._goal_start_distance: float | None = None
+        self._last_goal_status: GoalStatus | None = None
         self._pose: tuple[float, float, float] | None = None
         self._initial_pose_unset = False
         self._localisation = "ok"
@@ -344,8 +345,14 @@ class TabletWindow(QMainWindow):
         self.map_screen.set_help_state(self._lost, self._helping)
 
     def _on_goal_status(self, msg: GoalStatus) -> None:
+        repeated = msg == self._last_goal_status
+        self._last_goal_status = msg
         name = self.plan.name(msg.goal)
         if msg.tour_reached:
+            if repeated:
+                # The station repeats its goal state every clock(): one dialog per stop, and
+                # none re-opened by a repeat still in flight after Resume / End tour.
+                return
             self._end_goal()
             try:
                 room = self.plan.room(msg.goal)

@@ -22,6 +22,7 @@ import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
+from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
     Event,
@@ -49,7 +50,6 @@ logger = logging.getLogger(__name__)
 STACK_DT = 0.05  # [s] loop period headless (the daemon runs 50 Hz; controller and localiser 10 Hz)
 SIM_DT = 0.05  # [s] simulator substep: 2.5 cm at 0.5 m/s; collisions are bisected within it
 CLOCK_DT = 0.1  # [s] the Base Station's clock() period (thesis §5.3.6)
-NAV_TOLERANCE_SHARE = 0.8  # the robot stops inside 80 % of the station's arrival tolerances
 
 
 @dataclass(frozen=True)
@@ -215,8 +215,8 @@ class SimulatedSystem:
             waypoints,
             node_ids,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance * NAV_TOLERANCE_SHARE,
-            yaw_tolerance=cfg.yaw_tolerance * NAV_TOLERANCE_SHARE,
+            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
+            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
         )
 
     def apply(self, events: list[Event]) -> None:

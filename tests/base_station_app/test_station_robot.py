@@ -6,6 +6,8 @@ from __future__ import annotations
 import itertools
 import math
 
+import pytest
+
 from base_station_app.station_config import StationConfig
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -16,6 +18,7 @@ from interbot_core.topics import (
     Lock,
     RouteCancel,
     RouteMsg,
+    RouteProgress,
     StopRelease,
     Twist,
 )
@@ -196,3 +199,45 @@ def test_restarted_robot_gets_route_and_config_again(qtbot, linked, station, rob
 
     qtbot.waitUntil(back, timeout=5000)
     assert any(isinstance(c, ConfigMsg) for c in robot.of("config"))
+
+
+def _route_sent_to_robot(qtbot, station, robot, topo, node: int) -> RouteMsg:
+    station.submit(GoTo(node))
+    station.tick()
+    qtbot.waitUntil(lambda: bool(len(robot.of("route")) == 1), timeout=3000)
+    route = robot.of("route")[0]
+    assert isinstance(route, RouteMsg)
+    return route
+
+
+def test_robot_reported_success_finishes_the_task(qtbot, linked, station, robot, localise, topo):
+    """The robot stopped inside its (tighter) tolerance; its word settles the task even though
+    the pose the station last saw is short of the goal."""
+    localise(topo.nodes[0].pose)
+    route = _route_sent_to_robot(qtbot, station, robot, topo, 5)
+    assert route.goal_tolerance == pytest.approx(station.config.goal_tolerance * 0.8)
+    last = len(route.waypoints) - 1
+    robot.link.publish_route_progress(RouteProgress(route.route_id, last, True, "succeeded"))
+
+    def finished() -> bool:
+        station.poll_link()
+        return station.supervisor.current_task is None
+
+    qtbot.waitUntil(finished, timeout=3000)
+    assert station.goal_reached
+
+
+def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, localise, topo):
+    localise(topo.nodes[0].pose)
+    route = _route_sent_to_robot(qtbot, station, robot, topo, 5)
+    robot.link.publish_route_progress(
+        RouteProgress(route.route_id, 0, False, "aborted", "blocked: no path")
+    )
+
+    def finished() -> bool:
+        station.poll_link()
+        return station.supervisor.current_task is None
+
+    qtbot.waitUntil(finished, timeout=3000)
+    assert not station.goal_reached
+    assert any("blocked: no path" in e.text for e in station.state.log)

@@ -1,0 +1,93 @@
+"""End to end, joystick teleoperation from the Tablet and the Base Station's latency watchdog
+(thesis §5.2.2.3, §5.3.4).
+
+Touching the joystick sends ``speed`` every 100 ms; the station forwards it on ``tablet_vel``
+to the robot's multiplexer. When the Tablet's link stalls (its socket stops sending while the
+finger stays on the joystick), the station's watchdog must discard the stale speed and send a
+zero, so the robot stops within the watchdog ceiling (station, wall clock) plus the
+multiplexer's input timeout (robot time, 8x faster here) plus one station clock period.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import pytest
+from PySide6.QtCore import QPoint
+from PySide6.QtTest import QTest
+
+pytestmark = [pytest.mark.slow, pytest.mark.qt_log_ignore("This plugin does not support")]
+
+MUX_TABLET_TIMEOUT = 0.5  # [s] robot time (resources/config/interbot_mux.yaml)
+SLACK = 0.75  # [s] wall: event-loop and thread scheduling on a shared 2-core machine
+
+
+def test_joystick_drives_the_robot_and_a_stalled_link_stops_it(
+    make_rig: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rig = make_rig()
+    window, station = rig.window, rig.station
+    rig.click(window.menu.joystick_button)
+    screen = window.joystick_screen
+    assert window.stack.currentWidget() is screen
+    rig.wait(lambda: screen.warning_label.isHidden(), 5.0, "a healthy link")
+    joystick = screen.joystick
+    # Right of the centre: turn right on the spot (angular < 0, linear 0).
+    point = joystick.center().toPoint() + QPoint(round(joystick.radius() * 0.5), 0)
+    device = QTest.createTouchDevice()
+    rig.touch(joystick, device, "press", point)
+
+    def tablet_drives() -> bool:
+        out = rig.daemon.stack.last_output
+        return out.source == "Tablet" and out.angular < -0.1 and out.linear == 0.0
+
+    rig.wait(tablet_drives, 5.0, "tablet_vel to win the robot's multiplexer")
+    start_yaw = rig.truth().yaw
+    rig.wait(
+        lambda: abs(math.remainder(rig.truth().yaw - start_yaw, math.tau)) > 0.2,
+        5.0,
+        "the robot to turn",
+    )
+    assert station.tablet_forwarding and station.tablet_discarded == 0
+    assert station.watchdog.ceiling_s == 0.5
+
+    # The link stalls: nothing the Tablet writes gets out any more (the finger stays down).
+    monkeypatch.setattr(rig.connection._link, "send", lambda _msg: True)
+    stalled_at = time.monotonic()
+
+    def stopped() -> bool:
+        out = rig.daemon.stack.last_output
+        return (out.linear, out.angular) == (0.0, 0.0)
+
+    # The station's watchdog expires one ceiling after the last speed that got through (at most
+    # one tablet period, 100 ms, before the stall) and discards the stale speed with a zero.
+    ceiling = station.watchdog.ceiling_s
+    clock_s = rig.timing.clock_ms / 1000
+    rig.wait(lambda: station.tablet_discarded >= 1, 5.0, "the station's watchdog to expire")
+    discarded_after = time.monotonic() - stalled_at
+    assert ceiling - 0.1 - clock_s < discarded_after < ceiling + clock_s + SLACK
+    assert not station.tablet_forwarding and station.tablet_speed is None
+    assert any(
+        "tablet speed command discarded (latency above the ceiling)" in e.text
+        for e in station.state.log
+    )
+    # At 8x the stale speed may already have timed out in the robot's multiplexer between two
+    # station clocks; either way the robot is stopped within ceiling + clock + mux timeout.
+    rig.wait(stopped, 5.0, "the robot to stop after the stall")
+    elapsed = time.monotonic() - stalled_at
+    assert elapsed < ceiling + clock_s + MUX_TABLET_TIMEOUT / rig.realtime_factor + SLACK
+    # The robot stays stopped while the link is stalled (the timer still "sends" each 100 ms).
+    now = rig.daemon.now
+    rig.wait(lambda: rig.daemon.now > now + 2.0, 5.0, "2 s of robot time")
+    assert stopped() and rig.daemon.stack.last_output.source != "Tablet"
+    assert rig.backend.sim.true_velocity() == (0.0, 0.0)
+    # Missing pongs make the Tablet warn that commands will not be obeyed.
+    rig.wait(lambda: not screen.warning_label.isHidden(), 5.0, "the lossy-link warning")
+
+    # The link recovers: the finger still on the joystick drives again, release stops.
+    monkeypatch.undo()
+    rig.wait(tablet_drives, 5.0, "teleoperation to resume after the stall")
+    rig.touch(joystick, device, "release", point)
+    rig.wait(stopped, 5.0, "the robot to stop on release")
