@@ -12,9 +12,19 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   scan constrains the pose (large ``H``) the match wins; along a featureless corridor the prior does.
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
   occupied map cell, reported with Hector's score (mean ``M``).
-* **Loss detection.** A scan is *bad* if its confidence is below ``lost_confidence`` or its
+* **Loss detection.** A scan is *bad* if its confidence is below ``lost_confidence``, if more
+  than ``lost_impossible`` of its beams are *impossible* at the estimate (below), or if its
   correction ``x_m ⊖ x_pred`` is implausibly large (it is then rejected). Bad scans for
-  ``lost_after_s`` seconds in a row make the state ``lost``. While lost the pose follows odometry
+  ``lost_after_s`` seconds in a row make the state ``lost``.
+* **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
+  *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
+  has only the small "random" likelihood). A beam is impossible when its measured range passes
+  more than ``impossible_margin_m`` *through* an occupied map cell: the ray from the laser,
+  sphere-traced on the distance field, meets an occupied cell before ``range - margin``. People
+  and new furniture only shorten beams, so this is robust to crowds, unlike the hit fraction; a
+  kidnapped robot whose new surroundings resemble the old ones (every door of a corridor looks
+  alike) still sees through walls somewhere. Rays that leave the map, or that the trace does not
+  finish within ``impossible_max_steps`` steps (grazing a wall), count as possible. While lost the pose follows odometry
   alone and the state stays ``lost`` until `set_initial_pose` is called.
 * **New static obstacles, not people.** Unexplained end points feed a
   `dynamic_map.DynamicEvidenceGrid`; cells it promotes are added to the matching map.
@@ -83,6 +93,12 @@ class LocaliserConfig:
     map_update_min_confidence: float = 0.6  # only learn obstacles while well localised
     unexplained_m: float = 0.2  # end points farther than this from the map are "unexplained"
     map_update_max_range_m: float = 8.0
+    lost_impossible: float = 0.05  # a scan with more than this fraction of impossible beams is bad
+    impossible_margin_m: float = 0.3  # a beam this much longer than the map allows is impossible
+    impossible_max_beams: int = 200  # beams traced per scan (fixed stride over the valid ones)
+    impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
+    impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
+    impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -100,6 +116,12 @@ class LocaliserConfig:
             ("map_update_min_confidence", self.map_update_min_confidence, 0.0, 1.0),
             ("unexplained_m", self.unexplained_m, 0.01, 5.0),
             ("map_update_max_range_m", self.map_update_max_range_m, 0.5, 200.0),
+            ("lost_impossible", self.lost_impossible, 0.0, 1.0),
+            ("impossible_margin_m", self.impossible_margin_m, 0.05, 5.0),
+            ("impossible_max_beams", self.impossible_max_beams, 10, 5000),
+            ("impossible_max_steps", self.impossible_max_steps, 1, 1000),
+            ("impossible_min_run", self.impossible_min_run, 1, 100),
+            ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -117,6 +139,7 @@ class LocaliserEstimate:
     confidence: float  # fraction of end points on the map, 0..1
     score: float  # Hector match score (mean M), 0..1
     stamp: float  # [s]
+    impossible: float = 0.0  # fraction of beams passing through the map, 0..1
 
 
 class Localiser:
@@ -133,6 +156,10 @@ class Localiser:
         else:
             dist = np.full(occ.shape, np.inf)
         self._dist = np.ascontiguousarray(dist, dtype=np.float64).reshape(-1)
+        # The same field with a border of inf cells: clipped ray samples off the map read inf.
+        padded = np.full((grid.height + 2, grid.width + 2), np.inf)
+        padded[1:-1, 1:-1] = dist
+        self._dist_padded = padded.reshape(-1)
         self._dist_radius = math.ceil(max(self.config.unexplained_m, 0.5) / grid.resolution)
         k = np.arange(-self._dist_radius, self._dist_radius + 1) * grid.resolution
         self._dist_kernel = np.hypot(k[None, :], k[:, None])
@@ -209,6 +236,7 @@ class Localiser:
             return self._last
 
         points = self._scan_points(scan)
+        impossible = 0.0
         if points.shape[0] < 10:
             pose, confidence, score, bad = predicted, 0.0, 0.0, True
         else:
@@ -234,7 +262,8 @@ class Localiser:
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
-            bad = bad or confidence < cfg.lost_confidence
+            impossible = self.impossible_fraction(points, pose)
+            bad = bad or confidence < cfg.lost_confidence or impossible > cfg.lost_impossible
             if not bad and cfg.map_update and confidence >= cfg.map_update_min_confidence:
                 self._update_map(points, pose, now)
 
@@ -243,16 +272,18 @@ class Localiser:
                 self._bad_since = now
             if now - self._bad_since >= cfg.lost_after_s:
                 logger.warning(
-                    "localisation lost at t=%.2f (confidence %.2f for %.2f s)",
+                    "localisation lost at t=%.2f (bad scans for %.2f s; last: confidence %.2f, "
+                    "impossible beams %.2f)",
                     now,
-                    confidence,
                     now - self._bad_since,
+                    confidence,
+                    impossible,
                 )
                 self._state = LocaliserState.LOST
         else:
             self._bad_since = None
         self._pose = pose
-        self._last = LocaliserEstimate(pose, self._state, confidence, score, now)
+        self._last = LocaliserEstimate(pose, self._state, confidence, score, now, impossible)
         return self._last
 
     # --------------------------------------------------------------- outputs
@@ -308,6 +339,94 @@ class Localiser:
         xs, ys = self._to_map(points, pose)
         return float(np.mean(self._distance_to_map(xs, ys) <= self.config.hit_tolerance_m))
 
+    def impossible_fraction(self, points: FloatArray, pose: Pose2D) -> float:
+        """Fraction of traced beams that are impossible at ``pose`` (see `impossible_beams`),
+        counting only runs of at least ``impossible_min_run`` neighbouring impossible beams."""
+        mask = self.impossible_beams(points, pose)
+        if mask.size == 0:
+            return 0.0
+        k = self.config.impossible_min_run
+        if k > 1 and mask.any():
+            mask = _long_runs(mask, k)
+        return float(np.count_nonzero(mask)) / mask.size
+
+    def impossible_beams(self, points: FloatArray, pose: Pose2D) -> npt.NDArray[np.bool_]:
+        """Which beams (sensor-frame end points, laser at ``pose``) pass through the map.
+
+        Up to ``impossible_max_beams`` beams, taken with a fixed stride in scan order, are
+        sphere-traced from the laser on the distance field: a point whose cell is at distance
+        ``d`` from the nearest occupied cell centre is at least ``d - √2·res`` from any occupied
+        cell, so the ray advances by that (at least one cell). A ray that reaches an occupied
+        cell before its measured range minus ``impossible_margin_m`` is impossible; one that
+        reaches that range, leaves the map (unknown: not impossible) or runs out of steps is
+        possible. The margin (6 cells at 0.05 m) covers both surface conventions (face or centre
+        of a cell) and the estimate's few centimetres of error. Returns one flag per traced beam.
+        """
+        cfg = self.config
+        pts = subsample_points(points, cfg.impossible_max_beams)
+        out = np.zeros(pts.shape[0], dtype=bool)
+        if pts.shape[0] == 0:
+            return out
+        sx, sy = pts[:, 0], pts[:, 1]
+        r = np.hypot(sx, sy)
+        limit = r - cfg.impossible_margin_m
+        idx = np.flatnonzero(limit > 0.0)
+        if idx.size == 0:
+            return out
+        g = self._grid
+        inv = 1.0 / g.resolution
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        rs = r[idx]
+        # Ray directions in cells per metre; laser position in continuous cell coordinates.
+        dcol = (c * sx[idx] - s * sy[idx]) / rs * inv
+        drow = (s * sx[idx] + c * sy[idx]) / rs * inv
+        # +1: index into the inf-bordered field; clipping sends off-map samples to the border.
+        col0 = (pose.x - g.origin_x) * inv + 1.0
+        row0 = (pose.y - g.origin_y) * inv + 1.0
+        limit = limit[idx]
+        dist = self._dist_padded
+        wp = g.width + 2
+        cmax, rmax = g.width + 1, g.height + 1
+        slack = math.sqrt(2.0) * g.resolution
+        min_step = g.resolution
+        blocked_below = 0.5 * g.resolution  # an occupied cell reads 0
+        depth = cfg.impossible_depth_m
+
+        def lookup(tt: FloatArray, dc: FloatArray, dr: FloatArray) -> FloatArray:
+            # minimum/maximum in place: np.clip's wrapper costs more than the lookup itself.
+            col = (col0 + tt * dc).astype(np.intp)
+            row = (row0 + tt * dr).astype(np.intp)
+            np.minimum(col, cmax, out=col)
+            np.maximum(col, 0, out=col)
+            np.minimum(row, rmax, out=row)
+            np.maximum(row, 0, out=row)
+            row *= wp
+            row += col
+            out_d: FloatArray = dist.take(row)
+            return out_d
+
+        t = np.zeros(idx.shape)
+        for _ in range(cfg.impossible_max_steps):
+            # Truncation (astype) equals floor for padded coordinates >= 0; negative ones
+            # truncate to <= 0 and clip to the border, as floor would.
+            d = lookup(t, dcol, drow)
+            hit = d < blocked_below
+            if depth > 0.0 and hit.any():
+                # Only a ray that stays inside occupied cells for `depth` goes through the map:
+                # a lone occupied cell is as likely a stray end point of the mapping run.
+                for frac in (0.5, 1.0):
+                    deep = lookup(t[hit] + frac * depth, dcol[hit], drow[hit]) < blocked_below
+                    hit[hit] = deep
+            out[idx[hit]] = True
+            t += np.maximum(d - slack, min_step)
+            # Done: impossible (hit), reached the limit, or left the map (d = inf).
+            keep = ~hit & (t < limit)
+            if not keep.all():
+                t, limit, dcol, drow, idx = t[keep], limit[keep], dcol[keep], drow[keep], idx[keep]
+                if t.size == 0:
+                    break
+        return out
+
     def _prior_sigma(self, step: Pose2D) -> tuple[float, float]:
         """Standard deviations [m], [rad] of the odometry prediction over ``step``."""
         cfg = self.config
@@ -359,3 +478,18 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+            padded = self._dist_padded.reshape(g.height + 2, g.width + 2)
+            padded[r0 + 1 : r1 + 1, c0 + 1 : c1 + 1] = dist[r0:r1, c0:c1]
+
+
+def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:
+    """``mask`` with only the runs of at least ``k`` consecutive True entries kept."""
+    padded = np.concatenate(([False], mask, [False])).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    starts, ends = edges[::2], edges[1::2]
+    out = np.zeros_like(mask)
+    for a, b in zip(
+        starts[ends - starts >= k].tolist(), ends[ends - starts >= k].tolist(), strict=True
+    ):
+        out[a:b] = True
+    return out
