@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,3 +88,55 @@ def room_at(
         if d <= best_d:
             best, best_d = node.id, d
     return best
+
+
+@dataclass(frozen=True)
+class MapLabel:
+    """A label on the station's map: ``text`` centred at (x, y) [m], map frame."""
+
+    text: str
+    x: float
+    y: float
+    node_id: int  # the node a click on this room selects (its own node)
+
+
+def polygon_centroid(polygon: Sequence[tuple[float, float]]) -> tuple[float, float]:
+    """Area centroid of a simple polygon (shoelace); the vertex mean if it is degenerate."""
+    a = cx = cy = 0.0
+    n = len(polygon)
+    for i in range(n):
+        x1, y1 = polygon[i]
+        x2, y2 = polygon[(i + 1) % n]
+        cross = x1 * y2 - x2 * y1
+        a += cross
+        cx += (x1 + x2) * cross
+        cy += (y1 + y2) * cross
+    if abs(a) < 1e-12:
+        return sum(p[0] for p in polygon) / n, sum(p[1] for p in polygon) / n
+    return cx / (3.0 * a), cy / (3.0 * a)
+
+
+def map_labels(topo: TopologicalMap, areas: Sequence[RoomArea], wrap: int = 16) -> list[MapLabel]:
+    """One label per room, centred in its floor polygon and naming its own node ("Bar (13)"),
+    so labels sit inside rooms instead of piling up on the corridor's door nodes; a node with
+    no room polygon (and not a waypoint) is labelled at the node. Names longer than ``wrap``
+    characters are broken onto several lines."""
+    by_room: dict[str, list[RoomArea]] = {}
+    for area in areas:
+        if area.kind != "waypoint" and area.polygon:
+            by_room.setdefault(area.room, []).append(area)
+    labels: list[MapLabel] = []
+    for room, members in by_room.items():
+        members.sort(key=lambda a: (_KIND_ORDER.get(a.kind, 2), a.node_id))
+        own = members[0]
+        x, y = polygon_centroid(own.polygon)
+        text = "\n".join(textwrap.wrap(f"{room} ({own.node_id})", wrap)) or room
+        labels.append(MapLabel(text, x, y, own.node_id))
+    placed = {m.node_id for members in by_room.values() for m in members}
+    kinds = {a.node_id: a.kind for a in areas}
+    for node in topo.nodes:
+        if node.id in placed or kinds.get(node.id) == "waypoint":
+            continue
+        text = "\n".join(textwrap.wrap(f"{node.name} ({node.id})", wrap)) or str(node.id)
+        labels.append(MapLabel(text, node.pose.x, node.pose.y, node.id))
+    return labels

@@ -26,7 +26,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import room_at
+from base_station_app.map_rooms import map_labels, room_at
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -152,13 +152,15 @@ class QtMapView(pg.PlotWidget):
         c = self._controller
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
-        kinds = {a.node_id: a.kind for a in c.rooms}
-        for node in c.topo.nodes:
-            if kinds.get(node.id) == "waypoint":
-                continue
-            label = pg.TextItem(f"{node.id} {node.name}", color=(40, 40, 40), anchor=(0.5, 1.1))
+        for spec in map_labels(c.topo, c.rooms):
+            label = pg.TextItem(
+                spec.text,
+                color=(30, 30, 30),
+                anchor=(0.5, 0.5),
+                fill=pg.mkBrush(255, 255, 255, 190),
+            )
             label.setFont(self._label_font)
-            label.setPos(node.pose.x, node.pose.y)
+            label.setPos(spec.x, spec.y)
             self.addItem(label)
             self.labels.append(label)
         polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]

@@ -9,7 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from base_station_app.map_rooms import RoomArea, load_room_areas, point_in_polygon, room_at
+from base_station_app.map_rooms import (
+    RoomArea,
+    load_room_areas,
+    map_labels,
+    point_in_polygon,
+    polygon_centroid,
+    room_at,
+)
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import RANGES, StationConfig, StationConfigError
 from base_station_app.tablet_session import (
@@ -169,6 +176,48 @@ def test_room_at_prefers_inside_node_then_snaps(topo):
     wp = topo.nodes[1].pose
     assert room_at(wp.x, wp.y, topo, [RoomArea(a.node_id, a.room, a.kind, ()) for a in areas]) != 1
     assert room_at(500.0, 500.0, topo, areas) is None
+
+
+def test_polygon_centroid_of_an_l_shape_and_a_degenerate_polygon():
+    # L: a 2x1 bar plus a 1x1 square on top of its left end; area 3, centroid (5/6, 2/3)
+    ell = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)]
+    cx, cy = polygon_centroid(ell)
+    assert cx == pytest.approx(5 / 6) and cy == pytest.approx(5 / 6)
+    assert polygon_centroid(list(reversed(ell))) == pytest.approx((5 / 6, 5 / 6))
+    assert polygon_centroid([(0.0, 0.0), (1.0, 1.0), (2.0, 2.0)]) == pytest.approx((1.0, 1.0))
+
+
+def test_map_labels_one_per_room_inside_it_and_apart(topo):
+    from pathlib import Path
+
+    areas = load_room_areas(
+        Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml", topo
+    )
+    labels = map_labels(topo, areas, wrap=16)
+    rooms = {a.room for a in areas if a.kind != "waypoint" and a.polygon}
+    assert len(labels) == len(rooms)  # every ISR node with a room has its polygon
+    by_node = {a.node_id: a for a in areas}
+    for label in labels:
+        area = by_node[label.node_id]
+        assert point_in_polygon(label.x, label.y, area.polygon), label
+        assert room_at(label.x, label.y, topo, areas) == label.node_id  # the click target
+        assert all(len(line) <= 16 for line in label.text.split("\n")), label.text
+        assert f"({label.node_id})" in label.text
+    # the crowded corridor corner of the old per-node labels: room labels >= 1.5 m apart
+    xy = [(lab.x, lab.y) for lab in labels]
+    for i, (x1, y1) in enumerate(xy):
+        for x2, y2 in xy[i + 1 :]:
+            assert math.hypot(x1 - x2, y1 - y2) >= 1.5
+
+
+def test_map_labels_falls_back_to_the_node_without_a_polygon(topo):
+    areas = [RoomArea(n.id, n.name, "entrance", ()) for n in topo.nodes]
+    areas[1] = RoomArea(areas[1].node_id, "", "waypoint", ())
+    labels = map_labels(topo, areas)
+    assert len(labels) == len(topo) - 1
+    node = topo.nodes[0]
+    first = next(lab for lab in labels if lab.node_id == node.id)
+    assert (first.x, first.y) == (node.pose.x, node.pose.y)
 
 
 # ------------------------------------------------------------------ RobotState
