@@ -290,6 +290,8 @@ class CalibrationReport:
             "true_wheel_radius_scale": round(1.0 / m.mean_wheel_scale, 5),
             "true_track_scale": round(1.0 / m.track_scale, 5),
             "wheel_radius_m": [self.believed.wheel_radius, round(self.proposed.wheel_radius, 5)],
+            "wheel_radius_left_m": round(self.proposed.wheel_radius_left, 5),
+            "wheel_radius_right_m": round(self.proposed.wheel_radius_right, 5),
             "track_m": [self.believed.track, round(self.proposed.track, 5)],
             "max_error_before": round(self.max_error(self.before), 5),
             "max_error_after": round(self.max_error(self.after), 5),
@@ -308,6 +310,10 @@ class CalibrationReport:
             f"  track        {b.track:.5f} m -> {p.track:.5f} m (x{c.track_scale:.4f})",
             f"  check against the simulator's truth: radius x{1 / self.model.mean_wheel_scale:.4f},"
             f" track x{1 / self.model.track_scale:.4f}",
+            "  for robot.yaml (hardware.motors):",
+            f"    wheel_radius_left: {p.wheel_radius_left:.5f}",
+            f"    wheel_radius_right: {p.wheel_radius_right:.5f}",
+            f"    track: {p.track:.5f}",
             "",
             format_table("After calibration, re-run (cf. thesis Table 6.2)", self.after),
         ]

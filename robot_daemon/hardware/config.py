@@ -67,6 +67,9 @@ class MotorsConfig:
     port: str = "/dev/ttyUSB0"
     wheel_radius: float = 0.1  # [m]
     track: float = 0.5  # [m]
+    # Per-wheel radii from `interbot calibrate odometry` (UMBmark); absent: wheel_radius.
+    wheel_radius_left: float | None = None  # [m]
+    wheel_radius_right: float | None = None  # [m]
     counts_per_rev: float = 2048.0  # encoder counts per motor turn (4 x PPR)
     gear_ratio: float = 20.0  # motor turns per wheel turn
     max_rpm: float = 3000.0  # motor rpm at !G 1000 (controller MXRPM)
@@ -84,6 +87,9 @@ class MotorsConfig:
         _check_port(w, self.port)
         _check_number(w, "wheel_radius", self.wheel_radius, 0.01, 1.0)
         _check_number(w, "track", self.track, 0.05, 3.0)
+        for key in ("wheel_radius_left", "wheel_radius_right"):
+            if getattr(self, key) is not None:
+                _check_number(w, key, getattr(self, key), 0.01, 1.0)
         _check_number(w, "counts_per_rev", self.counts_per_rev, 1, 1_000_000)
         _check_number(w, "gear_ratio", self.gear_ratio, 0.01, 1000)
         _check_number(w, "max_rpm", self.max_rpm, 1, 100_000)
@@ -107,6 +113,8 @@ class MotorsConfig:
             float(self.counts_per_rev),
             float(self.gear_ratio),
             float(self.max_rpm),
+            None if self.wheel_radius_left is None else float(self.wheel_radius_left),
+            None if self.wheel_radius_right is None else float(self.wheel_radius_right),
         )
 
     @property

@@ -15,7 +15,7 @@ Differential drive (REP-103, track b, wheel radius r, gear ratio g motor turns p
     rpm_motor = v_wheel / r * 60 / (2 pi) * g
 
 Odometry from absolute encoder counts (``?C``; 32-bit signed, wrapping) with N counts per
-motor turn: ``d = Delta counts / (N g) * 2 pi r``, ``ds = (d_r + d_l) / 2``,
+motor turn: ``d = Delta counts / (N g) * 2 pi r`` (each wheel with its own radius r), ``ds = (d_r + d_l) / 2``,
 ``dtheta = (d_r - d_l) / b``, integrated exactly along the arc of constant curvature:
 
     x += ds / dtheta * (sin(theta + dtheta) - sin theta)
@@ -132,36 +132,64 @@ def fault_names(flags: int) -> list[str]:
 
 @dataclass(frozen=True)
 class DriveGeometry:
-    """The kinematic parameters (the ones tuned in the thesis §6.1.1.2 calibration)."""
+    """The kinematic parameters (the ones tuned in the thesis §6.1.1.2 calibration).
+
+    ``wheel_radius_left`` / ``wheel_radius_right`` override ``wheel_radius`` for one wheel: the
+    odometry calibration (UMBmark, `robot_daemon.calibration`) finds the two radii separately,
+    since unequal wheels are what makes a straight run curve.
+    """
 
     wheel_radius: float  # [m]
     track: float  # [m] distance between the wheel contact points
     counts_per_rev: float  # encoder counts per motor turn (quadrature: 4 x PPR)
     gear_ratio: float  # motor turns per wheel turn
     max_rpm: float  # motor rpm that !G 1000 means (the controller's MXRPM)
+    wheel_radius_left: float | None = None  # [m] None: wheel_radius
+    wheel_radius_right: float | None = None  # [m] None: wheel_radius
 
     def __post_init__(self) -> None:
         for name in ("wheel_radius", "track", "counts_per_rev", "gear_ratio", "max_rpm"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"DriveGeometry.{name} must be > 0, got {value!r}")
+        for name in ("wheel_radius_left", "wheel_radius_right"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ValueError(f"DriveGeometry.{name} must be > 0 or None, got {value!r}")
+
+    @property
+    def radii(self) -> tuple[float, float]:
+        """(left, right) wheel radius [m]."""
+        left = self.wheel_radius if self.wheel_radius_left is None else self.wheel_radius_left
+        right = self.wheel_radius if self.wheel_radius_right is None else self.wheel_radius_right
+        return left, right
 
     @property
     def metres_per_count(self) -> float:
+        """Rim travel per encoder count [m] of a wheel of the nominal ``wheel_radius``."""
         return math.tau * self.wheel_radius / (self.counts_per_rev * self.gear_ratio)
+
+    @property
+    def metres_per_count_lr(self) -> tuple[float, float]:
+        """(left, right) rim travel per encoder count [m]."""
+        k = math.tau / (self.counts_per_rev * self.gear_ratio)
+        left, right = self.radii
+        return k * left, k * right
 
     def wheel_speeds(self, linear: float, angular: float) -> tuple[float, float]:
         """(v_l, v_r) [m/s] for a body twist."""
         half = angular * self.track / 2.0
         return linear - half, linear + half
 
-    def motor_rpm(self, wheel_speed: float) -> float:
-        """Motor shaft rpm for a wheel rim speed [m/s]."""
-        return wheel_speed / self.wheel_radius * 60.0 / math.tau * self.gear_ratio
+    def motor_rpm(self, wheel_speed: float, radius: float | None = None) -> float:
+        """Motor shaft rpm for a wheel rim speed [m/s] (``radius`` [m]: nominal if None)."""
+        r = self.wheel_radius if radius is None else radius
+        return wheel_speed / r * 60.0 / math.tau * self.gear_ratio
 
-    def wheel_speed(self, rpm: float) -> float:
+    def wheel_speed(self, rpm: float, radius: float | None = None) -> float:
         """Wheel rim speed [m/s] for a motor rpm (inverse of `motor_rpm`)."""
-        return rpm * math.tau / 60.0 / self.gear_ratio * self.wheel_radius
+        r = self.wheel_radius if radius is None else radius
+        return rpm * math.tau / 60.0 / self.gear_ratio * r
 
 
 @dataclass(frozen=True)
@@ -184,7 +212,9 @@ def twist_to_command(
     """
     if not (math.isfinite(linear) and math.isfinite(angular)):
         linear = angular = 0.0
-    rpm_l, rpm_r = (geometry.motor_rpm(v) for v in geometry.wheel_speeds(linear, angular))
+    v_l, v_r = geometry.wheel_speeds(linear, angular)
+    r_l, r_r = geometry.radii
+    rpm_l, rpm_r = geometry.motor_rpm(v_l, r_l), geometry.motor_rpm(v_r, r_r)
     peak = max(abs(rpm_l), abs(rpm_r))
     scale = 1.0 if peak <= geometry.max_rpm else geometry.max_rpm / peak
     rpm_l, rpm_r = rpm_l * scale, rpm_r * scale
@@ -255,8 +285,9 @@ class WheelOdometry:
             self._state = OdometryState(stamp, pose, 0.0, 0.0)
             return self._state
         g = self.geometry
-        d_l = self.left_sign * counter_delta(left_counts, self._counts[0]) * g.metres_per_count
-        d_r = self.right_sign * counter_delta(right_counts, self._counts[1]) * g.metres_per_count
+        m_l, m_r = g.metres_per_count_lr
+        d_l = self.left_sign * counter_delta(left_counts, self._counts[0]) * m_l
+        d_r = self.right_sign * counter_delta(right_counts, self._counts[1]) * m_r
         self._counts = (left_counts, right_counts)
         ds = (d_r + d_l) / 2.0
         dtheta = (d_r - d_l) / g.track

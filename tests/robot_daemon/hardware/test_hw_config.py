@@ -44,9 +44,19 @@ def test_deploy_example_parses() -> None:
         ({"camera": {"jpeg_quality": 0}}, r"hardware\.camera\.jpeg_quality = 0 is outside"),
         ({"lidar": {}}, r"unknown key\(s\) \['lidar'\] in 'hardware'"),
         ({"motors": []}, r"'hardware\.motors' must be a mapping"),
+        ({"motors": {"wheel_radius_left": 5}}, r"hardware\.motors\.wheel_radius_left = 5 is"),
+        ({"motors": {"wheel_radius_right": "x"}}, r"hardware\.motors\.wheel_radius_right must"),
     ],
 )
 def test_errors_name_the_key(raw: dict[str, Any], message: str) -> None:
     with pytest.raises(HardwareConfigError, match=message) as info:
         HardwareConfig.from_mapping(raw, "robot.yaml")
     assert str(info.value).startswith("robot.yaml: ")
+
+
+def test_per_wheel_radii_reach_the_drive_geometry() -> None:
+    config = HardwareConfig.from_mapping(
+        {"motors": {"wheel_radius": 0.1, "wheel_radius_left": 0.0995, "wheel_radius_right": 0.1012}}
+    )
+    assert config.motors.geometry.radii == (0.0995, 0.1012)
+    assert HardwareConfig.from_mapping({}).motors.geometry.radii == (0.1, 0.1)

@@ -132,3 +132,30 @@ def test_state_of_charge() -> None:
     assert roboteq.state_of_charge(24.0, 0.0, 8, 0.08) == pytest.approx(0.0)
     # Under load the terminal voltage sags; the I R correction gives the rest value back.
     assert roboteq.state_of_charge(29.84 - 5 * 0.08, 5.0, 8, 0.08) == pytest.approx(0.5)
+
+
+def test_unequal_wheel_radii_make_equal_counts_curve_and_commands_compensate() -> None:
+    """UMBmark's type-B error: a right wheel 2 % larger turns left on equal counts; per-wheel
+    radii in the geometry put that in the odometry, and the command asks the larger wheel for
+    proportionally fewer rpm so a straight twist stays straight."""
+    import dataclasses
+
+    geom = dataclasses.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.102)
+    assert geom.radii == (0.1, 0.102)
+    assert geom.metres_per_count_lr[1] / geom.metres_per_count_lr[0] == pytest.approx(1.02)
+    odo = roboteq.WheelOdometry(geom)
+    odo.update(0, 0, 0.0)
+    n = _counts(2.0)  # 2 m of nominal-wheel travel on each side
+    state = odo.update(n, n, 4.0)
+    d_l, d_r = n * geom.metres_per_count_lr[0], n * geom.metres_per_count_lr[1]
+    assert state.pose.yaw == pytest.approx((d_r - d_l) / geom.track, rel=1e-9)
+    assert state.pose.yaw > 0.0  # curves left
+    cmd = roboteq.twist_to_command(geom, 0.25, 0.0, "S")
+    assert cmd.left / cmd.right == pytest.approx(1.02, abs=2e-3)
+    # equal radii given explicitly change nothing
+    same = dataclasses.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.1)
+    assert roboteq.twist_to_command(same, 0.2, 0.3, "G") == roboteq.twist_to_command(
+        GEOM, 0.2, 0.3, "G"
+    )
+    with pytest.raises(ValueError, match="wheel_radius_left"):
+        dataclasses.replace(GEOM, wheel_radius_left=0.0)
