@@ -22,6 +22,7 @@ This object holds no widgets; the main window wires widgets to its signals and s
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections import deque
 from collections.abc import Callable
@@ -85,6 +86,10 @@ from interbot_link import LinkError, RobotAppeared, RobotLeft, StateMessage, Sta
 logger = logging.getLogger(__name__)
 
 Clock = Callable[[], float]
+
+#: [s] after an initial pose is sent, the robot's "unset"/"lost" is not passed on to the tablet
+#: (the localiser applies the pose at its next scan, well within this at 10-40 Hz).
+INITIAL_POSE_SETTLE_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -164,6 +169,7 @@ class StationController(QObject):
         self._tour_state_sent: p.TourState | None = None
         self._status_sent: p.StatusInfo | None = None
         self._localisation_sent: str | None = None
+        self._pose_settling_until = -math.inf  # see INITIAL_POSE_SETTLE_S
         self._teleop_was_active = False
         self._config_pending = True  # (re)send the planner config until a robot receives it
         self._route_pending = False  # (re)send the route until a robot receives it
@@ -338,7 +344,7 @@ class StationController(QObject):
         self._resend_pending()
         self._speed_section(now)
         self._pose_section(now)
-        self._communication_section()
+        self._communication_section(now)
         self.clocked.emit()
 
     def _speed_section(self, now: float) -> None:
@@ -365,17 +371,19 @@ class StationController(QObject):
         events = self.supervisor.update(now, self.state.localised_pose)
         self._handle(events)
 
-    def _communication_section(self) -> None:
+    def _communication_section(self, now: float) -> None:
         if not self.tablet.is_connected:
             return
         send = self.tablet.send
         pose = self.state.localised_pose
         loc = self.state.localisation
-        if loc != self._localisation_sent:
+        settling = loc in ("unset", "lost") and now < self._pose_settling_until
+        if loc != self._localisation_sent and not settling:
             send(p.Localisation(loc))
             self._localisation_sent = loc
         if self.state.pose is None or self.state.pose.state == "unset":
-            send(p.InitialPose(False))
+            if not settling:
+                send(p.InitialPose(False))
         elif pose is not None:
             send(p.Pose(pose.x, pose.y, pose.yaw))
         goal = self.supervisor.current_goal_node
@@ -584,7 +592,13 @@ class StationController(QObject):
         self.estop_changed.emit(False)
 
     def set_initial_pose(self, pose: Pose2D) -> None:
-        self._send(Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=self.clock()))
+        now = self.clock()
+        self._send(Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now))
+        # Until the robot reports the pose applied, its last "unset"/"lost" is stale: holding
+        # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
+        # said afresh once the robot answers or the grace runs out).
+        self._pose_settling_until = now + INITIAL_POSE_SETTLE_S
+        self._localisation_sent = None
         self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
 
     def set_initial_pose_room(self, node_id: int) -> None:

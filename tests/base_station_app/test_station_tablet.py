@@ -242,3 +242,58 @@ def test_request_shown_at_room_and_answered_from_tablet(
     station.tick()
     # on the way to deliver it
     qtbot.waitUntil(lambda: [r.node_ids[-1] for r in robot.of("route")][-1:] == [0], timeout=3000)
+
+
+def _flushed(qtbot, t, seq: int) -> None:
+    """Everything the station sent before now has reached the tablet (a ping's pong follows it)."""
+    t.send({"ping": {"seq": seq, "t": 0.0}})
+    qtbot.waitUntil(lambda: bool({"seq": seq, "t": 0.0} in t.of("pong")), timeout=3000)
+
+
+def test_help_me_holds_back_the_stale_lost_state_until_the_robot_answers(
+    qtbot, station, robot, tablet_factory, localise, topo, clock
+):
+    """After "Help me!" the robot's last "lost" is stale until it applies the pose: the tablet
+    is not told "lost" again meanwhile (its banner would flash back), and hears "ok" after."""
+    t = handshake(qtbot, tablet_factory)
+    here = topo.nodes[2].pose
+    localise(here, "lost")
+    station.tick()
+    _flushed(qtbot, t, 1)
+    assert t.of("localisation") == ["lost"]
+    t.send({"initial_pose_room": 2})
+    qtbot.waitUntil(lambda: bool(robot.of("initial_pose")), timeout=3000)
+    for _ in range(10):  # 1 s of clock() with the robot still reporting "lost"
+        clock.advance(0.1)
+        station.tick()
+    _flushed(qtbot, t, 2)
+    assert t.of("localisation") == ["lost"]  # nothing new
+    localise(here, "ok")
+    clock.advance(0.1)
+    station.tick()
+    _flushed(qtbot, t, 3)
+    assert t.of("localisation") == ["lost", "ok"]
+
+
+def test_help_me_with_a_pose_the_robot_never_takes_says_lost_again_after_the_grace(
+    qtbot, station, robot, tablet_factory, localise, topo, clock
+):
+    from base_station_app.station_controller import INITIAL_POSE_SETTLE_S
+
+    t = handshake(qtbot, tablet_factory)
+    localise(topo.nodes[2].pose, "unset")
+    station.tick()
+    _flushed(qtbot, t, 1)
+    unset_count = len(t.of("initial_pose"))
+    assert unset_count >= 1 and t.of("localisation") == ["unset"]
+    t.send({"initial_pose_room": 2})
+    qtbot.waitUntil(lambda: bool(robot.of("initial_pose")), timeout=3000)
+    clock.advance(INITIAL_POSE_SETTLE_S / 2)
+    station.tick()
+    _flushed(qtbot, t, 2)
+    assert len(t.of("initial_pose")) == unset_count  # held back
+    clock.advance(INITIAL_POSE_SETTLE_S)
+    station.tick()
+    _flushed(qtbot, t, 3)
+    assert t.of("initial_pose")[unset_count:] == [False]
+    assert t.of("localisation") == ["unset", "unset"]  # said afresh
