@@ -23,7 +23,8 @@ from interbot_link import LinkError, session_config
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_TOPO = Path("maps/isr_floor0_topo.yaml")
+# Beside the packages in a checkout or an editable install, whatever the working directory.
+DEFAULT_TOPO = Path(__file__).resolve().parent.parent / "maps" / "isr_floor0_topo.yaml"
 
 
 class StationSession:

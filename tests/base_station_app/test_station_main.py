@@ -29,6 +29,7 @@ def test_parser_defaults():
     args = build_parser().parse_args([])
     assert args.connect is None and args.tablet_port == 5555 and args.tablet_host == "127.0.0.1"
     assert str(args.topo).endswith("maps/isr_floor0_topo.yaml")
+    assert args.topo.is_absolute() and args.topo.is_file()  # not relative to the working dir
 
 
 def test_bad_topo_is_reported(tmp_path, capsys):
