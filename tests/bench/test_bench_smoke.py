@@ -37,6 +37,7 @@ POSITIVE = {
         "stack_step_ms_median",
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
+    "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",
@@ -62,6 +63,7 @@ NON_NEGATIVE = {
         "tour_localisation_losses",
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
+    "kidnap": ["kidnap_false_losses"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').
