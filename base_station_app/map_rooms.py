@@ -130,13 +130,16 @@ def map_labels(topo: TopologicalMap, areas: Sequence[RoomArea], wrap: int = 16) 
         members.sort(key=lambda a: (_KIND_ORDER.get(a.kind, 2), a.node_id))
         own = members[0]
         x, y = polygon_centroid(own.polygon)
-        text = "\n".join(textwrap.wrap(f"{room} ({own.node_id})", wrap)) or room
-        labels.append(MapLabel(text, x, y, own.node_id))
+        labels.append(MapLabel(_wrapped(f"{room} ({own.node_id})", wrap), x, y, own.node_id))
     placed = {m.node_id for members in by_room.values() for m in members}
     kinds = {a.node_id: a.kind for a in areas}
     for node in topo.nodes:
         if node.id in placed or kinds.get(node.id) == "waypoint":
             continue
-        text = "\n".join(textwrap.wrap(f"{node.name} ({node.id})", wrap)) or str(node.id)
+        text = _wrapped(f"{node.name} ({node.id})", wrap)
         labels.append(MapLabel(text, node.pose.x, node.pose.y, node.id))
     return labels
+
+
+def _wrapped(text: str, width: int) -> str:
+    return "\n".join(textwrap.wrap(text, width))

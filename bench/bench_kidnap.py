@@ -49,7 +49,6 @@ def kidnap_sweep(
     only_from: int | None = None,
 ) -> tuple[list[float], list[tuple[int, int]], int]:
     """(detection times [s], undetected pairs, losses while tracking correctly before a kidnap)."""
-    from interbot_core.geometry import Pose2D
     from interbot_core.occupancy_grid import load_map
     from interbot_core.topological_map import load_topological_map
     from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
@@ -61,7 +60,7 @@ def kidnap_sweep(
     nodes = {n.id: n.pose for n in load_topological_map(DEFAULT_TOPO).nodes}
     sim = Simulator(grid, SimConfig(start_pose=nodes[0], n_people=0), rng_seed=1)
     loc = Localiser(grid)
-    mount: Pose2D = DEFAULT_LASER_MOUNT
+    mount = DEFAULT_LASER_MOUNT
     dt = 1.0 / RATE_HZ
 
     def step() -> LocaliserState:

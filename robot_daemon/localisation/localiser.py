@@ -15,7 +15,8 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
 * **Loss detection.** A scan is *bad* if its confidence is below ``lost_confidence``, if more
   than ``lost_impossible`` of its beams are *impossible* at the estimate (below), or if its
   correction ``x_m ⊖ x_pred`` is implausibly large (it is then rejected). Bad scans for
-  ``lost_after_s`` seconds in a row make the state ``lost``.
+  ``lost_after_s`` seconds in a row make the state ``lost``. While lost the pose follows odometry
+  alone and the state stays ``lost`` until `set_initial_pose` is called.
 * **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
   *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
   has only the small "random" likelihood). A beam is impossible when its measured range passes
@@ -24,8 +25,7 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   and new furniture only shorten beams, so this is robust to crowds, unlike the hit fraction; a
   kidnapped robot whose new surroundings resemble the old ones (every door of a corridor looks
   alike) still sees through walls somewhere. Rays that leave the map, or that the trace does not
-  finish within ``impossible_max_steps`` steps (grazing a wall), count as possible. While lost the pose follows odometry
-  alone and the state stays ``lost`` until `set_initial_pose` is called.
+  finish within ``impossible_max_steps`` steps (grazing a wall), count as possible.
 * **New static obstacles, not people.** Unexplained end points feed a
   `dynamic_map.DynamicEvidenceGrid`; cells it promotes are added to the matching map.
 
@@ -155,8 +155,8 @@ class Localiser:
             dist = ndimage.distance_transform_edt(~occ) * grid.resolution
         else:
             dist = np.full(occ.shape, np.inf)
-        self._dist = np.ascontiguousarray(dist, dtype=np.float64).reshape(-1)
-        # The same field with a border of inf cells: clipped ray samples off the map read inf.
+        # Distance field [m] with a border of inf cells, flat (row-major, width + 2 columns):
+        # ray samples clipped to the border read inf, i.e. "off the map".
         padded = np.full((grid.height + 2, grid.width + 2), np.inf)
         padded[1:-1, 1:-1] = dist
         self._dist_padded = padded.reshape(-1)
@@ -325,7 +325,7 @@ class Localiser:
         row = np.floor((ys - g.origin_y) / g.resolution).astype(np.intp)
         inside = (row >= 0) & (row < g.height) & (col >= 0) & (col < g.width)
         out = np.full(xs.shape, np.inf)
-        out[inside] = self._dist[row[inside] * g.width + col[inside]]
+        out[inside] = self._dist_padded[(row[inside] + 1) * (g.width + 2) + col[inside] + 1]
         return out
 
     def _to_map(self, points: FloatArray, pose: Pose2D) -> tuple[FloatArray, FloatArray]:
@@ -469,7 +469,7 @@ class Localiser:
 
     def _add_distance_obstacles(self, xs: FloatArray, ys: FloatArray) -> None:
         g = self._grid
-        dist = self._dist.reshape(g.height, g.width)
+        dist = self._dist_padded.reshape(g.height + 2, g.width + 2)[1:-1, 1:-1]  # a view
         k = self._dist_radius
         for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
             col = math.floor((x - g.origin_x) / g.resolution)
@@ -478,8 +478,6 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
-            padded = self._dist_padded.reshape(g.height + 2, g.width + 2)
-            padded[r0 + 1 : r1 + 1, c0 + 1 : c1 + 1] = dist[r0:r1, c0:c1]
 
 
 def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:
@@ -487,9 +485,8 @@ def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:
     padded = np.concatenate(([False], mask, [False])).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
     starts, ends = edges[::2], edges[1::2]
+    long = ends - starts >= k
     out = np.zeros_like(mask)
-    for a, b in zip(
-        starts[ends - starts >= k].tolist(), ends[ends - starts >= k].tolist(), strict=True
-    ):
+    for a, b in zip(starts[long].tolist(), ends[long].tolist(), strict=True):
         out[a:b] = True
     return out
