@@ -29,6 +29,15 @@ LEVEL_COLOURS = {
     "error": QColor(200, 0, 0),
 }
 
+#: What the panel shows for each localisation state (interbot_core.topics.POSE_STATES).
+LOCALISATION_TEXT = {
+    "ok": "localised",
+    "degraded": "DEGRADED (uncertain: driving slowly)",
+    "lost": "LOST",
+    "searching": "searching (global localisation)",
+    "unset": "initial pose not set",
+}
+
 
 class QtStatePanel(QWidget):
     """Speedometers, a state form and the status log."""
@@ -106,9 +115,15 @@ class QtStatePanel(QWidget):
             L["pose"].setText(f"x {s.pose.x:.2f} m, y {s.pose.y:.2f} m")
             L["orientation"].setText(f"{math.degrees(s.pose.yaw):.1f}° ({s.pose.yaw:.3f} rad)")
         loc = s.localisation
+        sigmas = None if s.pose is None else s.pose.sigmas
         L["localisation"].setText(
-            {"ok": "localised", "lost": "LOST", "unset": "initial pose not set"}[loc]
+            LOCALISATION_TEXT.get(loc, loc)
             + ("" if s.pose is None else f" (confidence {s.pose.confidence:.2f})")
+            + (
+                ""
+                if sigmas is None
+                else f", ±{max(sigmas[0], sigmas[1]) * 100:.0f} cm, ±{math.degrees(sigmas[2]):.1f}°"
+            )
         )
         if s.battery is not None:
             b = s.battery

@@ -9,8 +9,14 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
 * **Route.** The station sends the whole route (``RouteMsg``); the navigator advances the
   intermediate goals itself, so the robot finishes the route if the station disappears (the
   thesis robot only reached its current intermediate goal).
-* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset`` or
-  ``lost``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
+* **Degraded localisation.** While the localiser reports ``degraded`` (its covariance is large,
+  e.g. far along a featureless corridor, or the last scans disagree with the map) the route
+  goes on at ``degraded_speed_scale`` of the planner's linear speed. Stopping would not help:
+  only motion brings new structure into view to pin the pose again, and bad scans turn
+  ``degraded`` into ``lost`` (a stop) within ``LocaliserConfig.lost_after_s``. Slower, the robot
+  travels less on odometry alone between scans and people have more time to react.
+* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
+  ``lost`` or ``searching``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
   the robot is, so no progress timer counts the suspension as being stuck.
 * **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
@@ -24,6 +30,9 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, fields
 from typing import Any
+
+import numpy as np
+import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
@@ -62,6 +71,15 @@ class StackConfig:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
+    degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
+
+    def __post_init__(self) -> None:
+        if not (
+            math.isfinite(self.degraded_speed_scale) and 0.0 <= self.degraded_speed_scale <= 1.0
+        ):
+            raise StackError(
+                f"degraded_speed_scale must be in [0, 1], got {self.degraded_speed_scale}"
+            )
 
 
 @dataclass
@@ -243,6 +261,22 @@ class RobotStack:
         return self.localiser.state
 
     @property
+    def pose_covariance(self) -> npt.NDArray[np.float64]:
+        """3x3 covariance of `pose` (base_link x, y, yaw in ``map``), from the localiser's
+        laser-pose covariance through ``base = laser ⊕ mount⁻¹``; zeros while unset."""
+        laser = self.localiser.current_pose
+        cov = self.localiser.covariance
+        if laser is None:
+            return cov
+        c, s = math.cos(laser.yaw), math.sin(laser.yaw)
+        m = self._mount_inv
+        jac = np.array(
+            [[1.0, 0.0, -s * m.x - c * m.y], [0.0, 1.0, c * m.x - s * m.y], [0.0, 0.0, 1.0]]
+        )
+        out: npt.NDArray[np.float64] = jac @ cov @ jac.T
+        return out
+
+    @property
     def suspended_reason(self) -> str | None:
         return self._suspended_reason
 
@@ -286,8 +320,13 @@ class RobotStack:
     def _track_localisation(self, now: float) -> None:
         state = self.localiser.state
         if state != self._localisation_state:
-            level = "error" if state == LocaliserState.LOST else "info"
-            self._event(now, level, f"localisation {state.value}")
+            level = {LocaliserState.LOST: "error", LocaliserState.DEGRADED: "warning"}.get(
+                state, "info"
+            )
+            text = f"localisation {state.value}"
+            if state is LocaliserState.DEGRADED and self.last_estimate is not None:
+                text += f": {self.last_estimate.reason}"
+            self._event(now, level, text)
             self._localisation_state = state
             if state == LocaliserState.LOST:
                 # Stop now: do not drive blind on the planner's last command until it times out.
@@ -296,7 +335,7 @@ class RobotStack:
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
         state = self.localiser.state
-        if state != LocaliserState.OK:
+        if state not in (LocaliserState.OK, LocaliserState.DEGRADED):
             return f"localisation {state.value}"
         locks = {lock.topic for lock in self.mux.active_locks(now)}
         if STOP_TOPIC in locks:
@@ -344,4 +383,7 @@ class RobotStack:
         elif command.state == NavState.BLOCKED:
             route.state, route.reason = "aborted", command.reason or "blocked"
             self._event(now, "error", f"route {route.route_id} blocked: {route.reason}")
-        self.mux.on_twist(PLANNER_TOPIC, command.linear, command.angular, now)
+        linear = command.linear
+        if self.localiser.state is LocaliserState.DEGRADED:
+            linear *= self.config.degraded_speed_scale
+        self.mux.on_twist(PLANNER_TOPIC, linear, command.angular, now)
