@@ -89,13 +89,21 @@ class LocaliserConfig:
     odom_blend: bool = True  # fuse the match with the odometry prediction (else take the match)
     # Odometry noise per scan step in the robot frame (AMCL's odom_alpha model, simplified):
     # sigma along travel = odom_alpha_trans * d, across = odom_alpha_lat * d, yaw =
-    # odom_alpha_rot * |turn| + odom_alpha_rot_per_m * d, each with a floor added every scan.
-    odom_alpha_trans: float = 0.1
-    odom_alpha_lat: float = 0.05
+    # odom_alpha_rot * |turn| + odom_alpha_rot_per_m * d, plus the random walks below and a
+    # floor added every scan.
+    odom_alpha_trans: float = 0.05
+    odom_alpha_lat: float = 0.02
     odom_alpha_rot: float = 0.1
     odom_alpha_rot_per_m: float = 0.05  # [rad/m]
     odom_floor_m: float = 0.002
     odom_floor_rad: float = 0.001
+    # Random-walk terms: variance grows by walk² per metre travelled, whatever the scan rate
+    # (the (alpha * d)² terms alone shrink with the step: at 40 Hz they would let a corridor
+    # drive of 10 m claim 4 cm). 0.05 m/sqrt(m) reaches sigma 0.1 m after 4 m of travel the
+    # scans do not constrain: before 5 % odometry error reaches 0.3 m.
+    odom_walk_m: float = 0.05  # [m / sqrt(m)] along travel
+    odom_walk_lat_m: float = 0.02  # [m / sqrt(m)] across travel
+    odom_walk_rad: float = 0.01  # [rad / sqrt(m)]
     # Scan information: each inlier end point measures its distance to the map surface with
     # sigma match_sigma_m; neighbouring beams are correlated (the same wall, the same map
     # error), so at most match_effective_points of them count as independent.
@@ -136,6 +144,9 @@ class LocaliserConfig:
             ("odom_alpha_rot_per_m", self.odom_alpha_rot_per_m, 0.0, 10.0),
             ("odom_floor_m", self.odom_floor_m, 1e-5, 1.0),
             ("odom_floor_rad", self.odom_floor_rad, 1e-6, 1.0),
+            ("odom_walk_m", self.odom_walk_m, 0.0, 10.0),
+            ("odom_walk_lat_m", self.odom_walk_lat_m, 0.0, 10.0),
+            ("odom_walk_rad", self.odom_walk_rad, 0.0, 10.0),
             ("match_sigma_m", self.match_sigma_m, 1e-3, 5.0),
             ("match_effective_points", self.match_effective_points, 1.0, 1e5),
             ("initial_sigma_m", self.initial_sigma_m, 1e-3, 100.0),
@@ -570,11 +581,13 @@ class Localiser:
                 [0.0, 0.0, 1.0],
             ]
         )
-        q_along = (cfg.odom_alpha_trans * d) ** 2 + cfg.odom_floor_m**2
-        q_across = (cfg.odom_alpha_lat * d) ** 2 + cfg.odom_floor_m**2
+        q_along = (cfg.odom_alpha_trans * d) ** 2 + cfg.odom_walk_m**2 * d + cfg.odom_floor_m**2
+        q_across = (cfg.odom_alpha_lat * d) ** 2 + cfg.odom_walk_lat_m**2 * d + cfg.odom_floor_m**2
         q_yaw = (
-            cfg.odom_alpha_rot * abs(step.yaw) + cfg.odom_alpha_rot_per_m * d
-        ) ** 2 + cfg.odom_floor_rad**2
+            (cfg.odom_alpha_rot * abs(step.yaw) + cfg.odom_alpha_rot_per_m * d) ** 2
+            + cfg.odom_walk_rad**2 * d
+            + cfg.odom_floor_rad**2
+        )
         # G Q Gᵀ: the robot-frame noise rotated into the map frame.
         cc, ss, cs = c * c, s * s, c * s
         gqg = np.array(
