@@ -4,19 +4,33 @@ The thesis runs a modified Hector SLAM against an a-priori map, started from a p
 gives (station or tablet), without odometry. This localiser keeps Hector's matcher
 (`scan_matcher.ScanMatcher`) and adds, beyond the thesis:
 
-* **Odometry prior.** Each scan is matched starting from ``x_pred = x_prev ⊕ (o_prev⁻¹ ⊕ o_now)``,
-  the last estimate moved by the odometry increment since the previous scan. The match ``x_m``
-  is then fused with the prediction in information form,
-  ``x = x_pred + (Λ_p + H/s²)⁻¹ (H/s²) (x_m - x_pred)``, where ``H`` is Hector's Hessian and
-  ``Λ_p`` the inverse of a prediction covariance that grows with the odometry increment. Where the
-  scan constrains the pose (large ``H``) the match wins; along a featureless corridor the prior does.
+* **Odometry fusion with a covariance** (an extended Kalman filter, as Cartographer's and
+  Hector's pose-graph front ends and AMCL's odometry model do). The pose ``x`` carries a 3x3
+  covariance ``P`` (x, y, yaw). Each scan is matched starting from the prediction
+  ``x_pred = x ⊕ u`` with ``u`` the odometry increment since the previous scan, and
+  ``P_pred = F P Fᵀ + G Q(u) Gᵀ`` (``Q``: `LocaliserConfig.odom_*`, AMCL-like alphas plus
+  random walks per metre). The match ``x_m`` comes with an information matrix ``I_m``: the
+  point-to-surface information of its inliers (`scan_matcher.normal_information`, at most
+  ``match_effective_points`` counted as independent, over ``match_sigma_m²``), limited along
+  the weakest direction to what sliding the scan there shows (`_without_slide`). The update is
+  ``P = (P_pred⁻¹ + I_m)⁻¹``, ``x = x_pred + P I_m (x_m - x_pred)``: where the scan constrains
+  the pose the match wins, along a featureless corridor the prediction does and ``P`` grows.
+  A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
+  bound) is rejected. Calibration on the eight real logs: ``bench/bench_reallogs.py`` reports
+  the mean NEES (3 when calibrated) and the fraction of scans inside the 95 % ellipsoid.
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
-  occupied map cell, reported with Hector's score (mean ``M``).
-* **Loss detection.** A scan is *bad* if its confidence is below ``lost_confidence``, if more
-  than ``lost_impossible`` of its beams are *impossible* at the estimate (below), or if its
-  correction ``x_m ⊖ x_pred`` is implausibly large (it is then rejected). Bad scans for
-  ``lost_after_s`` seconds (and ``lost_after_scans`` scans) in a row make the state ``lost``. While lost the pose follows odometry
-  alone and the state stays ``lost`` until `set_initial_pose` is called.
+  occupied map cell, reported with Hector's score (mean ``M``); ``certainty`` is the
+  probability, under ``P``, of an error within ``tolerance_m`` and ``tolerance_rad``.
+* **States: never silently wrong.** ``ok``; ``degraded`` when the pose's largest sigma exceeds
+  ``degraded_sigma_m`` (or yaw ``degraded_sigma_rad``), when the scan fits the map poorly (hit
+  fraction below ``degraded_confidence``) or when the scan is bad (below), back to ``ok`` after
+  ``ok_after_s`` of good scans; ``lost`` after bad scans for ``lost_after_s`` seconds and
+  ``lost_after_scans`` scans in a row. A scan is *bad* if its hit fraction is below
+  ``lost_confidence``, if more than ``lost_impossible`` of its beams are *impossible* at the
+  estimate (below), or if its match was rejected. While lost the pose follows odometry alone
+  and the state stays ``lost`` until `set_initial_pose` is called. A *silent failure*, an
+  error above 0.3 m or 10 degrees reported ``ok``, is what the states exist to prevent;
+  `log_replay` counts them on real logs.
 * **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
   *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
   has only the small "random" likelihood). A beam is impossible when its measured range passes
@@ -81,6 +95,7 @@ class LocaliserConfig:
     max_range_m: float = 30.0  # beams beyond are ignored
     hit_tolerance_m: float = 0.10  # an end point this close to the map counts as a hit
     lost_confidence: float = 0.35  # a scan below this hit fraction is bad
+    degraded_confidence: float = 0.6  # below this hit fraction the state is degraded
     lost_after_s: float = 1.0  # bad scans for this long -> lost
     lost_after_scans: int = 5  # ... and at least this many bad scans in a row
     max_jump_m: float = 0.3  # plausible correction: this + max_jump_gain * odometry step
@@ -107,11 +122,13 @@ class LocaliserConfig:
     # Scan information: each inlier end point measures its distance to the map surface with
     # sigma match_sigma_m; neighbouring beams are correlated (the same wall, the same map
     # error), so at most match_effective_points of them count as independent.
-    match_sigma_m: float = 0.05
+    match_sigma_m: float = 0.09
     match_effective_points: float = 40.0
     initial_sigma_m: float = 0.3  # a person's initial pose (issue 12: up to 0.3 m, 10 degrees)
     initial_sigma_rad: float = 0.17
     slide_test_m: float = 0.3  # shift testing the information along the weakest direction
+    slide_turn_rad: float = 0.025  # the slide test also tries the shifted pose turned by ±this
+    slide_points: int = 150  # end points the slide test uses
     gate_chi2: float = 16.27  # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
     degraded_sigma_m: float = 0.1  # largest position sigma above this -> degraded
     degraded_sigma_rad: float = 0.05  # yaw sigma above this -> degraded
@@ -134,6 +151,7 @@ class LocaliserConfig:
             ("max_range_m", self.max_range_m, 0.5, 200.0),
             ("hit_tolerance_m", self.hit_tolerance_m, 0.01, 1.0),
             ("lost_confidence", self.lost_confidence, 0.0, 1.0),
+            ("degraded_confidence", self.degraded_confidence, 0.0, 1.0),
             ("lost_after_s", self.lost_after_s, 0.05, 60.0),
             ("max_jump_m", self.max_jump_m, 0.01, 10.0),
             ("max_jump_rad", self.max_jump_rad, 0.01, math.pi),
@@ -153,6 +171,8 @@ class LocaliserConfig:
             ("initial_sigma_rad", self.initial_sigma_rad, 1e-4, math.pi),
             ("gate_chi2", self.gate_chi2, 1.0, 1e6),
             ("slide_test_m", self.slide_test_m, 0.01, 10.0),
+            ("slide_turn_rad", self.slide_turn_rad, 0.0, 0.5),
+            ("slide_points", self.slide_points, 20, 5000),
             ("degraded_sigma_m", self.degraded_sigma_m, 1e-3, 100.0),
             ("degraded_sigma_rad", self.degraded_sigma_rad, 1e-4, math.pi),
             ("ok_after_s", self.ok_after_s, 0.0, 60.0),
@@ -356,7 +376,7 @@ class Localiser:
         state = self._update_state(reason, cov, now, confidence, impossible)
         certainty = 0.0 if state is LocaliserState.LOST else self._certainty(cov)
         if not reason and state is LocaliserState.DEGRADED:
-            reason = self._uncertain_reason(cov) or "recovering"
+            reason = self._weak_reason(cov, confidence) or "recovering"
         self._last = LocaliserEstimate(
             pose, state, confidence, score, now, impossible, cov, certainty, reason
         )
@@ -368,9 +388,10 @@ class Localiser:
         """ok / degraded / lost from this scan's verdict and the covariance.
 
         A bad scan makes the state degraded at once and lost after ``lost_after_s`` and
-        ``lost_after_scans`` of bad scans in a row (lost is kept until `set_initial_pose`). A pose whose covariance exceeds
-        ``degraded_sigma_m`` / ``degraded_sigma_rad`` is degraded. Back to ok after
-        ``ok_after_s`` of good, certain scans.
+        ``lost_after_scans`` of bad scans in a row (lost is kept until `set_initial_pose`). A
+        pose whose covariance exceeds ``degraded_sigma_m`` / ``degraded_sigma_rad``, or whose
+        scan fits the map poorly (hit fraction below ``degraded_confidence``), is degraded.
+        Back to ok after ``ok_after_s`` of good, certain scans.
         """
         cfg = self.config
         if bad_reason:
@@ -397,7 +418,7 @@ class Localiser:
             return self._state
         self._bad_since = None
         self._bad_scans = 0
-        if self._uncertain_reason(cov):
+        if self._weak_reason(cov, confidence):
             self._good_since = None
             self._state = LocaliserState.DEGRADED
             return self._state
@@ -408,6 +429,12 @@ class Localiser:
                 return self._state
         self._state = LocaliserState.OK
         return self._state
+
+    def _weak_reason(self, cov: FloatArray, confidence: float) -> str:
+        """Why a good scan still leaves the pose degraded ("" if it does not)."""
+        if confidence < self.config.degraded_confidence:
+            return f"scan fits the map poorly (hit fraction {confidence:.2f})"
+        return self._uncertain_reason(cov)
 
     def _uncertain_reason(self, cov: FloatArray) -> str:
         cfg = self.config
@@ -612,54 +639,67 @@ class Localiser:
         out: FloatArray = result.normal_info * scale
         return out
 
-    def slide_ratio(self, points: FloatArray, pose: Pose2D, direction: FloatArray) -> float:
-        """Best score of the scan at ``pose`` shifted by ±``slide_test_m`` along ``direction``
-        (a unit 2-vector), over its score at ``pose``, on the matcher's level 1 (10 cm)."""
+    def slide_ratio(self, points: FloatArray, pose: Pose2D, shift: FloatArray) -> float:
+        """Best score of the scan at ``pose ± shift`` (x [m], y [m], yaw [rad] added in the
+        map frame), each also turned by ``± slide_turn_rad``, over its score at ``pose``, on
+        the matcher's level 1 (10 cm cells). One batched interpolation for all the poses."""
         cfg = self.config
         level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
-        pts = subsample_points(points, max(cfg.matcher.max_points >> 1, 30))
-        xs, ys = self._to_map(pts, pose)
-        base = float(level.interpolate(xs, ys)[0].mean())
+        pts = subsample_points(points, cfg.slide_points)
+        # At each shifted position the heading may re-settle a little (a profile over yaw:
+        # a slide along a corridor seen at an angle comes with a degree or two of turn).
+        t = cfg.slide_turn_rad
+        signs = np.array([0.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
+        turns = np.array([0.0, 0.0, t, -t, 0.0, t, -t])
+        px = pose.x + signs * shift[0]
+        py = pose.y + signs * shift[1]
+        yaw = pose.yaw + signs * shift[2] + turns
+        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
+        xs = (px[:, None] + c * sx - s * sy).ravel()
+        ys = (py[:, None] + s * sx + c * sy).ravel()
+        scores = level.interpolate(xs, ys)[0].reshape(signs.size, -1).mean(axis=1)
+        base = float(scores[0])
         if base <= 0.0:
             return 1.0
-        best = 0.0
-        for sign in (1.0, -1.0):
-            dx, dy = sign * cfg.slide_test_m * direction[0], sign * cfg.slide_test_m * direction[1]
-            best = max(best, float(level.interpolate(xs + dx, ys + dy)[0].mean()))
-        return best / base
+        return float(scores[1:].max()) / base
 
     def _without_slide(
         self, points: FloatArray, result: MatchResult, info: FloatArray
     ) -> FloatArray:
-        """``info`` with its information along the scan's weakest position direction ``v``
-        limited to what sliding the scan ``slide_test_m`` along ``v`` shows.
+        """``info`` with its information along the scan's weakest position direction ``d``
+        limited to what sliding the scan along ``d`` shows.
 
         The point-to-surface information counts every end point with its local normal; in a
         corridor of binned walls, door frames and jagged cells give it information along the
         corridor that the match does not have at the scale of decimetres (the matcher slides:
-        Intel Research Lab, 0.3 m with a claimed sigma of 2 cm). Shifted by ``slide_test_m``
-        (3 sigma of the matcher's 10 cm level), the end points that constrain ``v`` leave their
-        surfaces: the relative drop of the score, ``1 - ratio``, is the fraction of end points
-        that do, so the information along ``v`` is at most ``(1 - ratio)`` times the inliers'
-        (effective) count over ``match_sigma_m²``. Where the scan fits as well after the shift
-        (ratio >= 1) it is zero: the update along ``v`` is left to the prediction (odometry),
-        whose covariance keeps growing there (degeneracy-aware fusion as in Zhang, Kaess and
-        Singh, "On degeneracy of optimization-based state estimation problems", ICRA 2016).
+        Intel Research Lab, 0.3 m with a claimed sigma of 2 cm), and a long corridor seen at
+        an angle couples the slide with a degree or two of turn (`slide_ratio` lets the heading
+        re-settle). ``d`` is the weakest eigenvector of the position information; the scan is
+        moved by ``± slide_test_m`` along it (3 sigma of the matcher's 10 cm level), so the end
+        points
+        that constrain ``d`` leave their surfaces: the relative drop of the score, ``1 -
+        ratio``, is the fraction of end points that do, and the information along ``d`` is at
+        most ``(1 - ratio)`` times the inliers' (effective) count over ``match_sigma_m²``.
+        Where the scan fits as well after the shift it is zero, and the update along ``d`` is
+        left to the prediction (odometry), whose covariance keeps growing there
+        (degeneracy-aware fusion as in Zhang, Kaess and Singh, "On degeneracy of optimization-
+        based state estimation problems", ICRA 2016).
         """
         cfg = self.config
         _, vecs = np.linalg.eigh(info[:2, :2])
-        d = np.array([vecs[0, 0], vecs[1, 0], 0.0])
+        d = np.array([vecs[0, 0], vecs[1, 0], 0.0]) * cfg.slide_test_m  # the shift [m]
         idv = info @ d
         dd = float(d @ idv)
         if dd <= 0.0:
             return info
-        ratio = self.slide_ratio(points, result.pose, vecs[:, 0])
+        ratio = self.slide_ratio(points, result.pose, d)
         n_eff = min(float(result.n_inliers), cfg.match_effective_points)
-        supported = max(0.0, 1.0 - ratio) * n_eff / cfg.match_sigma_m**2
+        supported = max(0.0, 1.0 - ratio) * n_eff * cfg.slide_test_m**2 / cfg.match_sigma_m**2
         if supported >= dd:
             return info
         out: FloatArray = info - np.outer(idv, idv) / dd
-        out += supported * np.outer(d, d)
+        out += (supported / float(d @ d) ** 2) * np.outer(d, d)
         return out
 
     def _fuse(

@@ -261,16 +261,16 @@ def localise_interleaved(
     """Map every ``stride``-th scan of the log; localise the scans half-way between them
     (index ``≡ stride // 2`` mod ``stride``) forward in one run from the first one's pose.
 
-    ``start`` and ``count`` restrict the localised run to a slice of the log (``count`` scans
-    of the log from ``start``: for fast tests); the map is always the whole log's.
+    ``start`` and ``count`` restrict the method to a slice of the log (``count`` scans from
+    ``start``, mapped and localised: for fast tests).
     """
     if stride < 2:
         raise LogReplayError(f"{path}: the interleaved method needs stride >= 2, got {stride}")
     records = _records(path, records)
     if len(records) < 2 * stride:
         raise LogReplayError(f"{path}: {len(records)} scans are too few for stride {stride}")
-    grid = map_of(records[::stride])
     end = len(records) if count is None else min(len(records), start + count)
+    grid = map_of(records[start - start % stride : end : stride])
     run = [r for i, r in enumerate(records[start:end], start) if i % stride == stride // 2]
     if len(run) < 10:
         raise LogReplayError(f"{path}: fewer than 10 scans to localise in [{start}, {end})")

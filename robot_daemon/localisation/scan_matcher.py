@@ -77,6 +77,9 @@ class ScanMatcherConfig:
     max_angular_step: float = MAX_ANGULAR_STEP  # [rad]
     damping: float = 1e-3  # Levenberg damping, relative to trace(H)/3
     surface: str = "cell_face"  # where a map's surface lies: "cell_face" or "cell_centre"
+    fine_max_iterations: int = 10  # finest level: iterate until converged, at most this
+    converged_m: float = 0.002  # a step below this [m] and converged_rad is converged
+    converged_rad: float = 0.001
 
     def __post_init__(self) -> None:
         if not 1 <= self.levels <= 5:
@@ -93,6 +96,12 @@ class ScanMatcherConfig:
             raise ScanMatcherConfigError(
                 f"max_angular_step must be 0.01..1 rad, got {self.max_angular_step}"
             )
+        if not 1 <= self.fine_max_iterations <= 100:
+            raise ScanMatcherConfigError(
+                f"fine_max_iterations must be 1..100, got {self.fine_max_iterations}"
+            )
+        if not (0.0 < self.converged_m <= 1.0 and 0.0 < self.converged_rad <= 1.0):
+            raise ScanMatcherConfigError("converged_m and converged_rad must be in (0, 1]")
         if not 0.0 <= self.damping <= 1.0:
             raise ScanMatcherConfigError(f"damping must be 0..1, got {self.damping}")
         if self.surface not in SURFACES:
@@ -382,12 +391,16 @@ class ScanMatcher:
             sx = np.ascontiguousarray(pts[:, 0])
             sy = np.ascontiguousarray(pts[:, 1])
             n_iter = cfg.iterations[n_levels - 1 - li]
-            for it in range(n_iter + (1 if li == 0 else 0)):
+            # The finest level goes on past its iterations while the steps are not converged
+            # (a few degrees of yaw take more than 4 steps at 5 cm), up to fine_max_iterations.
+            n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
+            converged = False
+            for it in range(n_max + (1 if li == 0 else 0)):
                 c, s = math.cos(yaw), math.sin(yaw)
                 rx = c * sx - s * sy  # R(ψ) s_i
                 ry = s * sx + c * sy
                 m, gx, gy = level.interpolate(rx + px, ry + py)
-                if li == 0 and it == n_iter:
+                if li == 0 and (it == n_max or (it >= n_iter and converged)):
                     # Final evaluation only: H and score at the solution.
                     jt = gy * rx - gx * ry
                     hessian = _hessian(gx, gy, jt)
@@ -404,6 +417,7 @@ class ScanMatcher:
                 h[2, 2] += lam
                 dx, dy, dth = _solve3(h, g)
                 dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
+                converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
                 px += dx
                 py += dy
                 yaw += dth

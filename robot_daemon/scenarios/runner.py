@@ -96,6 +96,8 @@ class Metrics:
     loc_errors: list[float] = field(default_factory=list)
     heading_errors: list[float] = field(default_factory=list)
     losses: int = 0
+    silent_failures: int = 0  # samples > 0.3 m or > 10 degrees off while reported ok (issue 12)
+    degraded_s: float = 0.0
     _last_pose: Pose2D | None = None
     _last_state: LocaliserState | None = None
 
@@ -122,6 +124,9 @@ class Metrics:
         if estimate is not None and state == LocaliserState.OK:
             self.loc_errors.append(estimate.distance_to(truth))
             self.heading_errors.append(abs(angle_diff(estimate.yaw, truth.yaw)))
+            if self.loc_errors[-1] > 0.3 or self.heading_errors[-1] > math.radians(10.0):
+                self.silent_failures += 1
+        self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
 
     def figures(self) -> dict[str, float]:
         loc = np.asarray(self.loc_errors) if self.loc_errors else np.zeros(1)
@@ -131,6 +136,8 @@ class Metrics:
         return {
             "distance_m": round(self.distance_m, 2),
             "localisation_losses": self.losses,
+            "localisation_silent_failures": self.silent_failures,
+            "localisation_degraded_s": round(self.degraded_s, 2),
             "mean_speed_mps": round(
                 self.moving_speed_sum / self.moving_time_s if self.moving_time_s else 0.0, 4
             ),

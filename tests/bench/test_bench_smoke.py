@@ -39,10 +39,11 @@ POSITIVE = {
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
     "reallogs": [
-        "reallog_intel_rms_m",
-        "reallog_intel_max_m",
-        "reallog_freiburg079_rms_m",
-        "reallog_freiburg079_max_m",
+        "reallog_intel_revisit_rms_m",
+        "reallog_intel_whole_rms_m",
+        "reallog_intel_whole_ms_median",
+        "reallog_freiburg079_revisit_rms_m",
+        "reallog_freiburg079_whole_max_m",
     ],
     "teleop": [
         "teleop_latency_ms_p50",
@@ -62,7 +63,13 @@ NON_NEGATIVE = {
         "tour_collisions",
         "tour_localisation_losses",
     ],
-    "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
+    "reallogs": [
+        "reallog_intel_whole_lost_scans",
+        "reallog_intel_whole_degraded_scans",
+        "reallog_intel_whole_silent_failures",
+        "reallog_freiburg079_revisit_silent_failures",
+        "reallog_all_silent_failures",
+    ],
     "kidnap": ["kidnap_false_losses"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
