@@ -108,7 +108,7 @@ class LocaliserConfig:
     # floor added every scan.
     odom_alpha_trans: float = 0.05
     odom_alpha_lat: float = 0.02
-    odom_alpha_rot: float = 0.1
+    odom_alpha_rot: float = 0.05
     odom_alpha_rot_per_m: float = 0.05  # [rad/m]
     odom_floor_m: float = 0.002
     odom_floor_rad: float = 0.001
