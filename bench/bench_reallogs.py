@@ -11,6 +11,8 @@ Two methods of `robot_daemon.localisation.log_replay` (the real-data tests use t
 
 Both start at the logged pose with a person's initial covariance (0.3 m, 10 degrees) and use
 odometry made from the logged increments with 5 % scale error, 0.02 rad/m yaw bias and noise.
+After a scan reported ``lost`` the localiser is given the logged pose again (the user's "Help
+me!"), so ``lost_scans`` counts the losses and the errors measure tracking, not dead reckoning.
 The logged poses are SLAM estimates (a few centimetres), not ground truth.
 
 Keys ``reallog_<log>_<method>_<figure>`` with figures ``scans``, ``rms_m``, ``median_m``,

@@ -13,7 +13,8 @@ errors are against them. Two methods, both as ``../shared/data/README.md`` sugge
   later are: easier than a revisit, but it covers every corridor and hall of every log.
 
 In both, the localiser is started at the logged pose with the default initial covariance (a
-person's 0.3 m / 10 degrees) and gets odometry made from the logged pose increments with 5 %
+person's 0.3 m / 10 degrees), is given the logged pose again after each scan it reports
+``lost`` (the user's "Help me!"; ``lost_scans`` counts them), and gets odometry made from the logged pose increments with 5 %
 scale error, a yaw bias of 0.02 rad per metre and Gaussian noise (1 cm, 0.005 rad per step).
 
 Each localised scan is scored (`ScanOutcome`): position and heading error, the reported state,
@@ -87,10 +88,14 @@ def replay_run(
     rng: np.random.Generator,
     config: LocaliserConfig | None = None,
     clock: Callable[[], float] | None = None,
+    reinit_lost: bool = True,
 ) -> list[ScanOutcome]:
     """Localise ``run`` in ``grid`` from its first logged pose with noisy, drifting odometry.
 
     ``clock`` (e.g. ``time.perf_counter``, injected by a benchmark) times each `on_scan`.
+    ``reinit_lost``: after a scan reported ``lost`` the localiser is given the logged pose, as
+    the robot's user would give it a new initial pose (each is counted: ``lost_scans`` then
+    counts the losses; without it a loss lasts to the end of the run, on odometry alone).
     """
     if len(run) < 2:
         return []
@@ -138,6 +143,9 @@ def replay_run(
                 run[0].pose.compose(odom).distance_to(cur.pose),
             )
         )
+        if est.state is LocaliserState.LOST and reinit_lost:
+            # What the robot's user does ("Help me!"): a new initial pose, here the logged one.
+            loc.set_initial_pose(cur.pose, now)
     return out
 
 
