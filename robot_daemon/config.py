@@ -12,6 +12,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
+    recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
 """
 
 from __future__ import annotations
@@ -147,6 +148,7 @@ class DaemonConfig:
     zenoh: ZenohSettings = field(default_factory=ZenohSettings)
     localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
+    recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
@@ -182,6 +184,7 @@ _TOP_KEYS = {
     "zenoh",
     "localiser",
     "hardware",
+    "recording",
 }
 
 
@@ -227,6 +230,9 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
     hardware = raw.get("hardware", {})
     if not isinstance(hardware, dict):
         raise ConfigError(f"{source}: 'hardware' must be a mapping")
+    recording = raw.get("recording") or {}
+    if not isinstance(recording, dict):
+        raise ConfigError(f"{source}: 'recording' must be a mapping")
     return DaemonConfig(
         robot_id=raw.get("robot_id", "interbot1"),
         map_yaml=path("map", DEFAULT_MAP),
@@ -238,6 +244,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         zenoh=_section(source, raw, "zenoh", ZenohSettings),
         localiser=_section(source, raw, "localiser", LocaliserSettings),
         hardware=hardware,
+        recording=recording,
         source=source,
     )
 

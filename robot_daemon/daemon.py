@@ -14,6 +14,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
@@ -63,6 +64,8 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
+    foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
 
 def odometry_model(name: str) -> OdometryErrorModel:
@@ -324,14 +327,19 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
 
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
+    from robot_daemon.recording import daemon_hook  # foxglove only when recording
+
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
+    recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now)
     z = config.zenoh
     with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
-        link = RobotLink(session, config.robot_id)
+        link = daemon_hook.make_link(session, daemon, recorder)
         try:
             daemon.run(link, stop, notifier)
         finally:
             link.close()
             notifier.close()
+            if recorder is not None:
+                recorder.close()
     logger.info("daemon stopped")

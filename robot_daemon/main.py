@@ -55,6 +55,14 @@ def build_parser() -> argparse.ArgumentParser:
         "the tablet's 'Help me!' sets it, as in the thesis)",
     )
     p.add_argument("--start-node", type=int, help="simulation: start at this topological node")
+    p.add_argument(
+        "--record", type=Path, metavar="DIR", help="record the run to rotating MCAP files in DIR"
+    )
+    p.add_argument(
+        "--foxglove",
+        metavar="[HOST:]PORT",
+        help="serve the run live to Foxglove (WebSocket; loopback only)",
+    )
     p.add_argument("-v", "--verbose", action="store_true")
     return p
 
@@ -104,7 +112,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         config = resolve_config(args)
         logger.info("configuration: %s", config.summary())
-        serve(config, DaemonOptions(args.auto_localise, args.start_node), stop)
+        options = DaemonOptions(
+            args.auto_localise, args.start_node, record_dir=args.record, foxglove=args.foxglove
+        )
+        serve(config, options, stop)
     except (ConfigError, MapLoadError, TopologicalMapError, MuxError) as exc:
         print(f"interbot-daemon: {exc}", file=sys.stderr)
         return EXIT_CONFIG
