@@ -254,3 +254,19 @@ def test_live_server_advertises_the_channels_and_streams_scans() -> None:
             np.testing.assert_allclose(decoded.ranges, scan.ranges, rtol=1e-6)
         finally:
             client.close()
+
+
+def test_daemon_refuses_a_non_loopback_foxglove_address(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import signal
+
+    from robot_daemon.main import main
+
+    monkeypatch.setattr(signal, "signal", lambda *_: None)  # keep pytest's handlers
+
+    status = main(
+        ["--sim", "--people", "0", "--listen", "tcp/127.0.0.1:0", "--foxglove", "0.0.0.0:8765"]
+    )
+    assert status == 2
+    assert "not loopback" in capsys.readouterr().err
