@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     p_scn.add_argument("--topo", help="topological map YAML")
     p_scn.add_argument("--seed", type=int, default=1)
     p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
+    p_scn.add_argument(
+        "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
+    )
 
     p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
     bench.add_arguments(p_bench)

@@ -534,7 +534,9 @@ class Recorder:
         too_big = False
         if self._since_size_check >= SIZE_CHECK_PERIOD:
             self._since_size_check = 0
-            too_big = _size(self.files[-1]) >= rotation.config.max_file_bytes - 2 * self._chunk_bytes
+            too_big = (
+                _size(self.files[-1]) >= rotation.config.max_file_bytes - 2 * self._chunk_bytes
+            )
         if not (too_old or too_big):
             return
         self._writer.close()
