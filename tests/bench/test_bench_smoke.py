@@ -38,6 +38,13 @@ POSITIVE = {
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "record": [
+        "record_offer_us_median",
+        "record_offer_us_p99",
+        "record_writer_pct_core",
+        "record_total_pct_core",
+        "record_mb_per_hour",
+    ],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",
@@ -64,6 +71,7 @@ NON_NEGATIVE = {
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
+    "record": ["record_dropped"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').
