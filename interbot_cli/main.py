@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from interbot_cli import bench, calibrate, demo
+from interbot_cli import bench, calibrate, demo, replay
 
 logger = logging.getLogger(__name__)
 
@@ -45,6 +45,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
     )
 
+    p_replay = sub.add_parser(
+        "replay", help="play an MCAP recording back as a robot the station can watch"
+    )
+    replay.add_arguments(p_replay)
+
     p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
     bench.add_arguments(p_bench)
 
@@ -75,6 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return run_scenario(args)
         if args.command == "bench":
             return bench.run(args)
+        if args.command == "replay":
+            return replay.run(args)
         if args.command == "calibrate":
             return calibrate.run(args)
     except NotBuiltError as exc:

@@ -510,6 +510,9 @@ class Recorder:
             )
         except Exception as exc:
             raise RecorderError(f"cannot open {path} for recording: {exc}") from None
+        self._writer.write_metadata(
+            "interbot", {"robot_id": self.robot_id, "epoch_offset": repr(self.epoch_offset)}
+        )
         self.files.append(path)
         self._file_start = None
         self._since_size_check = 0
