@@ -118,16 +118,16 @@ class RecordingSource:
     def items(self, start: float = 0.0) -> Iterator[ReplayItem]:
         """Every replayed message from ``start`` [s] on, in log-time order."""
         start_ns = self.start_ns + round(start * 1e9)
-        for _, channel, message in self._reader.iter_messages(REPLAYED, start_time=start_ns):
+        for _, channel, message in self._reader.iter_messages(REPLAYED, starting_at=start_ns):
             item = self._decode(channel.topic, message.log_time, message.data)
             if item is not None:
                 yield item
 
     def latest(self, topic: str, before: float) -> ReplayItem | None:
         """The newest message on ``topic`` at or before ``before`` [s]."""
-        end_ns = self.start_ns + round(before * 1e9) + 1
+        end_ns = self.start_ns + round(before * 1e9)
         for _, channel, message in self._reader.iter_messages(
-            [topic], end_time=end_ns, reverse=True
+            [topic], ending_at=end_ns, reverse=True
         ):
             return self._decode(channel.topic, message.log_time, message.data)
         return None
@@ -187,12 +187,14 @@ class ReplayPlayer:
         self._restart(0.0)
 
     def _restart(self, position: float) -> None:
-        self._items = self.source.items(position)
-        self._next = next(self._items, None)
+        emitted = set()
         for topic in (MAP, "/pose"):  # what the station needs to draw anything at all
             item = self.source.latest(topic, position)
-            if item is not None and (self._next is None or item.t < self._next.t):
+            if item is not None:
                 self._emit(item)
+                emitted.add((item.topic, item.t))
+        self._items = (i for i in self.source.items(position) if (i.topic, i.t) not in emitted)
+        self._next = next(self._items, None)
 
     def _emit(self, item: ReplayItem) -> None:
         self._publish(item)
