@@ -164,3 +164,26 @@ class ReplayClock:
         position = self.position(now)
         playing = self.playing and position < self.duration
         return ReplayState(playing, self.speed, position, self.duration, source)
+
+
+class ReplayWatch:
+    """Which robots are replays, from the `ReplayState` heard recently (the station's replay bar).
+
+    A robot counts as a replay while its state is at most ``freshness`` [s] old; ``now`` is the
+    caller's monotonic clock.
+    """
+
+    def __init__(self, freshness: float = 2.0) -> None:
+        self.freshness = freshness
+        self._states: dict[str, tuple[float, ReplayState]] = {}
+
+    def update(self, states: dict[str, ReplayState], now: float) -> None:
+        for robot_id, state in states.items():
+            self._states[robot_id] = (now, state)
+
+    def state(self, robot_id: str | None, now: float) -> ReplayState | None:
+        """The robot's replay state, or None if it is not (or no longer) a replay."""
+        if robot_id is None or robot_id not in self._states:
+            return None
+        heard, state = self._states[robot_id]
+        return state if now - heard <= self.freshness else None

@@ -11,6 +11,7 @@ from interbot_core.replay_control import (
     ReplayCommand,
     ReplayError,
     ReplayState,
+    ReplayWatch,
     control_key,
     decode_command,
     decode_state,
@@ -71,3 +72,12 @@ def test_keys() -> None:
     assert robot_of_state_key(state_key("r1")) == "r1"
     with pytest.raises(ReplayError):
         robot_of_state_key("interbot/r1/state")
+
+
+def test_watch_forgets_a_replay_that_went_quiet() -> None:
+    watch = ReplayWatch(freshness=2.0)
+    state = ReplayState(True, 1.0, 0.0, 5.0)
+    watch.update({"r1": state}, now=10.0)
+    assert watch.state("r1", 11.9) == state
+    assert watch.state("r1", 12.1) is None
+    assert watch.state("r2", 10.0) is None and watch.state(None, 10.0) is None
