@@ -45,6 +45,7 @@ POSITIVE = {
         "record_total_pct_core",
         "record_mb_per_hour",
     ],
+    "replay": ["replay_speed_x", "replay_poses_received"],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",
@@ -72,6 +73,7 @@ NON_NEGATIVE = {
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
     "record": ["record_dropped"],
+    "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').
