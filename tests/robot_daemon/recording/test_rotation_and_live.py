@@ -8,6 +8,7 @@ import math
 import os
 import socket
 import struct
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -270,3 +271,22 @@ def test_daemon_refuses_a_non_loopback_foxglove_address(
     )
     assert status == 2
     assert "not loopback" in capsys.readouterr().err
+
+
+def test_the_deployed_robot_yaml_records_every_run(repo_root: Path, tmp_path: Path) -> None:
+    from robot_daemon.config import ConfigError, load_config
+    from robot_daemon.daemon import DaemonOptions
+    from robot_daemon.recording.daemon_hook import build_daemon_recorder
+
+    config = load_config(repo_root / "deploy" / "robot.yaml")
+    recording = RecordingConfig.from_mapping(config.recording, repo_root / "deploy")
+    assert recording.directory == Path("/var/lib/interbot/recordings")
+    assert recording.max_total_bytes == 8192 * MB and recording.camera
+    # --record DIR keeps the section's limits but writes to DIR.
+    recorder = build_daemon_recorder(config, DaemonOptions(record_dir=tmp_path), 0.0)
+    assert recorder is not None
+    recorder.close()
+    assert recorder.files[0].parent == tmp_path
+    bad = replace(config, recording={"directory": "x", "max_total_mb": -1})
+    with pytest.raises(ConfigError, match="max_total_mb"):
+        build_daemon_recorder(bad, DaemonOptions(), 0.0)
