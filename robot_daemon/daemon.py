@@ -333,13 +333,15 @@ def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -
     notifier = SystemdNotifier()
     recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now)
     z = config.zenoh
-    with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
-        link = daemon_hook.make_link(session, daemon, recorder)
-        try:
-            daemon.run(link, stop, notifier)
-        finally:
-            link.close()
-            notifier.close()
-            if recorder is not None:
-                recorder.close()
+    try:
+        with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
+            link = daemon_hook.make_link(session, daemon, recorder)
+            try:
+                daemon.run(link, stop, notifier)
+            finally:
+                link.close()
+                notifier.close()
+    finally:
+        if recorder is not None:
+            recorder.close()  # finish the file even if the session never opened
     logger.info("daemon stopped")

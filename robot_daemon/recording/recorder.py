@@ -18,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
+import math
 import queue
 import re
 import threading
@@ -119,12 +120,15 @@ def message_dict(message: object) -> dict[str, Any]:
 
 
 def _jsonable(value: Any) -> Any:
+    """JSON-ready: tuples to lists, numpy scalars to Python, NaN/inf to null (JSON has neither)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
     if isinstance(value, tuple | list):
         return [_jsonable(v) for v in value]
     if isinstance(value, dict):
         return {str(k): _jsonable(v) for k, v in value.items()}
     if isinstance(value, np.generic):
-        return value.item()
+        return _jsonable(value.item())
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return message_dict(value)
     if hasattr(value, "value") and not isinstance(value, int | float | str | bool):
@@ -415,7 +419,7 @@ class Recorder:
             data = item[3]
             if dataclasses.is_dataclass(data) and not isinstance(data, type):
                 data = message_dict(data)
-            self._log_json(item[2], dict(data), now)
+            self._log_json(item[2], _jsonable(dict(data)), now)
         elif kind == "path":
             points = fc.path_with_headings(item[2])
             self._log(

@@ -207,10 +207,20 @@ def test_the_camera_frames_are_the_jpegs(run: dict[str, Any]) -> None:
     assert stamp == pytest.approx(EPOCH + 0.2)
 
 
-def test_a_recording_is_readable_when_written_to_a_missing_directory(tmp_path: Path) -> None:
+def test_a_recording_goes_to_a_new_directory_and_its_json_is_strict(tmp_path: Path) -> None:
     path = tmp_path / "deep" / "er" / "x.mcap"
     with Recorder("r1", single_file=path) as recorder:
-        recorder.json("/truth", {"x": 1.0}, 0.0)
+        recorder.json("/truth", {"x": 1.0, "nan": math.nan, "v": (math.inf, 2)}, 0.0)
     with path.open("rb") as f:
-        topics = [c.topic for _, c, _ in make_reader(f).iter_messages()]
-    assert topics == ["/truth"]
+        messages = [(c.topic, m.data) for _, c, m in make_reader(f).iter_messages()]
+    assert [topic for topic, _ in messages] == ["/truth"]
+
+    def strict(name: str) -> None:
+        raise ValueError(f"{name} is not JSON")
+
+    # NaN and infinity are not JSON: they are recorded as null.
+    assert json.loads(messages[0][1], parse_constant=strict) == {
+        "x": 1.0,
+        "nan": None,
+        "v": [None, 2],
+    }
