@@ -371,3 +371,18 @@ def test_touch_targets_are_at_least_9_mm(qtbot: Any, station: Any, window: Any) 
     for room in window.plan.touch_rooms():
         geometry = window.map_view.room_button(room.id).geometry()
         assert min(geometry.width(), geometry.height()) >= min_px
+
+
+def test_kiosk_fills_the_whole_screen(qtbot: Any, station: Any, window: Any) -> None:
+    """Full screen is the screen's geometry, frameless (no window manager is needed for it)."""
+    from PySide6.QtCore import Qt
+    from PySide6.QtGui import QGuiApplication
+
+    from tablet_app.main import show_kiosk
+
+    window.resize(660, 450)
+    show_kiosk(window, screen_index=7)  # no such screen: the primary, with a warning logged
+    screen = QGuiApplication.primaryScreen().geometry()
+    qtbot.waitUntil(lambda: window.geometry().size() == screen.size())
+    assert window.isFullScreen()
+    assert window.windowFlags() & Qt.WindowType.FramelessWindowHint
