@@ -295,7 +295,7 @@ def test_diagnostics_histograms_follow_period_stats(qtbot, window, station, cloc
     window.diagnostics_panel.redraw()
     _, bars, label = window.diagnostics_panel.plots["clock"]
     heights = bars.opts["height"]
-    assert sum(heights) == pytest.approx(1.0)
+    assert sum(heights) == pytest.approx(100.0)  # percent of the periods
     assert "n=9" in label.text() and "mean 100.0 ms" in label.text()
 
 
@@ -365,3 +365,35 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
 
     qtbot.waitUntil(cleared, timeout=3000)
     assert len(window.map_view.goal_item.data) == 1  # the current goal is still marked
+
+
+def test_emergency_stop_is_large_red_and_cannot_be_hidden(qtbot, window, station):
+    button = window.estop_button
+    assert button.isVisible() or not window.isVisible()
+    assert button.minimumHeight() >= 44 and button.minimumWidth() >= 200
+    assert "#d00000" in button.styleSheet()
+    from PySide6.QtWidgets import QToolBar
+
+    bar = window.findChild(QToolBar, "main_toolbar")
+    assert bar is not None and not bar.isMovable() and not bar.toggleViewAction().isVisible()
+    QTest.mouseClick(button, Qt.MouseButton.LeftButton)
+    assert station.estop_latched
+
+
+def test_unset_pose_shows_dashes(qtbot, window, station, robot, localise):
+    localise(Pose2D(0.0, 0.0, 0.0), state="unset")
+    station.poll_link()
+    window.state_panel.refresh()
+    assert window.state_panel.labels["pose"].text() == "—"
+    assert window.state_panel.labels["orientation"].text() == "—"
+
+
+def test_camera_pane_takes_the_image_shape(qtbot, window, station):
+    window.resize(1600, 1000)
+    window.show()
+    qtbot.waitExposed(window)
+    total = sum(window._left.sizes())
+    for aspect in (16 / 9, 4.0):  # capped at 45 % of the height; then the exact shape
+        window.fit_camera(aspect)
+        want = min(window._left.width() / aspect, 0.45 * total)
+        assert abs(window.camera_view.height() - want) <= 2
