@@ -27,7 +27,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import map_labels, room_at
+from base_station_app.map_rooms import MapLabel, map_labels, room_at
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -49,6 +49,7 @@ TELEOP_KEYS = {
 
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
+LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
 
 
 def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
@@ -152,7 +153,9 @@ class QtMapView(pg.PlotWidget):
         self._create_legend(plot)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
-        self._label_font.setPointSize(7)
+        self._label_font.setPointSize(LABEL_POINT_SIZE)
+        self._label_specs: list[MapLabel] = []
+        self._label_widths: list[float] = []  # [px] each label's full text
 
     def _create_legend(self, plot: pg.PlotItem) -> None:
         """What each mark means, in the corner: robot, scan, planned path, goals, tour."""
@@ -175,21 +178,46 @@ class QtMapView(pg.PlotWidget):
         c = self._controller
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
-        for spec in map_labels(c.topo, c.rooms):
-            label = pg.TextItem(
-                spec.text,
-                color=(30, 30, 30),
-                anchor=(0.5, 0.5),
-                fill=pg.mkBrush(255, 255, 255, 190),
-            )
-            label.setFont(self._label_font)
-            label.setPos(spec.x, spec.y)
-            self.addItem(label)
-            self.labels.append(label)
+        self._place_labels(c.grid)
         polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
         if polys:
             pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
             self.rooms_item.setData(pts[:, 0], pts[:, 1])
+        self.getPlotItem().vb.sigRangeChanged.connect(self._fit_labels)
+
+    def _place_labels(self, grid: OccupancyGrid | None) -> None:
+        """Room labels on each room's clearest floor (off the furniture) once the map is known."""
+        for label in self.labels:
+            self.removeItem(label)
+        self.labels.clear()
+        c = self._controller
+        self._label_specs = map_labels(c.topo, c.rooms, grid=grid)
+        for spec in self._label_specs:
+            label = pg.TextItem(
+                spec.text,
+                color=(30, 30, 30),
+                anchor=(0.5, 0.5),
+                fill=pg.mkBrush(255, 255, 255, 200),
+            )
+            label.setFont(self._label_font)
+            label.setPos(spec.x, spec.y)
+            label.setZValue(5)
+            self.addItem(label)
+            self.labels.append(label)
+        self._label_widths = [label.textItem.boundingRect().width() for label in self.labels]
+        self._fit_labels()
+
+    def _fit_labels(self, *args: object) -> None:
+        """The room's name where it fits on screen at this zoom, else just its number."""
+        vb = self.getPlotItem().vb
+        (x0, x1), _ = vb.viewRange()
+        px_per_m = vb.width() / (x1 - x0) if x1 > x0 else 0.0
+        for label, spec, full_px in zip(
+            self.labels, self._label_specs, self._label_widths, strict=True
+        ):
+            text = spec.text if spec.width * px_per_m >= full_px else spec.short
+            if label.toPlainText() != text:
+                label.setText(text)
 
     def fit_map(self) -> None:
         grid = self._controller.grid
@@ -211,6 +239,7 @@ class QtMapView(pg.PlotWidget):
             w, h = grid.size_m
             self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
             if first:
+                self._place_labels(grid)
                 self.fit_map()
         sup = c.supervisor
         key = (
