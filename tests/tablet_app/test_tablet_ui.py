@@ -229,8 +229,13 @@ def test_help_me_flow_sends_initial_pose_room(qtbot: Any, station: Any, window: 
     assert isinstance(window.dialog, QtHelpConfirmDialog)
     click(window.dialog.yes_button)
     wait_sent(qtbot, station, [{"initial_pose_room": 4}])
-    assert not screen.help_banner.isVisible()
+    # Sent is not confirmed: no "Thank you" until the robot says it is localised.
+    assert screen.help_banner.isVisible() and "Checking" in screen.help_text.text()
+    assert "Thank you" not in window.status_label.text()
     assert window.map_view.room_state(4) == "normal"
+    station.send(Localisation("ok"))
+    qtbot.waitUntil(lambda: not screen.help_banner.isVisible())
+    assert window.status_label.text() == "Thank you! I am at Office."
 
 
 def test_localisation_lost_offers_help(qtbot: Any, station: Any, window: Any) -> None:
