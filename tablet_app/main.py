@@ -47,11 +47,18 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--screen", type=int, default=0, metavar="N", help="screen to fill (default: primary)"
     )
     parser.add_argument("--lang", choices=("en", "pt"), default="en", help="UI language")
+    parser.add_argument(
+        "--dpi",
+        type=float,
+        help="the screen's real dots per inch, for 9 mm touch targets (default: Qt's figure)",
+    )
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     args = parser.parse_args(argv)
     if not 0 < args.port < 65536:
         parser.error(f"--port must be in 1..65535, got {args.port}")
+    if args.dpi is not None and not 50.0 <= args.dpi <= 1000.0:
+        parser.error(f"--dpi must be in 50..1000, got {args.dpi}")
     if args.screen < 0:
         parser.error(f"--screen must be >= 0, got {args.screen}")
     if args.geometry is not None:
@@ -114,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     languages = LanguageSwitcher()
     languages.set_language(args.lang)
     connection = TabletConnection(args.host, args.port)
-    window = TabletWindow(connection, plan, grid, languages)
+    window = TabletWindow(connection, plan, grid, languages, dpi=args.dpi)
     if args.windowed:
         if args.geometry is not None:
             g = args.geometry

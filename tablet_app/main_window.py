@@ -81,8 +81,9 @@ QLabel#warning {{ color: white; background: #c00000; padding: {pad}px; font-weig
 QFrame#helpBanner {{ background: #ffd24a; border-radius: {radius}px; }}
 QFrame#motionBar, QFrame#header {{ background: #dde6f5; }}
 QLineEdit, QComboBox {{ min-height: {touch}px; }}
+QComboBox QAbstractItemView::item {{ min-height: {touch}px; }}
 QRadioButton {{ min-height: {touch}px; }}
-QRadioButton::indicator {{ width: {font}px; height: {font}px; }}
+QRadioButton::indicator {{ width: {half}px; height: {half}px; }}
 QProgressBar {{ min-height: {half}px; }}
 """
 
@@ -98,8 +99,10 @@ class TabletWindow(QMainWindow):
         languages: LanguageSwitcher | None = None,
         parent: QWidget | None = None,
         clock: Callable[[], float] = time.monotonic,
+        dpi: float | None = None,
     ) -> None:
         super().__init__(parent)
+        self.dpi_override = dpi  # [dots per inch] the tablet's real screen, when Qt cannot tell
         self.connection = connection
         self.plan = plan
         self.clock = clock
@@ -244,7 +247,10 @@ class TabletWindow(QMainWindow):
             self.session.request_closed()
 
     def _size_dialog(self, dialog: QDialog) -> None:
-        dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
+        if getattr(dialog, "HAS_KEYBOARD", False):
+            dialog.resize(int(self.width() * 0.85), int(self.height() * 0.95))
+        else:
+            dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
 
     # ---------------------------------------------------------------- user actions
     def _send(self, msg: Message) -> bool:
@@ -307,7 +313,7 @@ class TabletWindow(QMainWindow):
 
     def _tour_control(self, action: str) -> None:
         if self._send(TourControl(action)):
-            self.session.tour_control_sent(action)
+            self.session.tour_control_sent(action, self.clock())
 
     def _answer_request(self, request_id: int, accepted: bool) -> None:
         if self._send(RequestAnswer(request_id, accepted)):
@@ -440,9 +446,18 @@ class TabletWindow(QMainWindow):
         self.menu.set_connection_text(text)
 
     # ---------------------------------------------------------------- look and language
+    def screen_dpi(self) -> float:
+        """Dots per inch of the screen as a finger meets it: the override, else the larger of
+        Qt's logical and physical figures (a desktop platform often reports 96 logical)."""
+        if self.dpi_override is not None:
+            return self.dpi_override
+        screen = self.screen()
+        physical = screen.physicalDotsPerInch() if screen is not None else 0.0
+        return max(float(self.logicalDpiX()), physical)
+
     def apply_metrics(self) -> None:
         """Touch targets of at least 9 mm, growing with the window (ui_metrics)."""
-        touch = touch_target_px(self.logicalDpiX(), self.width(), self.height())
+        touch = touch_target_px(self.screen_dpi(), self.width(), self.height())
         if touch == self._touch:
             return
         self._touch = touch

@@ -14,7 +14,8 @@ The rules that make the tablet honest:
   after `HELP_ANSWER_S` (then it says so and keeps asking for help).
 * **A cancel is not undone by a message already in flight.** The station repeats the goal's
   status every ``clock()``; after the user cancels goal g, statuses of g are ignored for
-  `CANCEL_GRACE_S` or until the station shows it is idle. A station that keeps going to g
+  `CANCEL_GRACE_S` or until the station shows it is idle (and likewise "at tour stop" after
+  Resume or End there). A station that keeps going to g
   after that is shown again, with a notice: never a bar that silently comes back, nor a robot
   that silently keeps driving.
 * **An outcome stays on screen.** "Arrived at X", "Report sent" and refusals are the ``notice``,
@@ -111,6 +112,7 @@ class TabletSession:
     activity_distance: float | None = None  # [m] to the next goal, when the station says
     estop: bool = False
     _cancelled: tuple[int, float] | None = None  # (room, until) after the user's cancel
+    _left_stop: tuple[int, float] | None = None  # (room, until) after Resume / End at a stop
     _help_deadline: float = math.inf
     _listeners: list[Callable[[], None]] = field(default_factory=list)
 
@@ -146,6 +148,7 @@ class TabletSession:
         self.tour_stop = None
         self.shown_request = None
         self._cancelled = None
+        self._left_stop = None
         self.estop = False
         self.activity, self.activity_distance = "idle", None
         if self.help is Help.CHECKING:
@@ -189,6 +192,11 @@ class TabletSession:
             self._cancelled = None
         name = self.room_names(msg.goal)
         if msg.tour_reached:
+            if self._left_stop is not None:
+                room, until = self._left_stop
+                if msg.goal == room and now < until:
+                    return  # a repeat sent before the station saw Resume / End
+                self._left_stop = None
             if self.tour_stop != msg.goal:
                 self.tour_stop = msg.goal
                 self.goal = None
@@ -233,6 +241,8 @@ class TabletSession:
         self.activity_distance = _distance_in(rest)
         if msg.task == "idle" and self._cancelled is not None:
             self._cancelled = None  # the station has dropped the cancelled task
+        if self.activity != "at tour stop":
+            self._left_stop = None  # the station has left the stop
         if msg.task == "idle" and self.goal is not None and self.activity == "idle":
             self.goal = None  # the station has no task: no bar for a goal it forgot
         self._changed()
@@ -288,7 +298,9 @@ class TabletSession:
         self._say("tour_requested")
         self._changed()
 
-    def tour_control_sent(self, action: str) -> None:
+    def tour_control_sent(self, action: str, now: float) -> None:
+        if self.tour_stop is not None:
+            self._left_stop = (self.tour_stop, now + CANCEL_GRACE_S)
         self.tour_stop = None
         if action == "end":
             self.tour = TourProgress()

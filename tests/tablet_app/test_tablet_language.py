@@ -32,7 +32,7 @@ pytestmark = pytest.mark.qt_log_ignore("This plugin does not support propagateSi
 # Texts that are the same in both languages: numbers, addresses, the robot's name, user input.
 SAME = re.compile(r"^[\d\s.:·%/,()#?+−-]*(ms|m|s|m/s|rad/s)?[\d\s.:·%/,()#?+-]*$")
 # Words that are the same in Portuguese, and the language buttons (each in its own language).
-SAME_WORDS = {"Interbot", "OK", "Bar", "Joystick", "Menu", "English", "Português"}
+SAME_WORDS = {"Interbot", "OK", "Bar", "Joystick", "Menu", "English", "Português", "⌫"}
 USER_TEXT = {"sign this form"}
 
 
@@ -98,7 +98,7 @@ def english_leftovers(
         window.languages.set_language("en")  # the translator is the application's
     left = []
     for key, (kind, text) in english.items():
-        if SAME.match(text) or text in USER_TEXT or text in SAME_WORDS:
+        if SAME.match(text) or text in USER_TEXT or text in SAME_WORDS or len(text) == 1:
             continue
         if key in portuguese and portuguese[key][1] == text:
             left.append(f"{kind}: {text!r}")

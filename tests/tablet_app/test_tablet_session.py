@@ -88,3 +88,14 @@ def test_listeners_hear_every_change() -> None:
     s.subscribe(lambda: heard.append(1))
     s.on_status(StatusInfo("idle", "navigating, 12.3 m to the next goal"))
     assert heard and s.activity == "navigating" and s.activity_distance == 12.3
+
+
+def test_a_tour_stop_left_is_not_reopened_by_a_repeat() -> None:
+    s = session()
+    s.on_goal_status(GoalStatus(4, True, True), now=0.0)
+    assert s.tour_stop == 4
+    s.tour_control_sent("resume", now=1.0)
+    s.on_goal_status(GoalStatus(4, True, True), now=1.1)  # sent before the station saw it
+    assert s.tour_stop is None
+    s.on_goal_status(GoalStatus(4, True, True), now=1.0 + CANCEL_GRACE_S + 0.1)
+    assert s.tour_stop == 4  # the station really is still waiting there: ask again
