@@ -5,7 +5,7 @@ through it, so recording at the link records exactly what the station saw and wh
 what, at the daemon's own rates, without touching the control loop's code: ``serve()`` builds a
 `RecordingLink` instead of a `RobotLink`. With each pose it also samples what only the robot
 knows: the localiser's estimate (state, confidence, match score, and a covariance if the
-localiser has one) and the planner's global path when it changes.
+localiser has one). The planner's path is the daemon's own ``plan`` topic (``/planned_path``).
 """
 
 from __future__ import annotations
@@ -73,13 +73,12 @@ def _is_loopback(host: str) -> bool:
 
 
 class StackSampler:
-    """What only the robot knows, sampled with each pose: localisation and the planned path."""
+    """What only the robot knows, sampled with each pose: the localiser's estimate."""
 
     def __init__(self, stack: RobotStack, recorder: Recorder) -> None:
         self._stack = stack
         self._recorder = recorder
         self._last_estimate: object = None
-        self._last_path: list[tuple[float, float]] | None = None
 
     def sample(self, now: float) -> None:
         stack, recorder = self._stack, self._recorder
@@ -99,10 +98,6 @@ class StackSampler:
             if covariance is not None:  # a localiser that estimates it
                 data["covariance"] = [float(v) for v in getattr(covariance, "flat", covariance)]
             recorder.json(LOCALISATION, data, now)
-        path = stack.navigator.path
-        if path != self._last_path:
-            self._last_path = path
-            recorder.path(path, now)
 
 
 class RecordingLink(RobotLink):

@@ -44,7 +44,16 @@ from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
-from interbot_core.topics import ImageMsg, JsonMessage, Odom, PoseMsg, RouteMsg, Topic
+from interbot_core.topics import (
+    TOPIC_SPECS,
+    ImageMsg,
+    JsonMessage,
+    Odom,
+    PlanMsg,
+    PoseMsg,
+    RouteMsg,
+    Topic,
+)
 from robot_daemon.recording import foxglove_convert as fc
 from robot_daemon.recording.config import RecordingConfig
 from robot_daemon.stack import DEFAULT_LASER_MOUNT
@@ -62,14 +71,12 @@ TF, MAP, SCAN, ROUTE, PLANNED_PATH = "/tf", "/map", "/scan", "/route", "/planned
 CAMERA_JPEG, CAMERA_RAW = "/camera/image/compressed", "/camera/image"
 COMMANDS = "/commands"
 JSON_STATE_TOPICS = {
-    Topic.POSE: "/pose",
-    Topic.ODOM: "/odom",
-    Topic.CMD_VEL: "/cmd_vel",
-    Topic.MUX: "/mux",
-    Topic.BATTERY: "/battery",
-    Topic.ROUTE_PROGRESS: "/route_progress",
-    Topic.STATUS: "/status",
+    spec.topic: f"/{spec.topic.value}"
+    for spec in TOPIC_SPECS.values()
+    if not spec.command and not spec.binary
 }
+"""The link's JSON state topics (pose, odom, cmd_vel, mux, battery, route_progress, status, plan
+...), each recorded as itself on ``/<topic>``."""
 
 
 class RecorderError(RuntimeError):
@@ -475,6 +482,15 @@ class Recorder:
                 )
                 if not self._odom_seen:
                     self._log_tf(fc.robot_transforms(t, self._pose, None), now)
+            elif isinstance(message, PlanMsg):  # the path the station draws, for Foxglove too
+                points = fc.path_with_headings(message.points)
+                self._log(
+                    PLANNED_PATH,
+                    lambda: PosesInFrameChannel(PLANNED_PATH, context=ctx),
+                    fc.path_message(t, points),
+                    now,
+                    latch=True,
+                )
             elif isinstance(message, Odom):
                 self._odom_seen = True
                 odom = Pose2D(message.x, message.y, message.yaw)

@@ -106,6 +106,7 @@ def test_the_daemon_records_its_state_and_the_stations_commands(daemon_recording
         "/mux": "MuxMsg",
         "/battery": "Battery",
         "/route_progress": "RouteProgress",
+        "/plan": "PlanMsg",
         "/localisation": "interbotLocalisation",
         "/commands": "interbotCommands",
     }.items():
