@@ -342,7 +342,7 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
 
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
-    from robot_daemon.recording import daemon_hook  # foxglove only when recording
+    from robot_daemon.recording import daemon_hook  # MCAP recording, live Foxglove view
 
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 from interbot_core.laser_scan import LaserScan
-from interbot_core.topics import RangeEncoding, Topic
+from interbot_core.topics import RangeEncoding, Status, Topic
 from interbot_link import Command, RobotLink
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.recording.config import RecordingConfig, RecordingConfigError
@@ -121,8 +121,12 @@ class RecordingLink(RobotLink):
         super().publish(topic, message)
         now = self._clock()
         self.recorder.state(topic, message, now)
-        if topic is Topic.POSE and self._sampler is not None:
-            self._sampler.sample(now)
+        if topic is Topic.POSE:
+            if self._sampler is not None:
+                self._sampler.sample(now)
+            report = self.recorder.health_report()
+            if report is not None:
+                super().publish(Topic.STATUS, Status("warning", report, stamp=now))
 
     def publish_scan(
         self, scan: LaserScan, encoding: RangeEncoding = RangeEncoding.FLOAT32

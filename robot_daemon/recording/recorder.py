@@ -237,6 +237,7 @@ class Recorder:
         self.dropped_by_kind: Counter[str] = Counter()
         self.written = 0
         self.errors = 0
+        self._reported = (0, 0)  # (dropped, errors) when last reported to the station
         self.writer_cpu_s = 0.0  # [s] CPU time of the writer thread (conversion + writing)
         self.files: list[Path] = []
         self._context = foxglove.Context()
@@ -314,6 +315,23 @@ class Recorder:
             "writer_cpu_s": round(self.writer_cpu_s, 3),
             "files": [str(p) for p in self.files],
         }
+
+    def health_report(self) -> str | None:
+        """A line for the station when drops or write errors grew (then at each doubling), else None.
+
+        Called by the loop (cheap: two integer reads); recording that loses data says so.
+        """
+
+        def due(count: int, last: int) -> bool:
+            return count > 0 and count >= 2 * last
+
+        if not (due(self.dropped, self._reported[0]) or due(self.errors, self._reported[1])):
+            return None
+        self._reported = (self.dropped, self.errors)
+        return (
+            f"recording is losing data: {self.dropped} messages dropped (writer behind), "
+            f"{self.errors} write errors; files in {self.files[-1].parent if self.files else '-'}"
+        )
 
     def flush(self, timeout: float = 10.0) -> bool:
         """Wait until everything offered so far is written (tests, the end of a scenario)."""

@@ -90,6 +90,12 @@ def test_offers_never_wait_a_full_queue_drops_and_counts(tmp_path: Path) -> None
     assert recorder.dropped > 0, "2000 scans offered at once overflow a 16-message queue"
     assert recorder.written + recorder.dropped == 2000
     assert recorder.dropped_by_kind["state"] == recorder.dropped
+    # The loss is reported (to the station, by the daemon's link), then again at each doubling.
+    report = recorder.health_report()
+    assert report is not None and f"{recorder.dropped} messages dropped" in report
+    assert recorder.health_report() is None
+    recorder.dropped *= 2
+    assert recorder.health_report() is not None
     with (tmp_path / "x.mcap").open("rb") as f:
         assert sum(1 for _ in make_reader(f).iter_messages()) == recorder.written + 1  # + mount
 
