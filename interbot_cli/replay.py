@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from interbot_core.replay_control import SPEED_MAX, SPEED_MIN
     from interbot_core.topics import TopicError, validate_robot_id
     from interbot_link import LinkError, validate_endpoint
-    from robot_daemon.recording.replay import ReplayFileError, serve_replay
+    from robot_daemon.recording.replay import RecordingSource, ReplayFileError, serve_replay
 
     try:
         if not SPEED_MIN <= args.speed <= SPEED_MAX:
@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
             validate_endpoint(endpoint, listen=False)
         if args.robot_id is not None:
             validate_robot_id(args.robot_id)
+        RecordingSource(args.file).close()  # refuse a bad file before taking over the signals
         listen = args.listen or ([] if args.connect else ["tcp/127.0.0.1:7447"])
         stop = threading.Event()
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import re
+import struct
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -73,7 +74,7 @@ class RecordingSource:
         try:
             reader = make_reader(self._file)
             summary = reader.get_summary() if isinstance(reader, SeekingReader) else None
-        except (McapError, ValueError, EOFError) as exc:
+        except (McapError, ValueError, EOFError, struct.error) as exc:
             self._file.close()
             raise ReplayFileError(f"{path} is not an MCAP file ({exc})") from None
         if summary is None or summary.statistics is None or not summary.statistics.message_count:
