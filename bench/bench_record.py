@@ -14,6 +14,11 @@ files, zstd) one second of data at a time, as the daemon's loop would, and waits
   (target <= 5 %);
 * ``record_process_pct_core``: the whole process's CPU time over the timed part (offers, writer,
   the SDK's own threads, the waits between seconds) per second of data: an upper bound;
+* ``record_daemon_pass_{off,on}_ms_*``: CPU time of the real daemon's loop pass (stack step +
+  publish, the simulator excluded; ``time.thread_time``, so other processes do not count) at 40 Hz scans and a 10 Hz camera, without and with ``--record``; the
+  difference is the recording's cost in the loop itself; ``record_daemon_loop_pct_core_{off,on}``
+  the loop's CPU per second of robot time, and ``record_daemon_cost_pct_core`` = on - off + the
+  writer thread's share (target <= 5 %);
 * ``record_mb_per_hour``: bytes on disk per second of data x 3600 (EXTRAPOLATED from the run's
   ``record_data_s`` seconds); ``record_dropped``: messages dropped (must be 0).
 
@@ -36,6 +41,9 @@ _spec.loader.exec_module(common)  # type: ignore[union-attr]
 
 DATA_S = 60.0  # [s] of tour data
 QUICK_DATA_S = 4.0
+LOOP_S = 30.0  # [s] of daemon loop passes, with and without recording
+QUICK_LOOP_S = 2.0
+WARM_UP_S = 0.5  # [s] first passes (caches, the first localisation) left out
 SCAN_HZ, CAMERA_HZ, STATE_HZ, MUX_HZ, BATTERY_HZ = 40.0, 10.0, 20.0, 5.0, 1.0
 
 
@@ -93,7 +101,67 @@ def run(quick: bool = False) -> dict[str, Any]:
     seconds = QUICK_DATA_S if quick else DATA_S
     with common.quiet_logs(), tempfile.TemporaryDirectory(prefix="interbot-bench-") as tmp:
         items, _ = _tour_data(seconds)
-        return _measure(items, seconds, Path(tmp))
+        figures = _measure(items, seconds, Path(tmp))
+        loop_s = QUICK_LOOP_S if quick else LOOP_S
+        plain = _daemon_passes(None, loop_s)
+        recorded = _daemon_passes(Path(tmp) / "daemon", loop_s)
+        figures.update(common.summary_ms(plain, "record_daemon_pass_off"))
+        figures.update(common.summary_ms(recorded, "record_daemon_pass_on"))
+        measured_s = loop_s - WARM_UP_S
+        off_pct = 100.0 * float(plain.sum()) / measured_s
+        on_pct = 100.0 * float(recorded.sum()) / measured_s
+        figures["record_daemon_loop_pct_core_off"] = off_pct
+        figures["record_daemon_loop_pct_core_on"] = on_pct
+        # The loop's extra CPU with recording plus the writer thread's: the cost of recording.
+        figures["record_daemon_cost_pct_core"] = (
+            on_pct - off_pct + figures["record_writer_pct_core"]
+        )
+        return figures
+
+
+def _daemon_passes(record_dir: Path | None, seconds: float) -> np.ndarray:
+    """CPU time of each daemon loop pass (stack step + publish) on simulated time [s].
+
+    The real daemon (simulator at 40 Hz scans and a 10 Hz camera, localised, standing) on a
+    loopback zenoh session with no station; with ``record_dir`` its link is a `RecordingLink`
+    (``--record``): the difference of the two is the recording's cost in the loop.
+    """
+    import socket
+
+    from interbot_link import open_session
+    from robot_daemon.config import DaemonConfig, Rates, SimSettings, ZenohSettings
+    from robot_daemon.daemon import LOOP_PERIOD, Daemon, DaemonOptions
+    from robot_daemon.recording import daemon_hook
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        endpoint = f"tcp/127.0.0.1:{sock.getsockname()[1]}"
+    config = DaemonConfig(
+        robot_id="benchrec",
+        rates=Rates(scan_hz=SCAN_HZ, image_hz=CAMERA_HZ, pose_hz=STATE_HZ),
+        sim=SimSettings(seed=1, people=0),
+        zenoh=ZenohSettings((endpoint,), ()),
+    )
+    options = DaemonOptions(auto_localise=True, record_dir=record_dir)
+    daemon = Daemon(config, options)
+    recorder = daemon_hook.build_daemon_recorder(config, options, 0.0)
+    times = []
+    with open_session([endpoint], []) as session:
+        link = daemon_hook.make_link(session, daemon, recorder)
+        try:
+            for i in range(1, int(seconds / LOOP_PERIOD) + 1):
+                now = daemon.now = i * LOOP_PERIOD
+                daemon.backend.advance(now)  # the simulator: not part of the loop's cost
+                start = time.thread_time()  # CPU of this thread: other processes' load excluded
+                daemon.stack.step(now)
+                daemon.publish(link)
+                if now > WARM_UP_S:
+                    times.append(time.thread_time() - start)
+        finally:
+            link.close()
+            if recorder is not None:
+                recorder.close()
+    return np.asarray(times)
 
 
 def _measure(items: list[tuple[float, str, Any]], seconds: float, tmp: Path) -> dict[str, Any]:
