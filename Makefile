@@ -35,6 +35,7 @@ bench: $(STAMP)
 screenshots: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_tablet.py
 	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_station.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshot_replay.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache *.egg-info

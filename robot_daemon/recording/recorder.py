@@ -471,7 +471,7 @@ class Recorder:
             self._log(
                 SCAN,
                 lambda: LaserScanChannel(SCAN, metadata=meta, context=ctx),
-                fc.scan_message(t, message),
+                fc.scan_message(self.epoch_offset + message.stamp, message),  # sensor time
                 now,
             )
             if "/tf_static" not in self._latched:

@@ -22,7 +22,7 @@ import struct
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -103,15 +103,21 @@ class RecordingSource:
             if channel.topic == SCAN and "range_max" in channel.metadata:
                 meta = channel.metadata
                 self._scan_range = (float(meta["range_min"]), float(meta["range_max"]))
-        self.robot_id = self._robot_id()
+        meta = self._metadata()
+        m = re.match(r"^([A-Za-z0-9_-]{1,32})_\d{8}-\d{6}_\d+$", path.stem)
+        self.robot_id = meta.get("robot_id") or (m.group(1) if m else "replay")
+        try:
+            # Log and sensor times are wall-clock; the messages' stamps are the robot's time.
+            self.epoch_offset = float(meta.get("epoch_offset", "0"))
+        except ValueError:
+            self.epoch_offset = 0.0
         self.decode_errors = 0
 
-    def _robot_id(self) -> str:
+    def _metadata(self) -> dict[str, str]:
         for metadata in self._reader.iter_metadata():
-            if metadata.name == "interbot" and "robot_id" in metadata.metadata:
-                return metadata.metadata["robot_id"]
-        m = re.match(r"^([A-Za-z0-9_-]{1,32})_\d{8}-\d{6}_\d+$", self.path.stem)
-        return m.group(1) if m else "replay"
+            if metadata.name == "interbot":
+                return dict(metadata.metadata)
+        return {}
 
     def close(self) -> None:
         self._file.close()
@@ -135,23 +141,26 @@ class RecordingSource:
 
     def _decode(self, name: str, log_time: int, data: bytes) -> ReplayItem | None:
         t = (log_time - self.start_ns) / 1e9
+        robot_time = log_time / 1e9 - self.epoch_offset  # what the daemon stamped it with
         try:
             if name in JSON_TOPICS:
                 return ReplayItem(t, JSON_TOPICS[name], decode(JSON_TOPICS[name], data))
             if name == SCAN:
-                return ReplayItem(
-                    t, Topic.SCAN, protobuf_wire.decode_laser_scan(data, *self._scan_range)
-                )
+                scan = protobuf_wire.decode_laser_scan(data, *self._scan_range)
+                stamped = replace(scan, stamp=scan.stamp - self.epoch_offset)  # sensor time
+                return ReplayItem(t, Topic.SCAN, stamped)
             if name == MAP:
                 return ReplayItem(t, Topic.MAP, protobuf_wire.decode_grid(data))
             if name == CAMERA_JPEG:
                 _, fmt, jpeg = protobuf_wire.decode_compressed_image(data)
                 if fmt != "jpeg":
                     raise protobuf_wire.WireError(f"camera format {fmt!r}, not jpeg")
-                return ReplayItem(t, Topic.IMAGE, ImageMsg(t, *_jpeg_size(jpeg), jpeg))
+                return ReplayItem(t, Topic.IMAGE, ImageMsg(robot_time, *_jpeg_size(jpeg), jpeg))
             if name == COMMANDS:
                 return ReplayItem(
-                    t, Topic.STATUS, Status("info", command_line(json.loads(data)), stamp=t)
+                    t,
+                    Topic.STATUS,
+                    Status("info", command_line(json.loads(data)), stamp=robot_time),
                 )
         except (TopicError, protobuf_wire.WireError, ValueError) as exc:
             self.decode_errors += 1

@@ -4,7 +4,8 @@
 recorder what the daemon would publish, at the daemon's rates on simulated time (pose, odometry,
 cmd_vel and the mux at 20 Hz, scans at 10 Hz, the battery at 1 Hz, route progress on change),
 the stack's status events, the station's supervisor events as ``/tasks`` (who asked for what),
-the routes and pause locks the station sent as ``/commands`` — and, on its own ``/truth``
+the robot's planned path (its ``plan`` topic), the routes and pause locks the station sent as
+``/commands`` — and, on its own ``/truth``
 channel, the simulator's true pose and collision count, which never reach the robot.
 
 A scenario may build several systems one after the other (each restarting at t = 0): each is
@@ -28,6 +29,7 @@ from interbot_core.topics import (
     Topic,
     Twist,
 )
+from robot_daemon.planning.path_report import plan_message
 from robot_daemon.recording.recorder import Recorder
 from robot_daemon.stack import Periodic
 
@@ -107,10 +109,12 @@ class ScenarioRecorder:
                 },
                 t,
             )
-            path = stack.navigator.path
-            if path != self._path:
+            route = stack.route
+            route_id = route.route_id if route is not None and not route.finished else 0
+            path = stack.navigator.path if route_id else []
+            if path != self._path:  # the daemon's plan topic: replayed, and /planned_path
                 self._path = path
-                rec.path(path, t)
+                rec.state(Topic.PLAN, plan_message(route_id, path, t), t)
         if due["mux"](system.now):
             out = stack.last_output
             rec.state(
