@@ -31,9 +31,9 @@ DEFAULT_TOPO = Path(__file__).resolve().parent.parent / "maps" / "isr_floor0_top
 class StationSession:
     """Owns the zenoh session; `close` is idempotent (called from aboutToQuit and closeEvent)."""
 
-    def __init__(self, connect: Sequence[str], lease_ms: int = 2500) -> None:
+    def __init__(self, connect: Sequence[str], mode: str = "peer", lease_ms: int = 2500) -> None:
         self.session: zenoh.Session | None = zenoh.open(
-            session_config([], list(connect), lease_ms=lease_ms)
+            session_config([], list(connect), mode, lease_ms=lease_ms)
         )
         logger.info("zenoh session open, connecting to %s", list(connect))
 
@@ -54,6 +54,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="ENDPOINT",
         help="zenoh endpoint of a robot or router (repeatable; default tcp/127.0.0.1:7447)",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=("peer", "client"),
+        default="peer",
+        help="zenoh mode: peer (connect to robots) or client (of a building's router)",
     )
     parser.add_argument(
         "--tablet-host", default="127.0.0.1", help="address to listen on for the tablet"
@@ -88,9 +94,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
         return 2
     try:
-        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"])
+        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"], args.mode)
     except (LinkError, zenoh.ZError) as exc:
-        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}\n")
+        hint = (
+            " (is the building's router running? start it with `interbot router`)"
+            if args.mode == "client"
+            else ""
+        )
+        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}{hint}\n")
         return 2
 
     from PySide6.QtCore import Qt

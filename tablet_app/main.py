@@ -83,6 +83,8 @@ def show_kiosk(window: QWidget, screen_index: int = 0) -> None:
     if screen_index >= len(screens):
         logger.warning("no screen %d (%d screens); using the primary", screen_index, len(screens))
     window.setWindowFlag(Qt.WindowType.FramelessWindowHint, True)
+    if hasattr(window, "kiosk"):
+        window.kiosk = True  # no way out but the operator's gesture (tablet_app.kiosk)
     window.setGeometry(screen.geometry())
     window.showFullScreen()
 

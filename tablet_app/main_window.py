@@ -16,13 +16,14 @@ import time
 from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, Qt, QTimer
-from PySide6.QtGui import QCloseEvent, QResizeEvent
+from PySide6.QtGui import QCloseEvent, QMouseEvent, QResizeEvent
 from PySide6.QtWidgets import (
     QDialog,
     QFrame,
     QHBoxLayout,
     QLabel,
     QMainWindow,
+    QMessageBox,
     QPushButton,
     QStackedWidget,
     QVBoxLayout,
@@ -47,6 +48,7 @@ from interbot_core.protocol import (
     TourControl,
 )
 from tablet_app.floor_plan import FloorPlan
+from tablet_app.kiosk import CORNER_PX, ExitGesture
 from tablet_app.qt_dialogs import (
     QtHelpConfirmDialog,
     QtMalfunctionDialog,
@@ -109,11 +111,12 @@ class TabletWindow(QMainWindow):
         self.languages = languages or LanguageSwitcher(parent=self)
         self.shown_plan = plan.in_language(self.languages.language)
         home = next((r.id for r in plan.rooms if r.home), plan.rooms[0].id if plan.rooms else None)
-        self.session = TabletSession(
-            room_names=self.room_name, room_xy=self._room_xy, home_room=home
-        )
+        self.session = TabletSession(room_xy=self._room_xy, home_room=home)
         self._connection_detail = ""
         self._touch = 0
+        self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture
+        self._exit_gesture = ExitGesture()
+        self._may_close = False
         self.dialog: QDialog | None = None  # the open dialog, if any
         self._create_widgets(grid)
         self._connect_signals()
@@ -340,7 +343,7 @@ class TabletWindow(QMainWindow):
     def _on_status(self, msg: StatusInfo) -> None:
         """The station's progress on an accepted request, in the request's dialog."""
         if isinstance(self.dialog, QtShowRequestDialog):
-            self.dialog.set_status(activity_text(self, self.session))
+            self.dialog.set_status(activity_text(self.room_name, self.session))
 
     # ---------------------------------------------------------------- rendering the session
     def render(self) -> None:
@@ -412,9 +415,9 @@ class TabletWindow(QMainWindow):
 
     def _render_texts(self) -> None:
         s = self.session
-        self.activity_label.setText(activity_text(self, s))
+        self.activity_label.setText(activity_text(self.room_name, s))
         notice = s.notice
-        self.status_label.setText("" if notice is None else notice_text(self, notice))
+        self.status_label.setText("" if notice is None else notice_text(self.room_name, notice))
         self.status_label.setStyleSheet("color: #b00000;" if notice and notice.error else "")
 
     # ---------------------------------------------------------------- connection display
@@ -494,6 +497,35 @@ class TabletWindow(QMainWindow):
             self.retranslate()
         super().changeEvent(event)
 
+    def mousePressEvent(self, event: QMouseEvent) -> None:
+        """Kiosk: taps in the top-left corner count towards the operator's exit gesture."""
+        pos = event.position()
+        corner = pos.x() <= CORNER_PX and pos.y() <= CORNER_PX
+        if self.kiosk and corner and self._exit_gesture.tap(self.clock()):
+            self.ask_to_leave_kiosk()
+        super().mousePressEvent(event)
+
+    def ask_to_leave_kiosk(self) -> None:
+        box = QMessageBox(
+            QMessageBox.Icon.Question,
+            self.tr("Operator"),
+            self.tr("Leave the kiosk and close the tablet application?"),
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
+            self,
+        )
+        box.setDefaultButton(QMessageBox.StandardButton.No)
+        self.exit_box = box
+        box.finished.connect(self._on_leave_answer)
+        box.open()
+
+    def _on_leave_answer(self, result: int) -> None:
+        if result == QMessageBox.StandardButton.Yes:
+            self._may_close = True
+            self.close()
+
     def closeEvent(self, event: QCloseEvent) -> None:
+        if self.kiosk and not self._may_close:
+            event.ignore()  # the kiosk stays: only the operator's gesture closes it
+            return
         self.connection.stop()
         super().closeEvent(event)

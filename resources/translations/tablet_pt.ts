@@ -491,44 +491,54 @@
 <context>
     <name>TabletWindow</name>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="403" />
+        <location filename="../../tablet_app/main_window.py" line="408" />
         <source>The operator does not allow this now.</source>
         <translation>O operador não permite isto agora.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="433" />
+        <location filename="../../tablet_app/main_window.py" line="438" />
         <source>Connected to %1</source>
         <translation>Ligado a %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="436" />
+        <location filename="../../tablet_app/main_window.py" line="441" />
         <source>%1 ms</source>
         <translation>%1 ms</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="438" />
+        <location filename="../../tablet_app/main_window.py" line="443" />
         <source>Connecting to %1…</source>
         <translation>A ligar a %1…</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="440" />
+        <location filename="../../tablet_app/main_window.py" line="445" />
         <source>Disconnected: reconnecting in %1 s</source>
         <translation>Desligado: a voltar a ligar dentro de %1 s</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="444" />
+        <location filename="../../tablet_app/main_window.py" line="449" />
         <source>Disconnected</source>
         <translation>Desligado</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="487" />
+        <location filename="../../tablet_app/main_window.py" line="492" />
         <source>Interbot Tablet</source>
         <translation>Tablet do Interbot</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="488" />
+        <location filename="../../tablet_app/main_window.py" line="493" />
         <source>Help me!</source>
         <translation>Ajuda-me!</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/main_window.py" line="513" />
+        <source>Operator</source>
+        <translation>Operador</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/main_window.py" line="514" />
+        <source>Leave the kiosk and close the tablet application?</source>
+        <translation>Sair do modo quiosque e fechar a aplicação do tablet?</translation>
     </message>
 </context>
 </TS>

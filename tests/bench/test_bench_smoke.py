@@ -46,6 +46,7 @@ POSITIVE = {
         "record_mb_per_hour",
     ],
     "replay": ["replay_speed_x", "replay_poses_received"],
+    "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",
