@@ -41,8 +41,10 @@ class LiveAddressError(ValueError):
     """A ``--foxglove`` address that is malformed or not allowed (non-loopback without TLS)."""
 
 
-def parse_live_address(text: str, *, tls: bool = False) -> LiveServer:
+def parse_live_address(text: str, *, tls: tuple[bytes, bytes] | None = None) -> LiveServer:
     """``[HOST:]PORT`` -> LiveServer; loopback only unless the server has TLS (``--security``).
+
+    ``tls`` is (certificate PEM, PKCS#8 key PEM): the server then speaks wss:// only.
 
     >>> parse_live_address("8765")
     LiveServer(host='127.0.0.1', port=8765)
@@ -53,13 +55,15 @@ def parse_live_address(text: str, *, tls: bool = False) -> LiveServer:
     host = host.strip("[]") or "127.0.0.1"
     if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
         raise LiveAddressError(f"--foxglove {text!r}: the port must be 0..65535 ([HOST:]PORT)")
-    if not _is_loopback(host) and not tls:
+    if not _is_loopback(host) and tls is None:
         raise LiveAddressError(
             f"--foxglove {text!r}: refused to serve the robot's map, camera and pose on "
             f"{host}, which is not loopback: the Foxglove server has no authentication. "
             "Serve on 127.0.0.1 and reach it through an SSH tunnel, or give the daemon "
             "--security (TLS) when it has it."
         )
+    if tls is not None:
+        return LiveServer(host, int(port_text), tls_cert=tls[0], tls_key=tls[1])
     return LiveServer(host, int(port_text))
 
 

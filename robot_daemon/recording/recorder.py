@@ -25,7 +25,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -89,6 +89,12 @@ class LiveServer:
 
     host: str = "127.0.0.1"
     port: int = 8765
+    tls_cert: bytes | None = field(default=None, repr=False)  # PEM; with tls_key: wss:// only
+    tls_key: bytes | None = field(default=None, repr=False)  # PEM, PKCS#8
+
+    def __post_init__(self) -> None:
+        if (self.tls_cert is None) != (self.tls_key is None):
+            raise ValueError("a TLS live server needs both a certificate and its key")
 
 
 def ns(t: float) -> int:
@@ -257,6 +263,8 @@ class Recorder:
                     host=live.host,
                     port=live.port,
                     context=self._context,
+                    tls_cert=live.tls_cert,
+                    tls_key=live.tls_key,
                 )
             except Exception as exc:  # the SDK raises its own types for bind errors
                 raise RecorderError(

@@ -6,8 +6,11 @@ import base64
 import json
 import math
 import os
+import shutil
 import socket
+import ssl
 import struct
+import subprocess
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -107,7 +110,8 @@ def test_live_address_is_loopback_unless_secured() -> None:
     for bad in ("0.0.0.0:8765", "192.168.1.4:8765", "robot.lan:8765"):
         with pytest.raises(LiveAddressError, match="not loopback"):
             parse_live_address(bad)
-    assert parse_live_address("0.0.0.0:8765", tls=True).host == "0.0.0.0"
+    secured = parse_live_address("0.0.0.0:8765", tls=(b"cert", b"key"))
+    assert (secured.host, secured.tls_cert, secured.tls_key) == ("0.0.0.0", b"cert", b"key")
     for bad in ("", "x", "127.0.0.1:99999", "127.0.0.1:-1"):
         with pytest.raises(LiveAddressError, match="port"):
             parse_live_address(bad)
@@ -143,8 +147,10 @@ def test_recording_section_is_validated(tmp_path: Path) -> None:
 class WebSocketClient:
     """Just enough of RFC 6455 to talk to the Foxglove server: handshake, frames, masking."""
 
-    def __init__(self, port: int, subprotocol: str) -> None:
+    def __init__(self, port: int, subprotocol: str, tls: ssl.SSLContext | None = None) -> None:
         self.sock = socket.create_connection(("127.0.0.1", port), timeout=5.0)
+        if tls is not None:
+            self.sock = tls.wrap_socket(self.sock, server_hostname="127.0.0.1")
         key = base64.b64encode(os.urandom(16)).decode()
         self.sock.sendall(
             (
@@ -296,3 +302,33 @@ def test_the_deployed_robot_yaml_records_every_run(repo_root: Path, tmp_path: Pa
     bad = replace(config, recording={"directory": "x", "max_total_mb": -1})
     with pytest.raises(ConfigError, match="max_total_mb"):
         build_daemon_recorder(bad, DaemonOptions(), 0.0)
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl command")
+def test_a_tls_live_server_speaks_wss_with_its_pinned_certificate(tmp_path: Path) -> None:
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    subprocess.run(
+        ["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256",
+         "-nodes", "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1",
+         "-keyout", str(key), "-out", str(cert)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    live = LiveServer("127.0.0.1", 0, tls_cert=cert.read_bytes(), tls_key=key.read_bytes())
+    with Recorder("tls", live=live) as recorder:
+        recorder.state(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, 0.0), 0.0)
+        assert recorder.flush() and recorder.port
+        pinned = ssl.create_default_context(cafile=str(cert))
+        client = WebSocketClient(recorder.port, "foxglove.sdk.v1", tls=pinned)
+        try:
+            assert " 101 " in client.status_line
+            frame = client.frame()
+            assert frame is not None and json.loads(frame[1])["op"] == "serverInfo"
+        finally:
+            client.close()
+        try:  # plain ws:// is refused: a TLS alert instead of "101 Switching Protocols"
+            plain = WebSocketClient(recorder.port, "foxglove.sdk.v1")
+            refused = " 101 " not in plain.status_line
+            plain.close()
+        except OSError:
+            refused = True
+        assert refused
