@@ -61,3 +61,40 @@ def test_the_daemon_records_its_state_and_the_stations_commands(daemon_recording
     assert counts["/pose"] == counts["/odom"] == counts["/cmd_vel"] >= 20
     assert counts["/tf"] in (counts["/odom"], counts["/odom"] + 1)
     assert counts["/scan"] >= 20 and counts["/map"] >= 1
+
+
+def test_localisation_is_sampled_with_a_covariance_when_the_localiser_has_one(
+    tmp_path: Path,
+) -> None:
+    import enum
+    from dataclasses import dataclass
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from interbot_core.geometry import Pose2D
+    from robot_daemon.recording.daemon_hook import LOCALISATION, StackSampler
+    from robot_daemon.recording.recorder import Recorder
+
+    class State(enum.Enum):
+        OK = "ok"
+
+    @dataclass(frozen=True)
+    class Estimate:  # a localiser that also estimates its covariance
+        pose: Pose2D | None
+        confidence: float
+        covariance: np.ndarray
+
+    path = tmp_path / "loc.mcap"
+    with Recorder("r1", single_file=path) as recorder:
+        stack = SimpleNamespace(last_estimate=None, localisation_state=State.OK)
+        sampler = StackSampler(stack, recorder)  # type: ignore[arg-type]
+        sampler.sample(0.0)  # no estimate yet: nothing
+        stack.last_estimate = Estimate(Pose2D(1.0, 2.0, 0.5), 0.9, np.diag([0.01, 0.02, 0.003]))
+        sampler.sample(0.1)
+        sampler.sample(0.15)  # the same estimate: not again
+    with path.open("rb") as f:
+        records = [json.loads(m.data) for _, c, m in make_reader(f).iter_messages([LOCALISATION])]
+    assert len(records) == 1
+    assert records[0]["state"] == "ok" and records[0]["x"] == 1.0
+    assert records[0]["covariance"] == pytest.approx([0.01, 0, 0, 0, 0.02, 0, 0, 0, 0.003])
