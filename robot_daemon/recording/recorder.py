@@ -273,6 +273,11 @@ class Recorder:
         self._chunk_bytes = CHUNK_BYTES
         if rotation is not None:  # several chunks per file, so the size check is not too coarse
             self._chunk_bytes = max(4096, min(CHUNK_BYTES, rotation.config.max_file_bytes // 16))
+        if self.server is not None:
+            scheme = "wss" if live is not None and live.tls_cert else "ws"
+            logger.info(
+                "Foxglove live view on %s://%s:%d", scheme, live.host if live else "", self.port
+            )
         self._open_first_file()
         self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
         self._thread.start()
