@@ -254,7 +254,6 @@ class Recorder:
         self._latched: dict[str, tuple[float, Any]] = {}  # channel -> (t, foxglove message)
         self._pose: Pose2D | None = None
         self._odom_seen = False
-        self._last_now = 0.0
         self.server: Any = None
         if live is not None:
             try:
@@ -278,7 +277,12 @@ class Recorder:
             logger.info(
                 "Foxglove live view on %s://%s:%d", scheme, live.host if live else "", self.port
             )
-        self._open_first_file()
+        try:
+            self._open_first_file()
+        except RecorderError:
+            if self.server is not None:
+                self.server.stop()
+            raise
         self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
         self._thread.start()
 
@@ -433,7 +437,6 @@ class Recorder:
 
     def _write(self, item: tuple[Any, ...]) -> None:
         kind, now = item[0], float(item[1])
-        self._last_now = max(self._last_now, now)
         self._maybe_rotate(now)
         t = self.epoch_offset + now
         ctx = self._context
