@@ -49,6 +49,7 @@ JSON_TOPICS = {name: topic for topic, name in JSON_STATE_TOPICS.items()}
 REPLAYED = [*JSON_TOPICS, SCAN, MAP, CAMERA_JPEG, COMMANDS]
 STATE_PERIOD = 0.2  # [s] wall time between two replay-state messages
 LOOP_PERIOD = 0.01  # [s]
+STALE_S = 1.0  # [s] of recording time: older scans and frames are skipped when behind
 
 
 class ReplayFileError(ValueError):
@@ -194,6 +195,7 @@ class ReplayPlayer:
         self.clock = ReplayClock(source.duration, now, speed=speed, playing=playing)
         self._publish = publish
         self.published = 0
+        self.skipped = 0
         self._restart(0.0)
 
     def _restart(self, position: float) -> None:
@@ -217,12 +219,22 @@ class ReplayPlayer:
             self._restart(self.clock.position(now))
 
     def step(self, now: float) -> int:
-        """Publish what is due by ``now``; the number of messages published."""
+        """Publish what is due by ``now``; the number of messages published.
+
+        When the player is behind (a slow machine, a long pause of its loop), scans and camera
+        frames more than `STALE_S` of recording time old are skipped (counted in ``skipped``):
+        the station shows only the newest of those anyway. Everything else, the map first, is
+        always published.
+        """
         position = self.clock.position(now)
         count = 0
         while self._next is not None and self._next.t <= position + 1e-9:
-            self._emit(self._next)
-            count += 1
+            item = self._next
+            if item.topic in (Topic.SCAN, Topic.IMAGE) and item.t < position - STALE_S:
+                self.skipped += 1
+            else:
+                self._emit(item)
+                count += 1
             self._next = next(self._items, None)
         return count
 

@@ -54,6 +54,13 @@ def test_the_source_decodes_the_recording(daemon_recording: Path) -> None:
 
 def test_the_player_follows_its_clock(daemon_recording: Path) -> None:
     source = RecordingSource(daemon_recording)
+    try:
+        _follow_the_clock(source)
+    finally:
+        source.close()
+
+
+def _follow_the_clock(source: RecordingSource) -> None:
     published: list[ReplayItem] = []
     player = ReplayPlayer(source, published.append, now=0.0, speed=2.0)
     player.step(1.0)  # 2 s of recording
@@ -70,9 +77,14 @@ def test_the_player_follows_its_clock(daemon_recording: Path) -> None:
     player.command(ReplayCommand("play"), 5.0)
     player.step(5.05)  # 1 s of recording at x20
     assert max(i.t for i in published[count:]) == pytest.approx(6.0, abs=0.11)
-    player.step(100.0)
+    player.command(ReplayCommand("seek", 0.5), 6.0)
+    before = len(published)
+    player.step(100.0)  # far behind: stale scans and frames skipped, nothing else
     assert published[-1].t == pytest.approx(source.duration, abs=0.05)
-    source.close()
+    late = published[before:]
+    assert player.skipped > 0
+    assert all(i.t >= source.duration - 1.0 for i in late if i.topic in (Topic.SCAN, Topic.IMAGE))
+    assert any(i.topic is Topic.POSE and i.t < source.duration - 1.0 for i in late)
 
 
 def test_a_truncated_recording_is_refused(daemon_recording: Path, tmp_path: Path) -> None:
