@@ -11,6 +11,7 @@ import socket
 import ssl
 import struct
 import subprocess
+import threading
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -83,12 +84,26 @@ def test_rotation_by_time(tmp_path: Path) -> None:
     assert counts == [10, 10, 10, 5]
 
 
-def test_offers_never_wait_a_full_queue_drops_and_counts(tmp_path: Path) -> None:
+def test_offers_never_wait_a_full_queue_drops_and_counts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     rng = np.random.default_rng(2)
     scans = [_scan(i / 40, rng) for i in range(2000)]
+    # Hold the writer thread until every offer is made, whatever the machine's load: the queue
+    # of 16 is full after 16 offers and the rest must be dropped at once, not waited for.
+    gate = threading.Event()
+    run = Recorder._run
+
+    def held_writer(self: Recorder) -> None:
+        gate.wait(30.0)
+        run(self)
+
+    monkeypatch.setattr(Recorder, "_run", held_writer)
     with Recorder("r1", single_file=tmp_path / "x.mcap", queue_size=16) as recorder:
         for scan in scans:
             recorder.state(Topic.SCAN, scan, scan.stamp)
+        assert recorder.dropped >= 2000 - 16
+        gate.set()
         recorder.flush()
     assert recorder.dropped > 0, "2000 scans offered at once overflow a 16-message queue"
     assert recorder.written + recorder.dropped == 2000
