@@ -43,6 +43,7 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -324,10 +325,13 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
 
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
+    z = config.zenoh
+    security, insecure = link_security(config)  # fails fast: keys, endpoints (issue 15)
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
-    z = config.zenoh
-    with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
+    with open_session(
+        list(z.listen), list(z.connect), lease_ms=z.lease_ms, security=security, insecure=insecure
+    ) as session:
         link = RobotLink(session, config.robot_id)
         try:
             daemon.run(link, stop, notifier)
