@@ -106,7 +106,7 @@ def test_a_used_or_wrong_code_is_refused(qtbot, station: Station) -> None:
 
 def test_revoked_tablet_is_refused_and_dropped_if_connected(qtbot, station: Station) -> None:
     creds = _pair(qtbot, station)
-    conn, link = _tablet(qtbot, station, token=creds.token)
+    conn, _link = _tablet(qtbot, station, token=creds.token)
     with qtbot.waitSignal(conn.connected, timeout=5000):
         conn.start()
     qtbot.waitUntil(lambda: station.server.is_connected, timeout=3000)
