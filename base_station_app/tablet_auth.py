@@ -26,6 +26,7 @@ from pathlib import Path
 from PySide6.QtCore import QByteArray, QCryptographicHash, QObject, QTimer, Signal
 from PySide6.QtNetwork import (
     QAbstractSocket,
+    QNetworkInterface,
     QSsl,
     QSslCertificate,
     QSslConfiguration,
@@ -55,6 +56,18 @@ class TabletTlsError(RuntimeError):
 
 def _frame(obj: dict[str, object]) -> bytes:
     return json.dumps(obj, separators=(",", ":")).encode() + b"\n"
+
+
+def advertised_address(host: str) -> str:
+    """``host``, or for a wildcard listen (0.0.0.0, ::) this machine's first non-loopback IPv4."""
+    if host not in ("0.0.0.0", "::", ""):
+        return host
+    for address in QNetworkInterface.allAddresses():
+        if address.protocol() == QAbstractSocket.NetworkLayerProtocol.IPv4Protocol and not (
+            address.isLoopback()
+        ):
+            return str(address.toString())
+    return "127.0.0.1"
 
 
 def load_registry(path: Path) -> TabletRegistry:
@@ -183,6 +196,8 @@ class TabletAuthServer(QTcpServer):
         self._timeout = handshake_timeout_ms
         self._live: dict[str, list[QSslSocket]] = {}
         self.offer: PairingOffer | None = None
+        self.advertised_host = "127.0.0.1"
+        """The address tablets are told to connect to (shown in the pairing QR code)."""
 
     @classmethod
     def from_files(
@@ -212,8 +227,9 @@ class TabletAuthServer(QTcpServer):
         socket.startServerEncryption()
 
     # ------------------------------------------------------------------ pairing
-    def new_offer(self, host: str) -> PairingOffer:
+    def new_offer(self, host: str | None = None) -> PairingOffer:
         """A fresh one-time code for a tablet to pair with (shown with its QR code)."""
+        host = host or self.advertised_host
         code, expires = self.registry.new_code(self._clock())
         self.offer = PairingOffer(host, int(self.serverPort()), self.fingerprint, code, expires)
         return self.offer

@@ -1,7 +1,9 @@
 """Start the simulated robot, the Base Station and the Tablet as three processes on 127.0.0.1.
 
 Ports come from the OS; the robot daemon listens for zenoh on one, the station connects to it
-and serves the tablet on another. The launcher watches the three: when one exits (or on
+and serves the tablet on another. By default the demo runs secure (issue 15): zenoh over mutual
+TLS with access control and a paired TLS tablet, with keys made on first use
+(`interbot_cli.demo_security`); ``--insecure-demo`` runs the plaintext links of the thesis. The launcher watches the three: when one exits (or on
 Ctrl-C / SIGTERM, or after ``--duration`` seconds) it stops the others with SIGTERM and waits.
 """
 
@@ -15,7 +17,10 @@ import subprocess
 import sys
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 from types import FrameType
+
+from interbot_cli import demo_security
 
 logger = logging.getLogger(__name__)
 
@@ -39,10 +44,20 @@ class DemoPlan:
     tablet: list[str]
 
 
-def plan(seed: int, people: int, zenoh_port: int, tablet_port: int) -> DemoPlan:
+def plan(
+    seed: int,
+    people: int,
+    zenoh_port: int,
+    tablet_port: int,
+    keys: Path | None = None,
+    tablet_credentials: Path | None = None,
+) -> DemoPlan:
     python = sys.executable
-    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
-    return DemoPlan(
+    scheme = "tls" if keys is not None else "tcp"
+    endpoint = f"{scheme}/127.0.0.1:{zenoh_port}"
+    secure = ["--security", str(keys)] if keys is not None else []
+    creds = ["--credentials", str(tablet_credentials)] if tablet_credentials is not None else []
+    demo = DemoPlan(
         daemon=[
             python, "-m", "robot_daemon.main", "--sim", "--robot-id", ROBOT_ID,
             "--listen", endpoint, "--seed", str(seed), "--people", str(people),
@@ -57,6 +72,10 @@ def plan(seed: int, people: int, zenoh_port: int, tablet_port: int) -> DemoPlan:
             "--windowed",
         ],
     )  # fmt: skip
+    demo.daemon.extend(secure)
+    demo.station.extend(secure)
+    demo.tablet.extend(creds)
+    return demo
 
 
 def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
@@ -80,7 +99,13 @@ def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
 
 def launch(args: argparse.Namespace) -> int:
     """Run the demo until a program exits, Ctrl-C, SIGTERM or ``args.duration`` seconds."""
-    demo = plan(args.seed, args.people, free_port(), free_port())
+    zenoh_port, tablet_port = free_port(), free_port()
+    if getattr(args, "insecure_demo", False):
+        demo = plan(args.seed, args.people, zenoh_port, tablet_port)
+    else:
+        store = demo_security.ensure_keys(demo_security.demo_keys_dir(), ROBOT_ID)
+        creds = demo_security.pair_demo_tablet(store, tablet_port)
+        demo = plan(args.seed, args.people, zenoh_port, tablet_port, store.dir, creds)
     stop = threading.Event()
 
     def on_signal(signum: int, _frame: FrameType | None) -> None:
