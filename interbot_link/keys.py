@@ -332,9 +332,16 @@ class KeyStore:
 
     # ------------------------------------------------------------------ use
 
-    def names(self, role: str) -> tuple[str, ...]:
-        """Names of the members of ``role`` that are not revoked, sorted."""
-        return tuple(sorted(n for n, m in self.members.items() if m.role == role and not m.revoked))
+    def names(self, role: str, *, now: dt.datetime | None = None) -> tuple[str, ...]:
+        """Names of the members of ``role`` that are neither revoked nor expired, sorted."""
+        now = now or utcnow()
+        return tuple(
+            sorted(
+                n
+                for n, m in self.members.items()
+                if m.role == role and not m.revoked and dt.datetime.fromisoformat(m.not_after) > now
+            )
+        )
 
     def identity(
         self, name: str, role: str | None = None, *, now: dt.datetime | None = None

@@ -70,7 +70,8 @@ class LinkSecurity:
         """Validate ``name``'s certificate (role, CA, expiry, key) in ``directory``."""
         store = KeyStore(directory)
         identity = store.identity(name, role, now=now)
-        return cls(identity, store.names("robot"), store.names("station"), store.names("observer"))
+        names = {role: store.names(role, now=now) for role in ("robot", "station", "observer")}
+        return cls(identity, names["robot"], names["station"], names["observer"])
 
     @property
     def role(self) -> str:

@@ -7,6 +7,7 @@ peers connect and publish on every command topic.
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import threading
 import time
@@ -52,6 +53,8 @@ def keys(tmp_path_factory: pytest.TempPathFactory) -> Path:
     store.add("interbot2", "robot")
     store.add("station2", "station")
     store.revoke("station2")
+    long_ago = dt.datetime.now(dt.UTC) - dt.timedelta(days=30)
+    store.add("old_station", "station", now=long_ago, days=1)  # expired 29 days ago
     return directory
 
 
@@ -179,12 +182,19 @@ def test_station_commands_and_sees_state_over_mutual_tls(
         assert Topic.POSE in st.fetch_state(ROBOT, (Topic.POSE,))
 
 
-@pytest.mark.parametrize("attacker", ["station", "observer", "revoked station", "other robot"])
+@pytest.mark.parametrize(
+    "attacker", ["station", "observer", "revoked station", "other robot", "expired station"]
+)
 def test_members_without_command_rights_cannot_command(
     keys: Path, robot: tuple[str, RobotLink], attacker: str
 ) -> None:
     endpoint, link = robot
-    name = {"observer": "observer", "revoked station": "station2", "other robot": "interbot2"}
+    name = {
+        "observer": "observer",
+        "revoked station": "station2",
+        "other robot": "interbot2",
+        "expired station": "old_station",
+    }
     with zenoh.open(_raw_tls_config(keys, name.get(attacker, attacker), endpoint)) as session:
         time.sleep(0.3)  # let the link and declarations settle
         received = _attack(session, link)
