@@ -33,6 +33,7 @@ from PySide6.QtNetwork import (
     QSslKey,
     QSslSocket,
     QTcpServer,
+    QTcpSocket,
 )
 
 from interbot_core.protocol import JsonStreamDecoder, ProtocolError, Refused, encode
@@ -48,6 +49,7 @@ logger = logging.getLogger(__name__)
 
 HANDSHAKE_TIMEOUT_MS = 5000
 MAX_AUTH_FRAME = 4096  # [bytes] a pair/auth frame is < 200 bytes
+MAX_PENDING = 8  # connections between accept and authorisation (a flood gets no more)
 
 
 class TabletTlsError(RuntimeError):
@@ -88,6 +90,7 @@ class _PendingTablet(QObject):
         super().__init__(server)
         self.server = server
         self.socket = socket
+        socket.setParent(self)  # dies with this handshake unless handed over
         self.peer = f"{socket.peerAddress().toString()}:{socket.peerPort()}"
         self.decoder = JsonStreamDecoder(MAX_AUTH_FRAME)
         self.timer = QTimer(self)
@@ -105,6 +108,7 @@ class _PendingTablet(QObject):
         self.socket.sslErrors.disconnect(self.on_ssl_errors)
         self.socket.errorOccurred.disconnect(self.on_error)
         self.socket.disconnected.disconnect(self.on_disconnected)
+        self.socket.setParent(self.server)
         self.deleteLater()
 
     def refuse(self, reason: str) -> None:
@@ -131,8 +135,7 @@ class _PendingTablet(QObject):
 
     def on_disconnected(self) -> None:
         self.timer.stop()
-        self.socket.deleteLater()
-        self.deleteLater()
+        self.deleteLater()  # and the socket, its child
 
     def on_ready_read(self) -> None:
         items = self.decoder.feed(bytes(self.socket.readAll().data()))
@@ -217,6 +220,14 @@ class TabletAuthServer(QTcpServer):
 
     # ------------------------------------------------------------------ Qt
     def incomingConnection(self, handle: int) -> None:  # Qt override
+        pending = self.findChildren(_PendingTablet)
+        if len(pending) >= MAX_PENDING:
+            logger.warning("%d tablet handshakes pending: dropping a new connection", len(pending))
+            extra = QTcpSocket(self)
+            extra.setSocketDescriptor(handle)  # adopt it only to close it at once
+            extra.abort()
+            extra.deleteLater()
+            return
         socket = QSslSocket(self)
         if not socket.setSocketDescriptor(handle):
             logger.warning("cannot adopt a tablet connection: %s", socket.errorString())

@@ -174,3 +174,18 @@ def test_silent_tls_client_times_out(qtbot, keys: Path, tmp_path: Path) -> None:
     assert "within the time allowed" in refusals[0]
     sock.abort()
     server.close()
+
+
+def test_a_flood_of_silent_clients_is_capped(qtbot, station: Station) -> None:
+    from base_station_app.tablet_auth import MAX_PENDING, _PendingTablet
+
+    sockets = [QTcpSocket() for _ in range(MAX_PENDING + 4)]
+    for sock in sockets:
+        sock.connectToHost("127.0.0.1", station.port)
+    qtbot.waitUntil(
+        lambda: all(s.state() != s.SocketState.ConnectingState for s in sockets), timeout=5000
+    )
+    qtbot.wait(200)
+    assert len(station.auth.findChildren(_PendingTablet)) <= MAX_PENDING
+    for sock in sockets:
+        sock.abort()
