@@ -6,6 +6,7 @@
     interbot keys add-observer NAME [--dir DIR]
     interbot keys revoke NAME [--dir DIR]
     interbot keys list [--dir DIR]
+    interbot keys export NAME OUTDIR [--dir DIR]  what NAME's machine needs, without ca.key
 
 ``--dir`` defaults to ``$INTERBOT_KEYS``, else ``~/.config/interbot/keys``.
 """
@@ -48,6 +49,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p_rev = sub.add_parser("revoke", help="revoke a member (restart robots and stations after)")
     p_rev.add_argument("name")
     p_rev.add_argument("--dir", type=Path, default=None, help="key directory")
+    p_exp = sub.add_parser("export", help="copy what one member's machine needs (no ca.key)")
+    p_exp.add_argument("name")
+    p_exp.add_argument("target", type=Path, help="new directory to copy to")
+    p_exp.add_argument("--dir", type=Path, default=None, help="key directory")
     p_list = sub.add_parser("list", help="list the members and their state")
     p_list.add_argument("--dir", type=Path, default=None, help="key directory")
 
@@ -63,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
             print(
                 "next: interbot-daemon --security DIR --listen tls/HOST:7447 on the robot, "
                 "interbot-base-station --security DIR --connect tls/HOST:7447 on the station "
-                "(copy DIR without ca.key to them)"
+                "(`interbot keys export NAME OUTDIR` gathers each one's files, without ca.key)"
             )
             return 0
         store = KeyStore(args.dir or default_dir())
@@ -76,6 +81,9 @@ def run(args: argparse.Namespace) -> int:
         elif action == "revoke":
             member = store.revoke(args.name)
             print(f"revoked {member.role} {member.name}; restart the robots and stations to apply")
+        elif action == "export":
+            out = store.export(args.name, args.target)
+            print(f"exported {args.name} to {out}: use it as --security {out} on that machine")
         elif action == "list":
             _print_members(store)
         return 0

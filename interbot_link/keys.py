@@ -330,6 +330,28 @@ class KeyStore:
         tmp.write_text(yaml.safe_dump(data, sort_keys=True), encoding="utf-8")
         tmp.replace(self.dir / INVENTORY)
 
+    def export(self, name: str, target: str | Path) -> Path:
+        """Copy what member ``name``'s machine needs (never ``ca.key``) into ``target``.
+
+        That is the CA certificate, its own certificate and key, and the inventory (the access
+        control rules are built from it); other members' keys stay here.
+        """
+        self.identity(name)  # present, not revoked, valid
+        out = Path(target).expanduser()
+        if (out / INVENTORY).exists() and out.resolve() == self.dir.resolve():
+            raise KeysError("export to another directory than the key directory itself")
+        out.mkdir(parents=True, exist_ok=True)
+        os.chmod(out, 0o700)
+        for file, private in (
+            (f"{CA_NAME}.crt", False),
+            (f"{name}.crt", False),
+            (f"{name}.key", True),
+            (INVENTORY, False),
+        ):
+            _write(out / file, (self.dir / file).read_bytes(), private)
+        logger.info("exported %r to %s (without the CA key)", name, out)
+        return out
+
     # ------------------------------------------------------------------ use
 
     def names(self, role: str, *, now: dt.datetime | None = None) -> tuple[str, ...]:

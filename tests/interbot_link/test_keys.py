@@ -94,6 +94,12 @@ def test_cli_init_add_revoke_list(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert cli_main(["keys", "add-observer", "viewer", "--dir", str(directory)]) == 0
     assert cli_main(["keys", "revoke", "bot8", "--dir", str(directory)]) == 0
     assert cli_main(["keys", "list", "--dir", str(directory)]) == 0
+    assert (
+        cli_main(["keys", "export", "bot7", str(tmp_path / "bot7"), "--dir", str(directory)]) == 0
+    )
+    exported = sorted(p.name for p in (tmp_path / "bot7").iterdir())
+    assert exported == ["bot7.crt", "bot7.key", "ca.crt", "interbot-keys.yaml"]  # no ca.key
+    assert LinkSecurity.load(tmp_path / "bot7", "bot7", "robot").stations == ("station",)
     out = capsys.readouterr().out
     assert "bot8" in out and "REVOKED" in out and "viewer" in out
     cert = x509.load_pem_x509_certificate((directory / "bot8.crt").read_bytes())
