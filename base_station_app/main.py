@@ -20,6 +20,7 @@ from pathlib import Path
 import zenoh
 
 from base_station_app import station_security
+from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
 from interbot_link import LinkError, LinkSecurity, session_config
 
@@ -91,6 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--config", type=Path, help="station YAML (security: {keys, identity, insecure, ...})"
     )
+    parser.add_argument(
+        "--geometry", metavar="X,Y,W,H", help="window position and size (default 1600x1000)"
+    )
     parser.add_argument("--log-level", default="INFO")
     return parser
 
@@ -110,6 +114,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
         return 2
     connect = args.connect or ["tcp/127.0.0.1:7447"]
+    try:
+        geometry = None if args.geometry is None else parse_geometry(args.geometry)
+    except LayoutError as exc:
+        sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
+        return 2
     try:
         security = station_security.resolve(
             keys=args.security,
@@ -172,7 +181,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if not controller.start():
             return 1
-        window.resize(1600, 1000)
+        if geometry is None:
+            window.resize(1600, 1000)
+        else:
+            window.setGeometry(geometry.x, geometry.y, geometry.w, geometry.h)
         window.show()
         window.map_view.fit_map()
         return int(app.exec())

@@ -29,7 +29,9 @@ def test_keys_on_first_use_and_a_paired_demo_tablet(tmp_path: Path) -> None:
 
 
 def test_secure_plan_uses_tls_and_the_keys(tmp_path: Path) -> None:
-    plan = demo_launcher.plan(1, 0, 7447, 5555, tmp_path, tmp_path / "t.json")
+    plan = demo_launcher.plan(
+        1, 0, 7447, 5555, keys=tmp_path, tablet_credentials=tmp_path / "t.json"
+    )
     assert "tls/127.0.0.1:7447" in plan.daemon and "tls/127.0.0.1:7447" in plan.station
     assert plan.daemon[-2:] == plan.station[-2:] == ["--security", str(tmp_path)]
     assert plan.tablet[-2:] == ["--credentials", str(tmp_path / "t.json")]

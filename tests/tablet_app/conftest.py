@@ -20,14 +20,18 @@ TOPO_YAML = """\
 map: floor.yaml
 nodes:
   - {id: 0, name: Entrance, x: 1.0, y: 1.0, yaw: 0.0, info: "The main entrance.", tour: true,
-     home: true, area: [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]}
-  - {id: 1, name: Corridor corner, x: 5.0, y: 1.0, yaw: 0.0, area: []}
+     home: true, area: [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]],
+     name_pt: Entrada, info_pt: "A entrada principal."}
+  - {id: 1, name: Corridor corner, x: 5.0, y: 1.0, yaw: 0.0, area: [],
+     name_pt: Canto do corredor}
   - {id: 2, name: Lab door, x: 8.0, y: 1.0, yaw: 1.57,
-     area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]]}
+     area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]], name_pt: Porta do laboratório}
   - {id: 3, name: Lab, x: 8.5, y: 3.5, yaw: 1.57, info: "Robots are built here.", tour: true,
-     requests: true, area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]]}
+     requests: true, area: [[7.0, 2.0], [10.0, 2.0], [10.0, 5.0], [7.0, 5.0]],
+     name_pt: Laboratório, info_pt: "Aqui constroem-se robôs."}
   - {id: 4, name: Office, x: 3.0, y: 4.0, yaw: 3.14, info: "The director's office.",
-     tour: true, requests: true, area: [[2.0, 3.0], [5.0, 3.0], [5.0, 5.0], [2.0, 5.0]]}
+     tour: true, requests: true, area: [[2.0, 3.0], [5.0, 3.0], [5.0, 5.0], [2.0, 5.0]],
+     name_pt: Gabinete, info_pt: "O gabinete do diretor."}
 """
 
 MAP_YAML = """\
