@@ -21,7 +21,7 @@ from typing import Any
 
 import yaml
 
-from interbot_link import KeysError, LinkSecurity
+from interbot_link import KeysError, KeyStore, LinkSecurity
 from interbot_link.keys import SETUP_HINT
 from interbot_link.security import is_loopback_host, warn_insecure
 
@@ -48,6 +48,8 @@ class StationSecurity:
 
     def title_suffix(self) -> str:
         """What the window title adds: nothing when everything is protected."""
+        if self.link is not None and self.link.role == "observer":
+            return " - OBSERVER (read-only)"
         flags = []
         if self.link is None and self.insecure:
             flags.append("robot link")
@@ -99,7 +101,11 @@ def resolve(
     )
     if sec.keys is not None:
         try:
-            link = LinkSecurity.load(sec.keys, sec.identity, "station")
+            member = KeyStore(sec.keys).members.get(sec.identity)
+            # An observer certificate gives a read-only station: its own access control lets
+            # no command out, and the robots would drop them anyway.
+            role = "observer" if member is not None and member.role == "observer" else "station"
+            link = LinkSecurity.load(sec.keys, sec.identity, role)
         except KeysError as exc:
             raise StationSecurityError(f"security: {exc}") from None
         sec = StationSecurity(sec.keys, sec.identity, sec.insecure, sec.insecure_tablet, link)

@@ -60,6 +60,8 @@ def test_keys_from_the_station_yaml(keys: Path, tmp_path: Path) -> None:
         station_security.load_settings(yaml_path)
     with pytest.raises(station_security.StationSecurityError, match="is a robot, not a station"):
         _resolve(keys=keys, identity="interbot1")
+    observer = _resolve(keys=keys, identity="observer")
+    assert observer.title_suffix() == " - OBSERVER (read-only)"
 
 
 def test_pairing_widget_shows_a_code_and_revokes(qtbot, keys: Path, tmp_path: Path) -> None:
