@@ -13,7 +13,7 @@ import logging
 import time
 
 import segno
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QFont, QPixmap
 from PySide6.QtWidgets import (
     QGroupBox,
@@ -75,6 +75,9 @@ class QtTabletPairing(QGroupBox):
         self.pair_button.clicked.connect(self.show_code)
         self.revoke_button.clicked.connect(self.revoke_selected)
         auth.tablets_changed.connect(self.refresh)
+        self._expiry = QTimer(self)  # an expired or used code disappears from the screen
+        self._expiry.setInterval(1000)
+        self._expiry.timeout.connect(self._check_expiry)
         self.refresh()
 
     def show_code(self) -> None:
@@ -85,6 +88,14 @@ class QtTabletPairing(QGroupBox):
         )
         self.qr_label.setPixmap(qr_pixmap(offer.uri))
         self.uri_label.setText(f"interbot-tablet --pair '{offer.uri}'")
+        self._expiry.start()
+
+    def _check_expiry(self) -> None:
+        offer = self._auth.offer
+        if offer is None or not self._auth.registry.code_active(self._auth.now()):
+            self._auth.offer = None
+            self._expiry.stop()
+            self.refresh()
 
     def refresh(self) -> None:
         if self._auth.offer is None:

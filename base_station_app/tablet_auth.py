@@ -238,6 +238,10 @@ class TabletAuthServer(QTcpServer):
         socket.startServerEncryption()
 
     # ------------------------------------------------------------------ pairing
+    def now(self) -> float:
+        """The clock codes expire on [s]."""
+        return self._clock()
+
     def new_offer(self, host: str | None = None) -> PairingOffer:
         """A fresh one-time code for a tablet to pair with (shown with its QR code)."""
         host = host or self.advertised_host

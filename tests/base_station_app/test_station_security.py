@@ -77,6 +77,10 @@ def test_pairing_widget_shows_a_code_and_revokes(qtbot, keys: Path, tmp_path: Pa
     assert not widget.qr_label.pixmap().isNull() and "--pair" in widget.uri_label.text()
     auth.authorise("pair", auth.offer.code, "lobby")
     assert widget.tablets.count() == 1 and widget.code_label.text() == ""
+    widget.pair_button.click()
+    auth.registry.cancel_code()  # as when it expires
+    qtbot.waitUntil(lambda: widget.code_label.text() == "", timeout=3000)
+    assert widget.qr_label.pixmap().isNull()
     widget.tablets.setCurrentRow(0)
     widget.revoke_button.click()
     assert auth.registry.records[0].revoked and "REVOKED" in widget.tablets.item(0).text()
