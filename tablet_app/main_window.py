@@ -111,9 +111,7 @@ class TabletWindow(QMainWindow):
         self.languages = languages or LanguageSwitcher(parent=self)
         self.shown_plan = plan.in_language(self.languages.language)
         home = next((r.id for r in plan.rooms if r.home), plan.rooms[0].id if plan.rooms else None)
-        self.session = TabletSession(
-            room_names=self.room_name, room_xy=self._room_xy, home_room=home
-        )
+        self.session = TabletSession(room_xy=self._room_xy, home_room=home)
         self._connection_detail = ""
         self._touch = 0
         self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture
@@ -345,7 +343,7 @@ class TabletWindow(QMainWindow):
     def _on_status(self, msg: StatusInfo) -> None:
         """The station's progress on an accepted request, in the request's dialog."""
         if isinstance(self.dialog, QtShowRequestDialog):
-            self.dialog.set_status(activity_text(self, self.session))
+            self.dialog.set_status(activity_text(self.room_name, self.session))
 
     # ---------------------------------------------------------------- rendering the session
     def render(self) -> None:
@@ -417,9 +415,9 @@ class TabletWindow(QMainWindow):
 
     def _render_texts(self) -> None:
         s = self.session
-        self.activity_label.setText(activity_text(self, s))
+        self.activity_label.setText(activity_text(self.room_name, s))
         notice = s.notice
-        self.status_label.setText("" if notice is None else notice_text(self, notice))
+        self.status_label.setText("" if notice is None else notice_text(self.room_name, notice))
         self.status_label.setStyleSheet("color: #b00000;" if notice and notice.error else "")
 
     # ---------------------------------------------------------------- connection display

@@ -9,6 +9,8 @@ Portuguese catalogue covers it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from PySide6.QtCore import QCoreApplication
 
 from tablet_app.tablet_session import Notice, TabletSession
@@ -29,9 +31,9 @@ def malfunction_kind_text(kind: str) -> str:
     }.get(kind, kind)
 
 
-def notice_text(_widget: object, notice: Notice) -> str:
+def notice_text(room_name: Callable[[int], str], notice: Notice) -> str:
     """The outcome sentence for ``notice`` (unknown keys are shown as they are)."""
-    a = notice.args
+    a = tuple(room_name(v) if isinstance(v, int) else v for v in notice.args)
     templates = {
         "arrived": QCoreApplication.translate("TabletTexts", "Arrived at %1."),
         "cancelled": QCoreApplication.translate("TabletTexts", "Cancelled. I have stopped."),
@@ -70,7 +72,7 @@ def notice_text(_widget: object, notice: Notice) -> str:
     return " ".join(a) if template is None else _fill(template, *a)
 
 
-def activity_text(_widget: object, session: TabletSession) -> str:
+def activity_text(room_name: Callable[[int], str], session: TabletSession) -> str:
     """What the robot is doing, for anyone passing by."""
     s = session
     if not s.connected:
@@ -79,7 +81,7 @@ def activity_text(_widget: object, session: TabletSession) -> str:
         return QCoreApplication.translate("TabletTexts", "Stopped by the operator")
     if s.lost:
         return QCoreApplication.translate("TabletTexts", "I do not know where I am")
-    goal = s.room_names(s.goal.room) if s.goal is not None else None
+    goal = room_name(s.goal.room) if s.goal is not None else None
     state = s.activity
     if state == "navigating":
         text = (

@@ -201,3 +201,15 @@ def test_catalogue_is_complete_and_compiled() -> None:
     assert unfinished == []
     qm = TRANSLATIONS_DIR / "tablet_pt.qm"
     assert qm.stat().st_size > 1000
+
+
+def test_an_outcome_already_shown_changes_language_with_its_room_name(
+    qtbot: Any, station: Any, window: Any
+) -> None:
+    _arrived(qtbot, station, window)
+    assert window.status_label.text() == "Arrived at Office."
+    assert window.languages.set_language("pt")
+    try:
+        qtbot.waitUntil(lambda: window.status_label.text() == "Cheguei a Gabinete.")
+    finally:
+        window.languages.set_language("en")

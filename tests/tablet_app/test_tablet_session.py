@@ -7,9 +7,8 @@ from tablet_app.tablet_session import CANCEL_GRACE_S, HELP_ANSWER_S, Help, Table
 
 
 def session() -> TabletSession:
-    names = {0: "Entrance", 4: "Office"}
     xy = {0: (0.0, 0.0), 4: (10.0, 0.0)}
-    s = TabletSession(room_names=names.__getitem__, room_xy=xy.get, home_room=0)
+    s = TabletSession(room_xy=xy.get, home_room=0)
     s.on_connected()
     return s
 
@@ -62,7 +61,7 @@ def test_help_pose_confirmed_by_the_robot_says_thank_you() -> None:
     s.help_room_sent(4, now=0.0)
     s.on_localisation(Localisation("ok"))
     assert s.help is Help.NONE
-    assert s.notice is not None and (s.notice.key, s.notice.args) == ("help_thanks", ("Office",))
+    assert s.notice is not None and (s.notice.key, s.notice.args) == ("help_thanks", (4,))
 
 
 def test_reconnect_forgets_what_the_old_station_said() -> None:
