@@ -179,6 +179,8 @@ class KeyStore:
         path = Path(directory).expanduser()
         if (path / INVENTORY).exists() or (path / f"{CA_NAME}.key").exists():
             raise KeysError(f"{path} already holds Interbot keys; add members with add-robot etc.")
+        if path.exists() and (not path.is_dir() or any(path.iterdir())):
+            raise KeysError(f"{path} is not a new or empty directory; choose another for the keys")
         now = now or utcnow()
         path.mkdir(parents=True, exist_ok=True)
         os.chmod(path, 0o700)

@@ -40,6 +40,8 @@ def test_init_creates_a_ca_and_three_members_with_private_keys(store: KeyStore) 
 def test_init_refuses_an_existing_directory(store: KeyStore) -> None:
     with pytest.raises(KeysError, match="already holds"):
         KeyStore.init(store.dir)
+    with pytest.raises(KeysError, match="not a new or empty directory"):
+        KeyStore.init(store.dir.parent)  # holds the key directory: never chmod a user's folder
 
 
 @pytest.mark.parametrize(
