@@ -36,13 +36,14 @@ class StationSession:
     def __init__(
         self,
         connect: Sequence[str],
+        mode: str = "peer",
         lease_ms: int = 2500,
         *,
         security: LinkSecurity | None = None,
         insecure: bool = False,
     ) -> None:
         config = session_config(
-            [], list(connect), lease_ms=lease_ms, security=security, insecure=insecure
+            [], list(connect), mode, lease_ms=lease_ms, security=security, insecure=insecure
         )
         self.session: zenoh.Session | None = zenoh.open(config)
         logger.info("zenoh session open, connecting to %s", list(connect))
@@ -64,6 +65,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="ENDPOINT",
         help="zenoh endpoint of a robot or router (repeatable; default tcp/127.0.0.1:7447)",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=("peer", "client"),
+        default="peer",
+        help="zenoh mode: peer (connect to robots) or client (of a building's router)",
     )
     parser.add_argument(
         "--tablet-host", default="127.0.0.1", help="address to listen on for the tablet"
@@ -129,12 +136,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             tablet_host=args.tablet_host,
             file_settings=station_security.load_settings(args.config) if args.config else None,
         )
-        holder = StationSession(connect, security=security.link, insecure=security.insecure)
+        holder = StationSession(
+            connect, args.mode, security=security.link, insecure=security.insecure
+        )
     except station_security.StationSecurityError as exc:
         sys.stderr.write(f"interbot-base-station: {exc}\n")
         return 2
     except (LinkError, zenoh.ZError) as exc:
-        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}\n")
+        hint = (
+            " (is the building's router running? start it with `interbot router`)"
+            if args.mode == "client"
+            else ""
+        )
+        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}{hint}\n")
         return 2
 
     from PySide6.QtCore import Qt

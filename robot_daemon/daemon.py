@@ -10,6 +10,7 @@ service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh 
 from __future__ import annotations
 
 import logging
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -338,14 +339,40 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
     return 0, 0
 
 
+def _wait_for_router(connect: tuple[str, ...], stop: threading.Event) -> bool:
+    """A zenoh client cannot open without its router: probe it until it answers (0.2 s doubling
+    to 2 s) or ``stop``; True when reachable. The robot stays still meanwhile (no session, no
+    commands; the motors' own watchdog holds them)."""
+    delay = 0.2
+    while not stop.is_set():
+        for endpoint in connect:
+            host, _, port = endpoint.split("/", 1)[-1].rpartition(":")
+            try:
+                with socket.create_connection((host.strip("[]"), int(port)), timeout=1.0):
+                    return True
+            except OSError:
+                continue
+        logger.warning("zenoh router not reachable at %s; retrying in %.1f s", connect, delay)
+        stop.wait(delay)
+        delay = min(2.0, delay * 2)
+    return False
+
+
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
     z = config.zenoh
     security, insecure = link_security(config)  # fails fast: keys, endpoints (issue 15)
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
+    if z.mode == "client" and not _wait_for_router(z.connect, stop):
+        return
     with open_session(
-        list(z.listen), list(z.connect), lease_ms=z.lease_ms, security=security, insecure=insecure
+        list(z.listen),
+        list(z.connect),
+        z.mode,
+        z.lease_ms,
+        security=security,
+        insecure=insecure,
     ) as session:
         link = RobotLink(session, config.robot_id)
         try:
