@@ -4,6 +4,7 @@
     interbot keys add-robot NAME [--host H] [--dir DIR]
     interbot keys add-station NAME [--dir DIR]
     interbot keys add-observer NAME [--dir DIR]
+    interbot keys add-router NAME [--host H] [--dir DIR]   a building's router (interbot router)
     interbot keys revoke NAME [--dir DIR]
     interbot keys list [--dir DIR]
     interbot keys export NAME OUTDIR [--dir DIR]  what NAME's machine needs, without ca.key
@@ -35,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p_init.add_argument("dir", type=Path, help="new key directory")
     p_init.add_argument("--robot", default="interbot1", help="the first robot's id")
     p_init.add_argument("--days", type=int, default=LEAF_DAYS, help="certificate lifetime")
-    for role in ("robot", "station", "observer"):
+    for role in ("robot", "station", "observer", "router"):
         p_add = sub.add_parser(f"add-{role}", help=f"issue a certificate for a new {role}")
         p_add.add_argument("name", help="its name (for a robot: its robot id)")
         p_add.add_argument(

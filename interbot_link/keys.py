@@ -38,7 +38,7 @@ from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 logger = logging.getLogger(__name__)
 
-ROLES: Final = ("robot", "station", "observer")
+ROLES: Final = ("robot", "station", "observer", "router")
 NAME_PATTERN: Final = re.compile(r"[A-Za-z0-9_-]{1,32}")
 INVENTORY: Final = "interbot-keys.yaml"
 CA_NAME: Final = "ca"

@@ -57,6 +57,7 @@ class LinkSecurity:
     robots: tuple[str, ...]
     stations: tuple[str, ...]
     observers: tuple[str, ...]
+    routers: tuple[str, ...] = ()
 
     @classmethod
     def load(
@@ -70,8 +71,8 @@ class LinkSecurity:
         """Validate ``name``'s certificate (role, CA, expiry, key) in ``directory``."""
         store = KeyStore(directory)
         identity = store.identity(name, role, now=now)
-        names = {role: store.names(role, now=now) for role in ("robot", "station", "observer")}
-        return cls(identity, names["robot"], names["station"], names["observer"])
+        names = {r: store.names(r, now=now) for r in ("robot", "station", "observer", "router")}
+        return cls(identity, names["robot"], names["station"], names["observer"], names["router"])
 
     @property
     def role(self) -> str:
@@ -98,10 +99,14 @@ class LinkSecurity:
         """The ``access_control`` section for this node's role (default deny)."""
         if self.role == "robot":
             rules, subjects, policies = robot_rules(
-                self.identity.name, self.stations, self.observers
+                self.identity.name, self.stations, self.observers, self.routers
             )
+        elif self.role == "router":
+            rules, subjects, policies = router_rules(self.robots, self.stations, self.observers)
         else:
-            rules, subjects, policies = peer_rules(self.robots, commands=self.role == "station")
+            rules, subjects, policies = peer_rules(
+                self.robots, commands=self.role == "station", routers=self.routers
+            )
         return {
             "enabled": True,
             "default_permission": "deny",
@@ -127,9 +132,16 @@ def _subject(subject_id: str, names: tuple[str, ...]) -> dict[str, Any]:
 
 
 def robot_rules(
-    robot_id: str, stations: tuple[str, ...], observers: tuple[str, ...]
+    robot_id: str,
+    stations: tuple[str, ...],
+    observers: tuple[str, ...],
+    routers: tuple[str, ...] = (),
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
-    """Rules, subjects and policies of robot ``robot_id``'s access control."""
+    """Rules, subjects and policies of robot ``robot_id``'s access control.
+
+    A router (``interbot router --security``) relays stations' commands and enforces who sent
+    them (`router_rules`), so a robot that is its client grants it what it grants stations.
+    """
     base = f"{KEY_PREFIX}/{robot_id}"
     rules = [
         _rule("commands_in", "ingress", ["put"], [f"{base}/{c}" for c in _COMMANDS]),
@@ -157,7 +169,7 @@ def robot_rules(
         ),
     ]
     watch = ["state_out", "state_query_out", "alive_out", "watch_in", "query_in", "alive_watch_in"]
-    subjects = [_subject("stations", stations), _subject("observers", observers)]
+    subjects = [_subject("stations", stations + routers), _subject("observers", observers)]
     policies = [
         {"rules": ["commands_in", "command_subscriber_out", *watch], "subjects": ["stations"]},
         {"rules": watch, "subjects": ["observers"]},
@@ -166,13 +178,22 @@ def robot_rules(
 
 
 def peer_rules(
-    robots: tuple[str, ...], *, commands: bool
+    robots: tuple[str, ...], *, commands: bool, routers: tuple[str, ...] = ()
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
-    """Rules of a station (``commands=True``) or an observer facing ``robots``."""
+    """Rules of a station (``commands=True``) or an observer facing ``robots``.
+
+    Through a router (which checks that each robot speaks only under its own prefix,
+    `router_rules`) the station accepts robot state for any robot id from the router.
+    """
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
-    for index, robot in enumerate(robots):
+    sources: list[tuple[str, str, tuple[str, ...]]] = [
+        (robot, f"robot{index}", (robot,)) for index, robot in enumerate(robots)
+    ]
+    if routers:
+        sources.append(("*", "routers", routers))
+    for index, (robot, subject, names) in enumerate(sources):
         base = f"{KEY_PREFIX}/{robot}"
         rule_ids = [f"r{index}_state_in", f"r{index}_query_in", f"r{index}_subs_in"]
         rules += [
@@ -190,8 +211,8 @@ def peer_rules(
                 [f"{base}/{ALIVE}", f"{base}/*"],
             ),
         ]
-        subjects.append(_subject(f"robot{index}", (robot,)))
-        policies.append({"rules": rule_ids, "subjects": [f"robot{index}"]})
+        subjects.append(_subject(subject, names))
+        policies.append({"rules": rule_ids, "subjects": [subject]})
     out = [
         _rule("watch_out", "egress", ["declare_subscriber"], [f"{KEY_PREFIX}/**"]),
         _rule("query_out", "egress", ["query"], [f"{KEY_PREFIX}/*/{STATE_QUERY}"]),
@@ -207,8 +228,73 @@ def peer_rules(
             _rule("commands_out", "egress", ["put"], [f"{KEY_PREFIX}/*/{c}" for c in _COMMANDS])
         )
     rules += out
-    subjects.append(_subject("robots", robots))
+    subjects.append(_subject("robots", robots + routers))
     policies.append({"rules": [r["id"] for r in out], "subjects": ["robots"]})
+    return rules, subjects, policies
+
+
+def router_rules(
+    robots: tuple[str, ...], stations: tuple[str, ...], observers: tuple[str, ...]
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[dict[str, Any]]]:
+    """Rules of a building's router: the robot and station rules, enforced in the middle.
+
+    Robot ``R`` may publish state, answer the state query, hold its liveliness token and
+    declare its command subscriber only under ``interbot/R/``, and receives only commands for
+    ``R``; stations may send commands and watch; observers only watch.
+    """
+    rules: list[dict[str, Any]] = []
+    subjects: list[dict[str, Any]] = []
+    policies: list[dict[str, Any]] = []
+    alive = f"{KEY_PREFIX}/*/{ALIVE}"
+    for index, robot in enumerate(robots):
+        base = f"{KEY_PREFIX}/{robot}"
+        ids = [f"r{index}_{n}" for n in ("state", "query", "subs", "cmd", "watch", "ask", "alive")]
+        rules += [
+            _rule(ids[0], "ingress", ["put"], [f"{base}/{s}" for s in _STATES]),
+            _rule(ids[1], "ingress", ["reply", "declare_queryable"], [f"{base}/{STATE_QUERY}"]),
+            _rule(
+                ids[2],
+                "ingress",
+                ["liveliness_token", "declare_subscriber"],
+                [f"{base}/{ALIVE}", f"{base}/*"],
+            ),
+            _rule(ids[3], "egress", ["put"], [f"{base}/{c}" for c in _COMMANDS]),
+            _rule(ids[4], "egress", ["declare_subscriber"], [f"{base}/**"]),
+            _rule(ids[5], "egress", ["query"], [f"{base}/{STATE_QUERY}"]),
+            _rule(ids[6], "egress", ["declare_liveliness_subscriber", "liveliness_query"], [alive]),
+        ]
+        subjects.append(_subject(f"robot{index}", (robot,)))
+        policies.append({"rules": ids, "subjects": [f"robot{index}"]})
+    any_robot = f"{KEY_PREFIX}/*"
+    watch = [
+        _rule("watch_in", "ingress", ["declare_subscriber"], [f"{KEY_PREFIX}/**"]),
+        _rule("query_in", "ingress", ["query"], [f"{any_robot}/{STATE_QUERY}"]),
+        _rule(
+            "alive_watch_in",
+            "ingress",
+            ["declare_liveliness_subscriber", "liveliness_query"],
+            [alive],
+        ),
+        _rule("state_out", "egress", ["put"], [f"{any_robot}/{s}" for s in _STATES]),
+        _rule(
+            "state_query_out",
+            "egress",
+            ["reply", "declare_queryable"],
+            [f"{any_robot}/{STATE_QUERY}"],
+        ),
+        _rule("alive_out", "egress", ["liveliness_token"], [alive]),
+    ]
+    command = [
+        _rule("commands_in", "ingress", ["put"], [f"{any_robot}/{c}" for c in _COMMANDS]),
+        _rule("command_subscriber_out", "egress", ["declare_subscriber"], [f"{any_robot}/*"]),
+    ]
+    rules += watch + command
+    subjects += [_subject("stations", stations), _subject("observers", observers)]
+    watch_ids = [r["id"] for r in watch]
+    policies += [
+        {"rules": watch_ids + [r["id"] for r in command], "subjects": ["stations"]},
+        {"rules": watch_ids, "subjects": ["observers"]},
+    ]
     return rules, subjects, policies
 
 
