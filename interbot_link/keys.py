@@ -390,6 +390,12 @@ class KeyStore:
         cert = load_cert(cert_path)
         check_certificate(cert, self.ca_cert, str(cert_path), now=now)
         key = _load_key(key_path)
+        if key_path.stat().st_mode & 0o077:
+            logger.warning(
+                "%s is readable by other users (mode %o): chmod 600 it",
+                key_path,
+                key_path.stat().st_mode & 0o777,
+            )
         if key.public_key().public_numbers() != cert.public_key().public_numbers():  # type: ignore[union-attr]
             raise KeysError(f"{key_path} is not the private key of {cert_path}")
         if cert_sha256(cert) != member.sha256:

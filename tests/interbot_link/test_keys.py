@@ -54,7 +54,9 @@ def test_bad_members_are_refused(store: KeyStore, name: str, role: str, match: s
         store.add(name, role)
 
 
-def test_wrong_certificates_give_a_clear_error(store: KeyStore, tmp_path: Path) -> None:
+def test_wrong_certificates_give_a_clear_error(
+    store: KeyStore, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
     with pytest.raises(KeysError, match=r"no certificate for 'nobody'.*add-station nobody"):
         store.identity("nobody", "station")
     with pytest.raises(KeysError, match="is a robot, not a station"):
@@ -70,6 +72,10 @@ def test_wrong_certificates_give_a_clear_error(store: KeyStore, tmp_path: Path) 
     with pytest.raises(KeysError, match="not issued by this Interbot CA"):
         KeyStore(copy).identity("station", now=NOW)
     shutil.copy(store.dir / "station.crt", copy / "station.crt")
+    (copy / "station.key").chmod(0o644)
+    with caplog.at_level("WARNING"):
+        KeyStore(copy).identity("station", now=NOW)
+    assert "readable by other users" in caplog.text
     shutil.copy(store.dir / "observer.key", copy / "station.key")
     with pytest.raises(KeysError, match="not the private key"):
         KeyStore(copy).identity("station", now=NOW)
