@@ -149,7 +149,7 @@ class PairedTlsConnection(QtTcpConnection):
         if "refused" in first:
             reason = str((first.get("refused") or {}).get("reason", "refused"))
             self.object_received.emit(first)  # the protocol's own refusal: the UI shows it
-            self._fail(f"the station refused this tablet: {reason}")
+            self._fail(f"the station refused this tablet: {reason}", shown=True)
             return
         body = first.get("paired") or first.get("authorised")
         if not isinstance(body, dict) or not isinstance(body.get("tablet_id"), str):
@@ -174,8 +174,11 @@ class PairedTlsConnection(QtTcpConnection):
             else:
                 self.object_received.emit(item)
 
-    def _fail(self, reason: str) -> None:
+    def _fail(self, reason: str, *, shown: bool = False) -> None:
+        """Drop the connection; the reason reaches the screen as a refusal (never silent)."""
         logger.warning("%s", reason)
+        if not shown:
+            self.object_received.emit({"refused": {"reason": f"not connected: {reason}"}})
         self.auth_failed.emit(reason)
         self.socket_error.emit(reason)
         if self._ssl.state() != QAbstractSocket.SocketState.UnconnectedState:

@@ -129,6 +129,7 @@ def test_a_wrong_pin_sends_nothing(qtbot, station: Station) -> None:
     with qtbot.waitSignal(link.auth_failed, timeout=5000) as blocker:
         conn.start()
     assert "is not the one this tablet was paired with" in blocker.args[0]
+    assert "is not the one this tablet was paired with" in conn.last_refusal  # on screen
     conn.stop()
     assert station.received == [] and not station.server.is_connected
 
