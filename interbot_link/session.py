@@ -61,7 +61,7 @@ _ENDPOINT = re.compile(
 
 
 def validate_endpoint(endpoint: str, *, listen: bool, secure: bool = False) -> str:
-    """Return ``endpoint`` if it is ``tcp/HOST:PORT`` and safe, else raise LinkConfigError.
+    """Return ``endpoint`` if it is ``tcp/HOST:PORT`` (or ``tls/``) and safe, else raise.
 
     With ``secure`` the endpoint must be ``tls/HOST:PORT`` instead (and ``tls/`` is refused
     without it: TLS needs the keys of ``--security``).
@@ -72,8 +72,8 @@ def validate_endpoint(endpoint: str, *, listen: bool, secure: bool = False) -> s
     match = _ENDPOINT.fullmatch(endpoint) if isinstance(endpoint, str) else None
     if match is None:
         raise LinkConfigError(
-            f"endpoint {endpoint!r} is not tcp/HOST:PORT (e.g. tcp/127.0.0.1:7447); "
-            "only TCP endpoints are allowed"
+            f"endpoint {endpoint!r} is not tcp/HOST:PORT (e.g. tcp/127.0.0.1:7447) or, "
+            "with --security, tls/HOST:PORT; no other protocols are allowed"
         )
     scheme = match["scheme"]
     if secure and scheme != SECURE_SCHEME:
