@@ -48,7 +48,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--people", type=int, help="simulated people walking the corridors")
     p.add_argument("--speed", type=float, help="simulated time per wall second (default 1)")
     p.add_argument("--robot-id", help="robot id in interbot/<robot_id>/<topic>")
-    p.add_argument("--listen", action="append", default=[], help="zenoh endpoint tcp/HOST:PORT")
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        help="zenoh endpoint tcp/HOST:PORT (tls/HOST:PORT with --security)",
+    )
     p.add_argument("--connect", action="append", default=[], help="zenoh endpoint to connect to")
     p.add_argument(
         "--mode",
