@@ -1,4 +1,4 @@
-"""`interbot` command line: ``demo``, ``scenario``, ``bench``, ``calibrate`` and ``router``.
+"""`interbot` command line: ``demo``, ``scenario``, ``bench``, ``calibrate``, ``router``, ``keys``.
 
 This package only composes the others (the core never imports the daemon or the apps); each
 subcommand validates its arguments and fails with a one-line message, never a traceback.
@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from interbot_cli import bench, calibrate, demo, replay, router
+from interbot_cli import bench, calibrate, demo, keys, replay, router
 
 logger = logging.getLogger(__name__)
 
@@ -60,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p_router = sub.add_parser("router", help="run the building's zenoh router")
     router.add_arguments(p_router)
+
+    p_keys = sub.add_parser("keys", help="certificates for the secure links (docs/security.md)")
+    keys.add_arguments(p_keys)
     return parser
 
 
@@ -89,6 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return calibrate.run(args)
         if args.command == "router":
             return router.run(args)
+        if args.command == "keys":
+            return keys.run(args)
     except NotBuiltError as exc:
         print(f"interbot {args.command}: {exc}", file=sys.stderr)
         return EXIT_NOT_BUILT

@@ -45,6 +45,7 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
@@ -364,14 +365,25 @@ def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
     from robot_daemon.recording import daemon_hook  # MCAP recording, live Foxglove view
 
+    z = config.zenoh
+    security, insecure = link_security(config)  # fails fast: keys, endpoints (issue 15)
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
-    recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now)
-    z = config.zenoh
+    tls = None
+    if security is not None:  # the live Foxglove view may then serve wss:// off the machine
+        tls = (security.identity.cert.read_bytes(), security.identity.key.read_bytes())
+    recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now, tls)
     try:
         if z.mode == "client" and not _wait_for_router(z.connect, stop):
             return
-        with open_session(list(z.listen), list(z.connect), z.mode, z.lease_ms) as session:
+        with open_session(
+            list(z.listen),
+            list(z.connect),
+            z.mode,
+            z.lease_ms,
+            security=security,
+            insecure=insecure,
+        ) as session:
             link = daemon_hook.make_link(session, daemon, recorder)
             try:
                 daemon.run(link, stop, notifier)

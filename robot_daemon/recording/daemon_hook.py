@@ -188,11 +188,18 @@ def build_recorder(
 
 
 def build_daemon_recorder(
-    config: DaemonConfig, options: DaemonOptions, now: float
+    config: DaemonConfig,
+    options: DaemonOptions,
+    now: float,
+    tls: tuple[bytes, bytes] | None = None,
 ) -> Recorder | None:
-    """The recorder robot.yaml and the command line ask for; every refusal is a ConfigError."""
+    """The recorder robot.yaml and the command line ask for; every refusal is a ConfigError.
+
+    ``tls`` (the robot's certificate and key, with ``--security``) lets the live view listen
+    beyond loopback, over wss:// only.
+    """
     try:
-        live = parse_live_address(options.foxglove) if options.foxglove else None
+        live = parse_live_address(options.foxglove, tls=tls) if options.foxglove else None
         config_dir = Path(config.source).parent if config.source.endswith(".yaml") else Path.cwd()
         return build_recorder(
             config.robot_id,

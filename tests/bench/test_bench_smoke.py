@@ -63,6 +63,12 @@ POSITIVE = {
         "teleop_samples",
         "station_scan_view_hz",
     ],
+    "tablet_tls": [
+        "tablet_rtt_plain_ms_p50",
+        "tablet_rtt_tls_ms_p50",
+        "tablet_rtt_tls_ms_p99",
+        "tablet_tls_connect_ms_p50",
+    ],
 }
 NON_NEGATIVE = {
     "tour": [
