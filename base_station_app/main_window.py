@@ -13,12 +13,20 @@ from dataclasses import fields
 
 from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
-from PySide6.QtWidgets import QMainWindow, QSplitter, QTabWidget, QToolBar, QWidget
+from PySide6.QtWidgets import (
+    QMainWindow,
+    QSplitter,
+    QTabWidget,
+    QToolBar,
+    QVBoxLayout,
+    QWidget,
+)
 
 from base_station_app.qt_camera_view import QtCameraView
 from base_station_app.qt_config_panel import QtConfigPanel
 from base_station_app.qt_diagnostics_panel import QtDiagnosticsPanel
 from base_station_app.qt_map_view import QtMapView
+from base_station_app.qt_replay_bar import QtReplayBar
 from base_station_app.qt_robots_panel import QtRobotsPanel
 from base_station_app.qt_state_panel import QtStatePanel
 from base_station_app.qt_tablet_panel import QtTabletPanel
@@ -29,10 +37,19 @@ from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import PERMISSION_KINDS
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoToPose
+from interbot_link.replay import ReplayControlClient
 
 logger = logging.getLogger(__name__)
 
 TAB_NAMES = ("state", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
+
+
+ESTOP_STYLE = (
+    "QToolButton#estop_button { background: #d00000; color: white; font-size: 16pt;"
+    " font-weight: bold; border: 3px solid #700000; border-radius: 6px; padding: 6px 18px; }"
+    "QToolButton#estop_button:pressed { background: #900000; }"
+)
+ESTOP_MIN_W, ESTOP_MIN_H = 220, 48  # [px] the largest control on the window
 
 
 class MainWindow(QMainWindow):
@@ -84,11 +101,13 @@ class MainWindow(QMainWindow):
         # The floor plan is wide (70 m x 28 m): the camera goes under the map, beside it on
         # screen, and the control tabs get the full height on the right.
         left = QSplitter(Qt.Orientation.Vertical)
-        left.addWidget(self.map_view)
+        left.addWidget(self._with_replay_bar(self.map_view))
         left.addWidget(self.camera_view)
         left.setStretchFactor(0, 3)
         left.setStretchFactor(1, 2)
         left.setSizes([520, 400])
+        self._left = left
+        self.camera_view.aspect_changed.connect(self.fit_camera)
         self.splitter = QSplitter(Qt.Orientation.Horizontal)
         self.splitter.addWidget(left)
         self.splitter.addWidget(self.tabs)
@@ -98,10 +117,28 @@ class MainWindow(QMainWindow):
         self.setCentralWidget(self.splitter)
         self.statusBar().showMessage("ready")
 
+    def _with_replay_bar(self, map_view: QWidget) -> QWidget:
+        """The map view with the replay bar under it (shown only for a replayed robot)."""
+        c = self.controller
+        client = ReplayControlClient(c.link.session) if c.link is not None else None
+        self.replay_bar = QtReplayBar(c, client)
+        box = QWidget()
+        layout = QVBoxLayout(box)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(map_view, 1)
+        layout.addWidget(self.replay_bar)
+        return box
+
     def _create_actions(self) -> None:
         c = self.controller
         bar = QToolBar("Main")
         bar.setObjectName("main_toolbar")
+        # Always there: the bar cannot be hidden, moved or floated away (the stop lives on it).
+        bar.setMovable(False)
+        bar.setFloatable(False)
+        bar.toggleViewAction().setEnabled(False)
+        bar.toggleViewAction().setVisible(False)
         self.addToolBar(bar)
         self.estop_action = QAction("EMERGENCY STOP", self)
         self.estop_action.setShortcut(QKeySequence(Qt.Key.Key_F12))
@@ -136,6 +173,20 @@ class MainWindow(QMainWindow):
         ):
             bar.addAction(action)
             self.addAction(action)
+        self.estop_button = bar.widgetForAction(self.estop_action)
+        self.estop_button.setObjectName("estop_button")
+        self.estop_button.setToolTip("Emergency stop (F12): latches until released here")
+        self.estop_button.setStyleSheet(ESTOP_STYLE)
+        self.estop_button.setMinimumSize(ESTOP_MIN_W, ESTOP_MIN_H)
+
+    def fit_camera(self, aspect: float | None = None) -> None:
+        """Give the camera pane the image's shape (at most 45 % of the height), map the rest."""
+        aspect = aspect or self.camera_view.aspect
+        total = sum(self._left.sizes())
+        if total <= 0 or aspect <= 0:
+            return
+        camera = min(int(self._left.width() / aspect), int(0.45 * total))
+        self._left.setSizes([total - camera, camera])
 
     def _connect_signals(self) -> None:
         c = self.controller

@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from base_station_app.display_text import age_text
 from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import PERMISSION_KINDS, describe_task
 
@@ -80,6 +81,11 @@ class QtTabletPanel(QWidget):
             row.addWidget(b)
         tlo.addLayout(row)
         layout.addWidget(task)
+        if controller.tablet_auth is not None:  # TLS + pairing (issue 15)
+            from base_station_app.qt_tablet_pairing import QtTabletPairing
+
+            self.pairing = QtTabletPairing(controller.tablet_auth)
+            layout.addWidget(self.pairing)
 
         self.override_button.clicked.connect(controller.tablet_task_override)
         self.stop_button.clicked.connect(controller.tablet_task_stop)
@@ -124,7 +130,7 @@ class QtTabletPanel(QWidget):
         since = (
             "no speed command yet"
             if math.isinf(latency)
-            else f"{latency * 1000:.0f} ms since last speed"
+            else f"last speed command {age_text(latency)} ago"
         )
         state = "forwarding" if c.tablet_speed is not None else "idle"
         self.watchdog_label.setText(

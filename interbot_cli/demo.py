@@ -1,7 +1,9 @@
 """`interbot demo`: the simulated robot, the Base Station and the Tablet on this machine.
 
 All links stay on 127.0.0.1 with ports the OS picks. On a machine with no display this says so
-and how to proceed, instead of a Qt platform traceback.
+and how to proceed, instead of a Qt platform traceback; on an X11 display whose system lacks the
+libraries Qt's xcb plugin needs, it installs them when it may (root or passwordless sudo) or
+prints the one command to run (`system_libs`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--people", type=int, default=4, help="people walking the corridors")
     parser.add_argument(
         "--duration", type=float, default=0.0, help="stop after this many seconds (0: run on)"
+    )
+    parser.add_argument(
+        "--insecure-demo",
+        action="store_true",
+        help="plaintext links as in the thesis (default: mutual TLS, paired tablet, keys "
+        "made on first use in ~/.config/interbot/demo-keys)",
     )
 
 
@@ -52,6 +60,13 @@ def run(args: argparse.Namespace) -> int:
     missing = missing_parts()
     if missing:
         raise NotBuiltError("the demo needs parts that are not built yet: " + ", ".join(missing))
-    from interbot_cli import demo_launcher
+    from interbot_cli import demo_launcher, system_libs
+
+    if system_libs.uses_xcb():
+        try:
+            system_libs.ensure_xcb_libraries()
+        except system_libs.SystemLibsError as exc:
+            print(f"interbot demo: {exc}", file=sys.stderr)
+            return 2
 
     return int(demo_launcher.launch(args))
