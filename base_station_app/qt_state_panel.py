@@ -18,7 +18,13 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from base_station_app.display_text import UNSET, estop_text, orientation_text, position_text
+from base_station_app.display_text import (
+    UNSET,
+    estop_text,
+    localisation_text,
+    orientation_text,
+    position_text,
+)
 from base_station_app.qt_speedometer import QtSpeedometer
 from base_station_app.station_controller import StationController
 
@@ -26,15 +32,6 @@ LEVEL_COLOURS = {
     "info": QColor(20, 20, 20),
     "warning": QColor(170, 100, 0),
     "error": QColor(200, 0, 0),
-}
-
-#: What the panel shows for each localisation state (interbot_core.topics.POSE_STATES).
-LOCALISATION_TEXT = {
-    "ok": "localised",
-    "degraded": "DEGRADED (uncertain: driving slowly)",
-    "lost": "LOST",
-    "searching": "searching (global localisation)",
-    "unset": "initial pose not set",
 }
 
 
@@ -113,16 +110,7 @@ class QtStatePanel(QWidget):
         L["pose"].setText(position_text(s.pose))
         L["orientation"].setText(orientation_text(s.pose))
         loc = s.localisation
-        sigmas = None if s.pose is None else s.pose.sigmas
-        L["localisation"].setText(
-            LOCALISATION_TEXT.get(loc, loc)
-            + ("" if s.pose is None else f" (confidence {s.pose.confidence:.2f})")
-            + (
-                ""
-                if sigmas is None
-                else f", ±{max(sigmas[0], sigmas[1]) * 100:.0f} cm, ±{math.degrees(sigmas[2]):.1f}°"
-            )
-        )
+        L["localisation"].setText(localisation_text(loc, s.pose))
         if s.battery is not None:
             b = s.battery
             L["battery"].setText(f"{b.voltage:.1f} V, {b.soc * 100:.0f} %, {b.current:.1f} A")
