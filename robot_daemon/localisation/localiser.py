@@ -128,6 +128,7 @@ class LocaliserConfig:
     initial_sigma_rad: float = 0.17
     slide_test_m: float = 0.3  # shift testing the information along the weakest direction
     slide_turn_rad: float = 0.025  # the slide test also tries the shifted pose turned by ±this
+    slide_max_m: float = 1.5  # the slide test's shift grows with the prior's sigma up to this
     slide_points: int = 150  # end points the slide test uses
     gate_chi2: float = 16.27  # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
     degraded_sigma_m: float = 0.1  # largest position sigma above this -> degraded
@@ -173,6 +174,7 @@ class LocaliserConfig:
             ("slide_test_m", self.slide_test_m, 0.01, 10.0),
             ("slide_turn_rad", self.slide_turn_rad, 0.0, 0.5),
             ("slide_points", self.slide_points, 20, 5000),
+            ("slide_max_m", self.slide_max_m, 0.01, 10.0),
             ("degraded_sigma_m", self.degraded_sigma_m, 1e-3, 100.0),
             ("degraded_sigma_rad", self.degraded_sigma_rad, 1e-4, math.pi),
             ("ok_after_s", self.ok_after_s, 0.0, 60.0),
@@ -665,7 +667,11 @@ class Localiser:
         return float(scores[1:].max()) / base
 
     def _without_slide(
-        self, points: FloatArray, result: MatchResult, info: FloatArray
+        self,
+        points: FloatArray,
+        result: MatchResult,
+        info: FloatArray,
+        cov_pred: FloatArray | None = None,
     ) -> FloatArray:
         """``info`` with its information along the scan's weakest position direction ``d``
         limited to what sliding the scan along ``d`` shows.
@@ -688,14 +694,22 @@ class Localiser:
         """
         cfg = self.config
         _, vecs = np.linalg.eigh(info[:2, :2])
-        d = np.array([vecs[0, 0], vecs[1, 0], 0.0]) * cfg.slide_test_m  # the shift [m]
+        v = np.array([vecs[0, 0], vecs[1, 0], 0.0])
+        # The shift covers the prediction's spread along v (3 sigma, up to slide_max_m): the
+        # information must hold over the poses the prior allows, not only locally (door
+        # frames every few metres of a long corridor make local minima a metre apart).
+        shift = cfg.slide_test_m
+        if cov_pred is not None:
+            spread = 3.0 * math.sqrt(max(float(v @ cov_pred @ v), 0.0))
+            shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
+        d = v * shift  # the shift [m]
         idv = info @ d
         dd = float(d @ idv)
         if dd <= 0.0:
             return info
         ratio = self.slide_ratio(points, result.pose, d)
         n_eff = min(float(result.n_inliers), cfg.match_effective_points)
-        supported = max(0.0, 1.0 - ratio) * n_eff * cfg.slide_test_m**2 / cfg.match_sigma_m**2
+        supported = max(0.0, 1.0 - ratio) * n_eff * shift**2 / cfg.match_sigma_m**2
         if supported >= dd:
             return info
         out: FloatArray = info - np.outer(idv, idv) / dd
@@ -722,7 +736,7 @@ class Localiser:
         cfg = self.config
         info = self.match_information(result)
         if points is not None:
-            info = self._without_slide(points, result, info)
+            info = self._without_slide(points, result, info, cov_pred)
         try:
             p_post = np.linalg.inv(np.linalg.inv(cov_pred) + info)
         except np.linalg.LinAlgError:
