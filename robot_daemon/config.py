@@ -9,7 +9,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     backend: sim                        # sim | hardware (hardware: issue 7)
     mux: ../resources/config/twist_mux.yaml
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}
-    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
+    localiser: {map_surface: cell_centre}  # cell_centre | cell_face (see LocaliserSettings)
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
 """
@@ -111,28 +111,23 @@ MAP_SURFACES = ("cell_face", "cell_centre")
 
 @dataclass(frozen=True)
 class LocaliserSettings:
-    """Where a wall lies in an occupied map cell, for the scan matcher.
+    """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
+    whatever the backend (issue 12: the choice must not suit the simulator).
 
-    ``cell_face``: on the cell's boundary with free space, true when the world *is* the grid
-    (the simulator) or the map was rasterised from a floor plan. ``cell_centre``: through the
-    cell, true on average for maps built from laser end points (SLAM: gmapping, Hector,
-    Cartographer). ``auto`` picks ``cell_face`` for the simulator and ``cell_centre`` for real
-    hardware.
+    ``cell_centre`` (default): through the cell, true on average for maps built from laser end
+    points (SLAM: gmapping, Hector, Cartographer), the maps real robots use. ``cell_face``: on
+    the cell's boundary with free space, for maps rasterised from a floor plan when the plan is
+    known to be exact.
     """
 
-    map_surface: str = "auto"
+    map_surface: str = "cell_centre"
 
     def __post_init__(self) -> None:
-        if self.map_surface not in ("auto", *MAP_SURFACES):
+        if self.map_surface not in MAP_SURFACES:
             raise ConfigError(
-                f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
+                f"localiser: 'map_surface' must be cell_face or cell_centre, "
                 f"got {self.map_surface!r}"
             )
-
-    def surface_for(self, backend: str) -> str:
-        if self.map_surface != "auto":
-            return self.map_surface
-        return "cell_face" if backend == "sim" else "cell_centre"
 
 
 @dataclass(frozen=True)

@@ -45,8 +45,9 @@ from interbot_core.supervisor import (
 )
 from interbot_core.topics import RouteMsg
 from interbot_core.topological_map import TopologicalMap, load_topological_map
-from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
-from robot_daemon.localisation.localiser import LocaliserState
+from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO, LocaliserSettings
+from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.sim.laser_sim import LaserConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.realistic_world import SimWorldSpec, build_sim_world, plan_beside
@@ -232,7 +233,11 @@ class SimulatedSystem:
             )
             self.initial_pose_error = person_set_pose_error(np.random.default_rng(pose_seed))
         self.sim = Simulator(world_grid, sim_config, rng_seed=options.seed)
-        stack_config = stack_config or StackConfig()
+        if stack_config is None:  # the daemon's wall model, the same as on the robot
+            surface = LocaliserSettings().map_surface
+            stack_config = StackConfig(
+                localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface))
+            )
         rates = stack_config.rates
         self.backend = SimBackend(
             self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0

@@ -9,8 +9,7 @@ builds the simulator's own world, deterministic for a seed:
 
 * **From a floor plan** (``maps/<name>_plan.yaml`` beside the map, the ISR floor's source): the
   plan is drawn again at ``resolution`` (2 cm) with every room displaced by ``N(0, wall_sigma)``
-  in x and y and every corridor by half that, so walls lie off the map's by a few centimetres and
-  off its 5 cm lattice; ``doors_closed`` doors the map has open are shut (never of a room with a
+  in x and y, so walls lie off the map's by a few centimetres and off its 5 cm lattice; ``doors_closed`` doors the map has open are shut (never of a room with a
   node inside it), ``doors_opened`` doors the map does not have are cut; ``tables_moved`` pieces
   of furniture stand 0.3-0.6 m from where the map has them; ``glass_panels`` wall sections facing
   a corridor are glass (solid to the robot, transparent to the laser but at near-normal
@@ -43,7 +42,6 @@ import numpy as np
 import numpy.typing as npt
 
 from interbot_core.floor_plan import (
-    Area,
     Door,
     FloorPlan,
     FloorPlanError,
@@ -176,11 +174,12 @@ def _opens(plan: FloorPlan, room: Room) -> bool:
 def _displace_plan(
     plan: FloorPlan, rng: np.random.Generator, sigma: float
 ) -> tuple[FloorPlan, float]:
-    """Rooms displaced by N(0, sigma) per axis, corridors by N(0, sigma / 2); RMS offset [m]."""
-    corridors = tuple(
-        Area(c.name, _shift(c.rect, *rng.normal(0.0, sigma / 2, 2))) for c in plan.corridors
-    )
-    moved = dataclasses.replace(plan, corridors=corridors)
+    """Rooms displaced by N(0, sigma) per axis; RMS offset [m].
+
+    Corridors stay where the plan has them: they abut one another, and moving two abutting
+    floors apart would leave a sliver of wall across the junction that no building has.
+    """
+    moved = plan
     rooms: list[Room] = []
     offsets: list[float] = []
     for room in plan.rooms:
@@ -188,9 +187,7 @@ def _displace_plan(
         shifted = dataclasses.replace(
             room,
             rect=_shift(room.rect, dx, dy),
-            furniture=tuple(
-                Furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture
-            ),
+            furniture=tuple(Furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture),
         )
         if not _opens(moved, shifted):  # a door no longer reaches its corridor: keep the room
             shifted, dx, dy = room, 0.0, 0.0
@@ -205,9 +202,7 @@ def _protected_rooms(plan: FloorPlan) -> set[str]:
     return {r.name for r in plan.rooms if r.inside is not None or r.home}
 
 
-def _close_doors(
-    plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]
-) -> FloorPlan:
+def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
     protected = _protected_rooms(plan)
     candidates = [i for i, r in enumerate(plan.rooms) if r.doors and r.name not in protected]
     rooms = list(plan.rooms)
@@ -248,9 +243,7 @@ def _open_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[s
     return dataclasses.replace(plan, rooms=tuple(rooms))
 
 
-def _move_tables(
-    plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]
-) -> FloorPlan:
+def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
     rooms = list(plan.rooms)
     moved = 0
     for i in rng.permutation(len(rooms)):
@@ -311,8 +304,8 @@ def world_from_plan(
     """The plan drawn again at ``variation.resolution``, displaced, doors and tables changed."""
     notes: list[str] = []
     displaced, rms = _displace_plan(plan, rng, variation.wall_sigma)
-    notes.append(f"floor plan redrawn at {variation.resolution * 100:.0f} cm, rooms offset "
-                 f"{rms * 100:.1f} cm RMS")  # fmt: skip
+    redrawn = f"floor plan redrawn at {variation.resolution * 100:.0f} cm"
+    notes.append(f"{redrawn}, rooms offset {rms * 100:.1f} cm RMS")
     changed = _close_doors(displaced, rng, variation.doors_closed, notes)
     changed = _open_doors(changed, rng, variation.doors_opened, notes)
     changed = _move_tables(changed, rng, variation.tables_moved, notes)
@@ -354,8 +347,8 @@ def warped_grid(
         np.arange(cols, dtype=np.float32), np.arange(rows, dtype=np.float32)
     )
     # The world at p shows what the map has at p - d: walls move by +d.
-    map_x = col_idx - dx_full / res
-    map_y = row_idx - dy_full / res
+    map_x = np.asarray(col_idx - dx_full / res, dtype=np.float32)
+    map_y = np.asarray(row_idx - dy_full / res, dtype=np.float32)
     warped = cv2.remap(up, map_x, map_y, cv2.INTER_NEAREST, borderValue=2)
     cells = np.full(warped.shape, FREE, dtype=np.int8)
     cells[warped == 1] = OCCUPIED
@@ -434,7 +427,20 @@ class _Placer:
         self.free = free
         xs, ys = grid.cell_to_world(free[:, 0], free[:, 1])
         self.free_xy = np.column_stack((np.asarray(xs), np.asarray(ys)))
-        self.arc_distance = _segment_distance(self.free_xy[:, 0], self.free_xy[:, 1], self.segments)
+        self.arc_distance = self._arc_distance_field()[free[:, 0], free[:, 1]]
+
+    def _arc_distance_field(self) -> FloatArray:
+        """Distance [m] from each cell to the nearest arc (arcs drawn as 1-cell lines)."""
+        g = self.grid
+        lines = np.ones((g.height, g.width), dtype=np.uint8)
+        for x0, y0, x1, y1 in self.segments:
+            r0, c0 = g.world_to_cell(x0, y0)
+            r1, c1 = g.world_to_cell(x1, y1)
+            cv2.line(lines, (int(c0), int(r0)), (int(c1), int(r1)), 0, 1)
+        if self.segments.size == 0:
+            return np.full(lines.shape, np.inf)
+        d = cv2.distanceTransform(lines, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        return np.asarray(d, dtype=np.float64) * g.resolution
 
     def _ok(self, item_pts: FloatArray, margin_to_others: float = 0.4) -> bool:
         v = self.variation
@@ -444,11 +450,10 @@ class _Placer:
             return False
         if bool((self.clearance[rows, cols] <= 0.0).any()):
             return False  # overlaps a wall: an item stands on the floor
-        if self.segments.size and bool(
-            (_segment_distance(item_pts[:, 0], item_pts[:, 1], self.segments)
-             < v.route_clearance).any()  # fmt: skip
-        ):
-            return False
+        if self.segments.size:
+            to_arcs = _segment_distance(item_pts[:, 0], item_pts[:, 1], self.segments)
+            if bool((to_arcs < v.route_clearance).any()):
+                return False
         if self.nodes.size:
             d = np.hypot(
                 item_pts[:, 0, None] - self.nodes[None, :, 0],
@@ -502,8 +507,6 @@ def place_clutter(
     keep_clear: Sequence[tuple[float, float]] = (),
 ) -> list[Item]:
     """Boxes, chairs and corridor boxes on free floor of ``grid`` (see the module docstring)."""
-    from scipy import ndimage
-
     coarse = max(1, round(0.05 / grid.resolution))
     blocked = grid.blocked()[::coarse, ::coarse]
     view = OccupancyGrid(
@@ -513,8 +516,10 @@ def place_clutter(
         grid.origin_y,
         source=grid.source,
     )
-    clearance = np.asarray(
-        ndimage.distance_transform_edt(~blocked, sampling=view.resolution), dtype=np.float64
+    free = np.ascontiguousarray(~blocked, dtype=np.uint8)
+    clearance = (
+        np.asarray(cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE), np.float64)
+        * view.resolution
     )
     placer = _Placer(view, clearance, topo, keep_clear, variation, rng)
     items: list[Item] = []
