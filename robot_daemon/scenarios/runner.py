@@ -83,6 +83,9 @@ class ScenarioResult:
     figures: dict[str, Any]
 
 
+# Issue 12: a pose this far from the truth must not be reported ok (a "silent failure").
+SILENT_FAILURE_M = 0.3  # [m]
+SILENT_FAILURE_RAD = math.radians(10.0)
 INITIAL_POSE_MAX_ERROR = (0.3, math.radians(10.0))  # [m], [rad] a person setting the pose
 
 
@@ -124,6 +127,8 @@ class Metrics:
     loc_errors: list[float] = field(default_factory=list)
     heading_errors: list[float] = field(default_factory=list)
     losses: int = 0
+    silent_failures: int = 0  # samples reported ok while > 0.3 m or 10 degrees off the truth
+    worst: tuple[float, float, float] = (0.0, math.nan, math.nan)  # (error [m], true x, y)
     _last_pose: Pose2D | None = None
     _last_state: LocaliserState | None = None
 
@@ -148,10 +153,16 @@ class Metrics:
             self.losses += 1
         self._last_state = state
         if estimate is not None and state == LocaliserState.OK:
-            self.loc_errors.append(estimate.distance_to(truth))
-            self.heading_errors.append(abs(angle_diff(estimate.yaw, truth.yaw)))
+            error = estimate.distance_to(truth)
+            heading = abs(angle_diff(estimate.yaw, truth.yaw))
+            self.loc_errors.append(error)
+            self.heading_errors.append(heading)
+            if error > SILENT_FAILURE_M or heading > SILENT_FAILURE_RAD:
+                self.silent_failures += 1
+            if error > self.worst[0]:
+                self.worst = (error, truth.x, truth.y)
 
-    def figures(self) -> dict[str, float]:
+    def figures(self) -> dict[str, Any]:
         loc = np.asarray(self.loc_errors) if self.loc_errors else np.zeros(1)
         heading = np.asarray(self.heading_errors) if self.heading_errors else np.zeros(1)
         clear = np.asarray(self.clearances) if self.clearances else np.full(1, math.nan)
@@ -171,6 +182,8 @@ class Metrics:
             "loc_max_m": round(float(loc.max()), 4),
             "loc_heading_rms_deg": round(float(np.degrees(np.sqrt(np.mean(heading**2)))), 3),
             "loc_heading_max_deg": round(float(np.degrees(heading.max())), 3),
+            "loc_silent_failures": self.silent_failures,
+            "loc_worst_at": [round(self.worst[1], 2), round(self.worst[2], 2)],
         }
 
 

@@ -40,6 +40,7 @@ def run(options: ScenarioOptions) -> ScenarioResult:
         "stops_total": total,
         "people": options.people,
         "seed": options.seed,
+        "world": "ideal (world = map)" if options.ideal_world else "realistic",
         **system.metrics.figures(),
         "realtime_factor": round(system.realtime_factor(), 1),
     }
@@ -56,6 +57,8 @@ def run(options: ScenarioOptions) -> ScenarioResult:
             f"{figures['min_clearance_m'] * 100:.1f} cm; corridor speed "
             f"{figures['corridor_speed_ratio'] * 100:.0f} % of max; "
             f"{figures['realtime_factor']:.1f}x real time",
+            f"world: {figures['world']}; silent localisation failures (ok but > 0.3 m or "
+            f"10 deg off): {figures['loc_silent_failures']} of the 10 Hz samples",
         ]
     )
     return ScenarioResult("tour", table, figures)

@@ -4,6 +4,7 @@ localisation loss; and the tour graphs shipped for the two real buildings are dr
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -56,6 +57,8 @@ def test_short_realistic_tour_completes_without_collision_or_loss(
     assert f["stops_visited"] == f["stops_total"] == len(SHORT_TOUR_STOPS)
     assert f["collisions"] == 0
     assert f["localisation_losses"] == 0
+    assert f["loc_silent_failures"] == 0
+    assert f["world"] == "realistic"
 
 
 def test_short_realistic_tour_is_never_silently_lost(short_tour: dict[str, Any]) -> None:
@@ -82,6 +85,6 @@ def test_real_building_graph_is_drivable(name: str, shared_data: Path) -> None:
     for u, v, weight in topo.weighted_arcs():
         a, b = topo.node(u).pose, topo.node(v).pose
         path = planner.plan(costs, (a.x, a.y), (b.x, b.y))
-        length = sum(math.dist(p, q) for p, q in zip(path, path[1:], strict=False))
+        length = sum(math.dist(p, q) for p, q in itertools.pairwise(path))
         # Straight, clear arcs: the planned path is no detour.
         assert length < 1.5 * weight + 0.5, f"{topo.node(u).name} -> {topo.node(v).name}"
