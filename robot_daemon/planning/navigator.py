@@ -45,6 +45,7 @@ from robot_daemon.planning.local_planner import (
     limit_step,
     obstacle_points_near,
 )
+from robot_daemon.planning.scan_filter import remove_shadows
 
 logger = logging.getLogger(__name__)
 
@@ -207,6 +208,7 @@ class Navigator:
         cfg = self.config
         sensor = Pose2D(cfg.laser_x_offset, 0.0, 0.0)
         if scan is not None:
+            scan = remove_shadows(scan)  # mixed pixels would close doors in the costmap
             self.costmap.update(now, pose, scan, sensor)
         if self._state in (NavState.IDLE, NavState.SUCCEEDED, NavState.BLOCKED):
             return self._emit(0.0, 0.0)
