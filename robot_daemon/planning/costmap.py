@@ -269,6 +269,12 @@ class Costmap:
         return int(self.costs(now)[int(row), int(col)])
 
     @property
+    def static_distance(self) -> npt.NDArray[np.float32]:
+        """Distance [m] from each cell to the a-priori map's nearest obstacle (occupied/unknown)."""
+        result: npt.NDArray[np.float32] = self._static_distance
+        return result
+
+    @property
     def static_costs(self) -> npt.NDArray[np.uint8]:
         """The inflated a-priori map alone."""
         return self._static_costs
