@@ -99,10 +99,6 @@ class LocaliserConfig:
     impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
     impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
     impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
-    # A scan whose end points fit the map at least this well is not made bad by impossible beams
-    # alone: they are then a window or a door the map has closed (glass panes, open doors), not
-    # a wrong pose (a kidnapped robot keeps only 0.4-0.7 of its end points on walls).
-    impossible_max_confidence: float = 0.8
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -126,7 +122,6 @@ class LocaliserConfig:
             ("impossible_max_steps", self.impossible_max_steps, 1, 1000),
             ("impossible_min_run", self.impossible_min_run, 1, 100),
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
-            ("impossible_max_confidence", self.impossible_max_confidence, 0.0, 1.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -268,10 +263,7 @@ class Localiser:
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
             impossible = self.impossible_fraction(points, pose)
-            see_through = (
-                impossible > cfg.lost_impossible and confidence < cfg.impossible_max_confidence
-            )
-            bad = bad or confidence < cfg.lost_confidence or see_through
+            bad = bad or confidence < cfg.lost_confidence or impossible > cfg.lost_impossible
             if not bad and cfg.map_update and confidence >= cfg.map_update_min_confidence:
                 self._update_map(points, pose, now)
 
