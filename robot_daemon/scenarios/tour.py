@@ -2,8 +2,9 @@
 
 The robot starts at home, localised by the operator; the visitor asks for a guided tour; at each
 stop the robot pauses, shows the room's information and the visitor taps Resume a few seconds
-later (a localiser lost for 60 s with nobody to re-set the pose ends the tour as failed). Figures come from the simulator's ground truth; the realtime factor is simulated time
-over wall time for the whole stack (localiser, planner, multiplexer, simulator, supervisor).
+later. A localiser lost for 60 s with nobody to re-set the pose ends the tour as failed.
+Figures come from the simulator's ground truth; the realtime factor is simulated time over wall
+time for the whole stack (localiser, planner, multiplexer, simulator, supervisor).
 """
 
 from __future__ import annotations
