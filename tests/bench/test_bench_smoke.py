@@ -30,6 +30,8 @@ POSITIVE = {
     "sim": [
         "raycast_ms_median",
         "raycast_ms_p99",
+        "raycast_building_ms_median",
+        "raycast_building_ms_p99",
         "sim_step_ms_median",
         "sim_step_ms_p99",
         "sim_step_realtime_factor",
@@ -143,6 +145,7 @@ def test_quick_tour_is_the_realistic_headline_so_far() -> None:
 def test_quick_sim_figures_are_consistent() -> None:
     r = quick_result("sim")
     assert r["raycast_ms_median"] <= r["raycast_ms_p99"]
+    assert r["raycast_building_ms_median"] <= r["raycast_building_ms_p99"]
     assert r["sim_step_ms_median"] <= r["sim_step_ms_p99"]
     assert r["sim_realtime_span_s"] == pytest.approx(10.0, abs=0.1)
 
