@@ -102,7 +102,7 @@ class LocaliserConfig:
     # A scan that fits the map this well (hit fraction) may see through an opening the map has
     # closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
     # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
-    see_through_min_confidence: float = 0.95
+    see_through_min_confidence: float = 0.9
     see_through_landing_m: float = 0.15
 
     def __post_init__(self) -> None:
