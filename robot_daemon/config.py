@@ -12,6 +12,11 @@ configuration is logged once at start-up. Example (all keys optional except wher
     localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
+    start_latched: true                 # start with the emergency stop latched (see below)
+
+``start_latched`` (default true): after a (re)start the robot does not move until a station
+that sees it releases the stop (a station re-asserts its operator's stop, or releases it, on
+every connection). Set it false only for a robot that runs with no station at all.
 """
 
 from __future__ import annotations
@@ -147,12 +152,17 @@ class DaemonConfig:
     zenoh: ZenohSettings = field(default_factory=ZenohSettings)
     localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
+    start_latched: bool = True  # stop latched at start until a station releases it
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot_id, str) or not ROBOT_ID_RE.match(self.robot_id):
             raise ConfigError(
                 f"{self.source}: 'robot_id' {self.robot_id!r} must be 1-32 of A-Z a-z 0-9 _ -"
+            )
+        if not isinstance(self.start_latched, bool):
+            raise ConfigError(
+                f"{self.source}: 'start_latched' must be true or false, got {self.start_latched!r}"
             )
         if self.backend not in ("sim", "hardware"):
             raise ConfigError(
@@ -167,7 +177,8 @@ class DaemonConfig:
         return (
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
-            f"connect={list(self.zenoh.connect)} rates={self.rates}"
+            f"connect={list(self.zenoh.connect)} rates={self.rates} "
+            f"start_latched={self.start_latched}"
         )
 
 
@@ -182,6 +193,7 @@ _TOP_KEYS = {
     "zenoh",
     "localiser",
     "hardware",
+    "start_latched",
 }
 
 
@@ -238,6 +250,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         zenoh=_section(source, raw, "zenoh", ZenohSettings),
         localiser=_section(source, raw, "localiser", LocaliserSettings),
         hardware=hardware,
+        start_latched=raw.get("start_latched", True),
         source=source,
     )
 

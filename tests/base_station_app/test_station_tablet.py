@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import json
 
+from base_station_app.station_config import StationConfig
 from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
-from interbot_core.topics import RouteMsg, Twist
+from interbot_core.topics import RouteMsg, RouteProgress, Twist
 
 
 def handshake(qtbot, tablet_factory):
@@ -103,23 +104,79 @@ def test_frame_too_large_closes(qtbot, station, tablet_factory):
 
 
 def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tablet_factory, clock):
+    """Forwarded once, on arrival; clock() never re-stamps it; the single-shot watchdog (thesis
+    Fig. 5.10) sends one explicit zero when the tablet goes silent for the ceiling."""
+    station.set_config(StationConfig(latency_ceiling=0.15))
     t = handshake(qtbot, tablet_factory)
     t.send({"speed": {"linear": 0.3, "angular": -0.2}})
-    # Forwarded on arrival, before any clock() tick.
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 1), timeout=3000)
-    clock.advance(0.1)
-    station.tick()  # still fresh: republished
-    clock.advance(station.config.latency_ceiling + 0.05)
-    station.tick()  # stale: discarded, one explicit zero
-    clock.advance(0.1)
-    station.tick()  # nothing more
-    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 3), timeout=3000)
-    qtbot.wait(50)
+    arrived = clock.now
+    for _ in range(3):
+        clock.advance(0.1)
+        station.tick()  # no republishing of the tablet's command
+    assert station.tablet_watchdog.isActive()
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 2), timeout=3000)
+    qtbot.wait(300)
     sent = robot.of("tablet_vel")
-    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.3, -0.2), (0.0, 0.0)]
+    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.0, 0.0)]
+    assert sent[0].stamp == arrived  # stamped with its arrival, never again
     assert all(isinstance(v, Twist) for v in sent)
     assert station.tablet_discarded == 1
     assert station.tablet_speed is None
+    assert not station.tablet_forwarding
+
+
+def test_out_of_order_and_late_speed_commands_are_dropped(
+    qtbot, linked, station, robot, tablet_factory, clock
+):
+    t = handshake(qtbot, tablet_factory)
+
+    def speed(linear, seq, t_tablet):
+        t.send({"speed": {"linear": linear, "angular": 0.0, "seq": seq, "t": t_tablet}})
+
+    speed(0.1, 10, 50.0)  # offset 50 s: the fastest delivery so far
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 1), timeout=3000)
+    clock.advance(0.1)
+    speed(0.2, 9, 49.9)  # out of order
+    clock.advance(0.0)
+    speed(0.25, 11, 50.1)  # fresh
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 2), timeout=3000)
+    clock.advance(2.0)  # the tablet froze; its backlog arrives now, 2 s late
+    speed(0.3, 12, 50.2)
+    speed(0.3, 13, 50.3)
+    qtbot.waitUntil(lambda: bool(station.tablet_discarded >= 3), timeout=3000)
+    qtbot.wait(100)
+    assert [v.linear for v in robot.of("tablet_vel") if v.linear] == [0.1, 0.25]
+    assert station.freshness.dropped_out_of_order == 1
+    assert station.freshness.dropped_stale == 2
+
+
+def test_no_tablet_speed_forwarded_while_the_stop_is_engaged(
+    qtbot, linked, station, robot, tablet_factory
+):
+    t = handshake(qtbot, tablet_factory)
+    station.emergency_stop()
+    t.send({"speed": {"linear": 0.3, "angular": 0.0}})
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert "emergency stop" in t.of("error")[0]["message"]
+    qtbot.wait(100)
+    assert robot.of("tablet_vel") == []
+
+
+def test_tablet_stop_cancels_a_route_this_station_did_not_start(
+    qtbot, linked, station, robot, tablet_factory
+):
+    """A restarted station: the robot still drives route 77 from before; the tablet is told
+    and its stop cancels it."""
+    t = handshake(qtbot, tablet_factory)
+    robot.link.publish_route_progress(RouteProgress(77, 1, False, "active"))
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.route_mirror.foreign), timeout=3000)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("status")), timeout=3000)
+    assert "route 77" in t.of("status")[-1]["task"]
+    t.send({"stop": True})
+    qtbot.waitUntil(lambda: bool(robot.of("route_cancel")), timeout=3000)
+    assert robot.of("route_cancel")[0].route_id is None
 
 
 def test_speed_period_statistics(qtbot, station, tablet_factory, clock):
