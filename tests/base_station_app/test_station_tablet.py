@@ -133,22 +133,35 @@ def test_out_of_order_and_late_speed_commands_are_dropped(
 
     def speed(linear, seq, t_tablet):
         t.send({"speed": {"linear": linear, "angular": 0.0, "seq": seq, "t": t_tablet}})
+        qtbot.wait(30)  # one read turn each (a burst in one turn forwards only its newest)
 
     speed(0.1, 10, 50.0)  # offset 50 s: the fastest delivery so far
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 1), timeout=3000)
     clock.advance(0.1)
     speed(0.2, 9, 49.9)  # out of order
-    clock.advance(0.0)
     speed(0.25, 11, 50.1)  # fresh
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 2), timeout=3000)
     clock.advance(2.0)  # the tablet froze; its backlog arrives now, 2 s late
     speed(0.3, 12, 50.2)
     speed(0.3, 13, 50.3)
-    qtbot.waitUntil(lambda: bool(station.tablet_discarded >= 3), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.freshness.dropped_stale == 2), timeout=3000)
     qtbot.wait(100)
     assert [v.linear for v in robot.of("tablet_vel") if v.linear] == [0.1, 0.25]
     assert station.freshness.dropped_out_of_order == 1
-    assert station.freshness.dropped_stale == 2
+
+
+def test_only_the_newest_speed_of_a_burst_is_forwarded(
+    qtbot, linked, station, robot, tablet_factory
+):
+    """A thesis-era tablet's backlog (no seq/t) arriving at once after a stall: one command."""
+    t = handshake(qtbot, tablet_factory)
+    burst = b"".join(
+        json.dumps({"speed": {"linear": 0.01 * k, "angular": 0.0}}).encode() for k in range(1, 21)
+    )
+    t.send_raw(burst)
+    qtbot.waitUntil(lambda: bool(robot.of("tablet_vel")), timeout=3000)
+    qtbot.wait(100)
+    assert [v.linear for v in robot.of("tablet_vel")] == [0.2]
 
 
 def test_no_tablet_speed_forwarded_while_the_stop_is_engaged(
@@ -354,3 +367,49 @@ def test_help_me_with_a_pose_the_robot_never_takes_says_lost_again_after_the_gra
     _flushed(qtbot, t, 3)
     assert t.of("initial_pose")[unset_count:] == [False]
     assert t.of("localisation") == ["unset", "unset"]  # said afresh
+
+
+# ------------------------------------------------------------------ bounded work (issue 11)
+def test_a_flooding_tablet_is_rate_limited_and_its_stop_still_passes(
+    qtbot, linked, station, robot, tablet_factory
+):
+    from base_station_app.tablet_server import MAX_READ_BYTES
+
+    t = handshake(qtbot, tablet_factory)
+    flood = json.dumps({"pause": True}).encode() * 2000  # 28 KB: several read turns
+    t.send_raw(flood + json.dumps({"stop": True}).encode())
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    error = t.of("error")[0]
+    assert error["code"] == "rate_limited" and "dropped" in error["message"]
+    qtbot.waitUntil(lambda: station.tablet.policy.dropped > 1500, timeout=3000)
+    assert station.tablet.policy.dropped <= 2000 - 49  # a burst of 50 (hello took one)
+    qtbot.waitUntil(lambda: any(e.text == "tablet: stop" for e in station.state.log))
+    assert len(flood) > 3 * MAX_READ_BYTES  # it took several turns: the event loop ran between
+    assert station.tablet.is_connected  # rate limiting is not a protocol error
+    assert len(t.of("error")) <= 2  # one error a second, not one per dropped message
+
+
+def test_a_tablet_that_answers_no_ping_is_disconnected(qtbot, station, tablet_factory, clock):
+    handshake(qtbot, tablet_factory)
+    station.tablet.ping()
+    clock.advance(station.tablet.pong_timeout_s + 0.1)
+    station.tablet.ping()
+    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=3000)
+
+
+def test_a_tablet_that_does_not_read_is_disconnected(qtbot, station, tablet_factory):
+    import socket
+
+    from interbot_core.protocol import StatusInfo
+
+    t = handshake(qtbot, tablet_factory)
+    t.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    big = StatusInfo("x" * 400, "y" * 400)
+    sent = 0
+    while station.tablet.is_connected and sent < 40_000:  # up to 32 MB that nobody reads
+        for _ in range(100):
+            station.tablet.send(big)
+        sent += 100
+        qtbot.wait(1)
+    assert not station.tablet.is_connected
+    assert sent * 800 < 16e6  # kernel buffers filled, then at most 256 KiB more were queued

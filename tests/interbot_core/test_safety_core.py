@@ -124,3 +124,20 @@ def test_mirror_sees_a_route_it_did_not_start() -> None:
     assert m.foreign is not None and m.foreign.route_id == 77 and m.robot_running
     m.on_progress(_p(77, "canceled"))
     assert m.foreign is None and not m.robot_running
+
+
+# ------------------------------------------------------------------ TabletInputPolicy
+def test_input_policy_caps_a_turn_and_the_rate_but_admits_the_stop() -> None:
+    from interbot_core.tablet_input_policy import InputPolicyConfig, TabletInputPolicy
+
+    policy = TabletInputPolicy(InputPolicyConfig(rate=10.0, burst=5, max_per_turn=3))
+    admitted = [policy.admit({"speed": {}}, 0.0) for _ in range(6)]
+    assert admitted == [True, True, True, False, False, False]
+    assert policy.admit({"stop": True}, 0.0)  # past the cap: the stop still passes
+    assert not policy.admit({"stop": True}, 0.0)  # once per turn
+    error = policy.end_turn(0.0)
+    assert error is not None and "4 message(s) dropped" in error
+    assert policy.admit({"speed": {}}, 0.01) and policy.admit({"speed": {}}, 0.01)
+    assert not policy.admit({"speed": {}}, 0.01)  # the bucket (5) is empty
+    assert policy.end_turn(0.5) is None  # one error a second at most
+    assert policy.end_turn(1.1) is not None
