@@ -34,6 +34,8 @@ Safety (issue 11, shared/DESIGN.md "State has one owner"):
   or late ones are dropped), forwarded once stamped with its arrival time, and restarts a
   single-shot `QTimer` (thesis Fig. 5.10) of the latency ceiling whose timeout sends one
   explicit zero. Nothing re-stamps an old command.
+* **The tablet knows.** While the robot is offline the tablet gets no stale pose, the status
+  "robot offline" and permissions that offer nothing (no teleop while the stop is engaged).
 """
 
 from __future__ import annotations
@@ -199,7 +201,8 @@ class StationController(QObject):
         self._route_undelivered: int | None = None  # route no robot received: end its task
         self._stop_assert_pending = True  # (re)assert the operator's stop intent to the robot
         self._stop_sent_at = -math.inf
-        self._tablet_stop_told = False  # the tablet was told its speed is refused (stop engaged)
+        self._tablet_stop_told = False  # the tablet was told why its speed is refused
+        self._permissions_sent: p.Permissions | None = None
         self._verdict_of: int | None = None  # route whose end the robot reported, if handled
         self._last_clock: float | None = None
         self._tour_state_sent: p.TourState | None = None
@@ -482,10 +485,33 @@ class StationController(QObject):
         events = self.supervisor.update(now, self.state.localised_pose)
         self._handle(events)
 
+    def tablet_permissions(self) -> TabletPermissions:
+        """What the tablet may do now: the operator's choice, and only what can work."""
+        if not self.robot_online:
+            return TabletPermissions(False, False, False, False)
+        if self.estop_latched:
+            return self.permissions.with_kind("teleop", False)
+        return self.permissions
+
+    def _send_permissions(self) -> None:
+        msg = self.tablet_permissions().to_message()
+        if msg != self._permissions_sent and self.tablet.send(msg):
+            self._permissions_sent = msg
+            self._tablet_stop_told = False  # a refused speed is explained again
+
     def _communication_section(self, now: float) -> None:
         if not self.tablet.is_connected:
             return
+        self._send_permissions()
         send = self.tablet.send
+        if not self.robot_online:
+            # No stale pose or goal: the status says "robot offline" (and why it cannot work).
+            status = p.StatusInfo(self.task_text(), self.status_text())
+            if status != self._status_sent:
+                send(status)
+                self._status_sent = status
+            self._localisation_sent = None
+            return
         pose = self.state.localised_pose
         loc = self.state.localisation
         settling = loc in ("unset", "lost") and now < self._pose_settling_until
@@ -803,7 +829,8 @@ class StationController(QObject):
         self.watchdog.reset()
         self.freshness.reset()
         self._tablet_stop_told = False
-        self.tablet.send(self.permissions.to_message())
+        self._permissions_sent = None
+        self._send_permissions()
         self.log("info", f"tablet connected from {peer}")
         self.tablet_changed.emit()
 
@@ -822,7 +849,7 @@ class StationController(QObject):
         self.permissions = self.permissions.with_kind(kind, allowed)
         if not self.permissions.teleop:
             self._stop_tablet_speed("teleoperation not permitted")
-        self.tablet.send(self.permissions.to_message())
+        self._send_permissions()
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
         self.tablet_changed.emit()
 
@@ -859,12 +886,17 @@ class StationController(QObject):
         """A validated tablet message: a Supervisor or robot action, subject to permissions."""
         now = self.clock()
         kind = permission_for(msg)  # type: ignore[arg-type]
-        if not self.permissions.allows(kind):
-            self.tablet.send(
-                p.ErrorReport(
-                    "not_permitted", f"the operator does not allow {kind} from the tablet"
-                )
-            )
+        if not self.tablet_permissions().allows(kind):
+            if not self.robot_online:
+                why = f"the robot is offline: {kind} cannot work"
+            elif self.permissions.allows(kind):
+                why = f"emergency stop engaged: {kind} ignored"
+            else:
+                why = f"the operator does not allow {kind} from the tablet"
+            if not (isinstance(msg, p.Speed) and self._tablet_stop_told):
+                self.tablet.send(p.ErrorReport("not_permitted", why))  # once per 10 Hz stream
+            if isinstance(msg, p.Speed):
+                self._tablet_stop_told = True
             if not isinstance(msg, p.Speed):
                 self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
             return

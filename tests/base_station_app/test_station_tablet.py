@@ -413,3 +413,27 @@ def test_a_tablet_that_does_not_read_is_disconnected(qtbot, station, tablet_fact
         qtbot.wait(1)
     assert not station.tablet.is_connected
     assert sent * 800 < 16e6  # kernel buffers filled, then at most 256 KiB more were queued
+
+
+def test_the_tablet_is_told_when_the_robot_is_offline(
+    qtbot, linked, station, robot, tablet_factory
+):
+    t = handshake(qtbot, tablet_factory)
+    robot.publish_pose(1.0, 2.0, 0.0)
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.state.pose), timeout=3000)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("pose")), timeout=3000)
+    robot.link.close()
+    qtbot.waitUntil(lambda: bool(station.poll_link() or not station.robot_online), timeout=3000)
+    poses = len(t.of("pose"))
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("status")) and "offline" in t.of("status")[-1]["message"])
+    perms = t.of("permissions")[-1]
+    assert not any(perms.values())  # the tablet offers nothing that cannot work
+    t.send({"goal": 3})
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert "offline" in t.of("error")[-1]["message"]
+    station.tick()
+    qtbot.wait(50)
+    assert len(t.of("pose")) == poses  # no stale pose
+    assert station.supervisor.queue == ()
