@@ -63,7 +63,7 @@ from interbot_qt.qt_tcp_connection import QtTcpConnection
 
 logger = logging.getLogger(__name__)
 
-MAX_READ_BYTES = 8 * 1024  # per event-loop turn (~200 small messages)
+MAX_READ_BYTES = 2048  # per event-loop turn (~50 small messages: the per-turn cap)
 MAX_OUTPUT_BYTES = 256 * 1024  # queued for a tablet that does not read: then it is dropped
 KEEPALIVE = (5, 2, 3)  # TCP_KEEPIDLE [s], TCP_KEEPINTVL [s], TCP_KEEPCNT
 

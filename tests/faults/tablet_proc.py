@@ -6,8 +6,9 @@ Modes (all on 127.0.0.1:PORT, the station's tablet server):
 
 * ``speed`` - hello, answer pings, send ``speed`` (turn on the spot at 0.3 rad/s, with ``seq`` and ``t``) every
   100 ms, as the Tablet app's joystick does; SIGSTOP freezes it like a hung app;
-* ``stall`` - like ``speed`` for 1 s, then (a stalled Wi-Fi link) keeps 2 s of commands in a
-  buffer and writes them at once, then goes quiet; prints ``burst`` when it wrote them;
+* ``stall`` - like ``speed`` for 1 s; then the link stalls and 1 s of commands waits in a
+  buffer, the app hangs for 1 s more, and the whole backlog is written at once (the newest
+  command in it is 1 s old); then it goes quiet; prints ``burst`` when it wrote them;
 * ``flood`` - no hello: writes speed commands as fast as the socket takes them, for ever.
 
 Prints ``ready`` once connected. Plain sockets and the standard library only.
@@ -64,8 +65,10 @@ def run_speed(sock: socket.socket, stall: bool) -> None:
             sock.setblocking(True)
             sock.sendall(message)
             sock.setblocking(False)
-        elif now - start < 3.0:
+        elif now - start < 2.0:
             held.append(message)  # the link is stalled: the commands wait in a buffer
+        elif now - start < 3.0:
+            pass  # and the app hangs
         elif held:
             sock.setblocking(True)
             sock.sendall(b"".join(held))
