@@ -330,3 +330,23 @@ def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, local
     qtbot.waitUntil(finished, timeout=3000)
     assert not station.goal_reached
     assert any("blocked: no path" in e.text for e in station.state.log)
+
+
+def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
+    qtbot, linked, station, robot, clock
+):
+    from interbot_core.topics import MuxMsg
+
+    station.emergency_stop()
+    qtbot.waitUntil(lambda: bool(robot.of("stop")), timeout=3000)
+    robot.link.publish_mux(MuxMsg(None, "no valid input", ()))  # a robot that lost the stop
+
+    def resent() -> bool:
+        station.poll_link()
+        clock.advance(0.2)
+        station.tick()
+        return len(robot.of("stop")) >= 2
+
+    qtbot.waitUntil(resent, timeout=3000)
+    assert all(lock.engaged for lock in robot.of("stop"))
+    assert any("reports no emergency stop" in e.text for e in station.state.log)

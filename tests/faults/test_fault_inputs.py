@@ -5,7 +5,7 @@ One daemon process serves the module (each test has its own station and tablet):
 * **tablet SIGSTOP** - the tablet process turning the robot at 0.3 rad/s is frozen: the
   station's single-shot watchdog sends one zero one ceiling after the last command (asserted
   within ceiling + 20 ms on the station's own stamps), and the robot's multiplexer output drops
-  to zero (figure: freeze -> zero seen on the robot's ``mux`` topic). ``FAULT_STALLS=50`` for the
+  to zero (figure: last command -> zero on the robot's ``mux`` stamps). ``FAULT_STALLS=50`` for the
   worst of 50 (default 5);
 * **backlog after a stall** - 1 s of stamped commands arrives at once, 1 s late: none is
   forwarded;
@@ -42,7 +42,7 @@ from tests.faults.conftest import REPO, DaemonProcess, Observer
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(240)]
 
 ROBOT = "inputbot"
-CEILING = 0.3  # [s] the station's latency ceiling in these tests
+CEILING = float(os.environ.get("FAULT_CEILING", "0.3"))  # [s] the station's latency ceiling
 STALLS = int(os.environ.get("FAULT_STALLS", "5"))
 
 
@@ -97,11 +97,19 @@ def test_frozen_tablet_stops_the_robot_within_the_ceiling(rig, daemon, observer)
     sent = _record_sends(station)
     tablet = rig.tablet(station, "speed")
     station_delays, robot_delays = [], []
+    resumed = time.monotonic()
     for _ in range(STALLS):
         rig.wait(
-            lambda: (m := observer.last(Topic.MUX, ROBOT)) is not None and m.source == "Tablet",
+            lambda resumed=resumed: (
+                sum(
+                    1
+                    for t, topic, m in sent
+                    if t > resumed and topic is Topic.TABLET_VEL and m.angular
+                )
+                >= 3
+            ),
             10.0,
-            "the tablet to drive",
+            "the tablet to drive again",
         )
         tablet.send_signal(signal.SIGSTOP)
         frozen = time.monotonic()
@@ -137,6 +145,7 @@ def test_frozen_tablet_stops_the_robot_within_the_ceiling(rig, daemon, observer)
         rig.wait(lambda: robot_zero() is not None, 5.0, "the robot's mux output to be zero")
         robot_delays.append(robot_zero() - last_cmd)  # type: ignore[operator]
         tablet.send_signal(signal.SIGCONT)
+        resumed = time.monotonic()
     print(
         f"\nFAULT frozen tablet, last command -> station zero (worst of {STALLS}): "
         f"{max(station_delays) * 1000:.1f} ms (ceiling {CEILING * 1000:.0f} ms)"
