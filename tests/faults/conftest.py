@@ -68,8 +68,13 @@ class DaemonProcess:
 
     def start(self) -> None:
         self.starts += 1
-        cmd = [sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", self.robot_id]
-        cmd += ["--listen", self.endpoint, "--people", "0", "--auto-localise", *self.extra]
+        # The mux output on every 20 ms loop pass (pose_hz >= the loop rate), so that what the
+        # observer sees is when the motors got a command, not when the next 20 Hz report left.
+        config = self.log_dir / f"{self.robot_id}.yaml"
+        config.write_text("rates: {pose_hz: 100}\n", "utf-8")
+        cmd = [sys.executable, "-m", "robot_daemon.main", "--sim", "--config", str(config)]
+        cmd += ["--robot-id", self.robot_id, "--listen", self.endpoint, "--people", "0"]
+        cmd += ["--auto-localise", *self.extra]
         log = (self.log_dir / f"{self.robot_id}-{self.starts}.log").open("wb")
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         env.pop("NOTIFY_SOCKET", None)
