@@ -437,3 +437,20 @@ def test_the_tablet_is_told_when_the_robot_is_offline(
     qtbot.wait(50)
     assert len(t.of("pose")) == poses  # no stale pose
     assert station.supervisor.queue == ()
+
+
+def test_tablet_socket_has_short_tcp_keepalive(qtbot, station, tablet_factory):
+    """A tablet that vanished without a FIN (battery out, Wi-Fi gone) frees the slot in ~11 s."""
+    import socket
+
+    from base_station_app.tablet_server import KEEPALIVE
+
+    handshake(qtbot, tablet_factory)
+    fd = int(station.tablet._conn.socket.socketDescriptor())
+    with socket.fromfd(fd, socket.AF_INET, socket.SOCK_STREAM) as s:
+        assert s.getsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE) == 1
+        idle = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPIDLE)
+        interval = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPINTVL)
+        count = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPCNT)
+    assert (idle, interval, count) == KEEPALIVE
+    assert station.tablet.is_connected  # the duplicate descriptor closed, the connection not
