@@ -50,6 +50,7 @@ MAX_LIST_LENGTH: Final = 1024
 """Most waypoints in a route, locks in a mux report, parameters in a config message."""
 MAX_TEXT: Final = 1024
 """Longest free-text field [characters]."""
+ROUTE_ID_MAX: Final = 2**63 - 1  # route ids are random 63-bit numbers (unique across restarts)
 MAX_COORD: Final = 1.0e6  # [m] bound on map coordinates
 MAX_LINEAR: Final = 5.0  # [m/s] bound on any linear velocity on the wire
 MAX_ANGULAR: Final = 2.0 * math.pi  # [rad/s]
@@ -328,7 +329,7 @@ class RouteMsg(JsonMessage):
         return value
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         wps = self.waypoints
         if not isinstance(wps, tuple) or not 1 <= len(wps) <= MAX_LIST_LENGTH:
             raise _fail(type(self), "waypoints", f"must hold 1..{MAX_LIST_LENGTH} waypoints")
@@ -371,7 +372,7 @@ class RouteCancel(JsonMessage):
 
     def __post_init__(self) -> None:
         if self.route_id is not None:
-            _check_int(self, "route_id", 0, 2**53)
+            _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_text(self, "reason")
         _check_stamp(self)
 
@@ -391,7 +392,7 @@ class RouteProgress(JsonMessage):
     stamp: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_int(self, "index", 0, MAX_LIST_LENGTH)
         _check_bool(self, "reached_final")
         _check_text(self, "state", ROUTE_STATES)
@@ -572,6 +573,16 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed")
 
 
+def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """An object whose keys are unique (``{"linear":0.1,"linear":4.9}`` is refused, as on TCP)."""
+    obj: dict[str, Any] = {}
+    for name, value in pairs:
+        if name in obj:
+            raise ValueError(f"duplicate key {name!r}")
+        obj[name] = value
+    return obj
+
+
 M = TypeVar("M", bound=JsonMessage)
 
 
@@ -581,7 +592,11 @@ def decode_json(cls: type[M], payload: bytes, topic: str = "") -> M:
     if len(payload) > MAX_JSON_BYTES:
         raise TopicDecodeError(f"{where}: payload of {len(payload)} bytes > {MAX_JSON_BYTES}")
     try:
-        data = json.loads(bytes(payload).decode("utf-8"), parse_constant=_reject_constant)
+        data = json.loads(
+            bytes(payload).decode("utf-8"),
+            parse_constant=_reject_constant,
+            object_pairs_hook=_pairs_without_duplicates,
+        )
         return cls.from_dict(data)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise TopicDecodeError(f"{where}: {exc}") from exc

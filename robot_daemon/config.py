@@ -14,6 +14,11 @@ configuration is logged once at start-up. Example (all keys optional except wher
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
+    start_latched: true                 # start with the emergency stop latched (see below)
+
+``start_latched`` (default true): after a (re)start the robot does not move until a station
+that sees it releases the stop (a station re-asserts its operator's stop, or releases it, on
+every connection). Set it false only for a robot that runs with no station at all.
 """
 
 from __future__ import annotations
@@ -182,12 +187,17 @@ class DaemonConfig:
     security: SecuritySettings = field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
     recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
+    start_latched: bool = True  # stop latched at start until a station releases it
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot_id, str) or not ROBOT_ID_RE.match(self.robot_id):
             raise ConfigError(
                 f"{self.source}: 'robot_id' {self.robot_id!r} must be 1-32 of A-Z a-z 0-9 _ -"
+            )
+        if not isinstance(self.start_latched, bool):
+            raise ConfigError(
+                f"{self.source}: 'start_latched' must be true or false, got {self.start_latched!r}"
             )
         if self.backend not in ("sim", "hardware"):
             raise ConfigError(
@@ -203,7 +213,8 @@ class DaemonConfig:
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
             f"connect={list(self.zenoh.connect)} rates={self.rates} "
-            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')}"
+            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')} "
+            f"start_latched={self.start_latched}"
         )
 
 
@@ -220,6 +231,7 @@ _TOP_KEYS = {
     "hardware",
     "recording",
     "security",
+    "start_latched",
 }
 
 
@@ -289,6 +301,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         ),
         hardware=hardware,
         recording=recording,
+        start_latched=raw.get("start_latched", True),
         source=source,
     )
 

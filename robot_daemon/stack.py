@@ -217,6 +217,15 @@ class RobotStack:
         self.navigator.cancel()
         self._suspended_reason = None
 
+    def abort_route(self, now: float, reason: str) -> None:
+        """Give up the route in progress and zero the planner's input (an internal error)."""
+        self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+        if self.route is not None and not self.route.finished:
+            self.route.state, self.route.reason = "aborted", reason
+            self._event(now, "error", f"route {self.route.route_id} aborted: {reason}")
+        self.navigator.cancel()
+        self._suspended_reason = None
+
     def reconfigure(self, params: dict[str, Any], now: float) -> None:
         """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
         allowed = {f.name for f in fields(PlannerConfig)}
