@@ -52,6 +52,7 @@ from pathlib import Path
 import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
+from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
@@ -92,12 +93,15 @@ from interbot_core.supervisor import (
     TourStopReached,
 )
 from interbot_core.topics import (
+    Battery,
     ConfigMsg,
     InitialPose,
     Lock,
+    PoseMsg,
     RouteCancel,
     RouteMsg,
     RouteProgress,
+    Status,
     StopRelease,
     Topic,
     Twist,
@@ -135,6 +139,7 @@ class StationController(QObject):
     """State, commands and the control loop of the Base Station (see the module docstring)."""
 
     frame_ready = Signal()
+    alert_raised = Signal(object)  # Alert: new, or a repeat of an unacknowledged one
     clocked = Signal()
     robots_changed = Signal()
     robot_selected = Signal(str)
@@ -178,6 +183,9 @@ class StationController(QObject):
         )
         self.static_map = self._load_static_map()
         self.state = RobotState()
+        self.alerts = AlertList()  # what the operator must see and acknowledge (alerts.py)
+        self.alert_rules = AlertRules(self.alerts)
+        self.alerts.subscribe(self.alert_raised.emit)
         self.teleop = TeleopInput(self.config.teleop_linear_max, self.config.teleop_angular_max)
         self.watchdog = LatencyWatchdog(
             self.config.latency_ceiling
@@ -372,11 +380,24 @@ class StationController(QObject):
                 self._on_link_event(event)
             for topic, message in link.poll_state().items():
                 self.state.apply(topic, message)
+                self._check_alerts(topic, message)
             progress, route = self.state.progress, self.route
             if progress is not None and route is not None and progress.route_id == route.route_id:
                 self.route_index = progress.index
                 self._robot_verdict(progress)
         self.frame_ready.emit()
+
+    def _check_alerts(self, topic: Topic, message: object) -> None:
+        """The selected robot's state, through the alert rules (alerts.py)."""
+        robot, now, rules = self.selected_robot or "?", self.clock(), self.alert_rules
+        if isinstance(message, PoseMsg):
+            rules.on_pose(robot, message, now)
+        elif isinstance(message, Battery):
+            rules.on_battery(robot, message, now)
+        elif isinstance(message, RouteProgress):
+            rules.on_route_progress(robot, message, now)
+        elif isinstance(message, Status):
+            rules.on_status(robot, message, now)
 
     def _on_route_progress(self, progress: RouteProgress) -> None:
         """Mirror the robot's route (see `RouteMirror`)."""
@@ -419,11 +440,13 @@ class StationController(QObject):
         elif isinstance(event, RobotLeft):
             self.robots[event.robot_id] = False
             self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
+            self.alert_rules.on_robot_left(event.robot_id, self.clock())
             self.robots_changed.emit()
         elif isinstance(event, StateMessage):
             if event.robot_id != self.selected_robot:
                 return  # a late message from the robot we no longer follow
             self.state.apply(event.topic, event.message)
+            self._check_alerts(event.topic, event.message)
             if event.topic is Topic.ROUTE_PROGRESS and isinstance(event.message, RouteProgress):
                 self._on_route_progress(event.message)
             if event.topic is Topic.STATUS:
@@ -903,6 +926,7 @@ class StationController(QObject):
                 self._tablet_stop_told = True
             if not isinstance(msg, p.Speed):
                 self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
+            self.alert_rules.on_refused(why, now)
             return
         if isinstance(msg, p.Speed):
             self._on_tablet_speed(msg, now)
@@ -935,6 +959,7 @@ class StationController(QObject):
             self.set_initial_pose_room(msg.room)
         elif isinstance(msg, p.Malfunction):
             self.log("error", f"tablet reports {msg.kind}: {msg.text}")
+            self.alert_rules.on_malfunction(msg.kind, msg.text, now)
         self.tablet_changed.emit()
 
     def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:

@@ -46,6 +46,7 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
@@ -159,6 +160,7 @@ class Daemon:
         }
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
+        self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
@@ -268,6 +270,9 @@ class Daemon:
         self._publish_route(link, force=status_due)
         if status_due:
             self._publish_plan(link, now)
+            for level, text in self._health.changes(self.backend.device_status()):
+                logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
+                link.publish_status(Status(level, text, stamp=now))
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
 
