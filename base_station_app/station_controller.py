@@ -514,10 +514,10 @@ class StationController(QObject):
 
     def tablet_permissions(self) -> TabletPermissions:
         """What the tablet may do now: the operator's choice, and only what can work."""
-        if not self.robot_online:
+        if not self.robot_online or self.estop_latched:
+            # During a stop nothing the tablet orders could start: refused, with the reason,
+            # rather than queued to start the moment the stop is released.
             return TabletPermissions(False, False, False, False)
-        if self.estop_latched:
-            return self.permissions.with_kind("teleop", False)
         return self.permissions
 
     def _send_permissions(self) -> None:
@@ -714,13 +714,18 @@ class StationController(QObject):
         self.tasks_changed.emit()
         return True
 
-    def cancel_task(self) -> bool:
-        return self._try(self.supervisor.cancel)
+    def cancel_task(self, who: str = "the operator") -> bool:
+        """Cancel the running task; a tablet's task cancelled by someone else tells the tablet."""
+        tablets = self._is_tablet_task(self.supervisor.current_task)
+        cancelled = self._try(self.supervisor.cancel)
+        if cancelled and tablets and who != "the tablet":
+            self.tablet.send(p.Cancel(f"cancelled by {who}"))
+        return cancelled
 
     def stop_motion(self, who: str) -> None:
         """Stop whatever runs: the task (if any), a route this station did not start, teleop."""
         if self.supervisor.current_task is not None:
-            self.cancel_task()
+            self.cancel_task(who)
         if self.route_mirror.robot_running and self.route is None:
             # A route from before a station restart (or one we lost track of): cancel it too.
             self._send(
@@ -773,6 +778,7 @@ class StationController(QObject):
         """
         self.teleop.release_all()
         self._stop_tablet_speed("emergency stop")
+        self._handle(self.supervisor.hold_queue())  # waiting tasks wait for "Resume queue"
         was = self.estop_latched
         self.estop_latched = True
         self._assert_stop_intent()
@@ -781,6 +787,15 @@ class StationController(QObject):
         if not was:
             self.log("error", "EMERGENCY STOP engaged")
             self.estop_changed.emit(True)
+
+    def resume_queue(self) -> None:
+        """The operator's "Resume queue": waiting tasks may start again (not during a stop)."""
+        if self.estop_latched:
+            self.log("warning", "release the emergency stop before resuming the queue")
+            return
+        if self.supervisor.held:
+            self._handle(self.supervisor.release_queue())
+            self.log("info", "task queue resumed by the operator")
 
     def release_stop(self) -> None:
         if not self.estop_latched:
@@ -904,10 +919,8 @@ class StationController(QObject):
             self.pause()
 
     def tablet_task_cancel(self) -> None:
-        task = self.tablet_task
-        if task is not None:
-            self.cancel_task()
-            self.tablet.send(p.Cancel("cancelled by the operator"))
+        if self.tablet_task is not None:
+            self.cancel_task()  # tells the tablet: cancelled by the operator
 
     def on_tablet_message(self, msg: object) -> None:
         """A validated tablet message: a Supervisor or robot action, subject to permissions."""
@@ -938,8 +951,7 @@ class StationController(QObject):
             self.pause() if msg.paused else self.resume()
         elif isinstance(msg, p.Stop):
             if msg.stop:
-                self.log("warning", "tablet: stop")
-                self.stop_motion("the tablet")
+                self._tablet_stop()
         elif isinstance(msg, p.Tour):
             if msg.start:
                 self.submit(GuidedTour(), from_tablet=True)
@@ -961,6 +973,27 @@ class StationController(QObject):
             self.log("error", f"tablet reports {msg.kind}: {msg.text}")
             self.alert_rules.on_malfunction(msg.kind, msg.text, now)
         self.tablet_changed.emit()
+
+    def _tablet_stop(self) -> None:
+        """The tablet's Stop always stops the robot; it cancels only what the tablet ordered.
+
+        An operator's task is paused instead (the robot stops, the task stays the operator's)
+        and the tablet is told why; its own task, a route nobody here owns, or teleoperation
+        is stopped outright.
+        """
+        task = self.supervisor.current_task
+        if task is not None and not self._is_tablet_task(task):
+            self.log("warning", "tablet: stop on the operator's task: paused")
+            self.pause()
+            self._stop_tablet_speed("stop from the tablet")
+            self.tablet.send(
+                p.ErrorReport(
+                    "not_owner", "paused: this task was given by the operator, who decides on it"
+                )
+            )
+            return
+        self.log("warning", "tablet: stop")
+        self.stop_motion("the tablet")
 
     def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:
         """Forward one fresh tablet command once, stamped with its arrival time ``now``."""

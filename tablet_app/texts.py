@@ -108,3 +108,22 @@ def activity_text(room_name: Callable[[int], str], session: TabletSession) -> st
         ),
     }
     return plain.get(state, state)
+
+
+def unavailable_text(teleop: bool, goals: bool, tours: bool, requests: bool) -> str:
+    """What the station does not allow now, said plainly (empty when everything is allowed)."""
+    names = [
+        name
+        for allowed, name in (
+            (teleop, QCoreApplication.translate("TabletTexts", "driving with the joystick")),
+            (goals, QCoreApplication.translate("TabletTexts", "trips to rooms")),
+            (tours, QCoreApplication.translate("TabletTexts", "guided tours")),
+            (requests, QCoreApplication.translate("TabletTexts", "requests")),
+        )
+        if not allowed
+    ]
+    if not names:
+        return ""
+    return _fill(
+        QCoreApplication.translate("TabletTexts", "Not available now: %1"), ", ".join(names)
+    )
