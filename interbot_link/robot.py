@@ -35,6 +35,7 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -60,7 +61,15 @@ from interbot_link.session import LinkError
 logger = logging.getLogger(__name__)
 
 CommandMessage = (
-    Twist | Lock | StopRelease | RouteMsg | RouteCancel | GoalMsg | InitialPose | ConfigMsg
+    Twist
+    | Lock
+    | StopRelease
+    | RouteMsg
+    | RouteCancel
+    | GoalMsg
+    | InitialPose
+    | ConfigMsg
+    | Relocalise
 )
 
 SNAPSHOT_TOPICS = frozenset(STATE_TOPICS - {Topic.SCAN, Topic.IMAGE})

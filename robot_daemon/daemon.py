@@ -29,6 +29,7 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -44,6 +45,7 @@ from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
@@ -63,6 +65,7 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    relocalise: bool = True  # search the map by itself at start-up, when lost, when kidnapped
 
 
 def odometry_model(name: str) -> OdometryErrorModel:
@@ -135,6 +138,11 @@ class Daemon:
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+            relocalisation=RelocalisationConfig(
+                on_unset=options.relocalise,
+                on_lost=options.relocalise,
+                background=options.relocalise,
+            ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)
         self._due = {
@@ -193,7 +201,9 @@ class Daemon:
             elif isinstance(msg, RouteCancel):
                 self.stack.cancel_route(now, msg.reason or "cancelled by the station")
             elif isinstance(msg, InitialPose):
-                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now)
+                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now, msg.verify)
+            elif isinstance(msg, Relocalise):
+                self.stack.relocalise(now)
             elif isinstance(msg, ConfigMsg):
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):

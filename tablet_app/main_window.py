@@ -342,7 +342,9 @@ class TabletWindow(QMainWindow):
     def _update_help(self) -> None:
         if not self._lost:
             self._helping = False
-        self.map_screen.set_help_state(self._lost, self._helping)
+        self.map_screen.set_help_state(
+            self._lost, self._helping, searching=self._localisation == "searching"
+        )
 
     def _on_goal_status(self, msg: GoalStatus) -> None:
         repeated = msg == self._last_goal_status

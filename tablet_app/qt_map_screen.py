@@ -57,19 +57,24 @@ class QtMapScreen(QWidget):
         self.drive_button.clicked.connect(self.joystick_requested)
         self._lost = False
         self._helping = False
+        self._searching = False
         self.retranslate()
 
-    def set_help_state(self, lost: bool, helping: bool) -> None:
-        """``lost``: the robot needs its initial pose; ``helping``: the user said they help."""
+    def set_help_state(self, lost: bool, helping: bool, searching: bool = False) -> None:
+        """``lost``: the robot needs its initial pose; ``helping``: the user said they help;
+        ``searching``: the robot is finding its position by itself (no help offered yet)."""
         self._lost, self._helping = lost, helping
-        self.help_banner.setVisible(lost)
+        self._searching = searching and not lost
+        self.help_banner.setVisible(lost or self._searching)
         self.help_button.setVisible(lost and not helping)
         self.drive_button.setVisible(lost and helping)
         self.map_view.set_highlight(lost and helping)
         self._show_help_text()
 
     def _show_help_text(self) -> None:
-        if self._helping:
+        if self._searching:
+            self.help_text.setText(self.tr("Finding my position…"))
+        elif self._helping:
             self.help_text.setText(
                 self.tr(
                     "Drive me with the joystick to one of the highlighted rooms, "
