@@ -18,6 +18,7 @@ from pathlib import Path
 
 import zenoh
 
+from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
 from interbot_link import LinkError, session_config
 
@@ -60,6 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--tablet-port", type=int, default=5555, help="TCP port for the tablet")
     parser.add_argument("--robot", metavar="ID", help="robot to command (default: the first seen)")
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
+    parser.add_argument(
+        "--geometry", metavar="X,Y,W,H", help="window position and size (default 1600x1000)"
+    )
     parser.add_argument("--log-level", default="INFO")
     return parser
 
@@ -77,6 +81,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     if not 0 < args.tablet_port < 65536:
         sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
+        return 2
+    try:
+        geometry = None if args.geometry is None else parse_geometry(args.geometry)
+    except LayoutError as exc:
+        sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
         return 2
     try:
         holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"])
@@ -108,7 +117,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if not controller.start():
             return 1
-        window.resize(1600, 1000)
+        if geometry is None:
+            window.resize(1600, 1000)
+        else:
+            window.setGeometry(geometry.x, geometry.y, geometry.w, geometry.h)
         window.show()
         window.map_view.fit_map()
         return int(app.exec())

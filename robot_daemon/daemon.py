@@ -47,6 +47,7 @@ from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.planning.path_report import plan_message
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
@@ -157,6 +158,7 @@ class Daemon:
             )
         }
         self._progress_key: tuple[int, int, str] | None = None
+        self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self._route_ids = 10**9  # ids for routes the robot plans itself (goal messages)
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
@@ -256,9 +258,22 @@ class Daemon:
             link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
             link.publish_map(stack.localiser.updated_grid())
-        self._publish_route(link, force=due["status"](now))
+        status_due = due["status"](now)
+        self._publish_route(link, force=status_due)
+        if status_due:
+            self._publish_plan(link, now)
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
+
+    def _publish_plan(self, link: RobotLink, now: float) -> None:
+        """The navigator's path, when it changed (the snapshot keeps it for late stations)."""
+        route = self.stack.route
+        route_id = route.route_id if route is not None and not route.finished else 0
+        plan = plan_message(route_id, self.stack.navigator.path if route_id else [], now)
+        key = (plan.route_id, plan.points)
+        if key != self._plan_key:
+            self._plan_key = key
+            link.publish_plan(plan)
 
     def _publish_route(self, link: RobotLink, force: bool) -> None:
         route = self.stack.route
