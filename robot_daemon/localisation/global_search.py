@@ -85,6 +85,10 @@ class GlobalSearchConfig:
     cluster_xy_m: float = 0.6  # near-duplicate: this close in position ...
     cluster_yaw_rad: float = 0.35  # ... and in heading to a better hypothesis
     min_clearance_m: float = 0.10  # the laser is at least this far from occupied/unknown
+    # Where end points are expected: "occupied" cells (the localiser's surface), or "blocked":
+    # occupied or unknown. "blocked" makes every free cell near Willow Garage's many unknown
+    # specks look like a wall (measured: the truth no longer ranks first), so it is not default.
+    surface: str = "occupied"
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -122,6 +126,10 @@ class GlobalSearchConfig:
                     "GlobalSearchConfig.angle_groups must be non-decreasing powers of two, "
                     f"got {groups}"
                 )
+        if self.surface not in ("blocked", "occupied"):
+            raise GlobalSearchConfigError(
+                f"GlobalSearchConfig.surface must be 'blocked' or 'occupied', got {self.surface!r}"
+            )
         if self.min_points > self.max_points:
             raise GlobalSearchConfigError("GlobalSearchConfig.min_points must be <= max_points")
 
@@ -206,7 +214,9 @@ class GlobalSearch:
             np.asarray(ndimage.distance_transform_edt(~grid.blocked()), dtype=np.float64)
             * grid.resolution
         )
-        self.fine_distance = fine_dist  # [m] map cell -> nearest occupied cell (verification)
+        if cfg.surface == "blocked":
+            fine_dist = np.minimum(fine_dist, fine_clear)
+        self.fine_distance = fine_dist  # [m] map cell -> nearest surface cell (verification)
         # Coarse cells: the nearest wall from anywhere in the block (min distance), and whether
         # the laser can stand somewhere in the block (max clearance).
         dist = _block_reduce(fine_dist, factor, np.min, np.inf)

@@ -60,6 +60,7 @@ class ScenarioOptions:
     people: int = 4
     odometry: str = "calibrated"
     max_sim_time: float = 3600.0  # [s]
+    cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
 
 
 @dataclass
