@@ -179,7 +179,7 @@ def _drive_somewhere(run: KidnapRun, system: SimulatedSystem, route_id: int) -> 
         logger.warning("route refused: %s", exc)
 
 
-def run_kidnaps(options: ScenarioOptions, topo: Path | None) -> _Tally:
+def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAPS) -> _Tally:
     rng = np.random.default_rng(options.seed)
     run = KidnapRun(options, topo, rng)
     tally = _Tally()
@@ -188,7 +188,7 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None) -> _Tally:
     stack, sim = system.stack, system.sim
     system.localise()
     route_id = 0
-    for k in range(KIDNAPS):
+    for k in range(count):
         standing = k % 2 == 0
         route_id += 1
         _drive_somewhere(run, system, route_id)
@@ -227,14 +227,16 @@ def _start_pose(run: KidnapRun, options: ScenarioOptions) -> Pose2D | None:
     return Pose2D(float(x), float(y), 0.0)
 
 
-def run_cold_starts(options: ScenarioOptions, topo: Path | None) -> _Tally:
+def run_cold_starts(
+    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS
+) -> _Tally:
     rng = np.random.default_rng(options.seed)
     run = KidnapRun(options, topo, rng)
     from interbot_core.occupancy_grid import load_map
 
     free = free_poses(load_map(options.map_yaml), MIN_CLEARANCE_M)
     tally = _Tally()
-    for k in range(COLD_STARTS):
+    for k in range(count):
         x, y = free[int(rng.integers(free.shape[0]))]
         start = Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
         system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
@@ -245,10 +247,14 @@ def run_cold_starts(options: ScenarioOptions, topo: Path | None) -> _Tally:
     return tally
 
 
-def run(options: ScenarioOptions) -> ScenarioResult:
+def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
+    """The scenario; ``count`` kidnaps (or cold starts) instead of the default number."""
     topo = topo_for(options.map_yaml, options.topo_yaml)
     cold = options.cold_start
-    tally = run_cold_starts(options, topo) if cold else run_kidnaps(options, topo)
+    if cold:
+        tally = run_cold_starts(options, topo, count or COLD_STARTS)
+    else:
+        tally = run_kidnaps(options, topo, count or KIDNAPS)
     figures = tally.figures()
     figures.update(
         {
