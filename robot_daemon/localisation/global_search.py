@@ -79,16 +79,17 @@ class GlobalSearchConfig:
     angle_groups: tuple[int, ...] = (1, 1, 2, 4, 4, 8, 8)
     min_score: float = 0.35  # leaves below this are never hypotheses
     keep_margin: float = 0.05  # hypotheses scoring at least best - keep_margin are all kept
-    beam_width: int = 400  # nodes per level in the greedy first descent
+    beam_width: int = 2000  # nodes per level in the greedy first descent
+    redive_above: int = 20000  # a level with more nodes than this gets a fresh dive ...
+    redive_width: int = 200  # ... from this many of its best bounds
     max_nodes: int = 100000  # nodes kept per level at most (best bounds); beyond: incomplete
     max_hypotheses: int = 16  # ranked hypotheses returned at most
     cluster_xy_m: float = 0.6  # near-duplicate: this close in position ...
     cluster_yaw_rad: float = 0.35  # ... and in heading to a better hypothesis
     min_clearance_m: float = 0.10  # the laser is at least this far from occupied/unknown
-    # Where end points are expected: "occupied" cells (the localiser's surface), or "blocked":
-    # occupied or unknown. "blocked" makes every free cell near Willow Garage's many unknown
-    # specks look like a wall (measured: the truth no longer ranks first), so it is not default.
-    surface: str = "occupied"
+    # End points on unknown cells next to free space (glass, clutter the mapping run did not
+    # resolve: Willow Garage) count this much of a hit; 0 = only occupied cells are walls.
+    unknown_weight: float = 0.5
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -104,10 +105,13 @@ class GlobalSearchConfig:
             ("keep_margin", self.keep_margin, 0.0, 1.0),
             ("beam_width", self.beam_width, 1, 10000),
             ("max_nodes", self.max_nodes, 100, 10**8),
+            ("redive_above", self.redive_above, 1, 10**8),
+            ("redive_width", self.redive_width, 1, 10**6),
             ("max_hypotheses", self.max_hypotheses, 1, 1000),
             ("cluster_xy_m", self.cluster_xy_m, 0.0, 10.0),
             ("cluster_yaw_rad", self.cluster_yaw_rad, 0.0, math.pi),
             ("min_clearance_m", self.min_clearance_m, 0.0, 2.0),
+            ("unknown_weight", self.unknown_weight, 0.0, 1.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -126,10 +130,6 @@ class GlobalSearchConfig:
                     "GlobalSearchConfig.angle_groups must be non-decreasing powers of two, "
                     f"got {groups}"
                 )
-        if self.surface not in ("blocked", "occupied"):
-            raise GlobalSearchConfigError(
-                f"GlobalSearchConfig.surface must be 'blocked' or 'occupied', got {self.surface!r}"
-            )
         if self.min_points > self.max_points:
             raise GlobalSearchConfigError("GlobalSearchConfig.min_points must be <= max_points")
 
@@ -214,15 +214,17 @@ class GlobalSearch:
             np.asarray(ndimage.distance_transform_edt(~grid.blocked()), dtype=np.float64)
             * grid.resolution
         )
-        if cfg.surface == "blocked":
-            fine_dist = np.minimum(fine_dist, fine_clear)
-        self.fine_distance = fine_dist  # [m] map cell -> nearest surface cell (verification)
+        self.fine_distance = fine_dist  # [m] map cell -> nearest occupied cell (verification)
         # Coarse cells: the nearest wall from anywhere in the block (min distance), and whether
         # the laser can stand somewhere in the block (max clearance).
         dist = _block_reduce(fine_dist, factor, np.min, np.inf)
         clear = _block_reduce(fine_clear, factor, np.max, 0.0)
         self.height, self.width = dist.shape
         likelihood = np.exp(-0.5 * (dist / cfg.likelihood_sigma_m) ** 2)
+        if cfg.unknown_weight > 0.0:
+            blocked = _block_reduce(fine_clear, factor, np.min, np.inf)
+            unknown = np.exp(-0.5 * (blocked / cfg.likelihood_sigma_m) ** 2)
+            likelihood = np.maximum(likelihood, cfg.unknown_weight * unknown)
         lik8 = np.rint(likelihood * _LEVELS).astype(np.uint8)
 
         # Padded max-grids (zeros beyond the map), all levels in one flat array: level k at
@@ -289,18 +291,8 @@ class GlobalSearch:
 
         # 1. Greedy best-bound-first descent for an incumbent (a real leaf score).
         order = np.argsort(sums)[::-1][: cfg.beam_width]
-        b_grp, b_i, b_j = grp[order], ii[order], jj[order]
-        incumbent = 0.0
-        for h in range(top, 0, -1):
-            b_grp, b_i, b_j = self._children(h, b_grp, b_i, b_j, region)
-            if b_grp.size == 0:
-                break
-            b_sums = self._bounds(offsets[h - 1], b_grp, b_i, b_j)
-            evaluated += b_grp.size
-            keep = np.argsort(b_sums)[::-1][: cfg.beam_width]
-            b_grp, b_i, b_j = b_grp[keep], b_i[keep], b_j[keep]
-            if h == 1:
-                incumbent = float(b_sums[keep[0]]) / to_int
+        incumbent, cost = self._dive(top, offsets, grp[order], ii[order], jj[order], region)
+        evaluated += cost
         tau = max(cfg.min_score, incumbent - cfg.keep_margin)
         tau_int = math.ceil(tau * to_int - 1e-6)
 
@@ -314,6 +306,14 @@ class GlobalSearch:
                 break
             sums = self._bounds(offsets[h - 1], grp, ii, jj)
             evaluated += grp.size
+            if h - 1 >= 2 and sums.size > cfg.redive_above:
+                # Many nodes left: dive again from this level's best bounds; a better
+                # incumbent raises tau before the (larger) finer levels are expanded.
+                order = np.argsort(sums)[::-1][: cfg.redive_width]
+                leaf, cost = self._dive(h - 1, offsets, grp[order], ii[order], jj[order], region)
+                evaluated += cost
+                tau = max(tau, leaf - cfg.keep_margin)
+                tau_int = math.ceil(tau * to_int - 1e-6)
             if h == 1 and sums.size:
                 tau = max(tau, float(sums.max()) / to_int - cfg.keep_margin)
                 tau_int = math.ceil(tau * to_int - 1e-6)
@@ -330,6 +330,33 @@ class GlobalSearch:
             return SearchResult((), n, evaluated, tau, complete)
         hyps = self._rank(grp, ii, jj, sums.astype(np.float64) / to_int)
         return SearchResult(hyps, n, evaluated, tau, complete)
+
+    def _dive(
+        self,
+        h: int,
+        offsets: list[IntArray],
+        grp: IntArray,
+        ii: IntArray,
+        jj: IntArray,
+        region: SearchRegion | None,
+    ) -> tuple[float, int]:
+        """Best leaf score found by descending from level-``h`` nodes keeping, per level, the
+        nodes with the best bounds (a batched depth-first, best-bound-first search; Hess et al.
+        2016 §V.C); and the number of nodes it evaluated."""
+        width = grp.size
+        n = offsets[0].shape[1]
+        cost = 0
+        for level in range(h, 0, -1):
+            grp, ii, jj = self._children(level, grp, ii, jj, region)
+            if grp.size == 0:
+                return 0.0, cost
+            sums = self._bounds(offsets[level - 1], grp, ii, jj)
+            cost += grp.size
+            keep = np.argsort(sums)[::-1][:width]
+            grp, ii, jj = grp[keep], ii[keep], jj[keep]
+            if level == 1:
+                return float(sums[keep[0]]) / (_LEVELS * n), cost
+        return 0.0, cost
 
     def score(self, points: FloatArray, pose: Pose2D) -> float:
         """The correlative score of one laser pose (same points and field as the search)."""
@@ -428,16 +455,30 @@ class GlobalSearch:
     def _bounds(
         self, offsets: IntArray, grp: IntArray, ii: IntArray, jj: IntArray
     ) -> npt.NDArray[np.int64]:
-        """Σ_p M(window_p + (i, j)) per node, in quantised units (exact scores at h = 0)."""
+        """Σ_p M(window_p + (i, j)) per node, in quantised units (exact scores at h = 0).
+
+        Nodes are taken heading group by heading group, so each batch adds one row of
+        offsets to a column of block bases (a broadcast, not a gather of offsets). With at
+        most 255 points of at most 255 each, a sum fits in 16 bits.
+        """
         base = (ii + self.pad) * self.stride + jj + self.pad
         n = offsets.shape[1]
-        out = np.empty(grp.size, dtype=np.int64)
-        step = max(1, _CHUNK // n)
+        order = np.argsort(grp, kind="stable")
+        g_sorted, b_sorted = grp[order], base[order]
+        cuts = np.flatnonzero(np.diff(g_sorted)) + 1
+        starts = np.concatenate(([0], cuts)).tolist()
+        ends = np.concatenate((cuts, [grp.size])).tolist()
+        sums = np.empty(grp.size, dtype=np.uint16)
         grids = self._grids
-        for k in range(0, grp.size, step):
-            idx = offsets[grp[k : k + step]]
-            idx += base[k : k + step, None]
-            out[k : k + step] = grids.take(idx).sum(axis=1, dtype=np.int64)
+        step = max(1, _CHUNK // n)
+        for s0, e0 in zip(starts, ends, strict=True):
+            row = offsets[g_sorted[s0]]
+            for s in range(s0, e0, step):
+                e = min(e0, s + step)
+                idx = b_sorted[s:e, None] + row
+                np.sum(grids.take(idx), axis=1, dtype=np.uint16, out=sums[s:e])
+        out = np.empty(grp.size, dtype=np.int64)
+        out[order] = sums
         return out
 
     def _rank(

@@ -17,8 +17,10 @@ every mode alive until the data removes all but one):
 3. **Accept** the best candidate only when it has been verified on ``accept_scans`` scans over
    at least ``accept_s`` seconds, **and** no other candidate (not a near-duplicate) is within
    ``margin`` of its quality, **and** the last search was exhaustive (the node budget did not
-   cut it and it returned fewer than ``max_hypotheses``) or the robot has since moved
-   ``motion_to_trust_m`` (so motion, not an incomplete search, removed the look-alikes).
+   cut it and it returned fewer than ``max_hypotheses``), or ``agree_searches`` searches each
+   found it the best verified place (a budget-cut search drops the *lowest* bounds first, and a
+   look-alike of the best place bounds as high as it does, so it is kept with it), or the robot
+   has since moved ``motion_to_trust_m`` (motion removed the look-alikes).
    Symmetric places therefore stay *ambiguous* until motion disambiguates them; the stack does
    not drive autonomously meanwhile, and after ``help_after_s`` it asks a person ("Help me!").
 
@@ -79,6 +81,7 @@ class RelocaliserConfig:
     duplicate_xy_m: float = 0.6  # candidates this close (and within duplicate_yaw_rad) merge
     duplicate_yaw_rad: float = 0.35
     motion_to_trust_m: float = 2.0  # travel that lets an inexhaustive search be trusted
+    agree_searches: int = 2  # ... or this many searches, each finding the candidate best
     help_after_s: float = 20.0  # undecided this long: ask a person ("Help me!")
     background_every_s: float = 5.0  # standing kidnap check period while localised
     standing_speed: float = 0.02  # [m/s] below: the robot stands (background check allowed)
@@ -103,6 +106,7 @@ class RelocaliserConfig:
             ("duplicate_xy_m", self.duplicate_xy_m, 0.0, 10.0),
             ("duplicate_yaw_rad", self.duplicate_yaw_rad, 0.0, math.pi),
             ("motion_to_trust_m", self.motion_to_trust_m, 0.0, 100.0),
+            ("agree_searches", self.agree_searches, 1, 100),
             ("help_after_s", self.help_after_s, 0.0, 3600.0),
             ("background_every_s", self.background_every_s, 0.1, 3600.0),
             ("standing_speed", self.standing_speed, 0.0, 1.0),
@@ -140,6 +144,7 @@ class Candidate:
     first_seen: float  # [s]
     streak: int = 1  # verified scans in a row
     failures: int = 0  # failed verifications in a row
+    wins: int = 1  # global searches whose best verified hypothesis this candidate was
 
 
 @dataclass(frozen=True)
@@ -344,14 +349,18 @@ class Relocaliser:
         if not exhaustive:
             self._travel_m = 0.0
         self._exhaustive = exhaustive
+        first = True
         for hyp in result.hypotheses[: cfg.verify_hypotheses]:
             v = self.verify(points, hyp.pose)
             if not self._verified(v):
                 continue
             dup = self._duplicate_of(v.pose)
             if dup is not None:
-                continue  # already tracked (its own re-verification keeps it current)
-            self._candidates.append(Candidate(v.pose, v.quality, now))
+                # Already tracked (its own re-verification keeps it current).
+                dup.wins += first
+            else:
+                self._candidates.append(Candidate(v.pose, v.quality, now, wins=int(first)))
+            first = False
         self._candidates.sort(key=lambda c: -c.quality)
         del self._candidates[cfg.max_candidates :]
         if not self._candidates:
@@ -384,7 +393,12 @@ class Relocaliser:
             if other.quality >= best.quality - cfg.margin:
                 self.last_failure = "look-alike places"
                 return None
-        if not self._exhaustive and self._travel_m < cfg.motion_to_trust_m:
+        trusted = (
+            self._exhaustive
+            or self._travel_m >= cfg.motion_to_trust_m
+            or best.wins >= cfg.agree_searches
+        )
+        if not trusted:
             self.last_failure = "look-alike places (search not exhaustive)"
             return None
         logger.info(
