@@ -13,6 +13,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 from interbot_core.geometry import Pose2D
@@ -146,6 +147,10 @@ class Daemon:
             ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)
+        # Global searches (0.1-1 s) run on a worker thread, never stalling the 50 Hz loop.
+        self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
+        if options.relocalise:
+            self.stack.relocalisation.run_searches_in(self._search_thread)
         self._due = {
             name: Periodic(hz)
             for name, hz in (
@@ -329,6 +334,7 @@ class Daemon:
             # Sleep until the next pass, or until a command arrives.
             link.wait_commands(max(0.0, next_tick - time.monotonic()))
         self.backend.close()
+        self._search_thread.shutdown(wait=False, cancel_futures=True)
         notifier.stopping()
 
 

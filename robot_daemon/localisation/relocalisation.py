@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 
 from interbot_core.geometry import Pose2D
@@ -79,12 +80,20 @@ class Relocalisation:
         self._kidnaps = 0
         self.help_requests = 0  # times the search asked for a person (for figures)
         self._help_flagged = False
+        self.executor: Executor | None = None  # where searches run (None: in the caller)
 
     @property
     def relocaliser(self) -> Relocaliser:
         if self._reloc is None:
             self._reloc = Relocaliser(self._grid, self._localiser, self.config.relocaliser)
+            self._reloc.executor = self.executor
         return self._reloc
+
+    def run_searches_in(self, executor: Executor) -> None:
+        """Run global searches on ``executor`` (the daemon's worker thread), not in the loop;
+        builds the search's grids now rather than at the first scan."""
+        self.executor = executor
+        self.relocaliser.executor = executor
 
     @property
     def active(self) -> bool:

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import logging
 import math
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -187,6 +188,11 @@ class Relocaliser:
         self._last_background = -math.inf
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
+        # With an executor (the daemon: a worker thread) searches run beside the control loop
+        # and their hypotheses, moved by the odometry since, are verified on a later scan;
+        # without (scenarios, tests) they run at once, deterministically.
+        self.executor: Executor | None = None
+        self._pending: tuple[Future[SearchResult], Pose2D | None, str] | None = None
 
     # ------------------------------------------------------------------ control
 
@@ -211,11 +217,13 @@ class Relocaliser:
         self._exhaustive = False
         self._travel_m = 0.0
         self.last_failure = ""
+        self._pending = None
 
     def stop(self) -> None:
         self._active = False
         self._candidates = []
         self._region = None
+        self._pending = None
 
     def status(self, now: float) -> RelocaliserStatus:
         cfg = self.config
@@ -252,9 +260,37 @@ class Relocaliser:
             self.last_failure = "too few laser returns"
             return None
         self._reverify(points, now)
-        if now - self._last_search >= cfg.search_every_s - 1e-9:
-            self._search(points, now)
+        done = self._collect("search")
+        if done is not None:
+            self._use_search(done[0], done[1], points, now)
+        elif self._pending is None and now - self._last_search >= cfg.search_every_s - 1e-9:
+            self._last_search = now
+            result = self._run_search(points, self._region, "search")
+            if result is not None:
+                self._use_search(result, Pose2D(0.0, 0.0, 0.0), points, now)
         return self._decide(now)
+
+    def _run_search(
+        self, points: FloatArray, region: SearchRegion | None, kind: str
+    ) -> SearchResult | None:
+        """The search's result now, or None when it was handed to the executor."""
+        self.searches += 1
+        if self.executor is None:
+            return self.search_engine.search(points, region)
+        future = self.executor.submit(self.search_engine.search, points, region)
+        self._pending = (future, self._odom, kind)
+        return None
+
+    def _collect(self, kind: str) -> tuple[SearchResult, Pose2D] | None:
+        """A finished search of ``kind`` and the laser's odometry motion since it was asked."""
+        if self._pending is None or self._pending[2] != kind or not self._pending[0].done():
+            return None
+        future, odom_then, _ = self._pending
+        self._pending = None
+        result = future.result()
+        if odom_then is None or self._odom is None:
+            return result, Pose2D(0.0, 0.0, 0.0)
+        return result, self._odom.relative_to(odom_then)
 
     def check_standing(
         self, scan: LaserScan, pose: Pose2D, speed: float, now: float
@@ -263,15 +299,27 @@ class Relocaliser:
         while standing, search the whole map; return the far place that explains the scan
         clearly better than ``pose`` (a kidnap), else None."""
         cfg = self.config
-        if abs(speed) > cfg.standing_speed or now - self._last_background < cfg.background_every_s:
-            return None
-        self._last_background = now
         points = scan.points(cfg.max_range_m)
         if points.shape[0] < cfg.search.min_points:
             return None
+        done = self._collect("background")
+        if done is not None:
+            result, moved = done
+            if math.hypot(moved.x, moved.y) > 0.05 or abs(moved.yaw) > 0.05:
+                return None  # it did not stand still meanwhile: the check is void
+        elif (
+            self._pending is None
+            and abs(speed) <= cfg.standing_speed
+            and now - self._last_background >= cfg.background_every_s
+        ):
+            self._last_background = now
+            ran = self._run_search(points, None, "background")
+            if ran is None:
+                return None
+            result = ran
+        else:
+            return None
         here = self.verify(points, pose, refine=False)
-        result = self.search_engine.search(points)
-        self.searches += 1
         for hyp in result.hypotheses[: cfg.verify_hypotheses]:
             if hyp.pose.distance_to(pose) < cfg.kidnap_min_distance_m:
                 continue
@@ -339,11 +387,11 @@ class Relocaliser:
         self._candidates = kept
         del now
 
-    def _search(self, points: FloatArray, now: float) -> None:
+    def _use_search(
+        self, result: SearchResult, moved: Pose2D, points: FloatArray, now: float
+    ) -> None:
+        """Verify a search's hypotheses (moved by ``moved`` since its scan) on ``points``."""
         cfg = self.config
-        result = self.search_engine.search(points, self._region)
-        self.searches += 1
-        self._last_search = now
         self._last_result = result
         exhaustive = result.complete and len(result.hypotheses) < cfg.search.max_hypotheses
         if not exhaustive:
@@ -351,7 +399,7 @@ class Relocaliser:
         self._exhaustive = exhaustive
         first = True
         for hyp in result.hypotheses[: cfg.verify_hypotheses]:
-            v = self.verify(points, hyp.pose)
+            v = self.verify(points, hyp.pose.compose(moved))
             if not self._verified(v):
                 continue
             dup = self._duplicate_of(v.pose)

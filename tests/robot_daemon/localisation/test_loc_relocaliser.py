@@ -7,6 +7,8 @@ twice (identical to the cell), where no scan from inside can say which one the r
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from concurrent.futures import Executor, Future
 
 import numpy as np
 
@@ -87,3 +89,53 @@ def test_motion_that_contradicts_a_candidate_removes_it() -> None:
     assert old and all(c.streak == 0 and c.failures == 1 for c in old)
     reloc.on_scan(utm_scan(TWINS, laser, 0.7, rng), 0.7)
     assert all(c.first_seen > 0.5 for c in reloc.candidates)  # dropped after two failures
+
+
+class DeferredExecutor(Executor):
+    """Runs what is submitted only when told (a worker thread that is slow, deterministically)."""
+
+    def __init__(self) -> None:
+        self.queue: list[tuple[Future[object], Callable[..., object], tuple[object, ...]]] = []
+
+    def submit(self, fn: Callable[..., object], /, *args: object, **kwargs: object) -> Future:  # type: ignore[override]
+        future: Future[object] = Future()
+        self.queue.append((future, fn, args))
+        return future
+
+    def run_all(self) -> None:
+        for future, fn, args in self.queue:
+            future.set_result(fn(*args))
+        self.queue.clear()
+
+
+def test_a_search_finishing_later_is_moved_by_the_odometry_since_its_scan() -> None:
+    """In the daemon searches run on a worker thread: the robot may have moved by the time the
+    result arrives, and the hypotheses must be moved with it before they are verified."""
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG)
+    executor = DeferredExecutor()
+    reloc.executor = executor
+    reloc.start(0.0, "test")
+    rng = np.random.default_rng(5)
+    start = Pose2D(2.0, 1.5, 0.4)
+    reloc.on_odometry(Pose2D(0.0, 0.0, 0.0))
+    assert reloc.on_scan(utm_scan(ROOM, start, 0.1, rng), 0.1) is None
+    assert len(executor.queue) == 1 and reloc.candidates == ()
+    # The robot drives 0.8 m forward and turns a little before the search is done.
+    step = Pose2D(0.8, 0.0, 0.2)
+    moved = start.compose(step)
+    reloc.on_odometry(step)
+    executor.run_all()
+    assert reloc.on_scan(utm_scan(ROOM, moved, 0.2, rng), 0.2) is None
+    (cand,) = reloc.candidates  # from the search of the first scan, moved by odometry
+    assert cand.first_seen == 0.2 and cand.pose.distance_to(moved) < 0.05
+    accepted = None
+    for k in range(3, 30):
+        now = 0.1 * k
+        accepted = reloc.on_scan(utm_scan(ROOM, moved, now, rng), now)
+        executor.run_all()
+        if accepted is not None:
+            break
+    assert accepted is not None, reloc.last_failure
+    assert accepted.distance_to(moved) < 0.05
+    assert abs(math.remainder(accepted.yaw - moved.yaw, math.tau)) < 0.02
