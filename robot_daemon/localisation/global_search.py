@@ -82,7 +82,7 @@ class GlobalSearchConfig:
     beam_width: int = 2000  # nodes per level in the greedy first descent
     redive_above: int = 20000  # a level with more nodes than this gets a fresh dive ...
     redive_width: int = 200  # ... from this many of its best bounds
-    max_nodes: int = 100000  # nodes kept per level at most (best bounds); beyond: incomplete
+    max_nodes: int = 30000  # nodes kept per level at most (best bounds); beyond: incomplete
     max_hypotheses: int = 16  # ranked hypotheses returned at most
     cluster_xy_m: float = 0.6  # near-duplicate: this close in position ...
     cluster_yaw_rad: float = 0.35  # ... and in heading to a better hypothesis
