@@ -18,9 +18,11 @@ every mode alive until the data removes all but one):
    at least ``accept_s`` seconds, **and** no other candidate (not a near-duplicate) is within
    ``margin`` of its quality, **and** the last search was exhaustive (the node budget did not
    cut it and it returned fewer than ``max_hypotheses``), or ``agree_searches`` searches each
-   found it the best verified place (a budget-cut search drops the *lowest* bounds first, and a
-   look-alike of the best place bounds as high as it does, so it is kept with it), or the robot
-   has since moved ``motion_to_trust_m`` (motion removed the look-alikes).
+   found it the best verified place and it fits clearly (``agree_min_quality``; a budget-cut
+   search drops the *lowest* bounds first, and a look-alike of the best place bounds as high as
+   it does, so it is kept with it), or the robot has since moved ``motion_to_trust_m`` (motion
+   removed the look-alikes). The margin is checked against every candidate still tracked, also
+   one that failed the last scan (a place that fits now and then is still a look-alike).
    Symmetric places therefore stay *ambiguous* until motion disambiguates them; the stack does
    not drive autonomously meanwhile, and after ``help_after_s`` it asks a person ("Help me!").
 
@@ -82,7 +84,8 @@ class RelocaliserConfig:
     duplicate_xy_m: float = 0.6  # candidates this close (and within duplicate_yaw_rad) merge
     duplicate_yaw_rad: float = 0.35
     motion_to_trust_m: float = 2.0  # travel that lets an inexhaustive search be trusted
-    agree_searches: int = 2  # ... or this many searches, each finding the candidate best
+    agree_searches: int = 2  # ... or this many searches, each finding the candidate best, ...
+    agree_min_quality: float = 0.7  # ... with at least this quality (a clear fit)
     help_after_s: float = 20.0  # undecided this long: ask a person ("Help me!")
     background_every_s: float = 5.0  # standing kidnap check period while localised
     standing_speed: float = 0.02  # [m/s] below: the robot stands (background check allowed)
@@ -108,6 +111,7 @@ class RelocaliserConfig:
             ("duplicate_yaw_rad", self.duplicate_yaw_rad, 0.0, math.pi),
             ("motion_to_trust_m", self.motion_to_trust_m, 0.0, 100.0),
             ("agree_searches", self.agree_searches, 1, 100),
+            ("agree_min_quality", self.agree_min_quality, 0.0, 1.0),
             ("help_after_s", self.help_after_s, 0.0, 3600.0),
             ("background_every_s", self.background_every_s, 0.1, 3600.0),
             ("standing_speed", self.standing_speed, 0.0, 1.0),
@@ -437,14 +441,16 @@ class Relocaliser:
         best = alive[0]
         if best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9:
             return None
-        for other in alive[1:]:
-            if other.quality >= best.quality - cfg.margin:
+        # Every candidate still tracked counts, even one that failed the last scan: a place
+        # that passes one scan and fails the next is still a look-alike.
+        for other in self._candidates:
+            if other is not best and other.quality >= best.quality - cfg.margin:
                 self.last_failure = "look-alike places"
                 return None
         trusted = (
             self._exhaustive
             or self._travel_m >= cfg.motion_to_trust_m
-            or best.wins >= cfg.agree_searches
+            or (best.wins >= cfg.agree_searches and best.quality >= cfg.agree_min_quality)
         )
         if not trusted:
             self.last_failure = "look-alike places (search not exhaustive)"
