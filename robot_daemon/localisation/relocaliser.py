@@ -149,7 +149,7 @@ class Candidate:
     first_seen: float  # [s]
     streak: int = 1  # verified scans in a row
     failures: int = 0  # failed verifications in a row
-    wins: int = 1  # global searches whose best verified hypothesis this candidate was
+    wins: int = 1  # global searches whose best hypothesis, verified, this candidate was
 
 
 @dataclass(frozen=True)
@@ -401,18 +401,18 @@ class Relocaliser:
         if not exhaustive:
             self._travel_m = 0.0
         self._exhaustive = exhaustive
-        first = True
-        for hyp in result.hypotheses[: cfg.verify_hypotheses]:
+        for rank, hyp in enumerate(result.hypotheses[: cfg.verify_hypotheses]):
             v = self.verify(points, hyp.pose.compose(moved))
             if not self._verified(v):
                 continue
+            # A win: the search's own best place, verified. When the search's best fails the
+            # check (people in front of it, say) nobody wins: it may still be the truth.
+            win = int(rank == 0)
             dup = self._duplicate_of(v.pose)
             if dup is not None:
-                # Already tracked (its own re-verification keeps it current).
-                dup.wins += first
+                dup.wins += win  # already tracked (its re-verification keeps it current)
             else:
-                self._candidates.append(Candidate(v.pose, v.quality, now, wins=int(first)))
-            first = False
+                self._candidates.append(Candidate(v.pose, v.quality, now, wins=win))
         self._candidates.sort(key=lambda c: -c.quality)
         del self._candidates[cfg.max_candidates :]
         if not self._candidates:
