@@ -47,6 +47,7 @@ from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
+from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -141,6 +142,7 @@ class Daemon:
             mux=load_mux_config(config.mux_yaml),
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
             relocalisation=RelocalisationConfig(
+                relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
                 on_unset=options.relocalise,
                 on_lost=options.relocalise,
                 background=options.relocalise,
