@@ -10,11 +10,13 @@ service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh 
 from __future__ import annotations
 
 import logging
+import socket
 import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from pathlib import Path
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
@@ -45,6 +47,7 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
@@ -69,6 +72,8 @@ class DaemonOptions:
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
     relocalise: bool = True  # search the map by itself at start-up, when lost, when kidnapped
+    record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
+    foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
 
 def odometry_model(name: str) -> OdometryErrorModel:
@@ -355,16 +360,55 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
     return 0, 0
 
 
+def _wait_for_router(connect: tuple[str, ...], stop: threading.Event) -> bool:
+    """A zenoh client cannot open without its router: probe it until it answers (0.2 s doubling
+    to 2 s) or ``stop``; True when reachable. The robot stays still meanwhile (no session, no
+    commands; the motors' own watchdog holds them)."""
+    delay = 0.2
+    while not stop.is_set():
+        for endpoint in connect:
+            host, _, port = endpoint.split("/", 1)[-1].rpartition(":")
+            try:
+                with socket.create_connection((host.strip("[]"), int(port)), timeout=1.0):
+                    return True
+            except OSError:
+                continue
+        logger.warning("zenoh router not reachable at %s; retrying in %.1f s", connect, delay)
+        stop.wait(delay)
+        delay = min(2.0, delay * 2)
+    return False
+
+
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
+    from robot_daemon.recording import daemon_hook  # MCAP recording, live Foxglove view
+
+    z = config.zenoh
+    security, insecure = link_security(config)  # fails fast: keys, endpoints (issue 15)
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
-    z = config.zenoh
-    with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
-        link = RobotLink(session, config.robot_id)
-        try:
-            daemon.run(link, stop, notifier)
-        finally:
-            link.close()
-            notifier.close()
+    tls = None
+    if security is not None:  # the live Foxglove view may then serve wss:// off the machine
+        tls = (security.identity.cert.read_bytes(), security.identity.key.read_bytes())
+    recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now, tls)
+    try:
+        if z.mode == "client" and not _wait_for_router(z.connect, stop):
+            return
+        with open_session(
+            list(z.listen),
+            list(z.connect),
+            z.mode,
+            z.lease_ms,
+            security=security,
+            insecure=insecure,
+        ) as session:
+            link = daemon_hook.make_link(session, daemon, recorder)
+            try:
+                daemon.run(link, stop, notifier)
+            finally:
+                link.close()
+                notifier.close()
+    finally:
+        if recorder is not None:
+            recorder.close()  # finish the file even if the session never opened
     logger.info("daemon stopped")

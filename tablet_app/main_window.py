@@ -16,13 +16,14 @@ import time
 from collections.abc import Callable
 
 from PySide6.QtCore import QEvent, Qt, QTimer
-from PySide6.QtGui import QCloseEvent, QResizeEvent
+from PySide6.QtGui import QCloseEvent, QMouseEvent, QResizeEvent
 from PySide6.QtWidgets import (
     QDialog,
     QFrame,
     QHBoxLayout,
     QLabel,
     QMainWindow,
+    QMessageBox,
     QPushButton,
     QStackedWidget,
     QVBoxLayout,
@@ -47,6 +48,7 @@ from interbot_core.protocol import (
     TourControl,
 )
 from tablet_app.floor_plan import FloorPlan
+from tablet_app.kiosk import CORNER_PX, ExitGesture
 from tablet_app.qt_dialogs import (
     QtHelpConfirmDialog,
     QtMalfunctionDialog,
@@ -81,8 +83,9 @@ QLabel#warning {{ color: white; background: #c00000; padding: {pad}px; font-weig
 QFrame#helpBanner {{ background: #ffd24a; border-radius: {radius}px; }}
 QFrame#motionBar, QFrame#header {{ background: #dde6f5; }}
 QLineEdit, QComboBox {{ min-height: {touch}px; }}
+QComboBox QAbstractItemView::item {{ min-height: {touch}px; }}
 QRadioButton {{ min-height: {touch}px; }}
-QRadioButton::indicator {{ width: {font}px; height: {font}px; }}
+QRadioButton::indicator {{ width: {half}px; height: {half}px; }}
 QProgressBar {{ min-height: {half}px; }}
 """
 
@@ -98,19 +101,22 @@ class TabletWindow(QMainWindow):
         languages: LanguageSwitcher | None = None,
         parent: QWidget | None = None,
         clock: Callable[[], float] = time.monotonic,
+        dpi: float | None = None,
     ) -> None:
         super().__init__(parent)
+        self.dpi_override = dpi  # [dots per inch] the tablet's real screen, when Qt cannot tell
         self.connection = connection
         self.plan = plan
         self.clock = clock
         self.languages = languages or LanguageSwitcher(parent=self)
         self.shown_plan = plan.in_language(self.languages.language)
         home = next((r.id for r in plan.rooms if r.home), plan.rooms[0].id if plan.rooms else None)
-        self.session = TabletSession(
-            room_names=self.room_name, room_xy=self._room_xy, home_room=home
-        )
+        self.session = TabletSession(room_xy=self._room_xy, home_room=home)
         self._connection_detail = ""
         self._touch = 0
+        self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture
+        self._exit_gesture = ExitGesture()
+        self._may_close = False
         self.dialog: QDialog | None = None  # the open dialog, if any
         self._create_widgets(grid)
         self._connect_signals()
@@ -244,7 +250,10 @@ class TabletWindow(QMainWindow):
             self.session.request_closed()
 
     def _size_dialog(self, dialog: QDialog) -> None:
-        dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
+        if getattr(dialog, "HAS_KEYBOARD", False):
+            dialog.resize(int(self.width() * 0.85), int(self.height() * 0.95))
+        else:
+            dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
 
     # ---------------------------------------------------------------- user actions
     def _send(self, msg: Message) -> bool:
@@ -307,7 +316,7 @@ class TabletWindow(QMainWindow):
 
     def _tour_control(self, action: str) -> None:
         if self._send(TourControl(action)):
-            self.session.tour_control_sent(action)
+            self.session.tour_control_sent(action, self.clock())
 
     def _answer_request(self, request_id: int, accepted: bool) -> None:
         if self._send(RequestAnswer(request_id, accepted)):
@@ -334,7 +343,7 @@ class TabletWindow(QMainWindow):
     def _on_status(self, msg: StatusInfo) -> None:
         """The station's progress on an accepted request, in the request's dialog."""
         if isinstance(self.dialog, QtShowRequestDialog):
-            self.dialog.set_status(activity_text(self, self.session))
+            self.dialog.set_status(activity_text(self.room_name, self.session))
 
     # ---------------------------------------------------------------- rendering the session
     def render(self) -> None:
@@ -406,9 +415,9 @@ class TabletWindow(QMainWindow):
 
     def _render_texts(self) -> None:
         s = self.session
-        self.activity_label.setText(activity_text(self, s))
+        self.activity_label.setText(activity_text(self.room_name, s))
         notice = s.notice
-        self.status_label.setText("" if notice is None else notice_text(self, notice))
+        self.status_label.setText("" if notice is None else notice_text(self.room_name, notice))
         self.status_label.setStyleSheet("color: #b00000;" if notice and notice.error else "")
 
     # ---------------------------------------------------------------- connection display
@@ -440,9 +449,18 @@ class TabletWindow(QMainWindow):
         self.menu.set_connection_text(text)
 
     # ---------------------------------------------------------------- look and language
+    def screen_dpi(self) -> float:
+        """Dots per inch of the screen as a finger meets it: the override, else the larger of
+        Qt's logical and physical figures (a desktop platform often reports 96 logical)."""
+        if self.dpi_override is not None:
+            return self.dpi_override
+        screen = self.screen()
+        physical = screen.physicalDotsPerInch() if screen is not None else 0.0
+        return max(float(self.logicalDpiX()), physical)
+
     def apply_metrics(self) -> None:
         """Touch targets of at least 9 mm, growing with the window (ui_metrics)."""
-        touch = touch_target_px(self.logicalDpiX(), self.width(), self.height())
+        touch = touch_target_px(self.screen_dpi(), self.width(), self.height())
         if touch == self._touch:
             return
         self._touch = touch
@@ -479,6 +497,35 @@ class TabletWindow(QMainWindow):
             self.retranslate()
         super().changeEvent(event)
 
+    def mousePressEvent(self, event: QMouseEvent) -> None:
+        """Kiosk: taps in the top-left corner count towards the operator's exit gesture."""
+        pos = event.position()
+        corner = pos.x() <= CORNER_PX and pos.y() <= CORNER_PX
+        if self.kiosk and corner and self._exit_gesture.tap(self.clock()):
+            self.ask_to_leave_kiosk()
+        super().mousePressEvent(event)
+
+    def ask_to_leave_kiosk(self) -> None:
+        box = QMessageBox(
+            QMessageBox.Icon.Question,
+            self.tr("Operator"),
+            self.tr("Leave the kiosk and close the tablet application?"),
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
+            self,
+        )
+        box.setDefaultButton(QMessageBox.StandardButton.No)
+        self.exit_box = box
+        box.finished.connect(self._on_leave_answer)
+        box.open()
+
+    def _on_leave_answer(self, result: int) -> None:
+        if result == QMessageBox.StandardButton.Yes:
+            self._may_close = True
+            self.close()
+
     def closeEvent(self, event: QCloseEvent) -> None:
+        if self.kiosk and not self._may_close:
+            event.ignore()  # the kiosk stays: only the operator's gesture closes it
+            return
         self.connection.stop()
         super().closeEvent(event)

@@ -14,15 +14,16 @@ The rules that make the tablet honest:
   after `HELP_ANSWER_S` (then it says so and keeps asking for help).
 * **A cancel is not undone by a message already in flight.** The station repeats the goal's
   status every ``clock()``; after the user cancels goal g, statuses of g are ignored for
-  `CANCEL_GRACE_S` or until the station shows it is idle. A station that keeps going to g
+  `CANCEL_GRACE_S` or until the station shows it is idle (and likewise "at tour stop" after
+  Resume or End there). A station that keeps going to g
   after that is shown again, with a notice: never a bar that silently comes back, nor a robot
   that silently keeps driving.
 * **An outcome stays on screen.** "Arrived at X", "Report sent" and refusals are the ``notice``,
   kept until the user's next action or the next outcome; the station's periodic status feeds
   the ``activity`` line, not the notice.
 
-Strings are not made here: notices and activities are keys with arguments, and the screens
-translate them (English and Portuguese).
+Strings are not made here: notices and activities are keys with arguments (rooms by id), and
+the screens word them in the UI's language (English and Portuguese), at the time they show them.
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ class Notice:
     """An outcome shown until the next action: ``key`` names the sentence, ``args`` fill it."""
 
     key: str
-    args: tuple[str, ...] = ()
+    args: tuple[str | int, ...] = ()  # an int is a room id, named in the UI's language
     error: bool = False
 
 
@@ -93,7 +94,6 @@ class TourProgress:
 class TabletSession:
     """All the tablet shows about the robot, with ``now`` [s] from an injected clock."""
 
-    room_names: Callable[[int], str] = str
     room_xy: Callable[[int], tuple[float, float] | None] = lambda _room: None
     home_room: int | None = None
     connected: bool = False
@@ -111,6 +111,7 @@ class TabletSession:
     activity_distance: float | None = None  # [m] to the next goal, when the station says
     estop: bool = False
     _cancelled: tuple[int, float] | None = None  # (room, until) after the user's cancel
+    _left_stop: tuple[int, float] | None = None  # (room, until) after Resume / End at a stop
     _help_deadline: float = math.inf
     _listeners: list[Callable[[], None]] = field(default_factory=list)
 
@@ -126,7 +127,7 @@ class TabletSession:
     def lost(self) -> bool:
         return self.localisation in LOST_STATES
 
-    def _say(self, key: str, *args: str, error: bool = False) -> None:
+    def _say(self, key: str, *args: str | int, error: bool = False) -> None:
         self.notice = Notice(key, tuple(args), error)
 
     # ------------------------------------------------------------------ connection
@@ -146,6 +147,7 @@ class TabletSession:
         self.tour_stop = None
         self.shown_request = None
         self._cancelled = None
+        self._left_stop = None
         self.estop = False
         self.activity, self.activity_distance = "idle", None
         if self.help is Help.CHECKING:
@@ -174,7 +176,7 @@ class TabletSession:
         self.localisation = state
         if not self.lost:
             if self.help is Help.CHECKING and self.help_room is not None:
-                self._say("help_thanks", self.room_names(self.help_room))
+                self._say("help_thanks", self.help_room)
             self.help, self.help_room, self._help_deadline = Help.NONE, None, math.inf
         elif self.help is Help.NONE:
             self.help = Help.OFFERED
@@ -185,10 +187,14 @@ class TabletSession:
             if msg.goal == room and not msg.reached and now < until:
                 return  # a repeat sent before the station saw the cancel
             if msg.goal == room and not msg.reached:
-                self._say("still_going", self.room_names(room), error=True)
+                self._say("still_going", room, error=True)
             self._cancelled = None
-        name = self.room_names(msg.goal)
         if msg.tour_reached:
+            if self._left_stop is not None:
+                room, until = self._left_stop
+                if msg.goal == room and now < until:
+                    return  # a repeat sent before the station saw Resume / End
+                self._left_stop = None
             if self.tour_stop != msg.goal:
                 self.tour_stop = msg.goal
                 self.goal = None
@@ -197,7 +203,7 @@ class TabletSession:
         self.tour_stop = None
         if msg.reached:
             if self.goal is not None:
-                self._say("arrived", name)
+                self._say("arrived", msg.goal)
             self.goal = None
         elif self.goal is None or self.goal.room != msg.goal:
             self._start_goal(msg.goal)
@@ -233,6 +239,8 @@ class TabletSession:
         self.activity_distance = _distance_in(rest)
         if msg.task == "idle" and self._cancelled is not None:
             self._cancelled = None  # the station has dropped the cancelled task
+        if self.activity != "at tour stop":
+            self._left_stop = None  # the station has left the stop
         if msg.task == "idle" and self.goal is not None and self.activity == "idle":
             self.goal = None  # the station has no task: no bar for a goal it forgot
         self._changed()
@@ -255,8 +263,9 @@ class TabletSession:
             self._changed()
 
     def _help_failed(self, reason: str) -> None:
-        room = self.room_names(self.help_room) if self.help_room is not None else "?"
-        self._say("help_failed", room, reason, error=True)
+        self._say(
+            "help_failed", self.help_room if self.help_room is not None else "?", reason, error=True
+        )
         self.help, self.help_room, self._help_deadline = Help.CHOOSING, None, math.inf
 
     # ------------------------------------------------------------------ user actions (sent)
@@ -288,7 +297,9 @@ class TabletSession:
         self._say("tour_requested")
         self._changed()
 
-    def tour_control_sent(self, action: str) -> None:
+    def tour_control_sent(self, action: str, now: float) -> None:
+        if self.tour_stop is not None:
+            self._left_stop = (self.tour_stop, now + CANCEL_GRACE_S)
         self.tour_stop = None
         if action == "end":
             self.tour = TourProgress()
@@ -306,7 +317,7 @@ class TabletSession:
     def help_room_sent(self, room: int, now: float) -> None:
         self.help, self.help_room = Help.CHECKING, room
         self._help_deadline = now + HELP_ANSWER_S
-        self._say("help_checking", self.room_names(room))
+        self._say("help_checking", room)
         self._changed()
 
     def report_sent(self, kind: str) -> None:
@@ -314,7 +325,7 @@ class TabletSession:
         self._changed()
 
     def request_sent(self, text: str, room: int, deliver_to: int) -> None:
-        self._say("request_sent", text, self.room_names(room), self.room_names(deliver_to))
+        self._say("request_sent", text, room, deliver_to)
         self._start_goal(room)
         self._changed()
 

@@ -9,6 +9,8 @@ Portuguese catalogue covers it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from PySide6.QtCore import QCoreApplication
 
 from tablet_app.tablet_session import Notice, TabletSession
@@ -29,31 +31,38 @@ def malfunction_kind_text(kind: str) -> str:
     }.get(kind, kind)
 
 
-def notice_text(_widget: object, notice: Notice) -> str:
+def notice_text(room_name: Callable[[int], str], notice: Notice) -> str:
     """The outcome sentence for ``notice`` (unknown keys are shown as they are)."""
-    a = notice.args
-    tr = QCoreApplication.translate
+    a = tuple(room_name(v) if isinstance(v, int) else v for v in notice.args)
     templates = {
-        "arrived": tr("TabletTexts", "Arrived at %1."),
-        "cancelled": tr("TabletTexts", "Cancelled. I have stopped."),
-        "cancelled_by_operator": tr("TabletTexts", "The operator cancelled the task: %1"),
-        "still_going": tr(
+        "arrived": QCoreApplication.translate("TabletTexts", "Arrived at %1."),
+        "cancelled": QCoreApplication.translate("TabletTexts", "Cancelled. I have stopped."),
+        "cancelled_by_operator": QCoreApplication.translate(
+            "TabletTexts", "The operator cancelled the task: %1"
+        ),
+        "still_going": QCoreApplication.translate(
             "TabletTexts", "The Base Station is still taking me to %1: ask the operator."
         ),
-        "help_checking": tr("TabletTexts", "Checking that I am at %1…"),
-        "help_thanks": tr("TabletTexts", "Thank you! I am at %1."),
-        "help_failed": tr(
+        "help_checking": QCoreApplication.translate("TabletTexts", "Checking that I am at %1…"),
+        "help_thanks": QCoreApplication.translate("TabletTexts", "Thank you! I am at %1."),
+        "help_failed": QCoreApplication.translate(
             "TabletTexts", "I could not confirm that I am at %1. Please try another room."
         ),
-        "report_sent": tr("TabletTexts", "Thank you: the operator has your report of %1."),
-        "request_sent": tr("TabletTexts", "Request sent: I will bring “%1” from %2 to %3."),
-        "request_accepted": tr("TabletTexts", "Thank you! I am on my way."),
-        "request_declined": tr("TabletTexts", "Declined. I will tell the person who asked."),
-        "tour_requested": tr("TabletTexts", "Guided tour requested."),
-        "tour_ended": tr("TabletTexts", "The guided tour has ended."),
-        "refused": tr("TabletTexts", "Refused by the Base Station: %1"),
-        "station_error": tr("TabletTexts", "The Base Station says: %1"),
-        "not_sent": tr("TabletTexts", "Not connected: nothing was sent."),
+        "report_sent": QCoreApplication.translate(
+            "TabletTexts", "Thank you: the operator has your report of %1."
+        ),
+        "request_sent": QCoreApplication.translate(
+            "TabletTexts", "Request sent: I will bring “%1” from %2 to %3."
+        ),
+        "request_accepted": QCoreApplication.translate("TabletTexts", "Thank you! I am on my way."),
+        "request_declined": QCoreApplication.translate(
+            "TabletTexts", "Declined. I will tell the person who asked."
+        ),
+        "tour_requested": QCoreApplication.translate("TabletTexts", "Guided tour requested."),
+        "tour_ended": QCoreApplication.translate("TabletTexts", "The guided tour has ended."),
+        "refused": QCoreApplication.translate("TabletTexts", "Refused by the Base Station: %1"),
+        "station_error": QCoreApplication.translate("TabletTexts", "The Base Station says: %1"),
+        "not_sent": QCoreApplication.translate("TabletTexts", "Not connected: nothing was sent."),
     }
     if notice.key == "report_sent":
         return _fill(templates["report_sent"], malfunction_kind_text(a[0] if a else ""))
@@ -63,36 +72,41 @@ def notice_text(_widget: object, notice: Notice) -> str:
     return " ".join(a) if template is None else _fill(template, *a)
 
 
-def activity_text(_widget: object, session: TabletSession) -> str:
+def activity_text(room_name: Callable[[int], str], session: TabletSession) -> str:
     """What the robot is doing, for anyone passing by."""
-    tr = QCoreApplication.translate
     s = session
     if not s.connected:
-        return tr("TabletTexts", "Not connected to the Base Station")
+        return QCoreApplication.translate("TabletTexts", "Not connected to the Base Station")
     if s.estop:
-        return tr("TabletTexts", "Stopped by the operator")
+        return QCoreApplication.translate("TabletTexts", "Stopped by the operator")
     if s.lost:
-        return tr("TabletTexts", "I do not know where I am")
+        return QCoreApplication.translate("TabletTexts", "I do not know where I am")
     if s.localisation == "searching":
-        return tr("TabletTexts", "Finding my position…")
-    goal = s.room_names(s.goal.room) if s.goal is not None else None
+        return QCoreApplication.translate("TabletTexts", "Finding my position…")
+    goal = room_name(s.goal.room) if s.goal is not None else None
     state = s.activity
     if state == "navigating":
         text = (
-            _fill(tr("TabletTexts", "On my way to %1"), goal)
+            _fill(QCoreApplication.translate("TabletTexts", "On my way to %1"), goal)
             if goal
-            else tr("TabletTexts", "On my way")
+            else QCoreApplication.translate("TabletTexts", "On my way")
         )
         if s.activity_distance is not None:
             metres = f"{s.activity_distance:.0f}"
-            text += ", " + _fill(tr("TabletTexts", "%1 m to go"), metres)
+            text += ", " + _fill(QCoreApplication.translate("TabletTexts", "%1 m to go"), metres)
         return text
     plain = {
-        "idle": tr("TabletTexts", "Ready"),
-        "waiting for pose": tr("TabletTexts", "Waiting to know where I am"),
-        "paused": tr("TabletTexts", "Paused"),
-        "at tour stop": tr("TabletTexts", "At a tour stop: waiting for you"),
-        "awaiting response": tr("TabletTexts", "Waiting for an answer at the room"),
-        "emergency stop engaged": tr("TabletTexts", "Stopped by the operator"),
+        "idle": QCoreApplication.translate("TabletTexts", "Ready"),
+        "waiting for pose": QCoreApplication.translate("TabletTexts", "Waiting to know where I am"),
+        "paused": QCoreApplication.translate("TabletTexts", "Paused"),
+        "at tour stop": QCoreApplication.translate(
+            "TabletTexts", "At a tour stop: waiting for you"
+        ),
+        "awaiting response": QCoreApplication.translate(
+            "TabletTexts", "Waiting for an answer at the room"
+        ),
+        "emergency stop engaged": QCoreApplication.translate(
+            "TabletTexts", "Stopped by the operator"
+        ),
     }
     return plain.get(state, state)

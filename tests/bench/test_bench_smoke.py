@@ -44,6 +44,15 @@ POSITIVE = {
         "global_search_isr_precompute_ms",
     ],
     "relocalise": ["relocalise_isr_cold_kidnaps", "relocalise_isr_cold_detected"],
+    "record": [
+        "record_offer_us_median",
+        "record_offer_us_p99",
+        "record_writer_pct_core",
+        "record_total_pct_core",
+        "record_mb_per_hour",
+    ],
+    "replay": ["replay_speed_x", "replay_poses_received"],
+    "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",
@@ -60,6 +69,12 @@ POSITIVE = {
         "teleop_samples",
         "station_scan_view_hz",
     ],
+    "tablet_tls": [
+        "tablet_rtt_plain_ms_p50",
+        "tablet_rtt_tls_ms_p50",
+        "tablet_rtt_tls_ms_p99",
+        "tablet_tls_connect_ms_p50",
+    ],
 }
 NON_NEGATIVE = {
     "tour": [
@@ -75,6 +90,8 @@ NON_NEGATIVE = {
         "relocalise_isr_cold_wrong_relocalisations",
         "relocalise_isr_cold_help_requests",
     ],
+    "record": ["record_dropped"],
+    "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').

@@ -7,9 +7,8 @@ from tablet_app.tablet_session import CANCEL_GRACE_S, HELP_ANSWER_S, Help, Table
 
 
 def session() -> TabletSession:
-    names = {0: "Entrance", 4: "Office"}
     xy = {0: (0.0, 0.0), 4: (10.0, 0.0)}
-    s = TabletSession(room_names=names.__getitem__, room_xy=xy.get, home_room=0)
+    s = TabletSession(room_xy=xy.get, home_room=0)
     s.on_connected()
     return s
 
@@ -62,7 +61,7 @@ def test_help_pose_confirmed_by_the_robot_says_thank_you() -> None:
     s.help_room_sent(4, now=0.0)
     s.on_localisation(Localisation("ok"))
     assert s.help is Help.NONE
-    assert s.notice is not None and (s.notice.key, s.notice.args) == ("help_thanks", ("Office",))
+    assert s.notice is not None and (s.notice.key, s.notice.args) == ("help_thanks", (4,))
 
 
 def test_reconnect_forgets_what_the_old_station_said() -> None:
@@ -88,3 +87,14 @@ def test_listeners_hear_every_change() -> None:
     s.subscribe(lambda: heard.append(1))
     s.on_status(StatusInfo("idle", "navigating, 12.3 m to the next goal"))
     assert heard and s.activity == "navigating" and s.activity_distance == 12.3
+
+
+def test_a_tour_stop_left_is_not_reopened_by_a_repeat() -> None:
+    s = session()
+    s.on_goal_status(GoalStatus(4, True, True), now=0.0)
+    assert s.tour_stop == 4
+    s.tour_control_sent("resume", now=1.0)
+    s.on_goal_status(GoalStatus(4, True, True), now=1.1)  # sent before the station saw it
+    assert s.tour_stop is None
+    s.on_goal_status(GoalStatus(4, True, True), now=1.0 + CANCEL_GRACE_S + 0.1)
+    assert s.tour_stop == 4  # the station really is still waiting there: ask again

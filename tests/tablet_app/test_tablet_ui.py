@@ -391,3 +391,32 @@ def test_kiosk_fills_the_whole_screen(qtbot: Any, station: Any, window: Any) -> 
     qtbot.waitUntil(lambda: window.geometry().size() == screen.size())
     assert window.isFullScreen()
     assert window.windowFlags() & Qt.WindowType.FramelessWindowHint
+    assert window.kiosk
+    window.kiosk = False  # let the fixture close it
+
+
+def test_kiosk_closes_only_after_the_operator_gesture(
+    qtbot: Any, station: Any, window: Any
+) -> None:
+    from PySide6.QtWidgets import QMessageBox
+
+    from tablet_app.kiosk import TAPS
+
+    window.kiosk = True
+    window.close()
+    assert window.isVisible()  # a close request is ignored
+    for _ in range(TAPS - 1):
+        QTest.mouseClick(window.connection_label, Qt.MouseButton.LeftButton, pos=QPoint(5, 5))
+    assert not hasattr(window, "exit_box")
+    QTest.mouseClick(window.connection_label, Qt.MouseButton.LeftButton, pos=QPoint(5, 5))
+    qtbot.waitUntil(lambda: hasattr(window, "exit_box") and window.exit_box.isVisible())
+    click(window.exit_box.button(QMessageBox.StandardButton.Yes))
+    qtbot.waitUntil(lambda: not window.isVisible())
+
+
+def test_exit_gesture_needs_the_taps_close_together() -> None:
+    from tablet_app.kiosk import ExitGesture
+
+    gesture = ExitGesture(taps=3, window_s=1.0)
+    assert not any(gesture.tap(t) for t in (0.0, 0.6, 1.2))  # too slow
+    assert [gesture.tap(t) for t in (2.0, 2.3, 2.6)] == [False, False, True]
