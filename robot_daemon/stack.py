@@ -9,8 +9,8 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
 * **Route.** The station sends the whole route (``RouteMsg``); the navigator advances the
   intermediate goals itself, so the robot finishes the route if the station disappears (the
   thesis robot only reached its current intermediate goal).
-* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset`` or
-  ``lost``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
+* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
+  ``lost`` or ``searching``: a global search is deciding where it is, `relocalisation`), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
   the robot is, so no progress timer counts the suspension as being stuck.
 * **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
