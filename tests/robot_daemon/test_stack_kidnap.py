@@ -2,12 +2,10 @@
 
 `SimulatedSystem` runs the simulator, the `RobotStack` (localiser, navigator, multiplexer) and
 the station's supervisor on one clock. While the robot drives a route, the simulated robot is
-teleported several metres (odometry does not notice): the localiser must report ``lost`` within
-2 s of simulated time, the motors must get zero from then on, and after a new initial pose at
-the robot's true pose it must be ``ok`` again and finish the route. Since issue 16 the robot
-finds itself (global search) and no new initial pose is needed; a "Help me!" pose far from the
-truth is refused.
-"""
+teleported several metres (odometry does not notice): the robot must stop being ``ok`` (lost or
+searching) within 2 s of simulated time, the motors must get zero from then on, and it must find
+itself again by the global search (issue 16), at the truth, and finish the route. A "Help me!"
+pose far from the truth is refused; one at the truth is confirmed."""
 
 from __future__ import annotations
 
