@@ -142,6 +142,9 @@ class QtTaskPanel(QWidget):
         plo.addWidget(self.initial_pick_button)
         plo.addWidget(self.initial_room, 1)
         plo.addWidget(self.initial_room_button)
+        self.relocalise_button = QPushButton("Relocalise")
+        self.relocalise_button.setToolTip("Let the robot find itself on the whole map")
+        plo.addWidget(self.relocalise_button)
         layout.addWidget(pose)
 
         c = controller
@@ -153,6 +156,7 @@ class QtTaskPanel(QWidget):
         self.initial_room_button.clicked.connect(
             lambda: c.set_initial_pose_room(int(self.initial_room.currentData()))
         )
+        self.relocalise_button.clicked.connect(c.relocalise)
         self.deliver_button.clicked.connect(self._deliver)
         self.request_button.clicked.connect(self._deliver)
         self.up_button.clicked.connect(lambda: self._move(-1))

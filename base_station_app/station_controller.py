@@ -98,6 +98,7 @@ from interbot_core.topics import (
     InitialPose,
     Lock,
     PoseMsg,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -806,9 +807,12 @@ class StationController(QObject):
         self.log("info", "emergency stop released")
         self.estop_changed.emit(False)
 
-    def set_initial_pose(self, pose: Pose2D) -> None:
+    def set_initial_pose(self, pose: Pose2D, verify: bool = False) -> None:
+        """``verify``: a room rather than an exact pose; the robot confirms it by laser."""
         now = self.clock()
-        self._send(Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now))
+        self._send(
+            Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now, verify=verify)
+        )
         # Until the robot reports the pose applied, its last "unset"/"lost" is stale: holding
         # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
         # said afresh once the robot answers or the grace runs out).
@@ -817,7 +821,12 @@ class StationController(QObject):
         self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
 
     def set_initial_pose_room(self, node_id: int) -> None:
-        self.set_initial_pose(self.topo.node(node_id, "room").pose)
+        self.set_initial_pose(self.topo.node(node_id, "room").pose, verify=True)
+
+    def relocalise(self) -> None:
+        """Ask the robot to find itself on the whole map (global localisation)."""
+        self._send(Topic.RELOCALISE, Relocalise(stamp=self.clock()))
+        self.log("info", "relocalisation requested")
 
     def set_config(self, config: StationConfig) -> None:
         """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robot."""

@@ -10,7 +10,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     mux: ../resources/config/twist_mux.yaml
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
+    localiser: {map_surface: auto, help_after_s: 20}  # surface: auto | cell_face | cell_centre
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
@@ -159,8 +159,17 @@ class LocaliserSettings:
     """
 
     map_surface: str = "auto"
+    help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
 
     def __post_init__(self) -> None:
+        if not (
+            isinstance(self.help_after_s, (int, float))
+            and math.isfinite(self.help_after_s)
+            and 0.0 <= self.help_after_s <= 3600.0
+        ):
+            raise ConfigError(
+                f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
+            )
         if self.map_surface not in ("auto", *MAP_SURFACES):
             raise ConfigError(
                 f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "

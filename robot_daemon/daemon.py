@@ -15,6 +15,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +33,7 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -49,6 +51,8 @@ from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.relocalisation import RelocalisationConfig
+from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -69,6 +73,7 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    relocalise: bool = True  # search the map by itself at start-up, when lost, when kidnapped
     record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
     foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
@@ -145,8 +150,18 @@ class Daemon:
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+            relocalisation=RelocalisationConfig(
+                relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
+                on_unset=options.relocalise,
+                on_lost=options.relocalise,
+                background=options.relocalise,
+            ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)
+        # Global searches (0.1-1 s) run on a worker thread, never stalling the 50 Hz loop.
+        self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
+        if options.relocalise:
+            self.stack.relocalisation.run_searches_in(self._search_thread)
         self._due = {
             name: Periodic(hz)
             for name, hz in (
@@ -210,7 +225,9 @@ class Daemon:
             elif isinstance(msg, RouteCancel):
                 self.stack.cancel_route(now, msg.reason or "cancelled by the station")
             elif isinstance(msg, InitialPose):
-                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now)
+                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now, msg.verify)
+            elif isinstance(msg, Relocalise):
+                self.stack.relocalise(now)
             elif isinstance(msg, ConfigMsg):
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):
@@ -325,6 +342,7 @@ class Daemon:
             # Every way out (stop, exception, KeyboardInterrupt) leaves the motors at zero.
             self._motors_to_zero()
             self.backend.close()
+            self._search_thread.shutdown(wait=False, cancel_futures=True)
             notifier.stopping()
 
     def _pass(self, link: RobotLink, notifier: SystemdNotifier, next_tick: float) -> float:

@@ -66,6 +66,10 @@ def test_map_surface_follows_the_backend_unless_set(tmp_path: Path) -> None:
     assert cfg.localiser.surface_for("hardware") == "cell_face"
     with pytest.raises(ConfigError, match="map_surface"):
         parse_config({"localiser": {"map_surface": "edge"}}, "robot.yaml", tmp_path)
+    with pytest.raises(ConfigError, match="help_after_s"):
+        parse_config({"localiser": {"help_after_s": -1}}, "robot.yaml", tmp_path)
+    config = parse_config({"localiser": {"help_after_s": 45}}, "robot.yaml", tmp_path)
+    assert config.localiser.help_after_s == 45
 
 
 def test_the_daemon_says_a_new_contact_once_as_a_collision() -> None:
