@@ -40,6 +40,12 @@ POSITIVE = {
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "global_search": [
+        "global_search_isr_ms_median",
+        "global_search_isr_ms_p99",
+        "global_search_isr_precompute_ms",
+    ],
+    "relocalise": ["relocalise_isr_cold_kidnaps", "relocalise_isr_cold_detected"],
     "record": [
         "record_offer_us_median",
         "record_offer_us_p99",
@@ -82,6 +88,11 @@ NON_NEGATIVE = {
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
+    "global_search": ["global_search_isr_truth_first"],
+    "relocalise": [
+        "relocalise_isr_cold_wrong_relocalisations",
+        "relocalise_isr_cold_help_requests",
+    ],
     "record": ["record_dropped"],
     "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
