@@ -38,6 +38,14 @@ POSITIVE = {
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "record": [
+        "record_offer_us_median",
+        "record_offer_us_p99",
+        "record_writer_pct_core",
+        "record_total_pct_core",
+        "record_mb_per_hour",
+    ],
+    "replay": ["replay_speed_x", "replay_poses_received"],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
         "reallog_intel_rms_m",
@@ -55,6 +63,12 @@ POSITIVE = {
         "teleop_samples",
         "station_scan_view_hz",
     ],
+    "tablet_tls": [
+        "tablet_rtt_plain_ms_p50",
+        "tablet_rtt_tls_ms_p50",
+        "tablet_rtt_tls_ms_p99",
+        "tablet_tls_connect_ms_p50",
+    ],
 }
 NON_NEGATIVE = {
     "tour": [
@@ -65,6 +79,8 @@ NON_NEGATIVE = {
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
+    "record": ["record_dropped"],
+    "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').
