@@ -52,6 +52,7 @@ from pathlib import Path
 import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
+from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
@@ -92,12 +93,16 @@ from interbot_core.supervisor import (
     TourStopReached,
 )
 from interbot_core.topics import (
+    Battery,
     ConfigMsg,
     InitialPose,
     Lock,
+    PoseMsg,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
+    Status,
     StopRelease,
     Topic,
     Twist,
@@ -135,6 +140,7 @@ class StationController(QObject):
     """State, commands and the control loop of the Base Station (see the module docstring)."""
 
     frame_ready = Signal()
+    alert_raised = Signal(object)  # Alert: new, or a repeat of an unacknowledged one
     clocked = Signal()
     robots_changed = Signal()
     robot_selected = Signal(str)
@@ -161,8 +167,8 @@ class StationController(QObject):
         tablet_port: int = 5555,
         robot_id: str | None = None,
         timing: Timing = Timing(),
-        route_ids: Callable[[], int] = random_route_id,
         tablet_auth: TabletAuthServer | None = None,
+        route_ids: Callable[[], int] = random_route_id,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)
@@ -178,6 +184,9 @@ class StationController(QObject):
         )
         self.static_map = self._load_static_map()
         self.state = RobotState()
+        self.alerts = AlertList()  # what the operator must see and acknowledge (alerts.py)
+        self.alert_rules = AlertRules(self.alerts)
+        self.alerts.subscribe(self.alert_raised.emit)
         self.teleop = TeleopInput(self.config.teleop_linear_max, self.config.teleop_angular_max)
         self.watchdog = LatencyWatchdog(
             self.config.latency_ceiling
@@ -372,11 +381,24 @@ class StationController(QObject):
                 self._on_link_event(event)
             for topic, message in link.poll_state().items():
                 self.state.apply(topic, message)
+                self._check_alerts(topic, message)
             progress, route = self.state.progress, self.route
             if progress is not None and route is not None and progress.route_id == route.route_id:
                 self.route_index = progress.index
                 self._robot_verdict(progress)
         self.frame_ready.emit()
+
+    def _check_alerts(self, topic: Topic, message: object) -> None:
+        """The selected robot's state, through the alert rules (alerts.py)."""
+        robot, now, rules = self.selected_robot or "?", self.clock(), self.alert_rules
+        if isinstance(message, PoseMsg):
+            rules.on_pose(robot, message, now)
+        elif isinstance(message, Battery):
+            rules.on_battery(robot, message, now)
+        elif isinstance(message, RouteProgress):
+            rules.on_route_progress(robot, message, now)
+        elif isinstance(message, Status):
+            rules.on_status(robot, message, now)
 
     def _on_route_progress(self, progress: RouteProgress) -> None:
         """Mirror the robot's route (see `RouteMirror`)."""
@@ -419,11 +441,13 @@ class StationController(QObject):
         elif isinstance(event, RobotLeft):
             self.robots[event.robot_id] = False
             self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
+            self.alert_rules.on_robot_left(event.robot_id, self.clock())
             self.robots_changed.emit()
         elif isinstance(event, StateMessage):
             if event.robot_id != self.selected_robot:
                 return  # a late message from the robot we no longer follow
             self.state.apply(event.topic, event.message)
+            self._check_alerts(event.topic, event.message)
             if event.topic is Topic.ROUTE_PROGRESS and isinstance(event.message, RouteProgress):
                 self._on_route_progress(event.message)
             if event.topic is Topic.STATUS:
@@ -491,10 +515,10 @@ class StationController(QObject):
 
     def tablet_permissions(self) -> TabletPermissions:
         """What the tablet may do now: the operator's choice, and only what can work."""
-        if not self.robot_online:
+        if not self.robot_online or self.estop_latched:
+            # During a stop nothing the tablet orders could start: refused, with the reason,
+            # rather than queued to start the moment the stop is released.
             return TabletPermissions(False, False, False, False)
-        if self.estop_latched:
-            return self.permissions.with_kind("teleop", False)
         return self.permissions
 
     def _send_permissions(self) -> None:
@@ -691,13 +715,18 @@ class StationController(QObject):
         self.tasks_changed.emit()
         return True
 
-    def cancel_task(self) -> bool:
-        return self._try(self.supervisor.cancel)
+    def cancel_task(self, who: str = "the operator") -> bool:
+        """Cancel the running task; a tablet's task cancelled by someone else tells the tablet."""
+        tablets = self._is_tablet_task(self.supervisor.current_task)
+        cancelled = self._try(self.supervisor.cancel)
+        if cancelled and tablets and who != "the tablet":
+            self.tablet.send(p.Cancel(f"cancelled by {who}"))
+        return cancelled
 
     def stop_motion(self, who: str) -> None:
         """Stop whatever runs: the task (if any), a route this station did not start, teleop."""
         if self.supervisor.current_task is not None:
-            self.cancel_task()
+            self.cancel_task(who)
         if self.route_mirror.robot_running and self.route is None:
             # A route from before a station restart (or one we lost track of): cancel it too.
             self._send(
@@ -750,6 +779,7 @@ class StationController(QObject):
         """
         self.teleop.release_all()
         self._stop_tablet_speed("emergency stop")
+        self._handle(self.supervisor.hold_queue())  # waiting tasks wait for "Resume queue"
         was = self.estop_latched
         self.estop_latched = True
         self._assert_stop_intent()
@@ -758,6 +788,15 @@ class StationController(QObject):
         if not was:
             self.log("error", "EMERGENCY STOP engaged")
             self.estop_changed.emit(True)
+
+    def resume_queue(self) -> None:
+        """The operator's "Resume queue": waiting tasks may start again (not during a stop)."""
+        if self.estop_latched:
+            self.log("warning", "release the emergency stop before resuming the queue")
+            return
+        if self.supervisor.held:
+            self._handle(self.supervisor.release_queue())
+            self.log("info", "task queue resumed by the operator")
 
     def release_stop(self) -> None:
         if not self.estop_latched:
@@ -768,9 +807,12 @@ class StationController(QObject):
         self.log("info", "emergency stop released")
         self.estop_changed.emit(False)
 
-    def set_initial_pose(self, pose: Pose2D) -> None:
+    def set_initial_pose(self, pose: Pose2D, verify: bool = False) -> None:
+        """``verify``: a room rather than an exact pose; the robot confirms it by laser."""
         now = self.clock()
-        self._send(Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now))
+        self._send(
+            Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now, verify=verify)
+        )
         # Until the robot reports the pose applied, its last "unset"/"lost" is stale: holding
         # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
         # said afresh once the robot answers or the grace runs out).
@@ -779,7 +821,12 @@ class StationController(QObject):
         self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
 
     def set_initial_pose_room(self, node_id: int) -> None:
-        self.set_initial_pose(self.topo.node(node_id, "room").pose)
+        self.set_initial_pose(self.topo.node(node_id, "room").pose, verify=True)
+
+    def relocalise(self) -> None:
+        """Ask the robot to find itself on the whole map (global localisation)."""
+        self._send(Topic.RELOCALISE, Relocalise(stamp=self.clock()))
+        self.log("info", "relocalisation requested")
 
     def set_config(self, config: StationConfig) -> None:
         """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robot."""
@@ -881,10 +928,8 @@ class StationController(QObject):
             self.pause()
 
     def tablet_task_cancel(self) -> None:
-        task = self.tablet_task
-        if task is not None:
-            self.cancel_task()
-            self.tablet.send(p.Cancel("cancelled by the operator"))
+        if self.tablet_task is not None:
+            self.cancel_task()  # tells the tablet: cancelled by the operator
 
     def on_tablet_message(self, msg: object) -> None:
         """A validated tablet message: a Supervisor or robot action, subject to permissions."""
@@ -903,6 +948,7 @@ class StationController(QObject):
                 self._tablet_stop_told = True
             if not isinstance(msg, p.Speed):
                 self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
+            self.alert_rules.on_refused(why, now)
             return
         if isinstance(msg, p.Speed):
             self._on_tablet_speed(msg, now)
@@ -914,8 +960,7 @@ class StationController(QObject):
             self.pause() if msg.paused else self.resume()
         elif isinstance(msg, p.Stop):
             if msg.stop:
-                self.log("warning", "tablet: stop")
-                self.stop_motion("the tablet")
+                self._tablet_stop()
         elif isinstance(msg, p.Tour):
             if msg.start:
                 self.submit(GuidedTour(), from_tablet=True)
@@ -935,7 +980,29 @@ class StationController(QObject):
             self.set_initial_pose_room(msg.room)
         elif isinstance(msg, p.Malfunction):
             self.log("error", f"tablet reports {msg.kind}: {msg.text}")
+            self.alert_rules.on_malfunction(msg.kind, msg.text, now)
         self.tablet_changed.emit()
+
+    def _tablet_stop(self) -> None:
+        """The tablet's Stop always stops the robot; it cancels only what the tablet ordered.
+
+        An operator's task is paused instead (the robot stops, the task stays the operator's)
+        and the tablet is told why; its own task, a route nobody here owns, or teleoperation
+        is stopped outright.
+        """
+        task = self.supervisor.current_task
+        if task is not None and not self._is_tablet_task(task):
+            self.log("warning", "tablet: stop on the operator's task: paused")
+            self.pause()
+            self._stop_tablet_speed("stop from the tablet")
+            self.tablet.send(
+                p.ErrorReport(
+                    "not_owner", "paused: this task was given by the operator, who decides on it"
+                )
+            )
+            return
+        self.log("warning", "tablet: stop")
+        self.stop_motion("the tablet")
 
     def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:
         """Forward one fresh tablet command once, stamped with its arrival time ``now``."""

@@ -110,9 +110,9 @@ class TabletServer(QObject):
         limits: ProtocolLimits = DEFAULT_LIMITS,
         ping_interval_ms: int = 1000,
         error_budget: ErrorBudget | None = None,
+        server: QTcpServer | None = None,
         input_policy: InputPolicyConfig | None = None,
         pong_timeout_s: float | None = None,
-        server: QTcpServer | None = None,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)

@@ -95,6 +95,7 @@ class Topic(enum.StrEnum):
     ROUTE_CANCEL = "route_cancel"
     GOAL = "goal"
     INITIAL_POSE = "initial_pose"
+    RELOCALISE = "relocalise"
     CONFIG = "config"
     # State, robot -> Base Station.
     CMD_VEL = "cmd_vel"
@@ -265,12 +266,13 @@ class StopRelease(JsonMessage):
         _check_stamp(self)
 
 
-POSE_STATES: Final = ("unset", "ok", "lost")
+POSE_STATES: Final = ("unset", "ok", "lost", "searching")
 
 
 @dataclass(frozen=True)
 class PoseMsg(JsonMessage):
-    """The localiser's pose in the ``map`` frame; ``state`` unset (no initial pose), ok or lost."""
+    """The localiser's pose in the ``map`` frame; ``state`` unset (no initial pose), ok, lost or
+    searching (a global search for the robot's pose is under way)."""
 
     x: float
     y: float
@@ -419,15 +421,30 @@ class GoalMsg(JsonMessage):
 
 @dataclass(frozen=True)
 class InitialPose(JsonMessage):
-    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!")."""
+    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!").
+
+    ``verify``: the pose is only a hint (a room picked by a person): the robot searches around
+    it and applies it only if the laser confirms it."""
 
     x: float
     y: float
     yaw: float
     stamp: float = 0.0
+    verify: bool = False
 
     def __post_init__(self) -> None:
         _check_xy_yaw(self)
+        _check_stamp(self)
+        _check_bool(self, "verify")
+
+
+@dataclass(frozen=True)
+class Relocalise(JsonMessage):
+    """Ask the robot to find itself on the whole map (global localisation, issue 16)."""
+
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
         _check_stamp(self)
 
 
@@ -841,6 +858,7 @@ _SPECS: Final = (
     TopicSpec(Topic.ROUTE_CANCEL, True, False, True, False, None, RouteCancel, "drop the route in progress"),
     TopicSpec(Topic.GOAL, True, False, True, False, None, GoalMsg, "single goal; the robot plans the route"),
     TopicSpec(Topic.INITIAL_POSE, True, False, True, False, None, InitialPose, "set the localiser's pose"),
+    TopicSpec(Topic.RELOCALISE, True, False, True, False, None, Relocalise, "find the robot on the whole map"),
     TopicSpec(Topic.CONFIG, True, False, True, False, None, ConfigMsg, "planner parameters on the fly"),
     TopicSpec(Topic.CMD_VEL, False, False, False, True, 20.0, Twist, "mux output sent to the motors"),
     TopicSpec(Topic.POSE, False, False, False, True, 40.0, PoseMsg, "localised pose in the map frame"),

@@ -36,6 +36,7 @@ from interbot_core.topics import (
     PlanMsg,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -61,7 +62,15 @@ from interbot_link.session import LinkError
 logger = logging.getLogger(__name__)
 
 CommandMessage = (
-    Twist | Lock | StopRelease | RouteMsg | RouteCancel | GoalMsg | InitialPose | ConfigMsg
+    Twist
+    | Lock
+    | StopRelease
+    | RouteMsg
+    | RouteCancel
+    | GoalMsg
+    | InitialPose
+    | ConfigMsg
+    | Relocalise
 )
 
 PRIORITY_TOPICS = frozenset({str(Topic.STOP), str(Topic.STOP_RELEASE)})

@@ -10,7 +10,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     mux: ../resources/config/twist_mux.yaml
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
+    localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     start_latched: true                 # start with the emergency stop latched (see below)
@@ -149,28 +149,32 @@ MAP_SURFACES = ("cell_face", "cell_centre")
 
 @dataclass(frozen=True)
 class LocaliserSettings:
-    """Where a wall lies in an occupied map cell, for the scan matcher.
+    """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
+    whatever the backend (issue 12: the choice must not suit the simulator).
 
-    ``cell_face``: on the cell's boundary with free space, true when the world *is* the grid
-    (the simulator) or the map was rasterised from a floor plan. ``cell_centre``: through the
-    cell, true on average for maps built from laser end points (SLAM: gmapping, Hector,
-    Cartographer). ``auto`` picks ``cell_face`` for the simulator and ``cell_centre`` for real
-    hardware.
+    ``cell_centre`` (default): through the cell, true on average for maps built from laser end
+    points (SLAM: gmapping, Hector, Cartographer), the maps real robots use. ``cell_face``: on
+    the cell's boundary with free space, for maps rasterised from a floor plan when the plan is
+    known to be exact.
     """
 
-    map_surface: str = "auto"
+    map_surface: str = "cell_centre"
+    help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
 
     def __post_init__(self) -> None:
-        if self.map_surface not in ("auto", *MAP_SURFACES):
+        if not (
+            isinstance(self.help_after_s, (int, float))
+            and math.isfinite(self.help_after_s)
+            and 0.0 <= self.help_after_s <= 3600.0
+        ):
             raise ConfigError(
-                f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
+                f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
+            )
+        if self.map_surface not in MAP_SURFACES:
+            raise ConfigError(
+                f"localiser: 'map_surface' must be cell_face or cell_centre, "
                 f"got {self.map_surface!r}"
             )
-
-    def surface_for(self, backend: str) -> str:
-        if self.map_surface != "auto":
-            return self.map_surface
-        return "cell_face" if backend == "sim" else "cell_centre"
 
 
 @dataclass(frozen=True)
@@ -186,8 +190,8 @@ class DaemonConfig:
     localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
     security: SecuritySettings = field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
-    start_latched: bool = True  # stop latched at start until a station releases it
     recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
+    start_latched: bool = True  # stop latched at start until a station releases it
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
@@ -213,8 +217,8 @@ class DaemonConfig:
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
             f"connect={list(self.zenoh.connect)} rates={self.rates} "
-            f"start_latched={self.start_latched} "
-            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')}"
+            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')} "
+            f"start_latched={self.start_latched}"
         )
 
 
@@ -229,9 +233,9 @@ _TOP_KEYS = {
     "zenoh",
     "localiser",
     "hardware",
-    "start_latched",
     "recording",
     "security",
+    "start_latched",
 }
 
 
@@ -300,8 +304,8 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
             (base_dir / keys).resolve() if keys else None, security.get("insecure", False)
         ),
         hardware=hardware,
-        start_latched=raw.get("start_latched", True),
         recording=recording,
+        start_latched=raw.get("start_latched", True),
         source=source,
     )
 

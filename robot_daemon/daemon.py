@@ -15,6 +15,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +33,7 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -46,8 +48,11 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.relocalisation import RelocalisationConfig
+from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -68,6 +73,7 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    relocalise: bool = True  # search the map by itself at start-up, when lost, when kidnapped
     record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
     foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
@@ -139,13 +145,23 @@ class Daemon:
                     config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
                 )
         self.backend = backend
-        surface = config.localiser.surface_for(config.backend)
+        surface = config.localiser.map_surface  # one wall model, sim or hardware
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+            relocalisation=RelocalisationConfig(
+                relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
+                on_unset=options.relocalise,
+                on_lost=options.relocalise,
+                background=options.relocalise,
+            ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)
+        # Global searches (0.1-1 s) run on a worker thread, never stalling the 50 Hz loop.
+        self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
+        if options.relocalise:
+            self.stack.relocalisation.run_searches_in(self._search_thread)
         self._due = {
             name: Periodic(hz)
             for name, hz in (
@@ -159,6 +175,7 @@ class Daemon:
         }
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
+        self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
@@ -208,7 +225,9 @@ class Daemon:
             elif isinstance(msg, RouteCancel):
                 self.stack.cancel_route(now, msg.reason or "cancelled by the station")
             elif isinstance(msg, InitialPose):
-                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now)
+                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now, msg.verify)
+            elif isinstance(msg, Relocalise):
+                self.stack.relocalise(now)
             elif isinstance(msg, ConfigMsg):
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):
@@ -268,6 +287,9 @@ class Daemon:
         self._publish_route(link, force=status_due)
         if status_due:
             self._publish_plan(link, now)
+            for level, text in self._health.changes(self.backend.device_status()):
+                logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
+                link.publish_status(Status(level, text, stamp=now))
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
 
@@ -320,6 +342,7 @@ class Daemon:
             # Every way out (stop, exception, KeyboardInterrupt) leaves the motors at zero.
             self._motors_to_zero()
             self.backend.close()
+            self._search_thread.shutdown(wait=False, cancel_futures=True)
             notifier.stopping()
 
     def _pass(self, link: RobotLink, notifier: SystemdNotifier, next_tick: float) -> float:

@@ -143,6 +143,9 @@ def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, 
     msg = robot.of("initial_pose")[0]
     assert isinstance(msg, InitialPose)
     assert (msg.x, msg.y, msg.yaw) == (node.x, node.y, node.yaw)
+    assert msg.verify  # a room is a hint: the robot confirms it by laser before trusting it
+    station.relocalise()  # the "Relocalise" button: the robot searches the whole map
+    qtbot.waitUntil(lambda: bool(len(robot.of("relocalise")) == 1), timeout=3000)
     new = StationConfig(planner_linear_max=0.3, approach_tolerance=1.0, latency_ceiling=0.3)
     station.set_config(new)
     qtbot.waitUntil(
