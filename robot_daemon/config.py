@@ -13,8 +13,8 @@ configuration is logged once at start-up. Example (all keys optional except wher
     localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
-    recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
     start_latched: true                 # start with the emergency stop latched (see below)
+    recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
 
 ``start_latched`` (default true): after a (re)start the robot does not move until a station
 that sees it releases the stop (a station re-asserts its operator's stop, or releases it, on

@@ -99,6 +99,7 @@ class SecureRig:
             sim=SimSettings(seed=3, people=0, odometry="calibrated", realtime_factor=4.0),
             zenoh=ZenohSettings((endpoint,), ()),
             security=SecuritySettings(keys),
+            start_latched=False,  # a bare link, not a station: nobody would release the latch
         )
         security, insecure = link_security(config)
         assert security is not None and not insecure
