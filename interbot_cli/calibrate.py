@@ -36,6 +36,7 @@ from robot_daemon.calibration import (
 )
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.sim.diff_drive import DiffDriveConfig
 from robot_daemon.sim.odometry_model import OdometryConfigError, OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
@@ -124,7 +125,12 @@ class SimulatedRobot:
         self.backend = SimBackend(self.sim, scan_rate_hz=10.0, camera_rate_hz=0.0)
         # Pure scan matching (as the thesis's Hector SLAM, no odometry fusion) and a fixed map,
         # so the reference does not inherit the odometry's error.
-        localiser = LocaliserConfig(odom_blend=False, map_update=False)
+        # This simulated robot's world is the grid itself, whose walls lie on cell faces: the
+        # reference matcher uses that wall model (the daemon's default, cell centres, suits maps
+        # built from laser end points and would bias this reference by half a cell).
+        localiser = LocaliserConfig(
+            odom_blend=False, map_update=False, matcher=ScanMatcherConfig(surface="cell_face")
+        )
         self.config = StackConfig(localiser=localiser)
         self.stack = RobotStack(self.grid, self.backend, self.config)
         self._mount_inv = self.config.laser_mount.inverse()
