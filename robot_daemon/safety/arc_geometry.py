@@ -74,8 +74,33 @@ def inside_polygon(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArra
     return inside
 
 
+def _axis_aligned_box(poly: FloatArray) -> tuple[float, float, float, float] | None:
+    """(centre x, centre y, half length, half width) if ``poly`` is an axis-aligned rectangle."""
+    if len(poly) != 4:
+        return None
+    xs, ys = np.unique(poly[:, 0]), np.unique(poly[:, 1])
+    if len(xs) != 2 or len(ys) != 2:
+        return None
+    edges = np.diff(np.vstack((poly, poly[:1])), axis=0)
+    if not np.all((edges[:, 0] == 0) | (edges[:, 1] == 0)):
+        return None
+    return (
+        float(xs.mean()),
+        float(ys.mean()),
+        float(xs[1] - xs[0]) / 2,
+        float(ys[1] - ys[0]) / 2,
+    )
+
+
 def distance_to_polygon(px: FloatArray, py: FloatArray, poly: FloatArray) -> FloatArray:
     """Euclidean distance [m] from each point to the polygon (0 inside it)."""
+    box = _axis_aligned_box(poly)
+    if box is not None:  # the usual footprint: a closed form
+        cx, cy, hl, hw = box
+        ex = np.maximum(np.abs(px - cx) - hl, 0.0)
+        ey = np.maximum(np.abs(py - cy) - hw, 0.0)
+        dist: FloatArray = np.hypot(ex, ey)
+        return dist
     best = np.full(np.shape(px), np.inf)
     n = len(poly)
     for i in range(n):
@@ -174,3 +199,21 @@ def grow_polygon(poly: FloatArray, margin: float) -> FloatArray:
     cos_half = np.maximum(np.einsum("ij,ij->i", bis_unit, n1), 0.2)
     grown: FloatArray = ccw + bis_unit * (margin / cos_half)[:, None]
     return grown
+
+
+def near_arcs(
+    px: FloatArray, py: FloatArray, curvatures: FloatArray, radius: float, length: float
+) -> npt.NDArray[np.bool_]:
+    """Points that a footprint of circumscribed ``radius`` [m] could touch while base_link moves
+    up to ``|length|`` along any of the arcs: within ``radius`` of the arc's circle (of the
+    x axis for a straight line) and of the origin plus ``|length|``. A cheap superset that keeps
+    the per-step tests small (walls beside a straight run drop out)."""
+    keep = np.zeros(np.shape(px), dtype=bool)
+    for kappa in np.asarray(curvatures, dtype=np.float64).ravel():
+        if abs(kappa) < 1e-6:
+            keep |= np.abs(py) <= radius
+        else:
+            rho = 1.0 / kappa
+            keep |= np.abs(np.hypot(px, py - rho) - abs(rho)) <= radius
+    within: npt.NDArray[np.bool_] = keep & (np.hypot(px, py) <= radius + abs(length))
+    return within

@@ -45,6 +45,7 @@ from robot_daemon.safety.arc_geometry import (
     free_rotation,
     grow_polygon,
     inside_polygon,
+    near_arcs,
     polygon_radius,
 )
 from robot_daemon.safety.collision_monitor import (
@@ -163,8 +164,11 @@ class AssistedTeleop:
             return AssistResult(0.0, 0.0, "idle")
         horizon = cfg.projection_time
         lookahead = max(abs(linear) * horizon, cfg.min_lookahead)
-        reach = polygon_radius(self._footprint) + cfg.margin + lookahead + 0.05
-        near = (np.abs(px) <= reach) & (np.abs(py) <= reach)
+        radius = polygon_radius(self._footprint) + cfg.margin
+        if abs(linear) < cfg.rotation_threshold:
+            near = np.hypot(px, py) <= radius
+        else:
+            near = near_arcs(px, py, angular / linear + self._offsets, radius, lookahead)
         qx, qy = decimate(px[near], py[near])
         # Keep the margin below the current clearance, so the robot can still move when close.
         clearance = (

@@ -50,6 +50,7 @@ from robot_daemon.safety.arc_geometry import (
     free_arc_length,
     free_rotation,
     inside_polygon,
+    near_arcs,
     polygon_radius,
 )
 
@@ -308,7 +309,7 @@ class CollisionMonitor:
         near = np.hypot(px, py)
         h = self.config.hysteresis
         fp_reach = polygon_radius(self._footprint)
-        close = near <= fp_reach + 1.5
+        close = near <= fp_reach + 1.0
         self._distance = (
             float(distance_to_polygon(px[close], py[close], self._footprint).min())
             if np.any(close)
@@ -384,8 +385,10 @@ class CollisionMonitor:
         horizon = cfg.time_before_collision
         steps = cfg.steps
         px, py = self._px, self._py
-        reach = z.reach + abs(v) * horizon + 0.05
-        cand = (np.abs(px) <= reach) & (np.abs(py) <= reach)
+        if v != 0.0:
+            cand = near_arcs(px, py, np.array([w / v]), z.reach, v * horizon)
+        else:
+            cand = np.hypot(px, py) <= z.reach
         px, py = px[cand], py[cand]
         start_inside = inside_polygon(px, py, z.polygon)
         px, py = px[~start_inside], py[~start_inside]
