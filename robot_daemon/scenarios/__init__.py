@@ -12,7 +12,7 @@ from pathlib import Path
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.scenarios.runner import ScenarioOptions, ScenarioResult
 
-SCENARIOS = ("odometry", "tour", "mission", "latency")
+SCENARIOS = ("odometry", "tour", "mission", "latency", "teleop")
 
 
 def load_scenario(name: str) -> Callable[[ScenarioOptions], ScenarioResult]:
