@@ -112,7 +112,7 @@ def plan_runs(system: SimulatedSystem, seed: int) -> list[Run]:
 
 
 def _door_runs(system: SimulatedSystem, topo: TopologicalMap, distance: np.ndarray) -> list[Run]:
-    out = []
+    out: list[Run] = []
     for node in topo.nodes:
         p = node.pose
         c, s = math.cos(p.yaw), math.sin(p.yaw)
@@ -243,7 +243,9 @@ def _door_axis(run: Run) -> tuple[float, float, float]:
     )
 
 
-def _wait_for_people_to_clear(system: SimulatedSystem, start: Pose2D, max_wait: float = 30.0) -> None:
+def _wait_for_people_to_clear(
+    system: SimulatedSystem, start: Pose2D, max_wait: float = 30.0
+) -> None:
     """Do not put the robot down on (or right next to) a person walking past the start."""
     sim = system.sim
     t0 = system.now
