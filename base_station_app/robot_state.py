@@ -23,6 +23,7 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     Topic,
     Twist,
@@ -57,6 +58,7 @@ class RobotState:
         self.mux: MuxMsg | None = None
         self.progress: RouteProgress | None = None
         self.status: Status | None = None
+        self.safety: SafetyMsg | None = None  # collision monitor (issue 17)
         self.version = 0
         self.map_version = 0
         self.image_version = 0
@@ -100,6 +102,8 @@ class RobotState:
             self.progress = message
         elif topic is Topic.STATUS and isinstance(message, Status):
             self.status = message
+        elif topic is Topic.SAFETY and isinstance(message, SafetyMsg):
+            self.safety = message
         else:
             logger.debug("ignored %s message %r", topic, type(message).__name__)
             return

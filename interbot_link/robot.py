@@ -25,6 +25,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     COMMAND_TOPICS,
     STATE_TOPICS,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -60,7 +61,15 @@ from interbot_link.session import LinkError
 logger = logging.getLogger(__name__)
 
 CommandMessage = (
-    Twist | Lock | StopRelease | RouteMsg | RouteCancel | GoalMsg | InitialPose | ConfigMsg
+    Twist
+    | Lock
+    | StopRelease
+    | RouteMsg
+    | RouteCancel
+    | GoalMsg
+    | InitialPose
+    | ConfigMsg
+    | AssistMsg
 )
 
 SNAPSHOT_TOPICS = frozenset(STATE_TOPICS - {Topic.SCAN, Topic.IMAGE})

@@ -19,6 +19,8 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topics import (
+    MAX_SAFETY_DISTANCE,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -32,6 +34,7 @@ from interbot_core.topics import (
     RouteCancel,
     RouteMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     StopRelease,
     Topic,
@@ -55,6 +58,7 @@ logger = logging.getLogger(__name__)
 
 LOOP_PERIOD = 0.02  # [s] wall time between passes of the control loop (50 Hz)
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
+SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 
 
 @dataclass(frozen=True)
@@ -146,6 +150,7 @@ class Daemon:
                 ("battery", rates.battery_hz),
                 ("image", rates.image_hz),
                 ("map", 1.0 / MAP_REPUBLISH_PERIOD),
+                ("safety", SAFETY_HZ),
             )
         }
         self._progress_key: tuple[int, int, str] | None = None
@@ -198,6 +203,8 @@ class Daemon:
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):
                 self.stack.set_route(self._route_for_goal(msg), now)
+            elif isinstance(msg, AssistMsg):
+                self.stack.set_teleop_assist(msg.input, msg.enabled, now)
         except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
             logger.warning("refused %s command: %s", topic.value, exc)
             if link is not None:
@@ -246,6 +253,8 @@ class Daemon:
             link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
             link.publish_map(stack.localiser.updated_grid())
+        if due["safety"](now):
+            link.publish(Topic.SAFETY, safety_message(stack, now))
         self._publish_route(link, force=due["status"](now))
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
@@ -305,6 +314,22 @@ class Daemon:
             link.wait_commands(max(0.0, next_tick - time.monotonic()))
         self.backend.close()
         notifier.stopping()
+
+
+def safety_message(stack: RobotStack, now: float) -> SafetyMsg:
+    """The motion guard's report as the ``safety`` topic carries it (no inf on the wire)."""
+    r = stack.guard.report()
+    cap = MAX_SAFETY_DISTANCE
+    return SafetyMsg(
+        r.zone,
+        r.zone_name,
+        min(r.distance, cap),
+        min(r.time_to_contact, cap),
+        max(0.0, min(1.0, r.scale)),
+        r.assisted,
+        r.assist_mode,
+        now,
+    )
 
 
 def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
