@@ -217,3 +217,58 @@ def near_arcs(
             keep |= np.abs(np.hypot(px, py - rho) - abs(rho)) <= radius
     within: npt.NDArray[np.bool_] = keep & (np.hypot(px, py) <= radius + abs(length))
     return within
+
+
+def two_arc_poses(
+    k1: FloatArray, k2: FloatArray, split: float, s: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Poses (x, y, cos, sin) after signed arc lengths ``s`` (1, K) along paths of curvature
+    ``k1`` (C, 1) up to ``split`` and ``k2`` (C, 1) after it (a lane change when k2 mirrors k1
+    about the intent): the second arc composed onto the end pose of the first."""
+    first = np.minimum(np.abs(s), abs(split)) * np.sign(s)
+    x1, y1, c1, s1 = arc_poses(k1, first)
+    rest = s - first
+    x2, y2, c2, s2 = arc_poses(k2, rest)
+    x = x1 + c1 * x2 - s1 * y2
+    y = y1 + s1 * x2 + c1 * y2
+    return x, y, c1 * c2 - s1 * s2, s1 * c2 + c1 * s2
+
+
+def free_path_length(
+    px: FloatArray,
+    py: FloatArray,
+    poly: FloatArray,
+    k1: FloatArray,
+    k2: FloatArray,
+    split: float,
+    length: float,
+    steps: int,
+) -> FloatArray:
+    """`free_arc_length` for two-arc paths (see `two_arc_poses`); |length| per path when free."""
+    s = (length / steps) * np.arange(1, steps + 1, dtype=np.float64)[None, :]
+    x, y, c, sn = two_arc_poses(k1.reshape(-1, 1), k2.reshape(-1, 1), split, s)
+    first = first_contact(px, py, x, y, c, sn, poly, 1)
+    result: FloatArray = first.astype(np.float64) * abs(length / steps)
+    return result
+
+
+def closes_in(
+    px: FloatArray,
+    py: FloatArray,
+    footprint: FloatArray,
+    x: FloatArray,
+    y: FloatArray,
+    c: FloatArray,
+    s: FloatArray,
+    tolerance: float,
+) -> npt.NDArray[np.bool_]:
+    """For each probe pose (x, y, cos, sin) (C,), whether the footprint there is closer than at
+    the start to any of the points (by more than ``tolerance`` [m])."""
+    before = distance_to_polygon(px, py, footprint)[None, :]
+    dx = px[None, :] - x[:, None]
+    dy = py[None, :] - y[:, None]
+    lx = c[:, None] * dx + s[:, None] * dy
+    ly = c[:, None] * dy - s[:, None] * dx
+    after = distance_to_polygon(lx, ly, footprint)
+    result: npt.NDArray[np.bool_] = np.any(after < before - tolerance, axis=1)
+    return result

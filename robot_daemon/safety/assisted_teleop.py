@@ -40,16 +40,19 @@ import numpy as np
 
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
-    distance_to_polygon,
-    free_arc_length,
+    arc_poses,
+    closes_in,
+    free_path_length,
     free_rotation,
     grow_polygon,
     inside_polygon,
-    near_arcs,
     polygon_radius,
 )
 from robot_daemon.safety.collision_monitor import (
     DEFAULT_FOOTPRINT,
+    ESCAPE_STEP_M,
+    ESCAPE_STEP_RAD,
+    ESCAPE_TOLERANCE,
     SafetyConfigError,
     check_number,
     check_points,
@@ -59,7 +62,7 @@ logger = logging.getLogger(__name__)
 
 TELEOP_INPUTS = ("station_vel", "tablet_vel")
 DECIMATION_CELL = 0.02  # [m] returns are thinned to one per 2 cm cell for the arc search
-MAX_STEP = 0.03  # [m] arc sampling step
+MAX_STEP = 0.05  # [m] path sampling step
 
 
 @dataclass(frozen=True)
@@ -69,7 +72,7 @@ class AssistConfig:
     inputs: tuple[str, ...] = ("tablet_vel",)  # assisted at start (the station can switch)
     footprint: tuple[tuple[float, float], ...] = DEFAULT_FOOTPRINT
     margin: float = 0.06  # [m] footprint growth for the search
-    projection_time: float = 1.0  # [s] Nav2 AssistedTeleop's projection_time
+    projection_time: float = 1.2  # [s] Nav2 AssistedTeleop's projection_time (= the monitor's)
     min_lookahead: float = 1.0  # [m] arcs are searched at least this far (door frames ahead)
     curvature_span: float = 1.2  # [rad/m]
     curvature_samples: int = 13
@@ -150,6 +153,7 @@ class AssistedTeleop:
     def __init__(self, config: AssistConfig | None = None) -> None:
         self.config = config = config or AssistConfig()
         self._footprint = np.asarray(config.footprint, dtype=np.float64)
+        self._grown = grow_polygon(self._footprint, config.margin)
         self._last_side = 0.0
         offsets = np.linspace(
             -config.curvature_span, config.curvature_span, config.curvature_samples
@@ -164,62 +168,83 @@ class AssistedTeleop:
             return AssistResult(0.0, 0.0, "idle")
         horizon = cfg.projection_time
         lookahead = max(abs(linear) * horizon, cfg.min_lookahead)
+        rotating = abs(linear) < cfg.rotation_threshold
         radius = polygon_radius(self._footprint) + cfg.margin
-        if abs(linear) < cfg.rotation_threshold:
-            near = np.hypot(px, py) <= radius
-        else:
-            near = near_arcs(px, py, angular / linear + self._offsets, radius, lookahead)
+        reach = radius if rotating else radius + lookahead
+        near = (np.abs(px) <= reach) & (np.abs(py) <= reach)
+        if not rotating:  # moving forward (backward) nothing behind (ahead of) the body counts
+            near &= px * math.copysign(1.0, linear) >= -radius
         qx, qy = decimate(px[near], py[near])
-        # Keep the margin below the current clearance, so the robot can still move when close.
-        clearance = (
-            float(distance_to_polygon(qx, qy, self._footprint).min()) if qx.size else math.inf
-        )
-        margin = max(0.0, min(cfg.margin, 0.7 * clearance))
-        poly = grow_polygon(self._footprint, margin)
-        outside = ~inside_polygon(qx, qy, poly)
-        qx, qy = qx[outside], qy[outside]
-        if abs(linear) < cfg.rotation_threshold:
-            return self._rotate(linear, angular, qx, qy, poly)
+        # Returns already within the margin must not get any closer (the monitor's stop zone
+        # rule); the others must stay outside the grown footprint along the whole path.
+        close = inside_polygon(qx, qy, self._grown)
+        cx, cy = qx[close], qy[close]
+        qx, qy = qx[~close], qy[~close]
+        if rotating:
+            return self._rotate(linear, angular, qx, qy, cx, cy)
         sign = math.copysign(1.0, linear)
         kappa_i = angular / linear
-        kappas = kappa_i + self._offsets
+        k1 = np.concatenate((kappa_i + self._offsets, kappa_i + self._offsets[1:]))
+        k2 = np.concatenate((kappa_i + self._offsets, kappa_i - self._offsets[1:]))  # lane change
+        offsets = np.concatenate((self._offsets, self._offsets[1:]))
         steps = max(2, math.ceil(lookahead / MAX_STEP))
         if qx.size:
-            s_free = np.abs(free_arc_length(qx, qy, poly, kappas, sign * lookahead, steps))
+            s_free = free_path_length(
+                qx, qy, self._grown, k1, k2, sign * lookahead / 2, sign * lookahead, steps
+            )
         else:
-            s_free = np.full(kappas.shape, lookahead)
+            s_free = np.full(k1.shape, lookahead)
+        if cx.size:
+            x, y, c, sn = arc_poses(k1, np.full(k1.shape, sign * ESCAPE_STEP_M))
+            s_free = np.where(
+                closes_in(cx, cy, self._footprint, x, y, c, sn, ESCAPE_TOLERANCE), 0.0, s_free
+            )
         speed = np.minimum(abs(linear), s_free / horizon)
-        speed = np.minimum(speed, cfg.max_angular / np.maximum(np.abs(kappas), 1e-9))
+        speed = np.minimum(speed, cfg.max_angular / np.maximum(np.abs(k1), 1e-9))
         loss = (abs(linear) - speed) / abs(linear)
-        bend = self._offsets / cfg.curvature_span if cfg.curvature_span > 0 else self._offsets
+        bend = offsets / cfg.curvature_span if cfg.curvature_span > 0 else offsets
         blocked = 1.0 - s_free / lookahead
         cost = loss**2 + cfg.heading_weight * bend**2 + cfg.free_weight * blocked**2
         if self._last_side:
-            cost = cost + cfg.switch_penalty * (np.sign(self._offsets) == -self._last_side)
+            cost = cost + cfg.switch_penalty * (np.sign(offsets) == -self._last_side)
         best = int(np.argmin(cost))
         v = sign * float(speed[best])
-        w = float(kappas[best]) * v
+        w = float(k1[best]) * v
         kept = float(speed[best]) / abs(linear)
         if v == 0.0:
             mode = "stopped"
-        elif self._offsets[best] != 0.0:
+        elif offsets[best] != 0.0:
             mode = "slid"
         else:
             mode = "free" if kept >= 1.0 - 1e-9 else "scaled"
-        self._last_side = float(np.sign(self._offsets[best])) if mode == "slid" else 0.0
+        self._last_side = float(np.sign(offsets[best])) if mode == "slid" else 0.0
         return AssistResult(v, w, mode, kept)
 
     def _rotate(
-        self, linear: float, angular: float, qx: FloatArray, qy: FloatArray, poly: FloatArray
+        self,
+        linear: float,
+        angular: float,
+        qx: FloatArray,
+        qy: FloatArray,
+        cx: FloatArray,
+        cy: FloatArray,
     ) -> AssistResult:
         horizon = self.config.projection_time
         if angular == 0.0:
             return AssistResult(0.0, 0.0, "idle")
+        if cx.size:
+            t = math.copysign(ESCAPE_STEP_RAD, angular)
+            one = np.ones(1)
+            if closes_in(
+                cx, cy, self._footprint, 0 * one, 0 * one, math.cos(t) * one,
+                math.sin(t) * one, ESCAPE_TOLERANCE,
+            )[0]:  # fmt: skip
+                return AssistResult(0.0, 0.0, "stopped", 0.0)
         if qx.size == 0:
             return AssistResult(linear, angular, "free")
         angle = angular * horizon
         steps = max(2, math.ceil(abs(angle) / 0.05))
-        free = abs(free_rotation(qx, qy, poly, angle, steps))
+        free = abs(free_rotation(qx, qy, self._grown, angle, steps))
         ratio = min(1.0, free / abs(angle))
         if ratio >= 1.0:
             return AssistResult(linear, angular, "free")

@@ -185,7 +185,7 @@ class CollisionMonitorConfig:
 
     zones: tuple[ZoneConfig, ...]
     footprint: tuple[tuple[float, float], ...] = DEFAULT_FOOTPRINT
-    hysteresis: float = 0.05  # [m]
+    hysteresis: float = 0.02  # [m]
     source_timeout: float = 0.5  # [s]
     max_range: float = 4.0  # [m] returns farther than this from base_link are ignored
     enabled: bool = True

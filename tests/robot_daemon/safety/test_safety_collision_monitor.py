@@ -138,12 +138,13 @@ def test_hysteresis_keeps_a_zone_until_the_points_are_clearly_out(
         m.on_scan(scan_of(pts, now), now)
         return m.update(0.2, 0.0, now).zone
 
-    assert side(0.44, 0.0) == "none"  # 2 cm outside the slowdown zone (0.42)
+    assert config.hysteresis == 0.02
+    assert side(0.43, 0.0) == "none"  # 1 cm outside the slowdown zone (0.42)
     assert side(0.41, 0.1) == "slowdown"
-    assert side(0.44, 0.2) == "slowdown"  # within the 5 cm hysteresis: still slowed
-    assert side(0.46, 0.3) == "slowdown"
-    assert side(0.48, 0.4) == "none"  # 6 cm out: released
-    assert side(0.44, 0.5) == "none"  # and entering needs the zone itself again
+    assert side(0.43, 0.2) == "slowdown"  # within the 2 cm hysteresis: still slowed
+    assert side(0.435, 0.3) == "slowdown"
+    assert side(0.45, 0.4) == "none"  # 3 cm out: released
+    assert side(0.43, 0.5) == "none"  # and entering needs the zone itself again
 
 
 def test_no_scan_or_a_stale_scan_stops_the_robot(config: CollisionMonitorConfig) -> None:
