@@ -5,7 +5,7 @@ joystick at walls, through narrow doors, around corners and at people, with assi
 teleoperation + collision monitor (``assisted``), the monitor alone (``unassisted``, the station's
 default) and neither (``unprotected``). Figures from the simulator's ground truth. Targets:
 ``teleop_collisions`` (assisted) 0, ``teleop_progress_ratio`` (assisted / unassisted) >= 0.9.
-``quick`` runs the first 6 runs of each set-up.
+``quick`` runs one door per set-up (a smoke run).
 
     .venv/bin/interbot bench --only teleop_scenario --json
 """
@@ -29,7 +29,11 @@ SEED = 1
 
 def run(quick: bool = False) -> dict[str, Any]:
     with common.quiet_logs():
-        result = teleop.run(ScenarioOptions(seed=SEED), limit=6 if quick else None)
+        if quick:  # a smoke run: one door per set-up, nobody walking, 8 s at most
+            options = ScenarioOptions(seed=SEED, people=0)
+            result = teleop.run(options, limit=1, max_run_s=8.0)
+        else:
+            result = teleop.run(ScenarioOptions(seed=SEED))
     f = result.figures
     setups = f["setups"]
 

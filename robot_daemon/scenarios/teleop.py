@@ -319,11 +319,16 @@ def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:
     return system
 
 
-def run_setup(options: ScenarioOptions, setup: str, limit: int | None = None) -> list[Outcome]:
+def run_setup(
+    options: ScenarioOptions, setup: str, limit: int | None = None, max_run_s: float | None = None
+) -> list[Outcome]:
+    """Every planned run (the first ``limit``; each cut at ``max_run_s`` [s]) in one set-up."""
     system = make_system(options, setup)
     runs = plan_runs(system, options.seed)
     if limit is not None:
         runs = runs[:limit]
+    if max_run_s is not None:
+        runs = [dataclasses.replace(r, time_limit=min(r.time_limit, max_run_s)) for r in runs]
     return [drive(system, run) for run in runs]
 
 
@@ -360,9 +365,12 @@ def _ratio(a: float, b: float) -> float | None:
 
 
 def run(
-    options: ScenarioOptions, setups: tuple[str, ...] = SETUPS, limit: int | None = None
+    options: ScenarioOptions,
+    setups: tuple[str, ...] = SETUPS,
+    limit: int | None = None,
+    max_run_s: float | None = None,
 ) -> ScenarioResult:
-    results = {setup: _summary(run_setup(options, setup, limit)) for setup in setups}
+    results = {setup: _summary(run_setup(options, setup, limit, max_run_s)) for setup in setups}
     a = results.get("assisted", {})
     figures: dict[str, Any] = {
         "runs": a.get("runs"),

@@ -37,6 +37,13 @@ POSITIVE = {
         "stack_step_ms_median",
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
+    "collision_monitor": [
+        "collision_monitor_ms_median",
+        "collision_monitor_ms_p99",
+        "assisted_teleop_ms_median",
+        "collision_monitor_scans",
+    ],
+    "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
     "reallogs": [
         "reallog_intel_rms_m",
@@ -64,6 +71,12 @@ NON_NEGATIVE = {
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
+    "teleop_scenario": [
+        "teleop_collisions",
+        "teleop_collisions_unassisted",
+        "teleop_collisions_unprotected",
+        "teleop_min_clearance_m",
+    ],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').
