@@ -48,6 +48,8 @@ from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.safety.collision_monitor import SafetyConfigError
+from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
@@ -117,6 +119,10 @@ class Daemon:
         self.options = options = options or DaemonOptions()
         self._clock = clock
         self.grid = load_map(config.map_yaml)
+        try:
+            safety = load_safety_config(config.safety_yaml)
+        except SafetyConfigError as exc:
+            raise ConfigError(str(exc)) from None
         self.topo: TopologicalMap | None = None
         self.route_planner: RoutePlanner | None = None
         try:
@@ -138,6 +144,7 @@ class Daemon:
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
+            safety=safety,
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)

@@ -70,3 +70,17 @@ def test_daemon_switches_assistance_and_reports_the_monitor() -> None:
     stack.step(0.2)
     msg = safety_message(stack, 0.2)
     assert msg.zone != "no_data" and 0.0 <= msg.distance <= 1000.0
+
+
+def test_daemon_refuses_a_bad_safety_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from robot_daemon.config import ConfigError, parse_config
+
+    bad = tmp_path / "monitor.yaml"
+    bad.write_text(
+        "collision_monitor:\n  polygons: [Stop]\n  Stop: {points: [[0.4, 0.3], [-0.4, 0.3],"
+        " [-0.4, -0.3]], action_type: stop, slowdown_ratio: 3}\n"
+    )
+    config = parse_config({"safety": "monitor.yaml"}, "robot.yaml", tmp_path)
+    assert config.safety_yaml == bad
+    with pytest.raises(ConfigError, match=r"monitor\.yaml.*slowdown_ratio"):
+        Daemon(config)
