@@ -71,6 +71,8 @@ MODES = ("autonomous", "teleoperation", "shared", "teleoperation_assisted", "sha
 ACCEPT_AFTER_S = 3.0  # [s] the person in the room reads the request, then accepts
 PERCEPTION_DELAY = 0.3  # [s] robot state -> the operator's eyes (link, video, screen refresh)
 REACTION_TIME = 0.25  # [s] the operator's decision -> the joystick moves
+WAIT_BEFORE_EVADING = 3.0  # [s] standing behind something before steering around it
+EVADE_S = 1.5  # [s]
 LOOKAHEAD = 0.8  # [m] pure pursuit
 STRAIGHT_ENTER = 4.0  # [m] shared control: straight path ahead to take the joystick
 STRAIGHT_STAY = 1.5  # [m] ... and to keep it
@@ -180,6 +182,7 @@ class HumanDriver:
         self.driving = False  # shared mode: the operator holds the joystick
         self.handovers = 0
         self.teleop_time = 0.0
+        self._waiting = 0.0  # [s] standing behind something right ahead
 
     # -- what the station shows ---------------------------------------------------------------
 
@@ -223,6 +226,19 @@ class HumanDriver:
         pts = scan.points()
         side = (np.abs(pts[:, 0]) < 0.5) & (np.abs(pts[:, 1]) > 0.0)
         return float(np.abs(pts[side, 1]).min()) if np.any(side) else math.inf
+
+    def _freer_side(self) -> float:
+        """+1 if there is more room to the left within 1 m ahead in the scan, else -1."""
+        scan = self._view[1]
+        if scan is None:
+            return 1.0
+        pts = scan.points()
+        ahead = (pts[:, 0] > -0.2) & (pts[:, 0] < 1.0)
+        left = pts[ahead & (pts[:, 1] > 0), 1]
+        right = -pts[ahead & (pts[:, 1] < 0), 1]
+        room_left = float(left.min()) if left.size else math.inf
+        room_right = float(right.min()) if right.size else math.inf
+        return 1.0 if room_left >= room_right else -1.0
 
     def _straight_ahead(self, pose: Pose2D, start: int) -> tuple[float, float]:
         """(length [m] of the path ahead within 20 deg of its first direction, that direction)."""
@@ -325,7 +341,16 @@ class HumanDriver:
         if v < 0.05 and front < 0.6:
             if abs(bearing) > 0.15:  # a door jamb ahead: square up to the carrot first
                 return 0.0, math.copysign(0.4, bearing)
-            return 0.0, 0.0  # something right ahead: wait for it to move
+            # Something right ahead: wait for it to move; after WAIT_BEFORE_EVADING s, steer
+            # around it on the side with more room, as a person at the joystick would.
+            self._waiting += 0.1
+            if self._waiting > WAIT_BEFORE_EVADING:
+                if self._waiting > WAIT_BEFORE_EVADING + EVADE_S:
+                    self._waiting = 0.0
+                turn = math.copysign(0.5, self._freer_side())
+                return (0.0 if front < 0.3 else 0.08), turn
+            return 0.0, 0.0
+        self._waiting = 0.0
         return v, w
 
 
