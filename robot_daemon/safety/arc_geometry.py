@@ -18,6 +18,7 @@ loop over points. This is how Nav2's Collision Monitor computes the time to coll
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -60,7 +61,13 @@ def polygon_radius(poly: FloatArray) -> float:
 
 
 def inside_polygon(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArray:
-    """Crossing-number point-in-polygon for arrays of any (equal) shape."""
+    """Crossing-number point-in-polygon for arrays of any (equal) shape (a closed form for
+    axis-aligned rectangles, the usual footprint and zones)."""
+    box = axis_aligned_box(poly)
+    if box is not None:
+        cx, cy, hl, hw = box
+        result: BoolArray = (np.abs(px - cx) <= hl) & (np.abs(py - cy) <= hw)
+        return result
     inside = np.zeros(np.shape(px), dtype=bool)
     n = len(poly)
     for i in range(n):  # loop over the few edges; points stay vectorised
@@ -74,8 +81,14 @@ def inside_polygon(px: FloatArray, py: FloatArray, poly: FloatArray) -> BoolArra
     return inside
 
 
-def _axis_aligned_box(poly: FloatArray) -> tuple[float, float, float, float] | None:
+def axis_aligned_box(poly: FloatArray) -> tuple[float, float, float, float] | None:
     """(centre x, centre y, half length, half width) if ``poly`` is an axis-aligned rectangle."""
+    return _box_cached(poly.tobytes(), poly.shape[0])
+
+
+@functools.lru_cache(maxsize=64)
+def _box_cached(data: bytes, n: int) -> tuple[float, float, float, float] | None:
+    poly = np.frombuffer(data, dtype=np.float64).reshape(n, 2)
     if len(poly) != 4:
         return None
     xs, ys = np.unique(poly[:, 0]), np.unique(poly[:, 1])
@@ -94,7 +107,7 @@ def _axis_aligned_box(poly: FloatArray) -> tuple[float, float, float, float] | N
 
 def distance_to_polygon(px: FloatArray, py: FloatArray, poly: FloatArray) -> FloatArray:
     """Euclidean distance [m] from each point to the polygon (0 inside it)."""
-    box = _axis_aligned_box(poly)
+    box = axis_aligned_box(poly)
     if box is not None:  # the usual footprint: a closed form
         cx, cy, hl, hw = box
         ex = np.maximum(np.abs(px - cx) - hl, 0.0)

@@ -61,7 +61,7 @@ from robot_daemon.safety.collision_monitor import (
 logger = logging.getLogger(__name__)
 
 TELEOP_INPUTS = ("station_vel", "tablet_vel")
-DECIMATION_CELL = 0.02  # [m] returns are thinned to one per 2 cm cell for the arc search
+DECIMATION_CELL = 0.03  # [m] returns are thinned to one per 3 cm cell for the path search
 MAX_STEP = 0.05  # [m] path sampling step
 
 
