@@ -33,8 +33,7 @@ bench: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/interbot bench --json
 
 screenshots: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_tablet.py
-	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots_station.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache *.egg-info

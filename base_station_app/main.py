@@ -18,6 +18,7 @@ from pathlib import Path
 
 import zenoh
 
+from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
 from interbot_link import LinkError, session_config
 
@@ -30,9 +31,9 @@ DEFAULT_TOPO = Path(__file__).resolve().parent.parent / "maps" / "isr_floor0_top
 class StationSession:
     """Owns the zenoh session; `close` is idempotent (called from aboutToQuit and closeEvent)."""
 
-    def __init__(self, connect: Sequence[str], lease_ms: int = 2500) -> None:
+    def __init__(self, connect: Sequence[str], mode: str = "peer", lease_ms: int = 2500) -> None:
         self.session: zenoh.Session | None = zenoh.open(
-            session_config([], list(connect), lease_ms=lease_ms)
+            session_config([], list(connect), mode, lease_ms=lease_ms)
         )
         logger.info("zenoh session open, connecting to %s", list(connect))
 
@@ -55,11 +56,20 @@ def build_parser() -> argparse.ArgumentParser:
         help="zenoh endpoint of a robot or router (repeatable; default tcp/127.0.0.1:7447)",
     )
     parser.add_argument(
+        "--mode",
+        choices=("peer", "client"),
+        default="peer",
+        help="zenoh mode: peer (connect to robots) or client (of a building's router)",
+    )
+    parser.add_argument(
         "--tablet-host", default="127.0.0.1", help="address to listen on for the tablet"
     )
     parser.add_argument("--tablet-port", type=int, default=5555, help="TCP port for the tablet")
     parser.add_argument("--robot", metavar="ID", help="robot to command (default: the first seen)")
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
+    parser.add_argument(
+        "--geometry", metavar="X,Y,W,H", help="window position and size (default 1600x1000)"
+    )
     parser.add_argument("--log-level", default="INFO")
     return parser
 
@@ -79,9 +89,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
         return 2
     try:
-        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"])
+        geometry = None if args.geometry is None else parse_geometry(args.geometry)
+    except LayoutError as exc:
+        sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
+        return 2
+    try:
+        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"], args.mode)
     except (LinkError, zenoh.ZError) as exc:
-        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}\n")
+        hint = (
+            " (is the building's router running? start it with `interbot router`)"
+            if args.mode == "client"
+            else ""
+        )
+        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}{hint}\n")
         return 2
 
     from PySide6.QtCore import Qt
@@ -108,7 +128,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if not controller.start():
             return 1
-        window.resize(1600, 1000)
+        if geometry is None:
+            window.resize(1600, 1000)
+        else:
+            window.setGeometry(geometry.x, geometry.y, geometry.w, geometry.h)
         window.show()
         window.map_view.fit_map()
         return int(app.exec())

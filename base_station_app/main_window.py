@@ -35,6 +35,14 @@ logger = logging.getLogger(__name__)
 TAB_NAMES = ("state", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
 
 
+ESTOP_STYLE = (
+    "QToolButton#estop_button { background: #d00000; color: white; font-size: 16pt;"
+    " font-weight: bold; border: 3px solid #700000; border-radius: 6px; padding: 6px 18px; }"
+    "QToolButton#estop_button:pressed { background: #900000; }"
+)
+ESTOP_MIN_W, ESTOP_MIN_H = 220, 48  # [px] the largest control on the window
+
+
 class MainWindow(QMainWindow):
     """Map + camera + control tabs around a `StationController`."""
 
@@ -89,6 +97,8 @@ class MainWindow(QMainWindow):
         left.setStretchFactor(0, 3)
         left.setStretchFactor(1, 2)
         left.setSizes([520, 400])
+        self._left = left
+        self.camera_view.aspect_changed.connect(self.fit_camera)
         self.splitter = QSplitter(Qt.Orientation.Horizontal)
         self.splitter.addWidget(left)
         self.splitter.addWidget(self.tabs)
@@ -102,6 +112,11 @@ class MainWindow(QMainWindow):
         c = self.controller
         bar = QToolBar("Main")
         bar.setObjectName("main_toolbar")
+        # Always there: the bar cannot be hidden, moved or floated away (the stop lives on it).
+        bar.setMovable(False)
+        bar.setFloatable(False)
+        bar.toggleViewAction().setEnabled(False)
+        bar.toggleViewAction().setVisible(False)
         self.addToolBar(bar)
         self.estop_action = QAction("EMERGENCY STOP", self)
         self.estop_action.setShortcut(QKeySequence(Qt.Key.Key_F12))
@@ -136,6 +151,20 @@ class MainWindow(QMainWindow):
         ):
             bar.addAction(action)
             self.addAction(action)
+        self.estop_button = bar.widgetForAction(self.estop_action)
+        self.estop_button.setObjectName("estop_button")
+        self.estop_button.setToolTip("Emergency stop (F12): latches until released here")
+        self.estop_button.setStyleSheet(ESTOP_STYLE)
+        self.estop_button.setMinimumSize(ESTOP_MIN_W, ESTOP_MIN_H)
+
+    def fit_camera(self, aspect: float | None = None) -> None:
+        """Give the camera pane the image's shape (at most 45 % of the height), map the rest."""
+        aspect = aspect or self.camera_view.aspect
+        total = sum(self._left.sizes())
+        if total <= 0 or aspect <= 0:
+            return
+        camera = min(int(self._left.width() / aspect), int(0.45 * total))
+        self._left.setSizes([total - camera, camera])
 
     def _connect_signals(self) -> None:
         c = self.controller

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QImage, QPixmap, QResizeEvent
 from PySide6.QtWidgets import QLabel, QSizePolicy, QWidget
 
@@ -18,7 +18,13 @@ logger = logging.getLogger(__name__)
 
 
 class QtCameraView(QLabel):
-    """Scaled camera frame, "no camera image" until the first one."""
+    """Scaled camera frame, "no camera image" until the first one.
+
+    ``aspect_changed(width / height)`` is emitted when the first frame (or a frame of another
+    shape) arrives, so the window can give the pane the image's shape instead of black bars.
+    """
+
+    aspect_changed = Signal(float)
 
     def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
         super().__init__("no camera image", parent)
@@ -28,7 +34,7 @@ class QtCameraView(QLabel):
         self.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.setMinimumSize(160, 120)
         self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Ignored)
-        self.setStyleSheet("background: #202020; color: #c0c0c0;")
+        self.setStyleSheet("color: #606060;")
         controller.frame_ready.connect(self.refresh)
 
     @property
@@ -44,8 +50,17 @@ class QtCameraView(QLabel):
         if image.isNull():
             logger.warning("camera frame is not a decodable JPEG")
             return
+        aspect = image.width() / image.height()
+        if self._image.isNull() or abs(aspect - self.aspect) > 1e-3:
+            self._image = image
+            self.aspect_changed.emit(aspect)
         self._image = image
         self._show()
+
+    @property
+    def aspect(self) -> float:
+        """Width / height of the newest frame (4:3 before the first)."""
+        return 4 / 3 if self._image.isNull() else self._image.width() / self._image.height()
 
     def _show(self) -> None:
         if not self._image.isNull():

@@ -44,7 +44,8 @@ class QtDiagnosticsPanel(QWidget):
         ):
             plot = pg.PlotWidget(background="w", title=title)
             plot.setLabel("bottom", "period [ms]")
-            plot.setLabel("left", "fraction")
+            plot.setLabel("left", "share of periods [%]")
+            plot.getAxis("left").enableAutoSIPrefix(False)
             bars = pg.BarGraphItem(x=[], height=[], width=1.0, brush=(30, 110, 220))
             plot.addItem(bars)
             label = QLabel()
@@ -71,5 +72,5 @@ class QtDiagnosticsPanel(QWidget):
             width = float(np.diff(edges).mean() * 1000.0) if stats.count else 1.0
             if not math.isfinite(width) or width <= 0:
                 width = 1.0
-            bars.setOpts(x=centres, height=values, width=width * 0.9)
+            bars.setOpts(x=centres, height=np.asarray(values) * 100.0, width=width * 0.9)
             label.setText(summary_text(stats, threshold))

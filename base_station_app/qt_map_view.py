@@ -2,10 +2,11 @@
 
 pyqtgraph, as FIELD_NOTES recommends for 40 Hz: the occupancy grid is one row-major uint8
 `ImageItem` with fixed levels placed with ``setRect`` (row 0 at the bottom of the y-up view),
-the laser scan a ``PlotCurveItem(connect="finite")``, the robot a footprint polygon with a
-heading line, the route a polyline through its intermediate goals with the current one
-highlighted, the topological nodes with room labels, and the tour stops (visited green, next
-red). Items are created once and updated with ``setData`` from the controller's 25 ms
+the laser scan as points in the map frame placed from the pose at the scan's own time (a
+polyline's chords would cut through walls, and the newest pose would smear it while turning),
+the robot a footprint polygon with a heading line, the path the robot's navigator planned (as it
+published it) with the route's intermediate goals as markers and the current one highlighted,
+the topological nodes with room labels, the tour stops (visited green, next red), and a legend. Items are created once and updated with ``setData`` from the controller's 25 ms
 ``frame_ready``, only when something changed.
 
 Input: a click inside a room emits ``room_clicked(node)``; in a pick mode (``goal`` or
@@ -26,10 +27,11 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import map_labels, room_at
+from base_station_app.map_rooms import MapLabel, map_labels, room_at
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import INTERBOT_LASER_MOUNT
 from interbot_core.occupancy_grid import OccupancyGrid
 
 logger = logging.getLogger(__name__)
@@ -47,6 +49,7 @@ TELEOP_KEYS = {
 
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
+LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
 
 
 def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
@@ -132,41 +135,89 @@ class QtMapView(pg.PlotWidget):
         plot.addItem(self.tour_item)
         self.route_item = pg.PlotCurveItem(pen=pg.mkPen((30, 110, 220), width=3))
         plot.addItem(self.route_item)
+        self._plan_drawn: object = None
         self.waypoints_item = pg.ScatterPlotItem(size=9, pen=pg.mkPen("w"))
         plot.addItem(self.waypoints_item)
         self.goal_item = pg.ScatterPlotItem(
             size=18, symbol="star", brush=pg.mkBrush(255, 140, 0), pen=pg.mkPen("k")
         )
         plot.addItem(self.goal_item)
-        self.scan_item = pg.PlotCurveItem(pen=pg.mkPen((220, 30, 30), width=2), connect="finite")
+        self.scan_item = pg.ScatterPlotItem(
+            size=3, pen=None, brush=pg.mkBrush(220, 30, 30), pxMode=True, antialias=False
+        )
         plot.addItem(self.scan_item)
         self.robot_item = pg.PlotCurveItem(pen=pg.mkPen((0, 140, 0), width=3), connect="finite")
         plot.addItem(self.robot_item)
         self.pick_item = pg.PlotCurveItem(pen=pg.mkPen((200, 0, 200), width=3), connect="finite")
         plot.addItem(self.pick_item)
+        self._create_legend(plot)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
-        self._label_font.setPointSize(7)
+        self._label_font.setPointSize(LABEL_POINT_SIZE)
+        self._label_specs: list[MapLabel] = []
+        self._label_widths: list[float] = []  # [px] each label's full text
+
+    def _create_legend(self, plot: pg.PlotItem) -> None:
+        """What each mark means, in the corner: robot, scan, planned path, goals, tour."""
+        legend = plot.addLegend(offset=(8, 8), labelTextSize="9pt", brush=(255, 255, 255, 210))
+        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((0, 140, 0), width=3)), "robot (localised)")
+        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((200, 120, 0), width=3)), "robot (lost)")
+        legend.addItem(
+            pg.ScatterPlotItem(size=6, pen=None, brush=pg.mkBrush(220, 30, 30)), "laser scan"
+        )
+        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((30, 110, 220), width=3)), "planned path")
+        legend.addItem(
+            pg.ScatterPlotItem(size=12, symbol="star", brush=pg.mkBrush(255, 140, 0)),
+            "current goal",
+        )
+        legend.addItem(pg.ScatterPlotItem(size=10, brush=pg.mkBrush(0, 170, 0)), "tour: visited")
+        legend.addItem(pg.ScatterPlotItem(size=10, brush=pg.mkBrush(220, 0, 0)), "tour: next")
+        self.legend = legend
 
     def _draw_topology(self) -> None:
         c = self._controller
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
-        for spec in map_labels(c.topo, c.rooms):
-            label = pg.TextItem(
-                spec.text,
-                color=(30, 30, 30),
-                anchor=(0.5, 0.5),
-                fill=pg.mkBrush(255, 255, 255, 190),
-            )
-            label.setFont(self._label_font)
-            label.setPos(spec.x, spec.y)
-            self.addItem(label)
-            self.labels.append(label)
+        self._place_labels(c.grid)
         polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
         if polys:
             pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
             self.rooms_item.setData(pts[:, 0], pts[:, 1])
+        self.getPlotItem().vb.sigRangeChanged.connect(self._fit_labels)
+
+    def _place_labels(self, grid: OccupancyGrid | None) -> None:
+        """Room labels on each room's clearest floor (off the furniture) once the map is known."""
+        for label in self.labels:
+            self.removeItem(label)
+        self.labels.clear()
+        c = self._controller
+        self._label_specs = map_labels(c.topo, c.rooms, grid=grid)
+        for spec in self._label_specs:
+            label = pg.TextItem(
+                spec.text,
+                color=(30, 30, 30),
+                anchor=(0.5, 0.5),
+                fill=pg.mkBrush(255, 255, 255, 200),
+            )
+            label.setFont(self._label_font)
+            label.setPos(spec.x, spec.y)
+            label.setZValue(5)
+            self.addItem(label)
+            self.labels.append(label)
+        self._label_widths = [label.textItem.boundingRect().width() for label in self.labels]
+        self._fit_labels()
+
+    def _fit_labels(self, *args: object) -> None:
+        """The room's name where it fits on screen at this zoom, else just its number."""
+        vb = self.getPlotItem().vb
+        (x0, x1), _ = vb.viewRange()
+        px_per_m = vb.width() / (x1 - x0) if x1 > x0 else 0.0
+        for label, spec, full_px in zip(
+            self.labels, self._label_specs, self._label_widths, strict=True
+        ):
+            text = spec.text if spec.width * px_per_m >= full_px else spec.short
+            if label.toPlainText() != text:
+                label.setText(text)
 
     def fit_map(self) -> None:
         grid = self._controller.grid
@@ -188,6 +239,7 @@ class QtMapView(pg.PlotWidget):
             w, h = grid.size_m
             self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
             if first:
+                self._place_labels(grid)
                 self.fit_map()
         sup = c.supervisor
         key = (
@@ -216,11 +268,13 @@ class QtMapView(pg.PlotWidget):
         self.robot_item.setPen(pg.mkPen(pen, width=3))
         xy = footprint_xy(pose)
         self.robot_item.setData(xy[:, 0], xy[:, 1])
-        scan = state.scan
-        if scan is None:
+        scan, scan_pose = state.scan, state.scan_pose()
+        if scan is None or scan_pose is None:
             self.scan_item.setData([], [])
         else:
-            xs, ys = scan_xy(pose, scan.angles, scan.ranges, scan.valid())
+            laser = scan_pose.compose(INTERBOT_LASER_MOUNT)
+            valid = scan.valid()
+            xs, ys = scan_xy(laser, scan.angles[valid], scan.ranges[valid], valid[valid])
             self.scan_item.setData(xs, ys)
 
     def _draw_route(self) -> None:
@@ -236,10 +290,14 @@ class QtMapView(pg.PlotWidget):
         index = c.supervisor.route_index
         index = c.route_index if index is None else index
         index = min(index, len(wps) - 1)
-        pts = wps[index:]
-        if pose is not None:
-            pts = np.vstack(([[pose.x, pose.y]], pts))
-        self.route_item.setData(pts[:, 0], pts[:, 1])
+        plan = c.state.plan
+        if plan is not None and plan.points and plan.route_id == route.route_id:
+            pts = np.array(plan.points)
+            if pose is not None:
+                pts = np.vstack(([[pose.x, pose.y]], pts))
+            self.route_item.setData(pts[:, 0], pts[:, 1])
+        else:
+            self.route_item.setData([], [])  # no plan yet: goals only, no lines through walls
         passed, ahead = pg.mkBrush(150, 150, 150), pg.mkBrush(30, 110, 220)
         self.waypoints_item.setData(
             pos=wps, brush=[passed if i < index else ahead for i in range(len(wps))]

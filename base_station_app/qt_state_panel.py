@@ -5,8 +5,6 @@ active source, the e-stop, the current task, the distance to the next goal and t
 
 from __future__ import annotations
 
-import math
-
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
@@ -20,6 +18,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from base_station_app.display_text import UNSET, estop_text, orientation_text, position_text
 from base_station_app.qt_speedometer import QtSpeedometer
 from base_station_app.station_controller import StationController
 from interbot_core.safety_text import describe_safety
@@ -66,7 +65,7 @@ class QtStatePanel(QWidget):
             ("distance", "Distance to next goal"),
             ("status", "Status"),
         ):
-            label = QLabel("–")
+            label = QLabel(UNSET)
             label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
             label.setWordWrap(True)
             self.labels[key] = label
@@ -104,9 +103,8 @@ class QtStatePanel(QWidget):
         if speed is not None:
             self.linear_dial.set_value(speed.linear)
             self.angular_dial.set_value(speed.angular)
-        if s.pose is not None:
-            L["pose"].setText(f"x {s.pose.x:.2f} m, y {s.pose.y:.2f} m")
-            L["orientation"].setText(f"{math.degrees(s.pose.yaw):.1f}° ({s.pose.yaw:.3f} rad)")
+        L["pose"].setText(position_text(s.pose))
+        L["orientation"].setText(orientation_text(s.pose))
         loc = s.localisation
         L["localisation"].setText(
             {"ok": "localised", "lost": "LOST", "unset": "initial pose not set"}[loc]
@@ -126,17 +124,10 @@ class QtStatePanel(QWidget):
     def refresh_task(self) -> None:
         c = self._controller
         L = self.labels
-        robot_stop = c.state.estop_engaged
-        L["estop"].setText(
-            ("LATCHED (release at the station)" if c.estop_latched else "released")
-            + (
-                ""
-                if robot_stop is None
-                else f"; robot reports {'engaged' if robot_stop else 'clear'}"
-            )
-        )
-        L["estop"].setStyleSheet("color: #c00; font-weight: bold;" if c.estop_latched else "")
+        text, alarm = estop_text(c.estop_latched, c.state.estop_engaged)
+        L["estop"].setText(text)
+        L["estop"].setStyleSheet("color: #c00; font-weight: bold;" if alarm else "")
         L["task"].setText(c.task_text())
         d = c.supervisor.distance_to_next_goal
-        L["distance"].setText("–" if d is None else f"{d:.2f} m")
+        L["distance"].setText(UNSET if d is None else f"{d:.2f} m")
         L["status"].setText(c.status_text())

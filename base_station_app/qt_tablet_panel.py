@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from base_station_app.display_text import age_text
 from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import PERMISSION_KINDS, describe_task
 
@@ -124,7 +125,7 @@ class QtTabletPanel(QWidget):
         since = (
             "no speed command yet"
             if math.isinf(latency)
-            else f"{latency * 1000:.0f} ms since last speed"
+            else f"last speed command {age_text(latency)} ago"
         )
         state = "forwarding" if c.tablet_speed is not None else "idle"
         self.watchdog_label.setText(

@@ -16,11 +16,13 @@ from dataclasses import dataclass
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.pose_history import PoseHistory
 from interbot_core.topics import (
     Battery,
     ImageMsg,
     MuxMsg,
     Odom,
+    PlanMsg,
     PoseMsg,
     RouteProgress,
     SafetyMsg,
@@ -45,6 +47,7 @@ class RobotState:
     def __init__(self, log_capacity: int = 500) -> None:
         self.log: deque[LogEntry] = deque(maxlen=log_capacity)
         self.log_version = 0
+        self.poses = PoseHistory()  # localised poses by robot time, to place each scan
         self.clear()
 
     def clear(self) -> None:
@@ -59,6 +62,8 @@ class RobotState:
         self.progress: RouteProgress | None = None
         self.status: Status | None = None
         self.safety: SafetyMsg | None = None  # collision monitor (issue 17)
+        self.plan: PlanMsg | None = None
+        self.poses.clear()
         self.version = 0
         self.map_version = 0
         self.image_version = 0
@@ -68,6 +73,10 @@ class RobotState:
         """The pose when the localiser reports ``ok``; None when unset or lost."""
         p = self.pose
         return None if p is None or p.state != "ok" else Pose2D(p.x, p.y, p.yaw)
+
+    def scan_pose(self) -> Pose2D | None:
+        """Where the robot was when the newest scan was taken (None: no scan or not localised)."""
+        return None if self.scan is None else self.poses.at(self.scan.stamp)
 
     @property
     def localisation(self) -> str:
@@ -82,6 +91,10 @@ class RobotState:
         """Store one decoded message of ``topic``."""
         if topic is Topic.POSE and isinstance(message, PoseMsg):
             self.pose = message
+            if message.state == "ok":
+                self.poses.add(message.stamp, Pose2D(message.x, message.y, message.yaw))
+            else:
+                self.poses.clear()
         elif topic is Topic.ODOM and isinstance(message, Odom):
             self.odom = message
         elif topic is Topic.CMD_VEL and isinstance(message, Twist):
@@ -104,6 +117,8 @@ class RobotState:
             self.status = message
         elif topic is Topic.SAFETY and isinstance(message, SafetyMsg):
             self.safety = message
+        elif topic is Topic.PLAN and isinstance(message, PlanMsg):
+            self.plan = message
         else:
             logger.debug("ignored %s message %r", topic, type(message).__name__)
             return

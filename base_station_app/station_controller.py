@@ -418,8 +418,8 @@ class StationController(QObject):
         if goal is not None:
             send(p.GoalStatus(goal, self.goal_reached, at_stop))
         tour = self._tour_state()
-        if tour != self._tour_state_sent and tour is not None:
-            send(tour)
+        if tour != self._tour_state_sent:  # an ended tour is said too: no stale highlight
+            send(tour if tour is not None else p.TourState((), (), None))
         self._tour_state_sent = tour
         status = p.StatusInfo(self.task_text(), self.status_text())
         if status != self._status_sent:

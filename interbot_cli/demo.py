@@ -1,7 +1,9 @@
 """`interbot demo`: the simulated robot, the Base Station and the Tablet on this machine.
 
 All links stay on 127.0.0.1 with ports the OS picks. On a machine with no display this says so
-and how to proceed, instead of a Qt platform traceback.
+and how to proceed, instead of a Qt platform traceback; on an X11 display whose system lacks the
+libraries Qt's xcb plugin needs, it installs them when it may (root or passwordless sudo) or
+prints the one command to run (`system_libs`).
 """
 
 from __future__ import annotations
@@ -52,6 +54,13 @@ def run(args: argparse.Namespace) -> int:
     missing = missing_parts()
     if missing:
         raise NotBuiltError("the demo needs parts that are not built yet: " + ", ".join(missing))
-    from interbot_cli import demo_launcher
+    from interbot_cli import demo_launcher, system_libs
+
+    if system_libs.uses_xcb():
+        try:
+            system_libs.ensure_xcb_libraries()
+        except system_libs.SystemLibsError as exc:
+            print(f"interbot demo: {exc}", file=sys.stderr)
+            return 2
 
     return int(demo_launcher.launch(args))

@@ -1,8 +1,10 @@
 """Start the simulated robot, the Base Station and the Tablet as three processes on 127.0.0.1.
 
 Ports come from the OS; the robot daemon listens for zenoh on one, the station connects to it
-and serves the tablet on another. The launcher watches the three: when one exits (or on
-Ctrl-C / SIGTERM, or after ``--duration`` seconds) it stops the others with SIGTERM and waits.
+and serves the tablet on another. The windows are placed by `demo_layout` (side by side on one
+screen; the tablet full-screen on a second screen when there is one). The launcher watches the
+three: when one exits (or on Ctrl-C / SIGTERM, or after ``--duration`` seconds) it stops the
+others with SIGTERM and waits.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ import sys
 import threading
 from dataclasses import dataclass
 from types import FrameType
+
+from interbot_core.screen_layout import DemoLayout, LayoutError, layout, parse_screens
 
 logger = logging.getLogger(__name__)
 
@@ -39,9 +43,45 @@ class DemoPlan:
     tablet: list[str]
 
 
-def plan(seed: int, people: int, zenoh_port: int, tablet_port: int) -> DemoPlan:
+def screen_layout() -> DemoLayout | None:
+    """Ask Qt (in a child process) for the screens and lay the windows out; None if it cannot."""
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "interbot_cli.screens"],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=False,
+        )
+    except subprocess.TimeoutExpired:
+        logger.warning("could not read the screen geometry (timed out); windows left to Qt")
+        return None
+    if result.returncode != 0:
+        logger.warning("could not read the screen geometry: %s", result.stderr.strip()[-300:])
+        return None
+    try:
+        return layout(parse_screens(result.stdout))
+    except LayoutError as exc:
+        logger.warning("could not lay the windows out: %s", exc)
+        return None
+
+
+def window_args(where: DemoLayout | None) -> tuple[list[str], list[str]]:
+    """The station's and the tablet's placement arguments."""
+    if where is None:
+        return [], ["--windowed"]
+    station = ["--geometry", where.station.arg()]
+    if where.tablet_screen is not None:
+        return station, ["--screen", str(where.tablet_screen)]
+    return station, ["--windowed", "--geometry", where.tablet.arg()]
+
+
+def plan(
+    seed: int, people: int, zenoh_port: int, tablet_port: int, where: DemoLayout | None = None
+) -> DemoPlan:
     python = sys.executable
     endpoint = f"tcp/127.0.0.1:{zenoh_port}"
+    station_place, tablet_place = window_args(where)
     return DemoPlan(
         daemon=[
             python, "-m", "robot_daemon.main", "--sim", "--robot-id", ROBOT_ID,
@@ -51,10 +91,11 @@ def plan(seed: int, people: int, zenoh_port: int, tablet_port: int) -> DemoPlan:
         station=[
             python, "-m", "base_station_app.main", "--connect", endpoint,
             "--tablet-host", "127.0.0.1", "--tablet-port", str(tablet_port), "--robot", ROBOT_ID,
+            *station_place,
         ],
         tablet=[
             python, "-m", "tablet_app.main", "--host", "127.0.0.1", "--port", str(tablet_port),
-            "--windowed",
+            *tablet_place,
         ],
     )  # fmt: skip
 
@@ -80,7 +121,7 @@ def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
 
 def launch(args: argparse.Namespace) -> int:
     """Run the demo until a program exits, Ctrl-C, SIGTERM or ``args.duration`` seconds."""
-    demo = plan(args.seed, args.people, free_port(), free_port())
+    demo = plan(args.seed, args.people, free_port(), free_port(), screen_layout())
     stop = threading.Event()
 
     def on_signal(signum: int, _frame: FrameType | None) -> None:

@@ -1,4 +1,4 @@
-"""`interbot` command line: ``demo``, ``scenario`` and ``bench``.
+"""`interbot` command line: ``demo``, ``scenario``, ``bench``, ``calibrate`` and ``router``.
 
 This package only composes the others (the core never imports the daemon or the apps); each
 subcommand validates its arguments and fails with a one-line message, never a traceback.
@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from interbot_cli import bench, calibrate, demo
+from interbot_cli import bench, calibrate, demo, router
 
 logger = logging.getLogger(__name__)
 
@@ -49,6 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
         "calibrate", help="calibrate the robot (odometry: thesis Test Scenario 1)"
     )
     calibrate.add_arguments(p_cal)
+
+    p_router = sub.add_parser("router", help="run the building's zenoh router")
+    router.add_arguments(p_router)
     return parser
 
 
@@ -74,6 +77,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return bench.run(args)
         if args.command == "calibrate":
             return calibrate.run(args)
+        if args.command == "router":
+            return router.run(args)
     except NotBuiltError as exc:
         print(f"interbot {args.command}: {exc}", file=sys.stderr)
         return EXIT_NOT_BUILT

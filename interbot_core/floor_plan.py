@@ -158,6 +158,8 @@ class Room:
     requests: bool = False
     home: bool = False
     inside: tuple[float, float] | None = None  # [m] node inside the room (request rooms)
+    name_pt: str = ""  # the tablet's Portuguese texts (empty: the English one is shown)
+    info_pt: str = ""
 
 
 @dataclass(frozen=True)
@@ -205,6 +207,8 @@ class PlanNode:
     requests: bool = False
     home: bool = False
     area: tuple[tuple[float, float], ...] = ()
+    name_pt: str = ""
+    info_pt: str = ""
 
 
 @dataclass(frozen=True)
@@ -328,7 +332,20 @@ class _Reader:
         return value
 
 
-_ROOM_KEYS = ("name", "x", "y", "doors", "furniture", "info", "tour", "requests", "home", "inside")
+_ROOM_KEYS = (
+    "name",
+    "name_pt",
+    "x",
+    "y",
+    "doors",
+    "furniture",
+    "info",
+    "info_pt",
+    "tour",
+    "requests",
+    "home",
+    "inside",
+)
 _PLAN_KEYS = (
     "name",
     "map",
@@ -389,6 +406,8 @@ def _parse_room(reader: _Reader, raw_any: Any, index: int) -> Room:
         requests=reader.flag(raw, "requests", label),
         home=reader.flag(raw, "home", label),
         inside=inside,
+        name_pt=reader.text(raw.get("name_pt", ""), label, "name_pt", allow_empty=True),
+        info_pt=reader.text(raw.get("info_pt", ""), label, "info_pt", allow_empty=True),
     )
 
 
@@ -792,6 +811,8 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                     room.requests,
                     room.home,
                     area,
+                    room.name_pt,
+                    room.info_pt,
                 )
             )
             continue
@@ -805,6 +826,8 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                 room.name,
                 room.info,
                 area=area,
+                name_pt=f"{room.name_pt} (porta)" if room.name_pt else "",
+                info_pt=room.info_pt,
             )
         )
         ix, iy = room.inside
@@ -822,6 +845,8 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                 room.requests,
                 room.home,
                 area,
+                room.name_pt,
+                room.info_pt,
             )
         )
     for waypoint in plan.waypoints:
@@ -852,22 +877,25 @@ def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> 
                 f"{src}: node {i} ({name!r}) at ({node.x}, {node.y}) has {free:.2f} m clearance, "
                 f"needs {plan.node_clearance} m: move the door, waypoint or 'inside' point"
             )
-        nodes_out.append(
-            {
-                "id": i,
-                "name": name,
-                "x": node.x,
-                "y": node.y,
-                "yaw": node.yaw,
-                "info": node.info,
-                "tour": node.tour,
-                "requests": node.requests,
-                "home": node.home,
-                "room": node.room,
-                "kind": node.kind,
-                "area": [list(p) for p in node.area],
-            }
-        )
+        entry: dict[str, Any] = {
+            "id": i,
+            "name": name,
+            "x": node.x,
+            "y": node.y,
+            "yaw": node.yaw,
+            "info": node.info,
+            "tour": node.tour,
+            "requests": node.requests,
+            "home": node.home,
+            "room": node.room,
+            "kind": node.kind,
+            "area": [list(p) for p in node.area],
+        }
+        if node.name_pt:
+            entry["name_pt"] = node.name_pt
+        if node.info_pt:
+            entry["info_pt"] = node.info_pt
+        nodes_out.append(entry)
     arcs: set[tuple[int, int]] = set()
     for c, chain in enumerate(plan.arcs):
         for a_name, b_name in itertools.pairwise(chain):

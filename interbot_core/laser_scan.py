@@ -13,12 +13,16 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from interbot_core.geometry import Pose2D
+
 UTM30LX_BEAMS = 1081
 UTM30LX_ANGLE_MIN = -math.radians(135.0)
 UTM30LX_ANGLE_INCREMENT = math.radians(0.25)
 UTM30LX_RANGE_MIN = 0.1  # [m]
 UTM30LX_RANGE_MAX = 30.0  # [m]
 UTM30LX_SCAN_TIME = 0.025  # [s]
+# Where Interbot's laser sits in base_link (REP-105): 0.2 m ahead of the wheel axle, level.
+INTERBOT_LASER_MOUNT = Pose2D(0.2, 0.0, 0.0)  # [m, m, rad]
 
 
 @dataclass(frozen=True)

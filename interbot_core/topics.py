@@ -107,6 +107,7 @@ class Topic(enum.StrEnum):
     BATTERY = "battery"
     STATUS = "status"
     MUX = "mux"
+    PLAN = "plan"
     SAFETY = "safety"
 
 
@@ -523,6 +524,47 @@ class MuxMsg(JsonMessage):
         _check_stamp(self)
 
 
+@dataclass(frozen=True)
+class PlanMsg(JsonMessage):
+    """The navigator's global path in the ``map`` frame, as planned (empty: no path).
+
+    ``route_id`` is the route it serves (0: none); ``points`` are ``(x, y)`` [m], thinned by the
+    robot to at most `MAX_LIST_LENGTH` so the station draws what the robot will drive, not
+    straight lines between the route's waypoints.
+    """
+
+    route_id: int
+    points: tuple[tuple[float, float], ...]
+    stamp: float = 0.0
+
+    @classmethod
+    def _convert(cls, name: str, value: Any) -> Any:
+        if name == "points" and isinstance(value, list):
+            return tuple(tuple(p) if isinstance(p, list) else p for p in value)
+        return value
+
+    def __post_init__(self) -> None:
+        _check_int(self, "route_id", 0, 2**63)
+        pts = self.points
+        if not isinstance(pts, tuple) or len(pts) > MAX_LIST_LENGTH:
+            raise _fail(type(self), "points", f"must hold at most {MAX_LIST_LENGTH} points")
+        for i, p in enumerate(pts):
+            if not (
+                isinstance(p, tuple)
+                and len(p) == 2
+                and all(
+                    not isinstance(v, bool)
+                    and isinstance(v, int | float)
+                    and math.isfinite(v)
+                    and abs(v) <= MAX_COORD
+                    for v in p
+                )
+            ):
+                raise _fail(type(self), f"points[{i}]", f"must be [x, y] in the map, got {p!r}")
+        object.__setattr__(self, "points", tuple((float(x), float(y)) for x, y in pts))
+        _check_stamp(self)
+
+
 TELEOP_INPUT_TOPICS: Final = ("station_vel", "tablet_vel")
 SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
 MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near" is sent as this (JSON has no inf)
@@ -851,6 +893,7 @@ _SPECS: Final = (
     TopicSpec(Topic.BATTERY, False, False, False, True, 1.0, Battery, "battery state"),
     TopicSpec(Topic.STATUS, False, False, True, False, None, Status, "status text for the UI"),
     TopicSpec(Topic.MUX, False, False, False, True, 5.0, MuxMsg, "active velocity source"),
+    TopicSpec(Topic.PLAN, False, False, False, True, None, PlanMsg, "the navigator's global path"),
     TopicSpec(Topic.SAFETY, False, False, False, True, 10.0, SafetyMsg, "collision monitor zone, distance, assistance"),
 )  # fmt: skip
 

@@ -34,6 +34,7 @@ from interbot_core.topics import (
     Lock,
     MuxMsg,
     Odom,
+    PlanMsg,
     PoseMsg,
     RangeEncoding,
     RouteCancel,
@@ -237,6 +238,9 @@ class RobotLink:
 
     def publish_mux(self, mux: MuxMsg) -> None:
         self.publish(Topic.MUX, mux)
+
+    def publish_plan(self, plan: PlanMsg) -> None:
+        self.publish(Topic.PLAN, plan)
 
     # ------------------------------------------------------------------ lifetime
 

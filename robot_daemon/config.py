@@ -95,9 +95,13 @@ class SimSettings:
 
 @dataclass(frozen=True)
 class ZenohSettings:
+    """``mode: peer`` (robots listen, stations connect to them) or ``client`` (both connect to
+    a building's router, `interbot router`; a client does not listen)."""
+
     listen: tuple[str, ...] = ("tcp/127.0.0.1:7447",)
     connect: tuple[str, ...] = ()
     lease_ms: int = 2500
+    mode: str = "peer"
 
     def __post_init__(self) -> None:
         for key in ("listen", "connect"):
@@ -106,6 +110,13 @@ class ZenohSettings:
         if not self.listen and not self.connect:
             raise ConfigError("zenoh: give at least one 'listen' or 'connect' endpoint")
         _number("zenoh", "lease_ms", self.lease_ms, 500, 60_000)
+        if self.mode not in ("peer", "client"):
+            raise ConfigError(f"zenoh: mode must be 'peer' or 'client', got {self.mode!r}")
+        if self.mode == "client" and (self.listen or not self.connect):
+            raise ConfigError(
+                "zenoh: a client connects to a router and does not listen: "
+                "give 'connect' (the router) and an empty 'listen'"
+            )
 
 
 MAP_SURFACES = ("cell_face", "cell_centre")

@@ -10,6 +10,7 @@ service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh 
 from __future__ import annotations
 
 import logging
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -48,6 +49,7 @@ from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.planning.path_report import plan_message
 from robot_daemon.safety.collision_monitor import SafetyConfigError
 from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -161,6 +163,7 @@ class Daemon:
             )
         }
         self._progress_key: tuple[int, int, str] | None = None
+        self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self._route_ids = 10**9  # ids for routes the robot plans itself (goal messages)
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
@@ -262,9 +265,22 @@ class Daemon:
             link.publish_map(stack.localiser.updated_grid())
         if due["safety"](now):
             link.publish(Topic.SAFETY, safety_message(stack, now))
-        self._publish_route(link, force=due["status"](now))
+        status_due = due["status"](now)
+        self._publish_route(link, force=status_due)
+        if status_due:
+            self._publish_plan(link, now)
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
+
+    def _publish_plan(self, link: RobotLink, now: float) -> None:
+        """The navigator's path, when it changed (the snapshot keeps it for late stations)."""
+        route = self.stack.route
+        route_id = route.route_id if route is not None and not route.finished else 0
+        plan = plan_message(route_id, self.stack.navigator.path if route_id else [], now)
+        key = (plan.route_id, plan.points)
+        if key != self._plan_key:
+            self._plan_key = key
+            link.publish_plan(plan)
 
     def _publish_route(self, link: RobotLink, force: bool) -> None:
         route = self.stack.route
@@ -354,12 +370,33 @@ def _jpeg_size(jpeg: bytes) -> tuple[int, int]:
     return 0, 0
 
 
+def _wait_for_router(connect: tuple[str, ...], stop: threading.Event) -> bool:
+    """A zenoh client cannot open without its router: probe it until it answers (0.2 s doubling
+    to 2 s) or ``stop``; True when reachable. The robot stays still meanwhile (no session, no
+    commands; the motors' own watchdog holds them)."""
+    delay = 0.2
+    while not stop.is_set():
+        for endpoint in connect:
+            host, _, port = endpoint.split("/", 1)[-1].rpartition(":")
+            try:
+                with socket.create_connection((host.strip("[]"), int(port)), timeout=1.0):
+                    return True
+            except OSError:
+                continue
+        logger.warning("zenoh router not reachable at %s; retrying in %.1f s", connect, delay)
+        stop.wait(delay)
+        delay = min(2.0, delay * 2)
+    return False
+
+
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
     z = config.zenoh
-    with open_session(list(z.listen), list(z.connect), lease_ms=z.lease_ms) as session:
+    if z.mode == "client" and not _wait_for_router(z.connect, stop):
+        return
+    with open_session(list(z.listen), list(z.connect), z.mode, z.lease_ms) as session:
         link = RobotLink(session, config.robot_id)
         try:
             daemon.run(link, stop, notifier)

@@ -49,6 +49,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--listen", action="append", default=[], help="zenoh endpoint tcp/HOST:PORT")
     p.add_argument("--connect", action="append", default=[], help="zenoh endpoint to connect to")
     p.add_argument(
+        "--mode",
+        choices=("peer", "client"),
+        help="zenoh mode: peer (listen; stations connect) or client (of a building's router)",
+    )
+    p.add_argument(
         "--auto-localise",
         action="store_true",
         help="simulation: set the initial pose at the start node (otherwise the station or "
@@ -70,12 +75,15 @@ def resolve_config(args: argparse.Namespace) -> DaemonConfig:
         merged = {**sim.__dict__, **{k: v for k, v in sim_changes.items() if v is not None}}
         sim = SimSettings(**merged)
     zenoh = config.zenoh
-    if args.listen or args.connect:
+    if args.listen or args.connect or args.mode:
         for endpoint in args.listen:
             validate_endpoint("--listen", "listen", endpoint)
         for endpoint in args.connect:
             validate_endpoint("--connect", "connect", endpoint)
-        zenoh = ZenohSettings(tuple(args.listen), tuple(args.connect), zenoh.lease_ms)
+        mode = args.mode or zenoh.mode
+        listen = tuple(args.listen) if args.listen or args.connect else zenoh.listen
+        connect = tuple(args.connect) if args.listen or args.connect else zenoh.connect
+        zenoh = ZenohSettings(listen, connect, zenoh.lease_ms, mode)
     return config.with_overrides(
         robot_id=args.robot_id,
         map_yaml=args.map_yaml.resolve() if args.map_yaml else None,

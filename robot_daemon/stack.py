@@ -26,7 +26,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from interbot_core.geometry import Pose2D
-from interbot_core.laser_scan import LaserScan
+from interbot_core.laser_scan import INTERBOT_LASER_MOUNT, LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import RouteMsg
 from interbot_core.velocity_mux import MuxConfig, MuxOutput, VelocityMux, load_mux_config
@@ -47,7 +47,7 @@ logger = logging.getLogger(__name__)
 PLANNER_TOPIC = "planner_vel"
 PAUSE_TOPIC = "pause_nav"
 STOP_TOPIC = "stop"
-DEFAULT_LASER_MOUNT = Pose2D(0.2, 0.0, 0.0)  # [m, m, rad] laser in base_link
+DEFAULT_LASER_MOUNT = INTERBOT_LASER_MOUNT  # [m, m, rad] laser in base_link
 
 
 class StackError(ValueError):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +47,14 @@ class Room:
     area: tuple[tuple[float, float], ...] | None = None
     touchable: bool = True  # False for corridor waypoints (``area: []``) and merged nodes
     node_ids: tuple[int, ...] = ()  # every node drawn as this room (itself first)
+    translations: tuple[tuple[str, str, str], ...] = ()  # (language, name, info)
+
+    def in_language(self, language: str) -> Room:
+        """This room with its ``name_<lang>`` / ``info_<lang>`` (English where missing)."""
+        for lang, name, info in self.translations:
+            if lang == language:
+                return replace(self, name=name or self.name, info=info or self.info)
+        return self
 
     def covers(self, node_id: int | None) -> bool:
         """True when ``node_id`` is this room's node or another node in the same area."""
@@ -69,6 +77,10 @@ class FloorPlan:
     rooms: tuple[Room, ...]
     map_yaml: Path | None = None
     source: str = "<memory>"
+
+    def in_language(self, language: str) -> FloorPlan:
+        """The plan with every room's name and info in ``language`` (see `Room.in_language`)."""
+        return replace(self, rooms=tuple(r.in_language(language) for r in self.rooms))
 
     def room(self, room_id: int) -> Room:
         for room in self.rooms:
@@ -128,15 +140,38 @@ def _parse_area(raw: Any, label: str, source: str) -> tuple[tuple[float, float],
     return tuple(points)
 
 
+TRANSLATED_LANGUAGES = ("pt",)
+
+
+def _parse_translations(
+    entry: Mapping[str, Any], label: str, source: str
+) -> tuple[tuple[str, str, str], ...]:
+    """``name_pt`` / ``info_pt`` of a node: strings of at most 200 / 1000 characters."""
+    found = []
+    for lang in TRANSLATED_LANGUAGES:
+        name, info = entry.get(f"name_{lang}", ""), entry.get(f"info_{lang}", "")
+        for key, value, limit in ((f"name_{lang}", name, 200), (f"info_{lang}", info, 1000)):
+            if not isinstance(value, str) or len(value) > limit:
+                raise FloorPlanError(
+                    f"{source}: {label}: '{key}' must be text of at most {limit} characters"
+                )
+        if name or info:
+            found.append((lang, name, info))
+    return tuple(found)
+
+
 def load_floor_plan(topo_path: str | Path) -> FloorPlan:
     """Rooms of a topological-map YAML, with their ``area`` outlines."""
     topo = load_topological_map(topo_path)
     source = str(topo_path)
     raw = yaml.safe_load(Path(topo_path).read_text(encoding="utf-8"))
     areas: dict[int, tuple[tuple[float, float], ...] | None] = {}
+    translations: dict[int, tuple[tuple[str, str, str], ...]] = {}
     for entry in raw.get("nodes", []) if isinstance(raw, Mapping) else []:
         if isinstance(entry, Mapping) and "id" in entry:
-            areas[entry["id"]] = _parse_area(entry.get("area"), f"node {entry['id']!r}", source)
+            label = f"node {entry['id']!r}"
+            areas[entry["id"]] = _parse_area(entry.get("area"), label, source)
+            translations[entry["id"]] = _parse_translations(entry, label, source)
     nodes = sorted(topo.nodes, key=lambda n: n.id)
     groups: dict[tuple[tuple[float, float], ...], list[int]] = {}
     for node in nodes:
@@ -163,6 +198,7 @@ def load_floor_plan(topo_path: str | Path) -> FloorPlan:
                 node.id in representative if areas.get(node.id) else areas.get(node.id) is None
             ),
             node_ids=representative.get(node.id, (node.id,)),
+            translations=translations.get(node.id, ()),
         )
         for node in nodes
     )

@@ -1,9 +1,13 @@
 """Entry point of `interbot-tablet`: the Tablet human-robot interface (thesis §4.2.1, §5.2).
 
-    interbot-tablet [--host H] [--port P] [--windowed] [--lang en|pt] [--topo T.yaml]
+    interbot-tablet [--host H] [--port P] [--windowed] [--geometry X,Y,W,H] [--screen N]
+                    [--lang en|pt] [--topo T.yaml]
 
 Connects to the Base Station's tablet server (default 127.0.0.1:5555), reconnecting by itself,
-and shows the main menu full screen (``--windowed`` for a 1280x800 window).
+and shows the main menu full screen as a kiosk: frameless and sized to the whole screen's
+geometry, which also fills the screen when no window manager runs (where ``showFullScreen``
+alone leaves a small window). ``--screen N`` picks the screen; ``--windowed`` gives a 1280x800
+window (or ``--geometry``).
 """
 
 from __future__ import annotations
@@ -13,10 +17,15 @@ import logging
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
+from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError
 from tablet_app.floor_plan import FloorPlan, FloorPlanError, load_floor_plan
+
+if TYPE_CHECKING:
+    from PySide6.QtWidgets import QWidget
 
 logger = logging.getLogger(__name__)
 
@@ -31,13 +40,53 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--host", default="127.0.0.1", help="Base Station address")
     parser.add_argument("--port", type=int, default=5555, help="Base Station tablet port")
     parser.add_argument("--windowed", action="store_true", help="a window instead of full screen")
+    parser.add_argument(
+        "--geometry", metavar="X,Y,W,H", help="window position and size (with --windowed)"
+    )
+    parser.add_argument(
+        "--screen", type=int, default=0, metavar="N", help="screen to fill (default: primary)"
+    )
     parser.add_argument("--lang", choices=("en", "pt"), default="en", help="UI language")
+    parser.add_argument(
+        "--dpi",
+        type=float,
+        help="the screen's real dots per inch, for 9 mm touch targets (default: Qt's figure)",
+    )
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     args = parser.parse_args(argv)
     if not 0 < args.port < 65536:
         parser.error(f"--port must be in 1..65535, got {args.port}")
+    if args.dpi is not None and not 50.0 <= args.dpi <= 1000.0:
+        parser.error(f"--dpi must be in 50..1000, got {args.dpi}")
+    if args.screen < 0:
+        parser.error(f"--screen must be >= 0, got {args.screen}")
+    if args.geometry is not None:
+        try:
+            args.geometry = parse_geometry(args.geometry)
+        except LayoutError as exc:
+            parser.error(f"--geometry: {exc}")
     return args
+
+
+def show_kiosk(window: QWidget, screen_index: int = 0) -> None:
+    """Full screen on screen ``screen_index`` (the primary if there is no such screen).
+
+    The geometry is set to the screen's before ``showFullScreen``: without a window manager Qt
+    does not resize a window on its own, and the tablet would open at its size hint.
+    """
+    from PySide6.QtCore import Qt
+    from PySide6.QtGui import QGuiApplication
+
+    screens = QGuiApplication.screens()
+    screen = screens[screen_index] if screen_index < len(screens) else screens[0]
+    if screen_index >= len(screens):
+        logger.warning("no screen %d (%d screens); using the primary", screen_index, len(screens))
+    window.setWindowFlag(Qt.WindowType.FramelessWindowHint, True)
+    if hasattr(window, "kiosk"):
+        window.kiosk = True  # no way out but the operator's gesture (tablet_app.kiosk)
+    window.setGeometry(screen.geometry())
+    window.showFullScreen()
 
 
 def load_plan(topo: Path) -> tuple[FloorPlan, OccupancyGrid | None]:
@@ -74,12 +123,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     languages = LanguageSwitcher()
     languages.set_language(args.lang)
     connection = TabletConnection(args.host, args.port)
-    window = TabletWindow(connection, plan, grid, languages)
+    window = TabletWindow(connection, plan, grid, languages, dpi=args.dpi)
     if args.windowed:
-        window.resize(1280, 800)
+        if args.geometry is not None:
+            g = args.geometry
+            window.setGeometry(g.x, g.y, g.w, g.h)
+        else:
+            window.resize(1280, 800)
         window.show()
     else:
-        window.showFullScreen()
+        show_kiosk(window, args.screen)
     connection.start()
     code = app.exec()
     connection.stop()

@@ -1,24 +1,30 @@
 """The Tablet's main window: composition root of its screens (thesis §4.2.1, §5.2, Fig. 5.1).
 
-A header (connection state, latency, status text), a `QStackedWidget` with the main menu, the
-joystick and the map, and the motion bar while the robot moves. Like the thesis's mainWidget it
-turns user actions into protocol messages sent through `TabletConnection` and Base Station
-messages into what the screens show; it holds no protocol framing or robot logic.
+A header (connection state, latency, what the robot is doing, the last outcome, and "Help me!"
+whenever the robot is lost, on every screen), a `QStackedWidget` with the main menu, the joystick
+and the map, and the motion bar while the robot takes someone somewhere. Like the thesis's
+mainWidget it turns user actions into protocol messages sent through `TabletConnection`; what
+the screens show comes from one Qt-free `TabletSession`, which every Base Station message
+updates and which this window renders after each change. No screen keeps its own copy of the
+robot's state.
 """
 
 from __future__ import annotations
 
 import logging
-import math
+import time
+from collections.abc import Callable
 
-from PySide6.QtCore import QEvent, Qt
-from PySide6.QtGui import QCloseEvent, QResizeEvent
+from PySide6.QtCore import QEvent, Qt, QTimer
+from PySide6.QtGui import QCloseEvent, QMouseEvent, QResizeEvent
 from PySide6.QtWidgets import (
     QDialog,
     QFrame,
     QHBoxLayout,
     QLabel,
     QMainWindow,
+    QMessageBox,
+    QPushButton,
     QStackedWidget,
     QVBoxLayout,
     QWidget,
@@ -26,29 +32,23 @@ from PySide6.QtWidgets import (
 
 from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.protocol import (
-    Cancel,
-    ErrorReport,
     Goal,
     GoalStatus,
     Home,
-    InitialPose,
     InitialPoseRoom,
-    Localisation,
     Malfunction,
     Message,
     Pause,
     Permissions,
-    Pose,
     RequestAnswer,
     RequestFrom,
-    ShowRequest,
     StatusInfo,
     Stop,
     Tour,
     TourControl,
-    TourState,
 )
 from tablet_app.floor_plan import FloorPlan
+from tablet_app.kiosk import CORNER_PX, ExitGesture
 from tablet_app.qt_dialogs import (
     QtHelpConfirmDialog,
     QtMalfunctionDialog,
@@ -63,6 +63,8 @@ from tablet_app.qt_map_screen import QtMapScreen
 from tablet_app.qt_map_view import QtMapView
 from tablet_app.qt_motion_bar import QtMotionBar
 from tablet_app.tablet_connection import ConnectionState, TabletConnection
+from tablet_app.tablet_session import Help, TabletSession
+from tablet_app.texts import activity_text, notice_text
 from tablet_app.translations import LanguageSwitcher
 from tablet_app.ui_metrics import font_px, touch_target_px
 
@@ -81,14 +83,15 @@ QLabel#warning {{ color: white; background: #c00000; padding: {pad}px; font-weig
 QFrame#helpBanner {{ background: #ffd24a; border-radius: {radius}px; }}
 QFrame#motionBar, QFrame#header {{ background: #dde6f5; }}
 QLineEdit, QComboBox {{ min-height: {touch}px; }}
+QComboBox QAbstractItemView::item {{ min-height: {touch}px; }}
 QRadioButton {{ min-height: {touch}px; }}
-QRadioButton::indicator {{ width: {font}px; height: {font}px; }}
+QRadioButton::indicator {{ width: {half}px; height: {half}px; }}
 QProgressBar {{ min-height: {half}px; }}
 """
 
 
 class TabletWindow(QMainWindow):
-    """Header + screens + motion bar; translates between the user and the connection."""
+    """Header + screens + motion bar; renders the session, sends what the user asks."""
 
     def __init__(
         self,
@@ -97,27 +100,32 @@ class TabletWindow(QMainWindow):
         grid: OccupancyGrid | None = None,
         languages: LanguageSwitcher | None = None,
         parent: QWidget | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        dpi: float | None = None,
     ) -> None:
         super().__init__(parent)
+        self.dpi_override = dpi  # [dots per inch] the tablet's real screen, when Qt cannot tell
         self.connection = connection
         self.plan = plan
+        self.clock = clock
         self.languages = languages or LanguageSwitcher(parent=self)
-        self._goal: int | None = None
-        self._goal_start_distance: float | None = None
-        self._last_goal_status: GoalStatus | None = None
-        self._pose: tuple[float, float, float] | None = None
-        self._initial_pose_unset = False
-        self._localisation = "ok"
-        self._helping = False
-        self._permissions = Permissions(True, True, True, True)
-        self._status_text = ""
+        self.shown_plan = plan.in_language(self.languages.language)
+        home = next((r.id for r in plan.rooms if r.home), plan.rooms[0].id if plan.rooms else None)
+        self.session = TabletSession(room_xy=self._room_xy, home_room=home)
         self._connection_detail = ""
         self._touch = 0
+        self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture
+        self._exit_gesture = ExitGesture()
+        self._may_close = False
         self.dialog: QDialog | None = None  # the open dialog, if any
         self._create_widgets(grid)
         self._connect_signals()
-        self._update_connection_text()
-        self._update_help()
+        self.session.subscribe(self.render)
+        self._tick = QTimer(self)
+        self._tick.setInterval(250)
+        self._tick.timeout.connect(lambda: self.session.tick(self.clock()))
+        self._tick.start()
+        self.render()
         self.retranslate()
 
     # ---------------------------------------------------------------- construction
@@ -125,14 +133,21 @@ class TabletWindow(QMainWindow):
         self.header = QFrame()
         self.header.setObjectName("header")
         self.connection_label = QLabel()
-        self.status_label = QLabel()
+        self.activity_label = QLabel()
+        self.activity_label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.status_label = QLabel()  # the last outcome ("Arrived at ...", a refusal)
+        self.status_label.setWordWrap(True)
         self.status_label.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+        self.help_button = QPushButton()
+        self.help_button.setObjectName("helpButton")
         header = QHBoxLayout(self.header)
         header.addWidget(self.connection_label, 1)
+        header.addWidget(self.activity_label, 1)
         header.addWidget(self.status_label, 1)
+        header.addWidget(self.help_button)
         self.menu = QtMainMenu()
         self.joystick_screen = QtJoystickScreen(self.connection)
-        self.map_view = QtMapView(self.plan, grid)
+        self.map_view = QtMapView(self.shown_plan, grid)
         self.map_screen = QtMapScreen(self.map_view)
         self.stack = QStackedWidget()
         for screen in (self.menu, self.joystick_screen, self.map_screen):
@@ -149,30 +164,35 @@ class TabletWindow(QMainWindow):
         self.setCentralWidget(central)
 
     def _connect_signals(self) -> None:
-        c = self.connection
+        c, s = self.connection, self.session
         c.state_changed.connect(lambda _state: self._update_connection_text())
+        c.connected.connect(s.on_connected)
+        c.disconnected.connect(s.on_disconnected)
         c.reconnect_scheduled.connect(self._on_reconnect_scheduled)
         c.latency_changed.connect(self._on_latency)
-        c.refused.connect(self._on_refused)
-        c.pose_received.connect(self._on_pose)
-        c.initial_pose_received.connect(self._on_initial_pose)
-        c.localisation_received.connect(self._on_localisation)
+        c.refused.connect(s.on_refused)
+        c.pose_received.connect(s.on_pose)
+        c.initial_pose_received.connect(s.on_initial_pose)
+        c.localisation_received.connect(s.on_localisation)
         c.goal_status_received.connect(self._on_goal_status)
-        c.tour_state_received.connect(self._on_tour_state)
-        c.request_shown.connect(self._on_show_request)
+        c.tour_state_received.connect(s.on_tour_state)
+        c.request_shown.connect(s.on_show_request)
+        c.cancel_received.connect(s.on_cancel)
         c.cancel_received.connect(self._on_cancel)
-        c.permissions_received.connect(self._on_permissions)
+        c.permissions_received.connect(s.on_permissions)
+        c.status_received.connect(s.on_status)
         c.status_received.connect(self._on_status)
-        c.error_received.connect(self._on_error)
+        c.error_received.connect(s.on_error)
 
         self.menu.joystick_requested.connect(self.show_joystick)
         self.menu.map_requested.connect(self.show_map)
         self.menu.home_requested.connect(self.go_home)
         self.menu.malfunction_requested.connect(self.open_malfunction_dialog)
         self.menu.language_requested.connect(self.languages.set_language)
+        self.help_button.clicked.connect(self._start_helping)
         self.joystick_screen.back_requested.connect(self._joystick_back)
         self.map_screen.back_requested.connect(self.show_menu)
-        self.map_screen.tour_requested.connect(lambda: self._send(Tour(True)))
+        self.map_screen.tour_requested.connect(self._start_tour)
         self.map_screen.home_requested.connect(self.go_home)
         self.map_screen.help_requested.connect(self._start_helping)
         self.map_screen.joystick_requested.connect(self.show_joystick)
@@ -181,6 +201,17 @@ class TabletWindow(QMainWindow):
         self.motion_bar.resume_requested.connect(lambda: self._pause(False))
         self.motion_bar.cancel_requested.connect(self._cancel_motion)
         self.motion_bar.manual_requested.connect(self.show_joystick)
+
+    def room_name(self, room_id: int) -> str:
+        """The room's name in the UI language (``name_pt`` in the topological map)."""
+        return self.shown_plan.name(room_id)
+
+    def _room_xy(self, room_id: int) -> tuple[float, float] | None:
+        try:
+            room = self.plan.room(room_id)
+        except KeyError:
+            return None
+        return room.x, room.y
 
     # ---------------------------------------------------------------- navigation between screens
     def show_menu(self) -> None:
@@ -194,7 +225,7 @@ class TabletWindow(QMainWindow):
 
     def _joystick_back(self) -> None:
         # While helping or moving, the map is where the user came from.
-        if self._helping or self._goal is not None:
+        if self.session.help is Help.CHOOSING or self.session.goal is not None:
             self.show_map()
         else:
             self.show_menu()
@@ -208,182 +239,163 @@ class TabletWindow(QMainWindow):
         self._size_dialog(dialog)
         dialog.open()
 
+    def _close_dialog(self, kind: type[QDialog]) -> None:
+        if isinstance(self.dialog, kind):
+            self.dialog.close()
+
     def _dialog_closed(self, dialog: QDialog) -> None:
         if self.dialog is dialog:
             self.dialog = None
+        if isinstance(dialog, QtShowRequestDialog):
+            self.session.request_closed()
 
     def _size_dialog(self, dialog: QDialog) -> None:
-        dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
+        if getattr(dialog, "HAS_KEYBOARD", False):
+            dialog.resize(int(self.width() * 0.85), int(self.height() * 0.95))
+        else:
+            dialog.resize(max(320, int(self.width() * 0.6)), max(240, int(self.height() * 0.5)))
 
     # ---------------------------------------------------------------- user actions
     def _send(self, msg: Message) -> bool:
         sent = self.connection.send(msg)
         if not sent:
-            self._set_status(self.tr("Not connected: the command was not sent."))
+            self.session.not_sent()
         return sent
 
     def on_room_clicked(self, room_id: int) -> None:
-        room = self.plan.room(room_id)
-        if self._lost and self._helping:
+        room = self.shown_plan.room(room_id)
+        if self.session.lost and self.session.help is Help.CHOOSING:
             dialog = QtHelpConfirmDialog(room, self)
             dialog.confirmed.connect(self._set_initial_room)
             self._open(dialog)
             return
-        perms = self._permissions
-        room_dialog = QtRoomDialog(room, perms.goals and not self._lost, perms.requests, self)
+        perms = self.session.permissions
+        room_dialog = QtRoomDialog(
+            room, perms.goals and not self.session.lost, perms.requests, self
+        )
         room_dialog.go_requested.connect(self.go_to)
         room_dialog.request_requested.connect(self._open_request_dialog)
         self._open(room_dialog)
 
     def go_to(self, room_id: int) -> None:
         if self._send(Goal(room_id)):
-            self._start_goal(room_id)
+            self.session.goal_sent(room_id)
 
     def go_home(self) -> None:
         if self._send(Home()):
-            home = next((r.id for r in self.plan.rooms if r.home), None)
-            if home is None and self.plan.rooms:
-                home = self.plan.rooms[0].id
-            if home is not None:
-                self._start_goal(home)
+            self.session.home_sent()
+
+    def _start_tour(self) -> None:
+        if self._send(Tour(True)):
+            self.session.tour_sent()
 
     def _open_request_dialog(self, room_id: int) -> None:
-        dialog = QtRequestDialog(self.plan.room(room_id), self.plan, self)
+        dialog = QtRequestDialog(self.shown_plan.room(room_id), self.shown_plan, self)
         dialog.request_submitted.connect(self._send_request)
         self._open(dialog)
 
     def _send_request(self, text: str, room_id: int, deliver_to: int) -> None:
         if self._send(RequestFrom(text, room_id, deliver_to, True)):
-            self._start_goal(room_id)
+            self.session.request_sent(text, room_id, deliver_to)
 
     def _pause(self, paused: bool) -> None:
         if self._send(Pause(paused)):
-            self.motion_bar.set_paused(paused)
+            self.session.pause_sent(paused)
 
     def _cancel_motion(self) -> None:
         if self._send(Stop(True)):
-            self._end_goal()
+            self.session.cancel_sent(self.clock())
 
     def _start_helping(self) -> None:
-        self._helping = True
-        self._update_help()
+        self.session.help_started()
+        self.show_map()
 
     def _set_initial_room(self, room_id: int) -> None:
         if self._send(InitialPoseRoom(room_id)):
-            self._helping = False
-            self._initial_pose_unset = False
-            self._localisation = "ok"
-            self._update_help()
-            self._set_status(
-                self.tr("Thank you! I am at %1.").replace("%1", self.plan.name(room_id))
-            )
+            self.session.help_room_sent(room_id, self.clock())
+
+    def _tour_control(self, action: str) -> None:
+        if self._send(TourControl(action)):
+            self.session.tour_control_sent(action, self.clock())
+
+    def _answer_request(self, request_id: int, accepted: bool) -> None:
+        if self._send(RequestAnswer(request_id, accepted)):
+            self.session.request_answered(accepted)
 
     def open_malfunction_dialog(self) -> None:
         dialog = QtMalfunctionDialog(self)
-        dialog.submitted.connect(lambda kind, text: self._send(Malfunction(kind, text)))
+        dialog.submitted.connect(self._report)
         self._open(dialog)
 
-    # ---------------------------------------------------------------- goal progress
-    def _start_goal(self, room_id: int) -> None:
-        self._goal = room_id
-        self._goal_start_distance = self._distance_to_goal()
-        self.motion_bar.set_destination(self.plan.name(room_id))
-        self.motion_bar.set_progress(0)
-        self.motion_bar.set_paused(False)
-        self.motion_bar.setVisible(True)
-
-    def _end_goal(self) -> None:
-        self._goal = None
-        self._goal_start_distance = None
-        self.motion_bar.setVisible(False)
-
-    def _distance_to_goal(self) -> float | None:
-        if self._goal is None or self._pose is None:
-            return None
-        try:
-            room = self.plan.room(self._goal)
-        except KeyError:
-            return None
-        return math.hypot(room.x - self._pose[0], room.y - self._pose[1])
-
-    def _update_progress(self) -> None:
-        distance = self._distance_to_goal()
-        if distance is None:
-            return
-        if self._goal_start_distance is None or distance > self._goal_start_distance:
-            self._goal_start_distance = distance
-        start = self._goal_start_distance
-        percent = 100 if start < 1e-6 else round(100.0 * (1.0 - distance / start))
-        self.motion_bar.set_progress(percent)
+    def _report(self, kind: str, text: str) -> None:
+        if self._send(Malfunction(kind, text)):
+            self.session.report_sent(kind)
 
     # ---------------------------------------------------------------- Base Station messages
-    def _on_pose(self, pose: Pose) -> None:
-        self._pose = (pose.x, pose.y, pose.angle)
-        self.map_view.set_robot_pose(pose.x, pose.y, pose.angle)
-        if self._initial_pose_unset:
-            self._initial_pose_unset = False
-            self._update_help()
-        self._update_progress()
-
-    def _on_initial_pose(self, msg: InitialPose) -> None:
-        self._initial_pose_unset = not msg.is_set
-        if not msg.is_set:
-            self.map_view.clear_robot()
-        self._update_help()
-
-    def _on_localisation(self, msg: Localisation) -> None:
-        self._localisation = msg.state
-        self._update_help()
-
-    @property
-    def _lost(self) -> bool:
-        return self._initial_pose_unset or self._localisation in ("unset", "lost")
-
-    def _update_help(self) -> None:
-        if not self._lost:
-            self._helping = False
-        self.map_screen.set_help_state(self._lost, self._helping)
-
     def _on_goal_status(self, msg: GoalStatus) -> None:
-        repeated = msg == self._last_goal_status
-        self._last_goal_status = msg
-        name = self.plan.name(msg.goal)
-        if msg.tour_reached:
-            if repeated:
-                # The station repeats its goal state every clock(): one dialog per stop, and
-                # none re-opened by a repeat still in flight after Resume / End tour.
-                return
-            self._end_goal()
-            try:
-                room = self.plan.room(msg.goal)
-            except KeyError:
-                return
-            dialog = QtTourStopDialog(room, self)
-            dialog.resume_requested.connect(lambda: self._send(TourControl("resume")))
-            dialog.end_requested.connect(lambda: self._send(TourControl("end")))
-            self._open(dialog)
-        elif msg.reached:
-            self._end_goal()
-            self._set_status(self.tr("Arrived at %1.").replace("%1", name))
-        elif self._goal != msg.goal or not self.motion_bar.isVisible():
-            self._start_goal(msg.goal)
+        self.session.on_goal_status(msg, self.clock())
 
-    def _on_tour_state(self, msg: TourState) -> None:
-        self.map_view.set_tour(set(msg.visited), msg.next)
-
-    def _on_show_request(self, msg: ShowRequest) -> None:
-        dialog = QtShowRequestDialog(msg, self.plan, self)
-        dialog.answered.connect(lambda rid, ok: self._send(RequestAnswer(rid, ok)))
-        self._open(dialog)
-
-    def _on_cancel(self, msg: Cancel) -> None:
+    def _on_cancel(self, _msg: object) -> None:
+        """The operator cancelled: whatever the user had open about it goes too."""
         if self.dialog is not None:
             self.dialog.close()
-        self._end_goal()
-        self._set_status(self.tr("Cancelled by the operator: %1").replace("%1", msg.reason))
 
-    def _on_permissions(self, perms: Permissions) -> None:
-        self._permissions = perms
+    def _on_status(self, msg: StatusInfo) -> None:
+        """The station's progress on an accepted request, in the request's dialog."""
+        if isinstance(self.dialog, QtShowRequestDialog):
+            self.dialog.set_status(activity_text(self.room_name, self.session))
+
+    # ---------------------------------------------------------------- rendering the session
+    def render(self) -> None:
+        """Make every screen show the session (idempotent; called after each change)."""
+        s = self.session
+        if s.pose is None:
+            self.map_view.clear_robot()
+        else:
+            self.map_view.set_robot_pose(*s.pose)
+        self.map_view.set_tour(s.tour.visited, s.tour.next)
+        help_room = self.room_name(s.help_room) if s.help_room is not None else ""
+        self.map_screen.set_help_state(s.help, help_room)
+        self.help_button.setVisible(s.help is Help.OFFERED)
+        self._render_goal()
+        self._render_dialogs()
+        self._render_permissions(s.permissions)
+        self._render_texts()
+
+    def _render_goal(self) -> None:
+        goal = self.session.goal
+        if goal is None:
+            self.motion_bar.setVisible(False)
+            return
+        self.motion_bar.set_destination(self.room_name(goal.room))
+        self.motion_bar.set_progress(goal.progress)
+        self.motion_bar.set_paused(goal.paused)
+        self.motion_bar.setVisible(True)
+
+    def _render_dialogs(self) -> None:
+        """Dialogs that show station state open and close with it (no leftovers)."""
+        s = self.session
+        if s.tour_stop is None:
+            self._close_dialog(QtTourStopDialog)
+        elif not (isinstance(self.dialog, QtTourStopDialog) and self.dialog.room.id == s.tour_stop):
+            try:
+                room = self.shown_plan.room(s.tour_stop)
+            except KeyError:
+                logger.warning("tour stop %s is not a room of the floor plan", s.tour_stop)
+            else:
+                dialog = QtTourStopDialog(room, self)
+                dialog.resume_requested.connect(lambda: self._tour_control("resume"))
+                dialog.end_requested.connect(lambda: self._tour_control("end"))
+                self._open(dialog)
+        request = s.shown_request
+        if request is None:
+            self._close_dialog(QtShowRequestDialog)
+        elif not (isinstance(self.dialog, QtShowRequestDialog) and self.dialog.request == request):
+            show = QtShowRequestDialog(request, self.shown_plan, self)
+            show.answered.connect(self._answer_request)
+            self._open(show)
+
+    def _render_permissions(self, perms: Permissions) -> None:
         self.menu.joystick_button.setEnabled(perms.teleop)
         self.map_screen.drive_button.setEnabled(perms.teleop)
         self.motion_bar.manual_button.setEnabled(perms.teleop)
@@ -391,21 +403,22 @@ class TabletWindow(QMainWindow):
         self.map_screen.tour_button.setEnabled(perms.tours)
         self.menu.home_button.setEnabled(perms.goals)
         self.map_screen.home_button.setEnabled(perms.goals)
+        why = self.tr("The operator does not allow this now.")
+        for widget, allowed in (
+            (self.menu.joystick_button, perms.teleop),
+            (self.map_screen.drive_button, perms.teleop),
+            (self.map_screen.tour_button, perms.tours),
+            (self.menu.home_button, perms.goals),
+            (self.map_screen.home_button, perms.goals),
+        ):
+            widget.setToolTip("" if allowed else why)
 
-    def _on_status(self, msg: StatusInfo) -> None:
-        self._set_status(msg.message)
-        if isinstance(self.dialog, QtShowRequestDialog):
-            self.dialog.set_status(msg.message)
-
-    def _on_error(self, msg: ErrorReport) -> None:
-        self._set_status(self.tr("Base Station: %1").replace("%1", msg.message))
-
-    def _on_refused(self, reason: str) -> None:
-        self._set_status(self.tr("Refused by the Base Station: %1").replace("%1", reason))
-
-    def _set_status(self, text: str) -> None:
-        self._status_text = text
-        self.status_label.setText(text)
+    def _render_texts(self) -> None:
+        s = self.session
+        self.activity_label.setText(activity_text(self.room_name, s))
+        notice = s.notice
+        self.status_label.setText("" if notice is None else notice_text(self.room_name, notice))
+        self.status_label.setStyleSheet("color: #b00000;" if notice and notice.error else "")
 
     # ---------------------------------------------------------------- connection display
     def _on_reconnect_scheduled(self, delay: float) -> None:
@@ -436,9 +449,18 @@ class TabletWindow(QMainWindow):
         self.menu.set_connection_text(text)
 
     # ---------------------------------------------------------------- look and language
+    def screen_dpi(self) -> float:
+        """Dots per inch of the screen as a finger meets it: the override, else the larger of
+        Qt's logical and physical figures (a desktop platform often reports 96 logical)."""
+        if self.dpi_override is not None:
+            return self.dpi_override
+        screen = self.screen()
+        physical = screen.physicalDotsPerInch() if screen is not None else 0.0
+        return max(float(self.logicalDpiX()), physical)
+
     def apply_metrics(self) -> None:
         """Touch targets of at least 9 mm, growing with the window (ui_metrics)."""
-        touch = touch_target_px(self.logicalDpiX(), self.width(), self.height())
+        touch = touch_target_px(self.screen_dpi(), self.width(), self.height())
         if touch == self._touch:
             return
         self._touch = touch
@@ -463,14 +485,47 @@ class TabletWindow(QMainWindow):
         super().resizeEvent(event)
 
     def retranslate(self) -> None:
+        self.shown_plan = self.plan.in_language(self.languages.language)
+        self.map_view.set_plan(self.shown_plan)
         self.setWindowTitle(self.tr("Interbot Tablet"))
+        self.help_button.setText(self.tr("Help me!"))
         self._update_connection_text()
+        self.render()
 
     def changeEvent(self, event: QEvent) -> None:
         if event.type() == QEvent.Type.LanguageChange:
             self.retranslate()
         super().changeEvent(event)
 
+    def mousePressEvent(self, event: QMouseEvent) -> None:
+        """Kiosk: taps in the top-left corner count towards the operator's exit gesture."""
+        pos = event.position()
+        corner = pos.x() <= CORNER_PX and pos.y() <= CORNER_PX
+        if self.kiosk and corner and self._exit_gesture.tap(self.clock()):
+            self.ask_to_leave_kiosk()
+        super().mousePressEvent(event)
+
+    def ask_to_leave_kiosk(self) -> None:
+        box = QMessageBox(
+            QMessageBox.Icon.Question,
+            self.tr("Operator"),
+            self.tr("Leave the kiosk and close the tablet application?"),
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
+            self,
+        )
+        box.setDefaultButton(QMessageBox.StandardButton.No)
+        self.exit_box = box
+        box.finished.connect(self._on_leave_answer)
+        box.open()
+
+    def _on_leave_answer(self, result: int) -> None:
+        if result == QMessageBox.StandardButton.Yes:
+            self._may_close = True
+            self.close()
+
     def closeEvent(self, event: QCloseEvent) -> None:
+        if self.kiosk and not self._may_close:
+            event.ignore()  # the kiosk stays: only the operator's gesture closes it
+            return
         self.connection.stop()
         super().closeEvent(event)

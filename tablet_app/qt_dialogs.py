@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QLineEdit,
+    QListView,
     QPushButton,
     QRadioButton,
     QVBoxLayout,
@@ -31,9 +32,12 @@ from PySide6.QtWidgets import (
 
 from interbot_core.protocol import ShowRequest
 from tablet_app.floor_plan import FloorPlan, Room
+from tablet_app.qt_keyboard import QtKeyboard
 
 
 class _TabletDialog(QDialog):
+    HAS_KEYBOARD = False  # dialogs with an on-screen keyboard get most of the screen
+
     def __init__(self, parent: QWidget | None) -> None:
         super().__init__(parent)
         self.setModal(True)
@@ -102,7 +106,9 @@ class QtRoomDialog(_TabletDialog):
 
 
 class QtRequestDialog(_TabletDialog):
-    """Fig. 5.5b: the request text and the room to deliver to."""
+    """Fig. 5.5b: the request text (typed on the on-screen keyboard) and where to deliver it."""
+
+    HAS_KEYBOARD = True
 
     request_submitted = Signal(str, int, int)  # request, room, deliver_to
 
@@ -113,8 +119,11 @@ class QtRequestDialog(_TabletDialog):
         self.title_label.setObjectName("title")
         self.text_edit = QLineEdit()
         self.text_edit.setMaxLength(200)
+        self.keyboard = QtKeyboard()
+        self.keyboard.set_target(self.text_edit)
         self.deliver_label = QLabel()
         self.deliver_combo = QComboBox()
+        self.deliver_combo.setView(QListView())  # its rows take the touch-sized style
         for other in plan.touch_rooms():
             self.deliver_combo.addItem(other.name, other.id)
         self.send_button = QPushButton()
@@ -126,6 +135,7 @@ class QtRequestDialog(_TabletDialog):
         layout = QVBoxLayout(self)
         layout.addWidget(self.title_label)
         layout.addWidget(self.text_edit)
+        layout.addWidget(self.keyboard)
         layout.addWidget(self.deliver_label)
         layout.addWidget(self.deliver_combo)
         layout.addLayout(buttons)
@@ -296,7 +306,9 @@ MALFUNCTION_KINDS = ("collision", "wrong_position", "wrong_orientation", "other"
 
 
 class QtMalfunctionDialog(_TabletDialog):
-    """Report a malfunction (§4.2.1.1): kind and free text."""
+    """Report a malfunction (§4.2.1.1): kind and free text (on-screen keyboard)."""
+
+    HAS_KEYBOARD = True
 
     submitted = Signal(str, str)  # kind, text
 
@@ -317,6 +329,9 @@ class QtMalfunctionDialog(_TabletDialog):
         self.text_edit = QLineEdit()
         self.text_edit.setMaxLength(300)
         layout.addWidget(self.text_edit)
+        self.keyboard = QtKeyboard()
+        self.keyboard.set_target(self.text_edit)
+        layout.addWidget(self.keyboard)
         self.send_button = QPushButton()
         self.cancel_button = QPushButton()
         buttons = QHBoxLayout()

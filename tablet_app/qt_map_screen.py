@@ -12,6 +12,7 @@ from PySide6.QtCore import QEvent, Signal
 from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from tablet_app.qt_map_view import QtMapView
+from tablet_app.tablet_session import Help
 
 
 class QtMapScreen(QWidget):
@@ -55,27 +56,30 @@ class QtMapScreen(QWidget):
         self.back_button.clicked.connect(self.back_requested)
         self.help_button.clicked.connect(self.help_requested)
         self.drive_button.clicked.connect(self.joystick_requested)
-        self._lost = False
-        self._helping = False
+        self._help = Help.NONE
+        self._room = ""
         self.retranslate()
 
-    def set_help_state(self, lost: bool, helping: bool) -> None:
-        """``lost``: the robot needs its initial pose; ``helping``: the user said they help."""
-        self._lost, self._helping = lost, helping
-        self.help_banner.setVisible(lost)
-        self.help_button.setVisible(lost and not helping)
-        self.drive_button.setVisible(lost and helping)
-        self.map_view.set_highlight(lost and helping)
+    def set_help_state(self, help: Help, room: str = "") -> None:
+        """Where "Help me!" stands (`tablet_session.Help`); ``room`` is the one being checked."""
+        self._help, self._room = help, room
+        shown = help is not Help.NONE
+        self.help_banner.setVisible(shown)
+        self.help_button.setVisible(help is Help.OFFERED)
+        self.drive_button.setVisible(help is Help.CHOOSING)
+        self.map_view.set_highlight(help is Help.CHOOSING)
         self._show_help_text()
 
     def _show_help_text(self) -> None:
-        if self._helping:
+        if self._help is Help.CHOOSING:
             self.help_text.setText(
                 self.tr(
                     "Drive me with the joystick to one of the highlighted rooms, "
                     "then tap that room on the map."
                 )
             )
+        elif self._help is Help.CHECKING:
+            self.help_text.setText(self.tr("Checking that I am at %1…").replace("%1", self._room))
         else:
             self.help_text.setText(self.tr("I do not know where I am."))
 

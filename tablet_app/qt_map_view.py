@@ -147,6 +147,15 @@ class QtMapView(QWidget):
         self._highlight = on
         self.update()
 
+    def set_plan(self, plan: FloorPlan) -> None:
+        """The same rooms with other texts (the UI language changed)."""
+        if [r.id for r in plan.touch_rooms()] != list(self._buttons):
+            raise ValueError("set_plan takes the same rooms in other words, not another plan")
+        self._plan = plan
+        for room in plan.touch_rooms():
+            self._buttons[room.id].setAccessibleName(room.name)
+        self.update()
+
     def set_min_touch(self, px: int) -> None:
         self._min_touch = px
         self._place_buttons()

@@ -78,3 +78,25 @@ def test_link_has_no_qt(path: Path) -> None:
 def test_shared_qt_helpers_import_no_app(path: Path) -> None:
     bad = imported_top_levels(path) & {"base_station_app", "tablet_app", "robot_daemon"}
     assert not bad, f"{path.relative_to(REPO)} imports {sorted(bad)}; interbot_qt serves both apps"
+
+
+PRODUCT_PACKAGES = (
+    "interbot_core",
+    "interbot_link",
+    "interbot_qt",
+    "robot_daemon",
+    "base_station_app",
+    "tablet_app",
+    "interbot_cli",
+)
+
+
+def test_no_test_doubles_in_product_packages() -> None:
+    """Fakes and stubs live in tests/, not in what is installed on a robot or a tablet."""
+    doubles = [
+        str(p.relative_to(REPO))
+        for package in PRODUCT_PACKAGES
+        for p in (REPO / package).rglob("*.py")
+        if p.stem.startswith(("fake_", "stub_", "mock_")) or p.stem.endswith(("_fake", "_stub"))
+    ]
+    assert doubles == []

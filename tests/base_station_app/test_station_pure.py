@@ -248,3 +248,26 @@ def test_safety_text_for_the_person_driving():
     assert describe_safety("none", 1000.0).text == "clear"
     assert describe_safety("slowdown", 0.3).level == "warning"
     assert describe_safety("no_data", 0.0).text == "STOPPED: no laser data"
+
+
+def test_labels_sit_on_clear_floor_not_on_furniture(topo):
+    """With the map, each room label goes where the floor is clearest inside the room."""
+    from pathlib import Path
+
+    from interbot_core.occupancy_grid import FREE, load_map
+
+    root = Path(__file__).resolve().parents[2]
+    areas = load_room_areas(root / "maps" / "isr_floor0_topo.yaml", topo)
+    grid = load_map(root / "maps" / "isr_floor0.yaml")
+    labels = map_labels(topo, areas, grid=grid)
+    by_node = {a.node_id: a for a in areas}
+    for label in labels:
+        area = by_node[label.node_id]
+        if not area.polygon:
+            continue
+        assert point_in_polygon(label.x, label.y, area.polygon), label
+        row, col = grid.world_to_cell(label.x, label.y)
+        r, c = int(row), int(col)
+        patch = grid.cells[r - 4 : r + 5, c - 4 : c + 5]  # 0.4 m around the label's centre
+        assert (patch == FREE).all(), f"{label.text!r} sits on something at {label.x, label.y}"
+        assert label.short == str(label.node_id)

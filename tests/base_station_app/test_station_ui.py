@@ -295,7 +295,7 @@ def test_diagnostics_histograms_follow_period_stats(qtbot, window, station, cloc
     window.diagnostics_panel.redraw()
     _, bars, label = window.diagnostics_panel.plots["clock"]
     heights = bars.opts["height"]
-    assert sum(heights) == pytest.approx(1.0)
+    assert sum(heights) == pytest.approx(100.0)  # percent of the periods
     assert "n=9" in label.text() and "mean 100.0 ms" in label.text()
 
 
@@ -315,3 +315,103 @@ def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
     linked.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
     linked.frame_ready.emit()
     assert "STOPPED" in panel.monitor_label.text() and "3 cm" in panel.monitor_label.text()
+
+
+def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, robot):
+    """A scan stamped between two poses is placed from the interpolated pose, laser mount
+    included; points, not a polyline."""
+    import numpy as np
+
+    from interbot_core.laser_scan import INTERBOT_LASER_MOUNT, LaserScan
+    from interbot_core.topics import PoseMsg
+
+    for x, stamp in ((0.0, 10.0), (2.0, 10.2)):  # the pose topic keeps only the newest: wait
+        robot.link.publish_pose(PoseMsg(x, 0.0, 0.0, stamp=stamp))
+
+        def got(stamp: float = stamp) -> bool:
+            station.poll_link()
+            return station.state.pose is not None and station.state.pose.stamp == stamp
+
+        qtbot.waitUntil(got, timeout=3000)
+    ranges = np.array([1.0, 1.0], dtype=np.float32)  # straight ahead and 90° left
+    robot.link.publish_scan(LaserScan(10.1, 0.0, math.pi / 2, 0.1, 30.0, ranges))
+
+    def drawn() -> bool:
+        station.poll_link()
+        window.map_view.redraw()
+        return len(window.map_view.scan_item.data) == 2
+
+    qtbot.waitUntil(drawn, timeout=3000)
+    xs, ys = window.map_view.scan_item.getData()
+    laser_x = 1.0 + INTERBOT_LASER_MOUNT.x  # robot at x = 1.0 at t = 10.1
+    assert sorted(zip(np.round(xs, 3), np.round(ys, 3), strict=False)) == sorted(
+        [(round(laser_x + 1.0, 3), 0.0), (round(laser_x, 3), 1.0)]
+    )
+
+
+def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot, localise):
+    """The route line is the path the robot published, not straight lines between goals."""
+    import numpy as np
+
+    from interbot_core.supervisor import GoTo
+    from interbot_core.topics import PlanMsg
+
+    localise(Pose2D(-29.5, 3.7, 0.0))
+    station.submit(GoTo(5))
+    station.tick()
+    route = station.route
+    assert route is not None
+    bend = ((-29.5, 3.7), (-25.0, 3.7), (-25.0, -1.0), (-20.0, -1.0))
+    robot.link.publish_plan(PlanMsg(route.route_id, bend))
+
+    def drawn() -> bool:
+        station.poll_link()
+        window.map_view._invalidate()
+        window.map_view.redraw()
+        return len(window.map_view.route_item.getData()[0]) == len(bend) + 1
+
+    qtbot.waitUntil(drawn, timeout=3000)
+    xs, ys = window.map_view.route_item.getData()
+    assert np.allclose(np.column_stack((xs, ys))[1:], bend)
+    robot.link.publish_plan(PlanMsg(route.route_id + 1, bend))  # another route's plan
+
+    def cleared() -> bool:
+        station.poll_link()
+        window.map_view._invalidate()
+        window.map_view.redraw()
+        return len(window.map_view.route_item.getData()[0]) == 0
+
+    qtbot.waitUntil(cleared, timeout=3000)
+    assert len(window.map_view.goal_item.data) == 1  # the current goal is still marked
+
+
+def test_emergency_stop_is_large_red_and_cannot_be_hidden(qtbot, window, station):
+    button = window.estop_button
+    assert button.isVisible() or not window.isVisible()
+    assert button.minimumHeight() >= 44 and button.minimumWidth() >= 200
+    assert "#d00000" in button.styleSheet()
+    from PySide6.QtWidgets import QToolBar
+
+    bar = window.findChild(QToolBar, "main_toolbar")
+    assert bar is not None and not bar.isMovable() and not bar.toggleViewAction().isVisible()
+    QTest.mouseClick(button, Qt.MouseButton.LeftButton)
+    assert station.estop_latched
+
+
+def test_unset_pose_shows_dashes(qtbot, window, station, robot, localise):
+    localise(Pose2D(0.0, 0.0, 0.0), state="unset")
+    station.poll_link()
+    window.state_panel.refresh()
+    assert window.state_panel.labels["pose"].text() == "—"
+    assert window.state_panel.labels["orientation"].text() == "—"
+
+
+def test_camera_pane_takes_the_image_shape(qtbot, window, station):
+    window.resize(1600, 1000)
+    window.show()
+    qtbot.waitExposed(window)
+    total = sum(window._left.sizes())
+    for aspect in (16 / 9, 4.0):  # capped at 45 % of the height; then the exact shape
+        window.fit_camera(aspect)
+        want = min(window._left.width() / aspect, 0.45 * total)
+        assert abs(window.camera_view.height() - want) <= 2

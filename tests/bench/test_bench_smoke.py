@@ -45,6 +45,7 @@ POSITIVE = {
     ],
     "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
         "reallog_intel_rms_m",
         "reallog_intel_max_m",

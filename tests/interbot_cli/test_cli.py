@@ -4,6 +4,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -73,3 +74,45 @@ def test_demo_starts_three_programs_and_stops_them_cleanly(
     assert demo.missing_parts() == []
     assert main(["demo", "--duration", "6", "--people", "0"]) == 0
     assert "Base Station and Tablet running" in capsys.readouterr().out
+
+
+def test_router_command_routes_between_clients_and_stops_on_sigterm(
+    free_tcp_port: Any, wait_until: Any
+) -> None:
+    import signal
+
+    from interbot_link import RobotLink, StationLink, open_session
+
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "interbot_cli.main", "router", "--listen", endpoint],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        import socket as _socket
+
+        def router_up() -> bool:
+            try:
+                _socket.create_connection(("127.0.0.1", int(endpoint.rsplit(":", 1)[1])), 1).close()
+            except OSError:
+                return False
+            return True
+
+        wait_until(router_up, 15.0, "the router to listen")
+        with open_session([], [endpoint], "client") as robot_session:
+            link = RobotLink(robot_session, "routed")
+            with open_session([], [endpoint], "client") as station_session:
+                station = StationLink(station_session)
+                wait_until(lambda: "routed" in station.robots, 15.0, "the robot via the router")
+                station.close()
+            link.close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=15)
+    assert proc.returncode == 0, err
+
+
+def test_router_refuses_a_multicast_endpoint(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["router", "--listen", "udp/224.0.0.224:7446"]) == 2
+    assert "tcp/HOST:PORT" in capsys.readouterr().err

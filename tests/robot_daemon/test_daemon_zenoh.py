@@ -6,6 +6,7 @@ look inside it; one test runs the real `interbot-daemon` process and stops it wi
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -21,6 +22,7 @@ import pytest
 from interbot_core.topics import (
     InitialPose,
     Lock,
+    PlanMsg,
     PoseMsg,
     RouteMsg,
     RouteProgress,
@@ -116,6 +118,16 @@ def test_goal_in_route_done_pose_out(rig: Rig, wait_until: Callable[..., None]) 
     _localise_at_home(rig, wait_until)
     route = _short_route(rig)
     assert rig.station.send_route(route)
+
+    def planned() -> bool:
+        plan = rig.latest(Topic.PLAN)
+        return isinstance(plan, PlanMsg) and plan.route_id == 7 and len(plan.points) >= 2
+
+    wait_until(planned, 30.0, "the navigator's path for route 7")
+    plan = rig.latest(Topic.PLAN)
+    assert isinstance(plan, PlanMsg)
+    goal_xy = route.waypoints[-1][:2]
+    assert math.dist(plan.points[-1], goal_xy) < 0.3  # the path ends at the goal
 
     def done() -> bool:
         p = rig.progress()

@@ -230,8 +230,13 @@ def test_help_me_flow_sends_initial_pose_room(qtbot: Any, station: Any, window: 
     assert isinstance(window.dialog, QtHelpConfirmDialog)
     click(window.dialog.yes_button)
     wait_sent(qtbot, station, [{"initial_pose_room": 4}])
-    assert not screen.help_banner.isVisible()
+    # Sent is not confirmed: no "Thank you" until the robot says it is localised.
+    assert screen.help_banner.isVisible() and "Checking" in screen.help_text.text()
+    assert "Thank you" not in window.status_label.text()
     assert window.map_view.room_state(4) == "normal"
+    station.send(Localisation("ok"))
+    qtbot.waitUntil(lambda: not screen.help_banner.isVisible())
+    assert window.status_label.text() == "Thank you! I am at Office."
 
 
 def test_localisation_lost_offers_help(qtbot: Any, station: Any, window: Any) -> None:
@@ -382,3 +387,47 @@ def test_touch_targets_are_at_least_9_mm(qtbot: Any, station: Any, window: Any) 
     for room in window.plan.touch_rooms():
         geometry = window.map_view.room_button(room.id).geometry()
         assert min(geometry.width(), geometry.height()) >= min_px
+
+
+def test_kiosk_fills_the_whole_screen(qtbot: Any, station: Any, window: Any) -> None:
+    """Full screen is the screen's geometry, frameless (no window manager is needed for it)."""
+    from PySide6.QtCore import Qt
+    from PySide6.QtGui import QGuiApplication
+
+    from tablet_app.main import show_kiosk
+
+    window.resize(660, 450)
+    show_kiosk(window, screen_index=7)  # no such screen: the primary, with a warning logged
+    screen = QGuiApplication.primaryScreen().geometry()
+    qtbot.waitUntil(lambda: window.geometry().size() == screen.size())
+    assert window.isFullScreen()
+    assert window.windowFlags() & Qt.WindowType.FramelessWindowHint
+    assert window.kiosk
+    window.kiosk = False  # let the fixture close it
+
+
+def test_kiosk_closes_only_after_the_operator_gesture(
+    qtbot: Any, station: Any, window: Any
+) -> None:
+    from PySide6.QtWidgets import QMessageBox
+
+    from tablet_app.kiosk import TAPS
+
+    window.kiosk = True
+    window.close()
+    assert window.isVisible()  # a close request is ignored
+    for _ in range(TAPS - 1):
+        QTest.mouseClick(window.connection_label, Qt.MouseButton.LeftButton, pos=QPoint(5, 5))
+    assert not hasattr(window, "exit_box")
+    QTest.mouseClick(window.connection_label, Qt.MouseButton.LeftButton, pos=QPoint(5, 5))
+    qtbot.waitUntil(lambda: hasattr(window, "exit_box") and window.exit_box.isVisible())
+    click(window.exit_box.button(QMessageBox.StandardButton.Yes))
+    qtbot.waitUntil(lambda: not window.isVisible())
+
+
+def test_exit_gesture_needs_the_taps_close_together() -> None:
+    from tablet_app.kiosk import ExitGesture
+
+    gesture = ExitGesture(taps=3, window_s=1.0)
+    assert not any(gesture.tap(t) for t in (0.0, 0.6, 1.2))  # too slow
+    assert [gesture.tap(t) for t in (2.0, 2.3, 2.6)] == [False, False, True]
