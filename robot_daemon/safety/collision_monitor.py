@@ -19,7 +19,8 @@ front of the laser are returns like any other) and checked against zones, polygo
   slows down in proportion to the free distance (v = d / T). A turn on the spot is the arc of a
   pure rotation and is scaled the same way.
 
-The most restrictive zone wins. Hysteresis: a ``stop``/``slowdown``/``limit`` zone that is
+The most restrictive zone wins. The laser sees 270 degrees, nothing behind the robot: reversing
+is capped at ``blind_reverse_speed`` (reported as a ``limit``). Hysteresis: a ``stop``/``slowdown``/``limit`` zone that is
 active stays active until fewer than ``min_points`` returns lie within ``hysteresis`` metres of
 it, so a return on the edge of a zone does not make the command chatter. Without a scan newer
 than ``source_timeout`` the monitor stops the robot and says so (zone ``no_data``), as Nav2
@@ -188,6 +189,8 @@ class CollisionMonitorConfig:
     hysteresis: float = 0.02  # [m]
     source_timeout: float = 0.5  # [s]
     max_range: float = 4.0  # [m] returns farther than this from base_link are ignored
+    # [m/s] the laser sees 270 degrees: nothing behind the robot is seen, so reversing is capped
+    blind_reverse_speed: float = 0.15
     enabled: bool = True
 
     def __post_init__(self) -> None:
@@ -196,6 +199,7 @@ class CollisionMonitorConfig:
         check_number(where, "hysteresis", self.hysteresis, 0.0, 0.5)
         check_number(where, "source_timeout", self.source_timeout, 0.0, 10.0, low_open=True)
         check_number(where, "max_range", self.max_range, 0.5, 30.0)
+        check_number(where, "blind_reverse_speed", self.blind_reverse_speed, 0.0, 5.0)
         if not isinstance(self.enabled, bool):
             raise SafetyConfigError(f"{where}: 'enabled' must be true or false")
         if not 1 <= len(self.zones) <= MAX_ZONES:
@@ -228,7 +232,14 @@ class CollisionMonitorConfig:
                 raise SafetyConfigError(f"{source}: {exc}") from None
         kwargs: dict[str, Any] = {
             k: data[k]
-            for k in ("footprint", "hysteresis", "source_timeout", "max_range", "enabled")
+            for k in (
+                "footprint",
+                "hysteresis",
+                "source_timeout",
+                "max_range",
+                "blind_reverse_speed",
+                "enabled",
+            )
             if k in data
         }
         if isinstance(kwargs.get("footprint"), str):
@@ -370,6 +381,10 @@ class CollisionMonitor:
                 elif cfg.action_type == "limit":
                     v = max(-cfg.linear_limit, min(cfg.linear_limit, v))
                     w = max(-cfg.angular_limit, min(cfg.angular_limit, w))
+        blind = self.config.blind_reverse_speed
+        if v < -blind:  # reversing into what the laser cannot see: capped, on the same arc
+            v, w = -blind, w * blind / -v
+            note("limit", "blind reverse")
         for z in self._zones:
             stopping = z.active and z.config.action_type == "stop" and (v != 0.0 or w != 0.0)
             if stopping and self._closes_in(z.members, v, w):

@@ -156,6 +156,14 @@ def test_no_scan_or_a_stale_scan_stops_the_robot(config: CollisionMonitorConfig)
     assert m.update(0.4, 0.0, 1.0 + config.source_timeout + 0.01).zone == "no_data"
 
 
+def test_reversing_is_capped_because_nothing_behind_is_seen(config: CollisionMonitorConfig) -> None:
+    m = monitor_with(config, wall_x(5.0))
+    r = m.update(-0.6, 0.4, 0.0)
+    assert r.linear == pytest.approx(-0.15) and r.angular == pytest.approx(0.1)  # same arc
+    assert (r.zone, r.zone_name) == ("limit", "blind reverse")
+    assert m.update(-0.1, 0.0, 0.0).linear == -0.1
+
+
 def test_min_points_ignores_a_single_stray_return(config: CollisionMonitorConfig) -> None:
     m = monitor_with(config, np.array([[0.33, 0.0], [5.0, 0.0]]))  # one speck in the stop zone
     assert m.update(0.3, 0.0, 0.0).zone != "stop"
