@@ -34,6 +34,7 @@ bench: $(STAMP)
 
 screenshots: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshots.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python tools/make_screenshot_replay.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache *.egg-info

@@ -13,14 +13,16 @@ import argparse
 import logging
 import signal
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
 import zenoh
 
+from base_station_app import station_security
 from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
-from interbot_link import LinkError, session_config
+from interbot_link import LinkError, LinkSecurity, session_config
 
 logger = logging.getLogger(__name__)
 
@@ -31,10 +33,19 @@ DEFAULT_TOPO = Path(__file__).resolve().parent.parent / "maps" / "isr_floor0_top
 class StationSession:
     """Owns the zenoh session; `close` is idempotent (called from aboutToQuit and closeEvent)."""
 
-    def __init__(self, connect: Sequence[str], mode: str = "peer", lease_ms: int = 2500) -> None:
-        self.session: zenoh.Session | None = zenoh.open(
-            session_config([], list(connect), mode, lease_ms=lease_ms)
+    def __init__(
+        self,
+        connect: Sequence[str],
+        mode: str = "peer",
+        lease_ms: int = 2500,
+        *,
+        security: LinkSecurity | None = None,
+        insecure: bool = False,
+    ) -> None:
+        config = session_config(
+            [], list(connect), mode, lease_ms=lease_ms, security=security, insecure=insecure
         )
+        self.session: zenoh.Session | None = zenoh.open(config)
         logger.info("zenoh session open, connecting to %s", list(connect))
 
     def close(self) -> None:
@@ -68,6 +79,27 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--robot", metavar="ID", help="robot to command (default: the first seen)")
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
     parser.add_argument(
+        "--security",
+        type=Path,
+        metavar="DIR",
+        help="key directory (interbot keys init DIR): mutual TLS to robots on tls/ endpoints "
+        "and a paired TLS tablet",
+    )
+    parser.add_argument("--identity", help="this station's certificate name (default station)")
+    parser.add_argument(
+        "--insecure",
+        action="store_true",
+        help="allow plaintext robot endpoints off the loopback interface (trusted networks)",
+    )
+    parser.add_argument(
+        "--insecure-tablet",
+        action="store_true",
+        help="serve the thesis's plaintext tablet protocol (no TLS, no pairing)",
+    )
+    parser.add_argument(
+        "--config", type=Path, help="station YAML (security: {keys, identity, insecure, ...})"
+    )
+    parser.add_argument(
         "--geometry", metavar="X,Y,W,H", help="window position and size (default 1600x1000)"
     )
     parser.add_argument("--log-level", default="INFO")
@@ -88,13 +120,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not 0 < args.tablet_port < 65536:
         sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
         return 2
+    connect = args.connect or ["tcp/127.0.0.1:7447"]
     try:
         geometry = None if args.geometry is None else parse_geometry(args.geometry)
     except LayoutError as exc:
         sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
         return 2
     try:
-        holder = StationSession(args.connect or ["tcp/127.0.0.1:7447"], args.mode)
+        security = station_security.resolve(
+            keys=args.security,
+            identity=args.identity,
+            insecure=args.insecure,
+            insecure_tablet=args.insecure_tablet,
+            connect=connect,
+            tablet_host=args.tablet_host,
+            file_settings=station_security.load_settings(args.config) if args.config else None,
+        )
+        holder = StationSession(
+            connect, args.mode, security=security.link, insecure=security.insecure
+        )
+    except station_security.StationSecurityError as exc:
+        sys.stderr.write(f"interbot-base-station: {exc}\n")
+        return 2
     except (LinkError, zenoh.ZError) as exc:
         hint = (
             " (is the building's router running? start it with `interbot router`)"
@@ -111,6 +158,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     from base_station_app.station_controller import StationController
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    tablet_auth = None
+    if security.tablet_tls and security.link is not None:
+        from base_station_app.tablet_auth import (
+            TabletAuthServer,
+            TabletTlsError,
+            advertised_address,
+        )
+
+        try:
+            identity = security.link.identity
+            tablet_auth = TabletAuthServer.from_files(
+                identity.cert, identity.key, security.registry_path(), time.time
+            )
+        except (TabletTlsError, ValueError) as exc:
+            holder.close()
+            sys.stderr.write(f"interbot-base-station: tablet link: {exc}\n")
+            return 2
+        tablet_auth.advertised_host = advertised_address(args.tablet_host)
     controller = StationController(
         topo,
         holder.session,
@@ -118,8 +183,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         tablet_host=args.tablet_host,
         tablet_port=args.tablet_port,
         robot_id=args.robot,
+        tablet_auth=tablet_auth,
     )
+    if tablet_auth is not None:  # the operator sees who was refused or let in (issue 15)
+        tablet_auth.auth_refused.connect(
+            lambda peer, why: controller.log("warning", f"refused tablet {peer}: {why}")
+        )
+        tablet_auth.tablet_authorised.connect(
+            lambda r: controller.log("info", f"tablet {r.tablet_id} ({r.name}) authorised")
+        )
     window = MainWindow(controller)
+    window.setWindowTitle(window.windowTitle() + security.title_suffix())
     window.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose, False)
     app.aboutToQuit.connect(window.shutdown)
     app.aboutToQuit.connect(holder.close)

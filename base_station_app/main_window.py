@@ -13,12 +13,20 @@ from dataclasses import fields
 
 from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
-from PySide6.QtWidgets import QMainWindow, QSplitter, QTabWidget, QToolBar, QWidget
+from PySide6.QtWidgets import (
+    QMainWindow,
+    QSplitter,
+    QTabWidget,
+    QToolBar,
+    QVBoxLayout,
+    QWidget,
+)
 
 from base_station_app.qt_camera_view import QtCameraView
 from base_station_app.qt_config_panel import QtConfigPanel
 from base_station_app.qt_diagnostics_panel import QtDiagnosticsPanel
 from base_station_app.qt_map_view import QtMapView
+from base_station_app.qt_replay_bar import QtReplayBar
 from base_station_app.qt_robots_panel import QtRobotsPanel
 from base_station_app.qt_state_panel import QtStatePanel
 from base_station_app.qt_tablet_panel import QtTabletPanel
@@ -29,6 +37,7 @@ from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import PERMISSION_KINDS
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoToPose
+from interbot_link.replay import ReplayControlClient
 
 logger = logging.getLogger(__name__)
 
@@ -92,7 +101,7 @@ class MainWindow(QMainWindow):
         # The floor plan is wide (70 m x 28 m): the camera goes under the map, beside it on
         # screen, and the control tabs get the full height on the right.
         left = QSplitter(Qt.Orientation.Vertical)
-        left.addWidget(self.map_view)
+        left.addWidget(self._with_replay_bar(self.map_view))
         left.addWidget(self.camera_view)
         left.setStretchFactor(0, 3)
         left.setStretchFactor(1, 2)
@@ -107,6 +116,19 @@ class MainWindow(QMainWindow):
         self.splitter.setSizes([900, 700])
         self.setCentralWidget(self.splitter)
         self.statusBar().showMessage("ready")
+
+    def _with_replay_bar(self, map_view: QWidget) -> QWidget:
+        """The map view with the replay bar under it (shown only for a replayed robot)."""
+        c = self.controller
+        client = ReplayControlClient(c.link.session) if c.link is not None else None
+        self.replay_bar = QtReplayBar(c, client)
+        box = QWidget()
+        layout = QVBoxLayout(box)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(map_view, 1)
+        layout.addWidget(self.replay_bar)
+        return box
 
     def _create_actions(self) -> None:
         c = self.controller

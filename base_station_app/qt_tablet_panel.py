@@ -81,6 +81,11 @@ class QtTabletPanel(QWidget):
             row.addWidget(b)
         tlo.addLayout(row)
         layout.addWidget(task)
+        if controller.tablet_auth is not None:  # TLS + pairing (issue 15)
+            from base_station_app.qt_tablet_pairing import QtTabletPairing
+
+            self.pairing = QtTabletPairing(controller.tablet_auth)
+            layout.addWidget(self.pairing)
 
         self.override_button.clicked.connect(controller.tablet_task_override)
         self.stop_button.clicked.connect(controller.tablet_task_stop)

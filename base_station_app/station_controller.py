@@ -35,6 +35,7 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
+from base_station_app.tablet_auth import TabletAuthServer
 from base_station_app.tablet_server import TabletServer
 from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
 from base_station_app.teleop import Direction, TeleopInput
@@ -133,9 +134,11 @@ class StationController(QObject):
         tablet_port: int = 5555,
         robot_id: str | None = None,
         timing: Timing = Timing(),
+        tablet_auth: TabletAuthServer | None = None,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)
+        self.tablet_auth = tablet_auth  # TLS + pairing (issue 15); None: plaintext thesis tablet
         self.clock = clock
         self.topo = topo
         self.names = {n.id: n.name for n in topo.nodes}
@@ -188,6 +191,7 @@ class StationController(QObject):
             robot_name=lambda: self.selected_robot or "none",
             limits=p.ProtocolLimits(node_ids=frozenset(self.names)),
             ping_interval_ms=timing.ping_ms,
+            server=tablet_auth,
             parent=self,
         )
         self.tablet.connected.connect(self._on_tablet_connected)

@@ -74,6 +74,7 @@ class TabletServer(QObject):
         limits: ProtocolLimits = DEFAULT_LIMITS,
         ping_interval_ms: int = 1000,
         error_budget: ErrorBudget | None = None,
+        server: QTcpServer | None = None,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)
@@ -83,8 +84,11 @@ class TabletServer(QObject):
         self._robot_name = robot_name
         self.limits = limits
         self._budget = error_budget if error_budget is not None else ErrorBudget()
-        self._server = QTcpServer(self)
-        self._server.newConnection.connect(self._on_new_connection)
+        # ``server``: e.g. `tablet_auth.TabletAuthServer` (TLS + pairing, issue 15); its
+        # sockets reach ``pendingConnectionAvailable`` only once authorised.
+        self._server = server if server is not None else QTcpServer(self)
+        self._server.setParent(self)
+        self._server.pendingConnectionAvailable.connect(self._on_new_connection)
         self._conn: QtTcpConnection | None = None
         self._peer = ""
         self._greeted = False

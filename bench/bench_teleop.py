@@ -31,6 +31,12 @@ subclassed to timestamp the message's arrival, which splits each sample into ``t
 (``station_scan_view_hz``: distinct scans the frame timer pulled per second).
 
     .venv/bin/interbot bench --only teleop --json
+    .venv/bin/interbot bench --only teleop --secure --json   # issue 15: TLS everywhere
+
+With ``--secure`` (figures named ``teleop_tls_*``) every link is the secured one of issue 15:
+zenoh over mutual TLS with access control (keys made in a temporary directory), and the tablet
+socket is TLS to the station's `TabletAuthServer`, pinned on its certificate and authenticated
+with a paired token before the first speed message.
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ import importlib.util
 import json
 import os
 import socket
+import ssl
 import subprocess
 import sys
 import tempfile
@@ -87,24 +94,35 @@ def speed_value(i: int) -> tuple[float, float]:
     return 0.0, round((-1.0) ** i * (0.1 + 0.002 * i), 6)
 
 
-def run(quick: bool = False) -> dict[str, Any]:
+def run(quick: bool = False, secure: bool = False) -> dict[str, Any]:
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     with common.quiet_logs(), tempfile.TemporaryDirectory(prefix="interbot-bench-") as tmp:
-        return _run(Path(tmp), QUICK_SAMPLES if quick else SAMPLES)
+        out = _run(Path(tmp), QUICK_SAMPLES if quick else SAMPLES, secure)
+    if secure:
+        out = {k.replace("teleop_", "teleop_tls_", 1): v for k, v in out.items()}
+    return out
 
 
-def _run(tmp: Path, n_samples: int) -> dict[str, Any]:
-    endpoint = f"tcp/127.0.0.1:{free_loopback_port()}"
+def _run(tmp: Path, n_samples: int, secure: bool = False) -> dict[str, Any]:
+    keys = None
+    if secure:
+        from interbot_link import KeyStore
+
+        members = ((ROBOT, "robot"), ("station", "station"), ("observer", "observer"))
+        keys = KeyStore.init(tmp / "keys", members).dir
+    endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{free_loopback_port()}"
     config = tmp / "robot.yaml"
     config.write_text(DAEMON_YAML.format(robot=ROBOT), encoding="utf-8")
     log_path = tmp / "daemon.log"
     cmd = [sys.executable, "-m", "robot_daemon.main", "--sim", "--config", str(config)]
     cmd += ["--robot-id", ROBOT, "--listen", endpoint, "--auto-localise"]
+    if keys is not None:
+        cmd += ["--security", str(keys)]
     t_launch = time.perf_counter()
     with log_path.open("w") as log:
         proc = subprocess.Popen(cmd, cwd=common.REPO, stdout=subprocess.DEVNULL, stderr=log)
     try:
-        return _measure(tmp, n_samples, proc, endpoint, log_path, t_launch)
+        return _measure(tmp, n_samples, proc, endpoint, log_path, t_launch, keys)
     finally:
         if proc.poll() is None:
             proc.terminate()  # SIGTERM: the daemon stops its motors and closes its session
@@ -113,6 +131,63 @@ def _run(tmp: Path, n_samples: int) -> dict[str, Any]:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+def _paired_tablet_auth(keys: Path) -> tuple[Any, str]:
+    """The station's TLS tablet server with one tablet paired; (server, token)."""
+    import secrets
+
+    from base_station_app.tablet_auth import TabletAuthServer
+    from interbot_core.tablet_pairing import TabletRegistry
+
+    registry = TabletRegistry(secrets.token_bytes)
+    code, _ = registry.new_code(time.time())
+    _, token = registry.pair(code, "bench tablet", time.time())
+    cert, key = (keys / "station.crt").read_bytes(), (keys / "station.key").read_bytes()
+    return TabletAuthServer(cert, key, registry, time.time), token
+
+
+def _tls_tablet(
+    raw: socket.socket, fingerprint: str, token: str, wait_until: Callable[..., None]
+) -> socket.socket:
+    """TLS over ``raw``, pinned on ``fingerprint``, authenticated with ``token`` (as the tablet).
+
+    The handshake runs in a thread while the Qt loop (the station) runs in this one.
+    """
+    import hashlib
+
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    context.check_hostname = False
+    context.verify_mode = ssl.CERT_NONE  # pinned below, as tablet_app.pairing does
+    result: list[Any] = []
+
+    def handshake() -> None:
+        try:
+            tls = context.wrap_socket(raw, server_hostname="station")
+            der = tls.getpeercert(binary_form=True) or b""
+            if hashlib.sha256(der).hexdigest() != fingerprint:
+                raise BenchTeleopError("bench_teleop: the station's certificate is not pinned one")
+            tls.sendall(json.dumps({"auth": {"token": token}}).encode() + b"\n")
+            reply = b""
+            while b"\n" not in reply:
+                chunk = tls.recv(4096)
+                if not chunk:
+                    raise BenchTeleopError("bench_teleop: the station closed the TLS tablet")
+                reply += chunk
+            if b"authorised" not in reply:
+                raise BenchTeleopError(f"bench_teleop: tablet not authorised: {reply!r}")
+            result.append(tls)
+        except BaseException as exc:  # raised again in the caller's thread
+            result.append(exc)
+
+    thread = threading.Thread(target=handshake, daemon=True)
+    thread.start()
+    wait_until(lambda: bool(result), 10.0, "the TLS tablet handshake")
+    thread.join()
+    if isinstance(result[0], BaseException):
+        raise result[0]
+    tls_socket: socket.socket = result[0]
+    return tls_socket
 
 
 def wait_for_daemon(proc: subprocess.Popen[bytes], log_path: Path, timeout_s: float) -> None:
@@ -136,6 +211,7 @@ def _measure(
     endpoint: str,
     log_path: Path,
     t_launch: float,
+    keys: Path | None = None,
 ) -> dict[str, Any]:
     # Qt and zenoh are imported here so that importing the module stays cheap.
     import zenoh
@@ -147,7 +223,7 @@ def _measure(
     from interbot_core import protocol as p
     from interbot_core.topics import MuxMsg, Topic, decode, key
     from interbot_core.topological_map import load_topological_map
-    from interbot_link import session_config
+    from interbot_link import LinkSecurity, session_config
 
     class TimedStation(StationController):
         """The station, timestamping the arrival of each tablet speed message."""
@@ -223,12 +299,25 @@ def _measure(
     try:
         topo = load_topological_map(common.ISR_TOPO)
         wait_for_daemon(proc, log_path, STARTUP_TIMEOUT_S)
-        station_session = zenoh.open(session_config([], [endpoint]))
-        observer_session = zenoh.open(session_config([], [endpoint]))
+        tablet_auth = None
+        if keys is None:
+            station_session = zenoh.open(session_config([], [endpoint]))
+            observer_session = zenoh.open(session_config([], [endpoint]))
+        else:
+            station_sec = LinkSecurity.load(keys, "station", "station")
+            observer_sec = LinkSecurity.load(keys, "observer", "observer")
+            station_session = zenoh.open(session_config([], [endpoint], security=station_sec))
+            observer_session = zenoh.open(session_config([], [endpoint], security=observer_sec))
+            tablet_auth, token = _paired_tablet_auth(keys)
         observer = MuxObserver()
         subscriber = observer_session.declare_subscriber(key(ROBOT, Topic.MUX), observer.on_sample)
         controller = TimedStation(
-            topo, station_session, topo_path=common.ISR_TOPO, tablet_port=0, robot_id=ROBOT
+            topo,
+            station_session,
+            topo_path=common.ISR_TOPO,
+            tablet_port=0,
+            robot_id=ROBOT,
+            tablet_auth=tablet_auth,
         )
         settings = QSettings(str(tmp / "station.ini"), QSettings.Format.IniFormat)
         window = MainWindow(controller, settings)
@@ -267,6 +356,8 @@ def _measure(
         window.map_view.fit_map()
         tablet = socket.create_connection(("127.0.0.1", controller.tablet.port), timeout=2.0)
         tablet.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        if tablet_auth is not None:
+            tablet = _tls_tablet(tablet, tablet_auth.fingerprint, token, wait_until)
         tablet.setblocking(False)
         wait_until(lambda: controller.tablet.is_connected, 5.0, "the tablet connection")
 
@@ -286,7 +377,7 @@ def _measure(
                 try:
                     if not tablet.recv(65536):
                         raise BenchTeleopError("bench_teleop: the station closed the tablet")
-                except BlockingIOError:
+                except (BlockingIOError, ssl.SSLWantReadError):  # nothing more (plain / TLS)
                     return
 
         def next_sample() -> None:

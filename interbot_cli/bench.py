@@ -29,6 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="last line: one JSON object")
     parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
     parser.add_argument("--only", action="append", default=[], help="run only bench_NAME.py")
+    parser.add_argument(
+        "--secure",
+        action="store_true",
+        help="links with mutual TLS, access control and a paired TLS tablet (benchmarks that "
+        "support it, e.g. teleop)",
+    )
 
 
 def discover(only: list[str]) -> list[Path]:
@@ -55,9 +61,14 @@ def load(path: Path) -> ModuleType:
     return module
 
 
-def call_run(module: ModuleType, quick: bool) -> dict[str, Any]:
+def call_run(module: ModuleType, quick: bool, secure: bool = False) -> dict[str, Any]:
     params = inspect.signature(module.run).parameters
-    result = module.run(quick=quick) if "quick" in params else module.run()
+    kwargs: dict[str, bool] = {"quick": quick} if "quick" in params else {}
+    if secure:
+        if "secure" not in params:
+            raise BenchError(f"{module.__name__} has no secure variant (--secure)")
+        kwargs["secure"] = True
+    result = module.run(**kwargs)
     if not isinstance(result, dict):
         raise BenchError(f"{module.__name__}.run() returned {type(result).__name__}, not dict")
     return result
@@ -76,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         raise BenchError(f"no bench_*.py modules in {BENCH_DIR}")
     for path in paths:
         started = time.perf_counter()
-        result = call_run(load(path), args.quick)
+        result = call_run(load(path), args.quick, getattr(args, "secure", False))
         elapsed = time.perf_counter() - started
         print(f"== {path.name} ({elapsed:.1f} s)")
         for key, value in result.items():

@@ -28,6 +28,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=float, default=0.0, help="stop after this many seconds (0: run on)"
     )
+    parser.add_argument(
+        "--insecure-demo",
+        action="store_true",
+        help="plaintext links as in the thesis (default: mutual TLS, paired tablet, keys "
+        "made on first use in ~/.config/interbot/demo-keys)",
+    )
 
 
 def has_display() -> bool:

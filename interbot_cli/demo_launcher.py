@@ -4,7 +4,9 @@ Ports come from the OS; the robot daemon listens for zenoh on one, the station c
 and serves the tablet on another. The windows are placed by `demo_layout` (side by side on one
 screen; the tablet full-screen on a second screen when there is one). The launcher watches the
 three: when one exits (or on Ctrl-C / SIGTERM, or after ``--duration`` seconds) it stops the
-others with SIGTERM and waits.
+others with SIGTERM and waits. By default the demo runs secure (issue 15): zenoh over mutual TLS
+with access control and a paired TLS tablet, with keys made on first use
+(`interbot_cli.demo_security`); ``--insecure-demo`` runs the plaintext links of the thesis.
 """
 
 from __future__ import annotations
@@ -17,8 +19,10 @@ import subprocess
 import sys
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 from types import FrameType
 
+from interbot_cli import demo_security
 from interbot_core.screen_layout import DemoLayout, LayoutError, layout, parse_screens
 
 logger = logging.getLogger(__name__)
@@ -77,12 +81,21 @@ def window_args(where: DemoLayout | None) -> tuple[list[str], list[str]]:
 
 
 def plan(
-    seed: int, people: int, zenoh_port: int, tablet_port: int, where: DemoLayout | None = None
+    seed: int,
+    people: int,
+    zenoh_port: int,
+    tablet_port: int,
+    where: DemoLayout | None = None,
+    *,
+    keys: Path | None = None,
+    tablet_credentials: Path | None = None,
 ) -> DemoPlan:
     python = sys.executable
-    endpoint = f"tcp/127.0.0.1:{zenoh_port}"
+    endpoint = f"{'tls' if keys is not None else 'tcp'}/127.0.0.1:{zenoh_port}"
+    secure = ["--security", str(keys)] if keys is not None else []
+    creds = ["--credentials", str(tablet_credentials)] if tablet_credentials is not None else []
     station_place, tablet_place = window_args(where)
-    return DemoPlan(
+    demo = DemoPlan(
         daemon=[
             python, "-m", "robot_daemon.main", "--sim", "--robot-id", ROBOT_ID,
             "--listen", endpoint, "--seed", str(seed), "--people", str(people),
@@ -98,6 +111,10 @@ def plan(
             *tablet_place,
         ],
     )  # fmt: skip
+    demo.daemon.extend(secure)
+    demo.station.extend(secure)
+    demo.tablet.extend(creds)
+    return demo
 
 
 def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
@@ -121,7 +138,22 @@ def stop_all(processes: dict[str, subprocess.Popen[bytes]]) -> int:
 
 def launch(args: argparse.Namespace) -> int:
     """Run the demo until a program exits, Ctrl-C, SIGTERM or ``args.duration`` seconds."""
-    demo = plan(args.seed, args.people, free_port(), free_port(), screen_layout())
+    zenoh_port, tablet_port = free_port(), free_port()
+    where = screen_layout()
+    if getattr(args, "insecure_demo", False):
+        demo = plan(args.seed, args.people, zenoh_port, tablet_port, where)
+    else:
+        store = demo_security.ensure_keys(demo_security.demo_keys_dir(), ROBOT_ID)
+        creds = demo_security.pair_demo_tablet(store, tablet_port)
+        demo = plan(
+            args.seed,
+            args.people,
+            zenoh_port,
+            tablet_port,
+            where,
+            keys=store.dir,
+            tablet_credentials=creds,
+        )
     stop = threading.Event()
 
     def on_signal(signum: int, _frame: FrameType | None) -> None:

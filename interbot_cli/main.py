@@ -1,4 +1,4 @@
-"""`interbot` command line: ``demo``, ``scenario``, ``bench``, ``calibrate`` and ``router``.
+"""`interbot` command line: ``demo``, ``scenario``, ``bench``, ``calibrate``, ``router``, ``keys``.
 
 This package only composes the others (the core never imports the daemon or the apps); each
 subcommand validates its arguments and fails with a one-line message, never a traceback.
@@ -11,7 +11,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from interbot_cli import bench, calibrate, demo, router
+from interbot_cli import bench, calibrate, demo, keys, replay, router
 
 logger = logging.getLogger(__name__)
 
@@ -41,6 +41,14 @@ def build_parser() -> argparse.ArgumentParser:
     p_scn.add_argument("--topo", help="topological map YAML")
     p_scn.add_argument("--seed", type=int, default=1)
     p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
+    p_scn.add_argument(
+        "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
+    )
+
+    p_replay = sub.add_parser(
+        "replay", help="play an MCAP recording back as a robot the station can watch"
+    )
+    replay.add_arguments(p_replay)
 
     p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
     bench.add_arguments(p_bench)
@@ -52,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p_router = sub.add_parser("router", help="run the building's zenoh router")
     router.add_arguments(p_router)
+
+    p_keys = sub.add_parser("keys", help="certificates for the secure links (docs/security.md)")
+    keys.add_arguments(p_keys)
     return parser
 
 
@@ -75,10 +86,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             return run_scenario(args)
         if args.command == "bench":
             return bench.run(args)
+        if args.command == "replay":
+            return replay.run(args)
         if args.command == "calibrate":
             return calibrate.run(args)
         if args.command == "router":
             return router.run(args)
+        if args.command == "keys":
+            return keys.run(args)
     except NotBuiltError as exc:
         print(f"interbot {args.command}: {exc}", file=sys.stderr)
         return EXIT_NOT_BUILT

@@ -4,7 +4,8 @@ Two sessions in one process (robot listens on 127.0.0.1, station connects), the 
 `RobotLink` publishes a `PoseMsg` whose ``stamp`` is ``time.perf_counter()`` at send time and a
 station-side subscriber blocks in ``recv()`` on a FIFO channel and decodes it; one pose in
 flight at a time, so the figure is link latency, not queueing. Run:
-``.venv/bin/python -m interbot_link.bench``.
+``.venv/bin/python -m interbot_link.bench`` (``--secure``: mutual TLS and access control with
+keys made in a temporary directory, issue 15).
 """
 
 from __future__ import annotations
@@ -13,12 +14,16 @@ import logging
 import socket
 import statistics
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import zenoh
 
 from interbot_core.topics import PoseMsg, Topic, decode, key
+from interbot_link.keys import KeyStore
 from interbot_link.robot import RobotLink
+from interbot_link.security import LinkSecurity
 from interbot_link.session import open_session
 
 logger = logging.getLogger(__name__)
@@ -32,10 +37,30 @@ def free_loopback_port() -> int:
         return port
 
 
-def bench_link(samples: int = 2000, warmup: int = 100) -> dict[str, float]:
+def bench_link(samples: int = 2000, warmup: int = 100, secure: bool = False) -> dict[str, float]:
     """Median, p99 and max one-way pose latency [ms] over ``samples`` sequential poses."""
-    endpoint = f"tcp/127.0.0.1:{free_loopback_port()}"
-    with open_session([endpoint], []) as robot_session, open_session([], [endpoint]) as station:
+    if not secure:
+        return _bench(f"tcp/127.0.0.1:{free_loopback_port()}", None, None, samples, warmup)
+    with tempfile.TemporaryDirectory(prefix="interbot-keys-") as tmp:
+        members = (("bench", "robot"), ("station", "station"))
+        keys = KeyStore.init(Path(tmp) / "keys", members).dir
+        robot = LinkSecurity.load(keys, "bench", "robot")
+        station = LinkSecurity.load(keys, "station", "station")
+        endpoint = f"tls/127.0.0.1:{free_loopback_port()}"
+        return _bench(endpoint, robot, station, samples, warmup)
+
+
+def _bench(
+    endpoint: str,
+    robot_security: LinkSecurity | None,
+    station_security: LinkSecurity | None,
+    samples: int,
+    warmup: int,
+) -> dict[str, float]:
+    with (
+        open_session([endpoint], [], security=robot_security) as robot_session,
+        open_session([], [endpoint], security=station_security) as station,
+    ):
         link = RobotLink(robot_session, "bench")
         sub = station.declare_subscriber(key("bench", Topic.POSE), zenoh.handlers.FifoChannel(16))
         try:
@@ -66,9 +91,11 @@ def bench_link(samples: int = 2000, warmup: int = 100) -> dict[str, float]:
 
 
 def main() -> int:
-    result = bench_link()
+    secure = "--secure" in sys.argv[1:]
+    result = bench_link(secure=secure)
     sys.stdout.write(
-        "one-way pose latency on loopback: median {median_ms:.3f} ms, p99 {p99_ms:.3f} ms, "
+        ("mutual TLS + ACL: " if secure else "plain TCP: ")
+        + "one-way pose latency on loopback: median {median_ms:.3f} ms, p99 {p99_ms:.3f} ms, "
         "max {max_ms:.3f} ms over {samples:.0f} samples\n".format(**result)
     )
     return 0

@@ -3,9 +3,13 @@
 The default `zenoh.Config()` listens on every interface and scouts by UDP multicast
 (224.0.0.224), which on an office network finds and joins any zenoh node in range. Interbot
 builds every configuration explicitly instead: multicast scouting and gossip off, the listen and
-connect endpoints exactly as given (TCP only), and a bounded link lease, so that a frozen robot
+connect endpoints exactly as given, and a bounded link lease, so that a frozen robot
 or a pulled cable is reported ("robot lost") after ``lease_ms`` instead of the default 10 s.
 Robots listen; a Base Station connects to each robot (or to a ``zenohd`` router).
+
+Endpoints are ``tcp/`` (plaintext) or, with a `LinkSecurity` (``--security DIR``), ``tls/`` with
+mutual TLS and default-deny access control (`interbot_link.security`). Plaintext endpoints off
+the loopback interface are refused unless ``insecure=True`` (``--insecure``).
 """
 
 from __future__ import annotations
@@ -19,7 +23,30 @@ from contextlib import contextmanager
 
 import zenoh
 
+from interbot_link.errors import (
+    InsecureEndpointError,
+    LinkConfigError,
+    LinkError,
+    LinkOpenError,
+)
+from interbot_link.security import (
+    PLAIN_SCHEME,
+    SECURE_SCHEME,
+    LinkSecurity,
+    check_local_endpoints,
+)
+
 logger = logging.getLogger(__name__)
+
+__all__ = [
+    "InsecureEndpointError",
+    "LinkConfigError",
+    "LinkError",
+    "LinkOpenError",
+    "open_session",
+    "session_config",
+    "validate_endpoint",
+]
 
 DEFAULT_LEASE_MS = 2500
 KEEP_ALIVE_PER_LEASE = 4
@@ -28,23 +55,16 @@ CONNECT_RETRY_INIT_MS = 200
 CONNECT_RETRY_MAX_MS = 2000
 MODES = ("peer", "client")
 
-_ENDPOINT = re.compile(r"tcp/(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(?P<port>[0-9]{1,5})")
+_ENDPOINT = re.compile(
+    r"(?P<scheme>tcp|tls)/(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(?P<port>[0-9]{1,5})"
+)
 
 
-class LinkError(Exception):
-    """Base class for errors of the zenoh link."""
+def validate_endpoint(endpoint: str, *, listen: bool, secure: bool = False) -> str:
+    """Return ``endpoint`` if it is ``tcp/HOST:PORT`` (or ``tls/``) and safe, else raise.
 
-
-class LinkConfigError(LinkError, ValueError):
-    """A session configuration is unsafe or malformed; the message names the offending value."""
-
-
-class LinkOpenError(LinkError):
-    """zenoh could not open the session (e.g. the listen port is taken)."""
-
-
-def validate_endpoint(endpoint: str, *, listen: bool) -> str:
-    """Return ``endpoint`` if it is ``tcp/HOST:PORT`` and safe, else raise LinkConfigError.
+    With ``secure`` the endpoint must be ``tls/HOST:PORT`` instead (and ``tls/`` is refused
+    without it: TLS needs the keys of ``--security``).
 
     Multicast addresses are refused (they would scout); connecting to an unspecified address
     (0.0.0.0, ::) or to port 0 is refused; listening on port 0 is allowed (the OS picks).
@@ -52,8 +72,19 @@ def validate_endpoint(endpoint: str, *, listen: bool) -> str:
     match = _ENDPOINT.fullmatch(endpoint) if isinstance(endpoint, str) else None
     if match is None:
         raise LinkConfigError(
-            f"endpoint {endpoint!r} is not tcp/HOST:PORT (e.g. tcp/127.0.0.1:7447); "
-            "only TCP endpoints are allowed"
+            f"endpoint {endpoint!r} is not tcp/HOST:PORT (e.g. tcp/127.0.0.1:7447) or, "
+            "with --security, tls/HOST:PORT; no other protocols are allowed"
+        )
+    scheme = match["scheme"]
+    if secure and scheme != SECURE_SCHEME:
+        raise LinkConfigError(
+            f"endpoint {endpoint!r}: with --security every endpoint must be "
+            f"tls/HOST:PORT (e.g. tls/127.0.0.1:7447)"
+        )
+    if not secure and scheme != PLAIN_SCHEME:
+        raise LinkConfigError(
+            f"endpoint {endpoint!r} is not tcp/HOST:PORT: tls/ endpoints need keys "
+            "(--security DIR; see docs/security.md)"
         )
     host, port = match["host"].strip("[]"), int(match["port"])
     if port > 65535 or (port == 0 and not listen):
@@ -75,26 +106,33 @@ def session_config(
     connect: Sequence[str],
     mode: str = "peer",
     lease_ms: int = DEFAULT_LEASE_MS,
+    *,
+    security: LinkSecurity | None = None,
+    insecure: bool = False,
 ) -> zenoh.Config:
     """A zenoh.Config with exactly these endpoints, no scouting and a ``lease_ms`` link lease.
 
     Multicast scouting and gossip are disabled, so the session talks only to ``connect`` and
     to whoever connects to ``listen``. Connecting retries in the background (200 ms doubling
     to 2 s), so a station may start before its robot and re-joins a restarted robot.
+
+    ``security`` turns on mutual TLS and access control (every endpoint ``tls/``); without it,
+    endpoints off the loopback interface raise `InsecureEndpointError` unless ``insecure``.
     """
     if mode not in MODES:
         raise LinkConfigError(f"mode {mode!r} not supported; use one of {list(MODES)}")
     if isinstance(listen, str) or isinstance(connect, str):
         raise LinkConfigError("listen and connect must be lists of endpoints, not strings")
-    listen = [validate_endpoint(e, listen=True) for e in listen]
-    connect = [validate_endpoint(e, listen=False) for e in connect]
+    secure = security is not None
+    listen = [validate_endpoint(e, listen=True, secure=secure) for e in listen]
+    connect = [validate_endpoint(e, listen=False, secure=secure) for e in connect]
+    if not secure and not insecure:
+        check_local_endpoints([*listen, *connect], "zenoh link")
     if not listen and not connect:
         raise LinkConfigError("give at least one listen or connect endpoint")
     if mode == "client" and (listen or not connect):
         raise LinkConfigError("a client only connects: give connect endpoints and no listen")
-    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
-        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
-    config = zenoh.Config()
+    check_lease(lease_ms)
     settings: dict[str, object] = {
         "mode": mode,
         "listen/endpoints": listen,
@@ -107,10 +145,30 @@ def session_config(
             "period_max_ms": CONNECT_RETRY_MAX_MS,
             "period_increase_factor": 2,
         },
+    }
+    return build_config(settings, lease_ms, security)
+
+
+def check_lease(lease_ms: int) -> None:
+    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
+        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
+
+
+def build_config(
+    settings: dict[str, object], lease_ms: int, security: LinkSecurity | None
+) -> zenoh.Config:
+    """``settings`` plus what every Interbot node shares (lease, keep-alive, no admin space,
+    TLS and access control when secure) as a `zenoh.Config`."""
+    settings = {
+        **settings,
         "transport/link/tx/lease": lease_ms,
         "transport/link/tx/keep_alive": KEEP_ALIVE_PER_LEASE,
         "adminspace/enabled": False,
     }
+    if security is not None:
+        settings["transport/link/tls"] = security.tls()
+        settings["access_control"] = security.access_control()
+    config = zenoh.Config()
     for key_path, value in settings.items():
         config.insert_json5(key_path, json.dumps(value))
     return config
@@ -122,9 +180,12 @@ def open_session(
     connect: Sequence[str],
     mode: str = "peer",
     lease_ms: int = DEFAULT_LEASE_MS,
+    *,
+    security: LinkSecurity | None = None,
+    insecure: bool = False,
 ) -> Iterator[zenoh.Session]:
     """Open a session from `session_config` and close it on every exit path (zenoh-python#434)."""
-    config = session_config(listen, connect, mode, lease_ms)
+    config = session_config(listen, connect, mode, lease_ms, security=security, insecure=insecure)
     try:
         session = zenoh.open(config)
     except zenoh.ZError as exc:

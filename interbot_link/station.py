@@ -126,6 +126,11 @@ class StationLink:
         )
         liveliness.get(ALIVE_WILDCARD, self._on_alive_reply)
 
+    @property
+    def session(self) -> zenoh.Session:
+        """The session this link is on (for other links sharing it, e.g. replay control)."""
+        return self._session
+
     # ------------------------------------------------------------------ zenoh threads
 
     def _queue(self, item: _Raw) -> None:

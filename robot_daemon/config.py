@@ -9,10 +9,12 @@ configuration is logged once at start-up. Example (all keys optional except wher
     backend: sim                        # sim | hardware (hardware: issue 7)
     mux: ../resources/config/twist_mux.yaml
     safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
-    zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}
+    zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
+    security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
     localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
+    recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
 DEFAULT_MUX = REPO_ROOT / "resources" / "config" / "interbot_mux.yaml"
 DEFAULT_SAFETY = REPO_ROOT / "resources" / "config" / "collision_monitor.yaml"
 ROBOT_ID_RE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
-ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
+ENDPOINT_RE = re.compile(r"^(?:tcp|tls)/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
 
 
 class ConfigError(ValueError):
@@ -47,9 +49,11 @@ def _number(source: str, key: str, value: Any, low: float, high: float) -> float
 
 
 def validate_endpoint(source: str, key: str, endpoint: Any) -> str:
-    """A zenoh ``tcp/HOST:PORT`` endpoint (no scouting, no other protocols)."""
+    """A zenoh ``tcp/HOST:PORT`` or ``tls/HOST:PORT`` endpoint (no scouting, no other protocols)."""
     if not isinstance(endpoint, str) or not (m := ENDPOINT_RE.match(endpoint)):
-        raise ConfigError(f"{source}: '{key}' entry {endpoint!r} is not tcp/HOST:PORT")
+        raise ConfigError(
+            f"{source}: '{key}' entry {endpoint!r} is not tcp/HOST:PORT or tls/HOST:PORT"
+        )
     if not 0 <= int(m.group(2)) <= 65535:
         raise ConfigError(f"{source}: '{key}' port in {endpoint!r} is outside 0..65535")
     return endpoint
@@ -119,6 +123,24 @@ class ZenohSettings:
             )
 
 
+@dataclass(frozen=True)
+class SecuritySettings:
+    """``security``: the key directory (mutual TLS + access control) or the insecure override.
+
+    Without ``keys`` the daemon refuses endpoints off the loopback interface unless
+    ``insecure`` (docs/security.md).
+    """
+
+    keys: Path | None = None
+    insecure: bool = False
+
+    def __post_init__(self) -> None:
+        if self.keys is not None and not isinstance(self.keys, Path):
+            raise ConfigError(f"security: 'keys' must be a directory path, got {self.keys!r}")
+        if not isinstance(self.insecure, bool):
+            raise ConfigError(f"security: 'insecure' must be true or false, got {self.insecure!r}")
+
+
 MAP_SURFACES = ("cell_face", "cell_centre")
 
 
@@ -160,7 +182,9 @@ class DaemonConfig:
     sim: SimSettings = field(default_factory=SimSettings)
     zenoh: ZenohSettings = field(default_factory=ZenohSettings)
     localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
+    security: SecuritySettings = field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
+    recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
@@ -181,7 +205,8 @@ class DaemonConfig:
         return (
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
-            f"connect={list(self.zenoh.connect)} rates={self.rates}"
+            f"connect={list(self.zenoh.connect)} rates={self.rates} "
+            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')}"
         )
 
 
@@ -197,6 +222,8 @@ _TOP_KEYS = {
     "zenoh",
     "localiser",
     "hardware",
+    "recording",
+    "security",
 }
 
 
@@ -239,9 +266,18 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
             raise ConfigError(f"{source}: '{key}' must be a file path")
         return (base_dir / value).resolve()
 
+    security = raw.get("security", {})
+    if not isinstance(security, dict) or set(security) - {"keys", "insecure"}:
+        raise ConfigError(f"{source}: 'security' must be a mapping with 'keys' and/or 'insecure'")
+    keys = security.get("keys")
+    if keys is not None and (not isinstance(keys, str) or not keys):
+        raise ConfigError(f"{source}: 'security.keys' must be a directory path")
     hardware = raw.get("hardware", {})
     if not isinstance(hardware, dict):
         raise ConfigError(f"{source}: 'hardware' must be a mapping")
+    recording = raw.get("recording") or {}
+    if not isinstance(recording, dict):
+        raise ConfigError(f"{source}: 'recording' must be a mapping")
     return DaemonConfig(
         robot_id=raw.get("robot_id", "interbot1"),
         map_yaml=path("map", DEFAULT_MAP),
@@ -253,7 +289,11 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         sim=_section(source, raw, "sim", SimSettings),
         zenoh=_section(source, raw, "zenoh", ZenohSettings),
         localiser=_section(source, raw, "localiser", LocaliserSettings),
+        security=SecuritySettings(
+            (base_dir / keys).resolve() if keys else None, security.get("insecure", False)
+        ),
         hardware=hardware,
+        recording=recording,
         source=source,
     )
 

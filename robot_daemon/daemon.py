@@ -15,6 +15,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
@@ -47,6 +48,7 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
@@ -71,6 +73,8 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
+    foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
 
 def odometry_model(name: str) -> OdometryErrorModel:
@@ -391,16 +395,34 @@ def _wait_for_router(connect: tuple[str, ...], stop: threading.Event) -> bool:
 
 def serve(config: DaemonConfig, options: DaemonOptions, stop: threading.Event) -> None:
     """Open the zenoh session and run the daemon until ``stop`` is set; always cleans up."""
+    from robot_daemon.recording import daemon_hook  # MCAP recording, live Foxglove view
+
+    z = config.zenoh
+    security, insecure = link_security(config)  # fails fast: keys, endpoints (issue 15)
     daemon = Daemon(config, options)
     notifier = SystemdNotifier()
-    z = config.zenoh
-    if z.mode == "client" and not _wait_for_router(z.connect, stop):
-        return
-    with open_session(list(z.listen), list(z.connect), z.mode, z.lease_ms) as session:
-        link = RobotLink(session, config.robot_id)
-        try:
-            daemon.run(link, stop, notifier)
-        finally:
-            link.close()
-            notifier.close()
+    tls = None
+    if security is not None:  # the live Foxglove view may then serve wss:// off the machine
+        tls = (security.identity.cert.read_bytes(), security.identity.key.read_bytes())
+    recorder = daemon_hook.build_daemon_recorder(config, options, daemon.now, tls)
+    try:
+        if z.mode == "client" and not _wait_for_router(z.connect, stop):
+            return
+        with open_session(
+            list(z.listen),
+            list(z.connect),
+            z.mode,
+            z.lease_ms,
+            security=security,
+            insecure=insecure,
+        ) as session:
+            link = daemon_hook.make_link(session, daemon, recorder)
+            try:
+                daemon.run(link, stop, notifier)
+            finally:
+                link.close()
+                notifier.close()
+    finally:
+        if recorder is not None:
+            recorder.close()  # finish the file even if the session never opened
     logger.info("daemon stopped")

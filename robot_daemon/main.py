@@ -2,6 +2,7 @@
 
     interbot-daemon --sim [--map M.yaml --topo T.yaml] [--seed N] --robot-id ID \\
                     --listen tcp/127.0.0.1:PORT [--connect tcp/HOST:PORT] [--config robot.yaml]
+                    [--security KEYS_DIR (then tls/ endpoints) | --insecure]
 
 Bad configuration is refused with one clear line and exit status 2; SIGTERM and SIGINT stop
 the daemon cleanly (motors to zero, zenoh session closed).
@@ -21,10 +22,11 @@ from types import FrameType
 from interbot_core.occupancy_grid import MapLoadError
 from interbot_core.topological_map import TopologicalMapError
 from interbot_core.velocity_mux import MuxError
-from interbot_link import LinkError
+from interbot_link import LinkConfigError, LinkError
 from robot_daemon.config import (
     ConfigError,
     DaemonConfig,
+    SecuritySettings,
     SimSettings,
     ZenohSettings,
     load_config,
@@ -46,12 +48,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--people", type=int, help="simulated people walking the corridors")
     p.add_argument("--speed", type=float, help="simulated time per wall second (default 1)")
     p.add_argument("--robot-id", help="robot id in interbot/<robot_id>/<topic>")
-    p.add_argument("--listen", action="append", default=[], help="zenoh endpoint tcp/HOST:PORT")
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        help="zenoh endpoint tcp/HOST:PORT (tls/HOST:PORT with --security)",
+    )
     p.add_argument("--connect", action="append", default=[], help="zenoh endpoint to connect to")
     p.add_argument(
         "--mode",
         choices=("peer", "client"),
         help="zenoh mode: peer (listen; stations connect) or client (of a building's router)",
+    )
+    p.add_argument(
+        "--security",
+        type=Path,
+        metavar="DIR",
+        help="key directory (interbot keys init DIR): mutual TLS and access control on tls/ "
+        "endpoints; the robot's certificate is the one named after its robot id",
+    )
+    p.add_argument(
+        "--insecure",
+        action="store_true",
+        help="allow plaintext endpoints off the loopback interface (trusted networks only)",
     )
     p.add_argument(
         "--auto-localise",
@@ -60,6 +79,14 @@ def build_parser() -> argparse.ArgumentParser:
         "the tablet's 'Help me!' sets it, as in the thesis)",
     )
     p.add_argument("--start-node", type=int, help="simulation: start at this topological node")
+    p.add_argument(
+        "--record", type=Path, metavar="DIR", help="record the run to rotating MCAP files in DIR"
+    )
+    p.add_argument(
+        "--foxglove",
+        metavar="[HOST:]PORT",
+        help="serve the run live to Foxglove (WebSocket; loopback only)",
+    )
     p.add_argument("-v", "--verbose", action="store_true")
     return p
 
@@ -84,7 +111,14 @@ def resolve_config(args: argparse.Namespace) -> DaemonConfig:
         listen = tuple(args.listen) if args.listen or args.connect else zenoh.listen
         connect = tuple(args.connect) if args.listen or args.connect else zenoh.connect
         zenoh = ZenohSettings(listen, connect, zenoh.lease_ms, mode)
+    security = config.security
+    if args.security or args.insecure:
+        security = SecuritySettings(
+            args.security.resolve() if args.security else security.keys,
+            args.insecure or security.insecure,
+        )
     return config.with_overrides(
+        security=security,
         robot_id=args.robot_id,
         map_yaml=args.map_yaml.resolve() if args.map_yaml else None,
         topo_yaml=args.topo_yaml.resolve() if args.topo_yaml else None,
@@ -112,8 +146,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         config = resolve_config(args)
         logger.info("configuration: %s", config.summary())
-        serve(config, DaemonOptions(args.auto_localise, args.start_node), stop)
-    except (ConfigError, MapLoadError, TopologicalMapError, MuxError) as exc:
+        options = DaemonOptions(
+            args.auto_localise, args.start_node, record_dir=args.record, foxglove=args.foxglove
+        )
+        serve(config, options, stop)
+    except (ConfigError, LinkConfigError, MapLoadError, TopologicalMapError, MuxError) as exc:
         print(f"interbot-daemon: {exc}", file=sys.stderr)
         return EXIT_CONFIG
     except LinkError as exc:

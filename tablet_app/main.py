@@ -8,6 +8,13 @@ and shows the main menu full screen as a kiosk: frameless and sized to the whole
 geometry, which also fills the screen when no window manager runs (where ``showFullScreen``
 alone leaves a small window). ``--screen N`` picks the screen; ``--windowed`` gives a 1280x800
 window (or ``--geometry``).
+
+    interbot-tablet --pair 'interbot-pair://HOST:PORT?fp=...&code=123456'   # once
+    interbot-tablet                                                         # then, paired
+
+A paired tablet (issue 15) talks TLS to the station whose certificate it pinned and
+authenticates with its token (kept in ``--credentials``); an unpaired one speaks the thesis's
+plaintext protocol, which is allowed only to 127.0.0.1 unless ``--insecure-tablet``.
 """
 
 from __future__ import annotations
@@ -21,16 +28,20 @@ from typing import TYPE_CHECKING
 
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.screen_layout import LayoutError, parse_geometry
+from interbot_core.tablet_pairing import PairingError, parse_pairing_uri
 from interbot_core.topological_map import TopologicalMapError
 from tablet_app.floor_plan import FloorPlan, FloorPlanError, load_floor_plan
 
 if TYPE_CHECKING:
     from PySide6.QtWidgets import QWidget
 
+    from tablet_app.tablet_connection import TabletConnection
+
 logger = logging.getLogger(__name__)
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
+DEFAULT_CREDENTIALS = Path("~/.config/interbot/tablet.json")
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -53,6 +64,21 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="the screen's real dots per inch, for 9 mm touch targets (default: Qt's figure)",
     )
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
+    parser.add_argument(
+        "--pair", metavar="URI", help="pair with a station: the address its Tablet tab shows"
+    )
+    parser.add_argument(
+        "--credentials",
+        type=Path,
+        default=DEFAULT_CREDENTIALS,
+        help="where the pairing is kept (default ~/.config/interbot/tablet.json)",
+    )
+    parser.add_argument("--name", default="tablet", help="this tablet's name at the station")
+    parser.add_argument(
+        "--insecure-tablet",
+        action="store_true",
+        help="plaintext protocol to a station off this machine (thesis-era, trusted networks)",
+    )
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     args = parser.parse_args(argv)
     if not 0 < args.port < 65536:
@@ -101,6 +127,52 @@ def load_plan(topo: Path) -> tuple[FloorPlan, OccupancyGrid | None]:
     return plan, grid
 
 
+def make_connection(args: argparse.Namespace) -> TabletConnection:
+    """Paired TLS (``--pair`` or saved credentials), or plaintext to loopback / when insecure."""
+    from tablet_app.pairing import PairedTlsConnection, TabletCredentials
+    from tablet_app.tablet_connection import TabletConnection
+
+    credentials = args.credentials.expanduser()
+    if args.pair:
+        target = parse_pairing_uri(args.pair)
+        link = PairedTlsConnection(target.fingerprint, pairing_code=target.code, name=args.name)
+        link.paired.connect(lambda creds: creds.save(credentials))
+        logger.info("pairing with the station at %s:%d", target.host, target.port)
+        return TabletConnection(target.host, target.port, link=link)
+    creds = None
+    if credentials.exists() and not args.insecure_tablet:
+        creds = TabletCredentials.load(credentials)
+        # Saved pairing applies unless --host/--port name another station.
+        if (args.host, args.port) not in (("127.0.0.1", 5555), (creds.host, creds.port)):
+            creds = None
+    if creds is not None:
+        link = PairedTlsConnection(creds.fingerprint, token=creds.token)
+        logger.info(
+            "paired as %s with %s:%d (%s)", creds.tablet_id, creds.host, creds.port, credentials
+        )
+        return TabletConnection(creds.host, creds.port, link=link)
+    if not is_loopback(args.host) and not args.insecure_tablet:
+        raise PairingError(
+            f"this tablet is not paired: refusing plaintext to {args.host}. At the station's "
+            "Tablet tab press 'Pair a tablet', then run interbot-tablet --pair 'URI' with the "
+            "address it shows (or, on a trusted network only, --insecure-tablet)"
+        )
+    if args.insecure_tablet:
+        logger.warning("INSECURE: plaintext tablet link to %s:%d", args.host, args.port)
+    return TabletConnection(args.host, args.port)
+
+
+def is_loopback(host: str) -> bool:
+    import ipaddress
+
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse_args(argv)
     logging.basicConfig(
@@ -116,13 +188,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     from PySide6.QtWidgets import QApplication
 
     from tablet_app.main_window import TabletWindow
-    from tablet_app.tablet_connection import TabletConnection
     from tablet_app.translations import LanguageSwitcher
 
     app = QApplication.instance() or QApplication([sys.argv[0]])
     languages = LanguageSwitcher()
     languages.set_language(args.lang)
-    connection = TabletConnection(args.host, args.port)
+    try:
+        connection = make_connection(args)
+    except PairingError as exc:
+        logger.error("%s", exc)
+        return 2
     window = TabletWindow(connection, plan, grid, languages, dpi=args.dpi)
     if args.windowed:
         if args.geometry is not None:

@@ -95,11 +95,14 @@ class TabletConnection(QObject):
         latency: LatencyConfig | None = None,
         backoff: BackoffConfig | None = None,
         clock: Callable[[], float] = time.monotonic,
+        link: QtTcpConnection | None = None,
     ) -> None:
         super().__init__(parent)
         self.host, self.port = host, port
         self._clock = clock
-        self._link = QtTcpConnection(parent=self)
+        # ``link``: e.g. `tablet_app.pairing.PairedTlsConnection` (TLS + token, issue 15).
+        self._link = link if link is not None else QtTcpConnection(parent=self)
+        self._link.setParent(self)
         self._monitor = LatencyMonitor(latency)
         self._backoff = ReconnectBackoff(backoff)
         self._state = ConnectionState.DISCONNECTED

@@ -6,6 +6,7 @@ import argparse
 import importlib
 import json
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -43,7 +44,16 @@ def main(args: argparse.Namespace) -> int:
     except ModuleNotFoundError:
         print(f"interbot scenario: {args.name!r} is not built yet", file=sys.stderr)
         return 3
-    result = run(options)
+    if getattr(args, "record", None):
+        from dataclasses import replace
+
+        from robot_daemon.recording.scenario_recording import ScenarioRecorder
+
+        with ScenarioRecorder(Path(args.record), epoch_offset=time.time()) as recorder:
+            result = run(replace(options, recorder=recorder))
+        print(f"recorded to {args.record}: {recorder.recorder.stats()['written']} messages")
+    else:
+        result = run(options)
     print(result.table)
     if args.json:
         print(json.dumps(result.figures, sort_keys=True))

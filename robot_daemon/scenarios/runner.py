@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +45,9 @@ from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
 from robot_daemon.stack import RobotStack, StackConfig
 
+if TYPE_CHECKING:
+    from robot_daemon.recording.scenario_recording import ScenarioRecorder
+
 logger = logging.getLogger(__name__)
 
 STACK_DT = 0.05  # [s] loop period headless (the daemon runs 50 Hz; controller and localiser 10 Hz)
@@ -60,6 +63,7 @@ class ScenarioOptions:
     people: int = 4
     odometry: str = "calibrated"
     max_sim_time: float = 3600.0  # [s]
+    recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
 @dataclass
@@ -259,6 +263,8 @@ class SimulatedSystem:
         if self.now + 1e-9 >= self._next_clock:
             self._next_clock += CLOCK_DT
             self._station_clock()
+        if self.options.recorder is not None:
+            self.options.recorder.sample(self)
 
     def run_until(self, done: Callable[[], bool], max_time: float | None = None) -> bool:
         """Step until ``done()`` or ``max_time`` [s] of simulated time; True if done."""

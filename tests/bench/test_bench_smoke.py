@@ -45,6 +45,14 @@ POSITIVE = {
     ],
     "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "record": [
+        "record_offer_us_median",
+        "record_offer_us_p99",
+        "record_writer_pct_core",
+        "record_total_pct_core",
+        "record_mb_per_hour",
+    ],
+    "replay": ["replay_speed_x", "replay_poses_received"],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
         "reallog_intel_rms_m",
@@ -62,6 +70,12 @@ POSITIVE = {
         "teleop_samples",
         "station_scan_view_hz",
     ],
+    "tablet_tls": [
+        "tablet_rtt_plain_ms_p50",
+        "tablet_rtt_tls_ms_p50",
+        "tablet_rtt_tls_ms_p99",
+        "tablet_tls_connect_ms_p50",
+    ],
 }
 NON_NEGATIVE = {
     "tour": [
@@ -78,6 +92,8 @@ NON_NEGATIVE = {
         "teleop_collisions_unprotected",
         "teleop_min_clearance_m",
     ],
+    "record": ["record_dropped"],
+    "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
 }
 # What the lead's `interbot bench --json` line must hold (the union of the modules').

@@ -67,10 +67,11 @@ def test_demo_reports_parts_not_built(
 
 
 def test_demo_starts_three_programs_and_stops_them_cleanly(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     """`interbot demo` on the offscreen platform: all three run, then exit on SIGTERM."""
     monkeypatch.setenv("QT_QPA_PLATFORM", "offscreen")
+    monkeypatch.setenv("INTERBOT_DEMO_KEYS", str(tmp_path / "demo-keys"))  # secure demo's keys
     assert demo.missing_parts() == []
     assert main(["demo", "--duration", "6", "--people", "0"]) == 0
     assert "Base Station and Tablet running" in capsys.readouterr().out

@@ -335,6 +335,8 @@ def test_callbacks_run_off_the_caller_thread_and_notify(pair: Pair) -> None:
 
 def test_bench_link_measures_a_plausible_latency() -> None:
     result = bench_link(samples=30, warmup=5)
+    secure = bench_link(samples=30, warmup=5, secure=True)  # issue 15: over mutual TLS + ACL
+    assert secure["samples"] == 30.0 and 0.0 < secure["median_ms"] < 1000.0
     assert result["samples"] == 30
     assert 0.0 < result["median_ms"] <= result["p99_ms"] <= result["max_ms"] < 1000.0
 

@@ -65,7 +65,7 @@ def test_bad_mode_lease_and_string_endpoints_are_refused() -> None:
 
 
 def test_hostnames_and_ipv6_are_accepted() -> None:
-    config = session_config(["tcp/[::1]:7447"], ["tcp/robot-1.local:7447"])
+    config = session_config(["tcp/[::1]:7447"], ["tcp/robot-1.local:7447"], insecure=True)
     assert _get(config, "connect/endpoints") == ["tcp/robot-1.local:7447"]
 
 

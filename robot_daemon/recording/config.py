@@ -1,0 +1,107 @@
+"""What to record and how much disk it may take: robot.yaml's ``recording:`` section.
+
+Example (every key optional)::
+
+    recording:
+      directory: /var/lib/interbot/recordings   # relative to robot.yaml
+      max_file_mb: 256        # rotate when the open file reaches this size
+      max_file_minutes: 30    # ... or is this old (daemon time)
+      max_total_mb: 4096      # oldest recordings are deleted first to stay under this
+      camera: true            # record the camera (JPEG) as well
+      queue: 2048             # messages waiting for the writer thread; beyond, drops are counted
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+MB = 1024 * 1024
+
+
+class RecordingConfigError(ValueError):
+    """Invalid ``recording:`` settings; the message names the key and the allowed range."""
+
+
+def _number(key: str, value: Any, low: float, high: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise RecordingConfigError(f"recording: '{key}' must be a number, got {value!r}")
+    if not low <= value <= high:
+        raise RecordingConfigError(f"recording: '{key}' = {value} is outside [{low}, {high}]")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class RecordingConfig:
+    """Where and how the daemon records (sizes in bytes, durations in seconds)."""
+
+    directory: Path
+    max_file_bytes: int = 256 * MB
+    max_file_seconds: float = 1800.0  # [s]
+    max_total_bytes: int = 4096 * MB
+    camera: bool = True
+    queue: int = 2048
+
+    def __post_init__(self) -> None:
+        _number("max_file_mb", self.max_file_bytes / MB, 0.01, 1 << 20)
+        _number("max_file_minutes", self.max_file_seconds / 60.0, 0.01, 24 * 60)
+        _number("max_total_mb", self.max_total_bytes / MB, 0.02, 1 << 24)
+        _number("queue", self.queue, 16, 1 << 20)
+        if self.max_total_bytes < 2 * self.max_file_bytes:
+            raise RecordingConfigError(
+                f"recording: 'max_total_mb' ({self.max_total_bytes / MB:g}) must be at least "
+                f"twice 'max_file_mb' ({self.max_file_bytes / MB:g}): one file is being written "
+                "while the older ones are kept"
+            )
+        if not isinstance(self.camera, bool):
+            raise RecordingConfigError(
+                f"recording: 'camera' must be true or false, got {self.camera!r}"
+            )
+
+    @classmethod
+    def from_mapping(
+        cls, raw: Mapping[str, Any], base_dir: Path, directory: Path | None = None
+    ) -> RecordingConfig:
+        """Parse robot.yaml's ``recording:`` mapping (``directory`` overrides its directory)."""
+        if not isinstance(raw, Mapping):
+            raise RecordingConfigError("recording: must be a mapping")
+        allowed = {
+            "directory",
+            "max_file_mb",
+            "max_file_minutes",
+            "max_total_mb",
+            "camera",
+            "queue",
+        }
+        unknown = set(raw) - allowed
+        if unknown:
+            raise RecordingConfigError(
+                f"recording: unknown key(s) {sorted(unknown)} (allowed: {sorted(allowed)})"
+            )
+        if directory is None:
+            value = raw.get("directory")
+            if not isinstance(value, str) or not value:
+                raise RecordingConfigError("recording: 'directory' must be a directory path")
+            directory = (base_dir / value).resolve()
+        defaults = {f.name: f.default for f in fields(cls)}
+        queue = raw.get("queue", defaults["queue"])
+        if isinstance(queue, bool) or not isinstance(queue, int):
+            raise RecordingConfigError(f"recording: 'queue' must be an integer, got {queue!r}")
+        return cls(
+            directory=directory,
+            max_file_bytes=int(
+                _number("max_file_mb", raw.get("max_file_mb", 256), 0.01, 1 << 20) * MB
+            ),
+            max_file_seconds=_number(
+                "max_file_minutes", raw.get("max_file_minutes", 30), 0.01, 24 * 60
+            )
+            * 60.0,
+            max_total_bytes=int(
+                _number("max_total_mb", raw.get("max_total_mb", 4096), 0.02, 1 << 24) * MB
+            ),
+            camera=raw.get("camera", True),
+            queue=queue,
+        )
