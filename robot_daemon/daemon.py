@@ -126,7 +126,7 @@ class Daemon:
         self._clock = clock
         self.grid = load_map(config.map_yaml)
         try:
-            safety = load_safety_config(config.safety_yaml)
+            motion_guard = load_safety_config(config.safety_yaml)
         except SafetyConfigError as exc:
             raise ConfigError(str(exc)) from None
         self.topo: TopologicalMap | None = None
@@ -150,7 +150,7 @@ class Daemon:
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
-            safety=safety,
+            motion_guard=motion_guard,
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)

@@ -63,7 +63,7 @@ class StackConfig:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
-    safety: MotionGuardConfig = field(default_factory=default_guard_config)
+    motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
 
 
 @dataclass
@@ -126,7 +126,7 @@ class RobotStack:
         self.navigator = Navigator(grid, planner)
         self.localiser = Localiser(grid, config.localiser)
         # Collision monitor under the mux, assisted teleop before it (robot_daemon/safety).
-        self.guard = MotionGuard(config.safety, config.laser_mount)
+        self.guard = MotionGuard(config.motion_guard, config.laser_mount)
         self._mount = config.laser_mount
         self._mount_inv = config.laser_mount.inverse()
         self._localise_due = Periodic(config.rates.localiser_hz)

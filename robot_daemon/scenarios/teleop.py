@@ -309,10 +309,10 @@ def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:
         raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
     config = StackConfig()
     if setup == "unprotected":
-        safety = config.safety
+        safety = config.motion_guard
         config = dataclasses.replace(
             config,
-            safety=safety.replace(monitor=dataclasses.replace(safety.monitor, enabled=False)),
+            motion_guard=safety.replace(monitor=dataclasses.replace(safety.monitor, enabled=False)),
         )
     system = SimulatedSystem(options, stack_config=config, send_routes=False)
     system.stack.set_teleop_assist("station_vel", setup == "assisted", system.now)
