@@ -19,6 +19,7 @@ NOT A CERTIFIED SAFETY SYSTEM (see `robot_daemon.safety`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from dataclasses import dataclass, field
@@ -66,10 +67,6 @@ def load_safety_config(path: Path | str) -> MotionGuardConfig:
     return MotionGuardConfig(monitor, assist)
 
 
-def _default_config() -> MotionGuardConfig:
-    return load_safety_config(DEFAULT_SAFETY_YAML)
-
-
 @dataclass(frozen=True)
 class MotionGuardConfig:
     monitor: CollisionMonitorConfig
@@ -79,15 +76,10 @@ class MotionGuardConfig:
         return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
 
 
+@functools.cache
 def default_guard_config() -> MotionGuardConfig:
-    """The configuration in ``resources/config/collision_monitor.yaml`` (read once)."""
-    global _DEFAULT
-    if _DEFAULT is None:
-        _DEFAULT = _default_config()
-    return _DEFAULT
-
-
-_DEFAULT: MotionGuardConfig | None = None
+    """The configuration in ``resources/config/collision_monitor.yaml`` (read once; frozen)."""
+    return load_safety_config(DEFAULT_SAFETY_YAML)
 
 
 @dataclass(frozen=True)
@@ -166,7 +158,3 @@ class MotionGuard:
             tuple(name for name, on in self._assisted.items() if on),
             self.last_assist.mode if self.last_assist is not None else "idle",
         )
-
-
-def nan_to_none(value: float) -> float | None:
-    return value if math.isfinite(value) else None
