@@ -107,7 +107,12 @@ class QtStatePanel(QWidget):
         L["orientation"].setText(orientation_text(s.pose))
         loc = s.localisation
         L["localisation"].setText(
-            {"ok": "localised", "lost": "LOST", "unset": "initial pose not set"}[loc]
+            {
+                "ok": "localised",
+                "lost": "LOST",
+                "unset": "initial pose not set",
+                "searching": "finding my position…",
+            }.get(loc, loc)
             + ("" if s.pose is None else f" (confidence {s.pose.confidence:.2f})")
         )
         if s.battery is not None:

@@ -85,7 +85,10 @@ class RobotState:
     @property
     def estop_engaged(self) -> bool | None:
         """The robot's report: True when its mux has the stop lock active (None: no report)."""
-        return None if self.mux is None else "stop" in self.mux.active_locks
+        if self.mux is None:
+            return None
+        # Lock *names* are reported ("Emergency Stop" in interbot_mux.yaml, "stop" elsewhere).
+        return any("stop" in name.lower() for name in self.mux.active_locks)
 
     def apply(self, topic: Topic, message: object) -> None:
         """Store one decoded message of ``topic``."""

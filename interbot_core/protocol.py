@@ -363,25 +363,48 @@ class Message:
 
 @dataclass(frozen=True)
 class Speed(Message):
-    """Joystick command: ``{"speed": {"linear": 0.3, "angular": -0.5}}`` [m/s], [rad/s]."""
+    """Joystick command: ``{"speed": {"linear": 0.3, "angular": -0.5}}`` [m/s], [rad/s].
+
+    Optional (issue 11; a thesis-era tablet sends neither): ``seq``, a counter that grows with
+    each command, and ``t``, the tablet's monotonic clock [s] when it sent the command. The
+    station drops a command that arrives out of order or later than its latency ceiling.
+    """
 
     KEY: ClassVar[str] = "speed"
     linear: float  # [m/s]
     angular: float  # [rad/s]
+    seq: int | None = None
+    t: float | None = None  # [s] tablet clock
 
     def __post_init__(self) -> None:
         _check_plain(self.linear, "speed.linear", float)
         _check_plain(self.angular, "speed.angular", float)
+        if self.seq is not None:
+            _check_plain(self.seq, "speed.seq", int)
+        if self.t is not None:
+            _check_plain(self.t, "speed.t", float)
 
     def to_json(self) -> JsonObject:
-        return {self.KEY: {"linear": float(self.linear), "angular": float(self.angular)}}
+        body: dict[str, object] = {"linear": float(self.linear), "angular": float(self.angular)}
+        if self.seq is not None:
+            body["seq"] = self.seq
+        if self.t is not None:
+            body["t"] = float(self.t)
+        return {self.KEY: body}
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "speed", ("linear", "angular"))
+        keys = (
+            "linear",
+            "angular",
+            *tuple(k for k in ("seq", "t") if isinstance(body, dict) and k in body),
+        )
+        obj = _object(body, "speed", keys)
         return cls(
             _bounded_float(obj["linear"], "speed.linear", limits.max_linear, "m/s"),
             _bounded_float(obj["angular"], "speed.angular", limits.max_angular, "rad/s"),
+            _int(obj["seq"], "speed.seq", 0, MAX_SEQ) if "seq" in obj else None,
+            _float(obj["t"], "speed.t", " [s]") if "t" in obj else None,
         )
 
 
@@ -968,7 +991,7 @@ class Permissions(Message):
         return cls(t, g, o, r)
 
 
-LOCALISATION_STATES: Final = ("unset", "ok", "lost")
+LOCALISATION_STATES: Final = ("unset", "ok", "lost", "searching")
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,7 @@ MAX_LIST_LENGTH: Final = 1024
 """Most waypoints in a route, locks in a mux report, parameters in a config message."""
 MAX_TEXT: Final = 1024
 """Longest free-text field [characters]."""
+ROUTE_ID_MAX: Final = 2**63 - 1  # route ids are random 63-bit numbers (unique across restarts)
 MAX_COORD: Final = 1.0e6  # [m] bound on map coordinates
 MAX_LINEAR: Final = 5.0  # [m/s] bound on any linear velocity on the wire
 MAX_ANGULAR: Final = 2.0 * math.pi  # [rad/s]
@@ -94,6 +95,7 @@ class Topic(enum.StrEnum):
     ROUTE_CANCEL = "route_cancel"
     GOAL = "goal"
     INITIAL_POSE = "initial_pose"
+    RELOCALISE = "relocalise"
     CONFIG = "config"
     TELEOP_ASSIST = "teleop_assist"
     # State, robot -> Base Station.
@@ -266,12 +268,13 @@ class StopRelease(JsonMessage):
         _check_stamp(self)
 
 
-POSE_STATES: Final = ("unset", "ok", "lost")
+POSE_STATES: Final = ("unset", "ok", "lost", "searching")
 
 
 @dataclass(frozen=True)
 class PoseMsg(JsonMessage):
-    """The localiser's pose in the ``map`` frame; ``state`` unset (no initial pose), ok or lost."""
+    """The localiser's pose in the ``map`` frame; ``state`` unset (no initial pose), ok, lost or
+    searching (a global search for the robot's pose is under way)."""
 
     x: float
     y: float
@@ -330,7 +333,7 @@ class RouteMsg(JsonMessage):
         return value
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         wps = self.waypoints
         if not isinstance(wps, tuple) or not 1 <= len(wps) <= MAX_LIST_LENGTH:
             raise _fail(type(self), "waypoints", f"must hold 1..{MAX_LIST_LENGTH} waypoints")
@@ -373,7 +376,7 @@ class RouteCancel(JsonMessage):
 
     def __post_init__(self) -> None:
         if self.route_id is not None:
-            _check_int(self, "route_id", 0, 2**53)
+            _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_text(self, "reason")
         _check_stamp(self)
 
@@ -393,7 +396,7 @@ class RouteProgress(JsonMessage):
     stamp: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_int(self, "index", 0, MAX_LIST_LENGTH)
         _check_bool(self, "reached_final")
         _check_text(self, "state", ROUTE_STATES)
@@ -420,15 +423,30 @@ class GoalMsg(JsonMessage):
 
 @dataclass(frozen=True)
 class InitialPose(JsonMessage):
-    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!")."""
+    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!").
+
+    ``verify``: the pose is only a hint (a room picked by a person): the robot searches around
+    it and applies it only if the laser confirms it."""
 
     x: float
     y: float
     yaw: float
     stamp: float = 0.0
+    verify: bool = False
 
     def __post_init__(self) -> None:
         _check_xy_yaw(self)
+        _check_stamp(self)
+        _check_bool(self, "verify")
+
+
+@dataclass(frozen=True)
+class Relocalise(JsonMessage):
+    """Ask the robot to find itself on the whole map (global localisation, issue 16)."""
+
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
         _check_stamp(self)
 
 
@@ -627,6 +645,16 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed")
 
 
+def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """An object whose keys are unique (``{"linear":0.1,"linear":4.9}`` is refused, as on TCP)."""
+    obj: dict[str, Any] = {}
+    for name, value in pairs:
+        if name in obj:
+            raise ValueError(f"duplicate key {name!r}")
+        obj[name] = value
+    return obj
+
+
 M = TypeVar("M", bound=JsonMessage)
 
 
@@ -636,7 +664,11 @@ def decode_json(cls: type[M], payload: bytes, topic: str = "") -> M:
     if len(payload) > MAX_JSON_BYTES:
         raise TopicDecodeError(f"{where}: payload of {len(payload)} bytes > {MAX_JSON_BYTES}")
     try:
-        data = json.loads(bytes(payload).decode("utf-8"), parse_constant=_reject_constant)
+        data = json.loads(
+            bytes(payload).decode("utf-8"),
+            parse_constant=_reject_constant,
+            object_pairs_hook=_pairs_without_duplicates,
+        )
         return cls.from_dict(data)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise TopicDecodeError(f"{where}: {exc}") from exc
@@ -881,6 +913,7 @@ _SPECS: Final = (
     TopicSpec(Topic.ROUTE_CANCEL, True, False, True, False, None, RouteCancel, "drop the route in progress"),
     TopicSpec(Topic.GOAL, True, False, True, False, None, GoalMsg, "single goal; the robot plans the route"),
     TopicSpec(Topic.INITIAL_POSE, True, False, True, False, None, InitialPose, "set the localiser's pose"),
+    TopicSpec(Topic.RELOCALISE, True, False, True, False, None, Relocalise, "find the robot on the whole map"),
     TopicSpec(Topic.CONFIG, True, False, True, False, None, ConfigMsg, "planner parameters on the fly"),
     TopicSpec(Topic.TELEOP_ASSIST, True, False, True, False, None, AssistMsg, "assisted teleoperation on/off per joystick input"),
     TopicSpec(Topic.CMD_VEL, False, False, False, True, 20.0, Twist, "mux output sent to the motors"),

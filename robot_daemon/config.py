@@ -11,10 +11,15 @@ configuration is logged once at start-up. Example (all keys optional except wher
     safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
+    localiser: {map_surface: auto, help_after_s: 20}  # surface: auto | cell_face | cell_centre
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
+    start_latched: true                 # start with the emergency stop latched (see below)
+
+``start_latched`` (default true): after a (re)start the robot does not move until a station
+that sees it releases the stop (a station re-asserts its operator's stop, or releases it, on
+every connection). Set it false only for a robot that runs with no station at all.
 """
 
 from __future__ import annotations
@@ -156,8 +161,17 @@ class LocaliserSettings:
     """
 
     map_surface: str = "auto"
+    help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
 
     def __post_init__(self) -> None:
+        if not (
+            isinstance(self.help_after_s, (int, float))
+            and math.isfinite(self.help_after_s)
+            and 0.0 <= self.help_after_s <= 3600.0
+        ):
+            raise ConfigError(
+                f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
+            )
         if self.map_surface not in ("auto", *MAP_SURFACES):
             raise ConfigError(
                 f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
@@ -185,12 +199,17 @@ class DaemonConfig:
     security: SecuritySettings = field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
     recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
+    start_latched: bool = True  # stop latched at start until a station releases it
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot_id, str) or not ROBOT_ID_RE.match(self.robot_id):
             raise ConfigError(
                 f"{self.source}: 'robot_id' {self.robot_id!r} must be 1-32 of A-Z a-z 0-9 _ -"
+            )
+        if not isinstance(self.start_latched, bool):
+            raise ConfigError(
+                f"{self.source}: 'start_latched' must be true or false, got {self.start_latched!r}"
             )
         if self.backend not in ("sim", "hardware"):
             raise ConfigError(
@@ -206,7 +225,8 @@ class DaemonConfig:
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
             f"connect={list(self.zenoh.connect)} rates={self.rates} "
-            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')}"
+            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')} "
+            f"start_latched={self.start_latched}"
         )
 
 
@@ -224,6 +244,7 @@ _TOP_KEYS = {
     "hardware",
     "recording",
     "security",
+    "start_latched",
 }
 
 
@@ -294,6 +315,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         ),
         hardware=hardware,
         recording=recording,
+        start_latched=raw.get("start_latched", True),
         source=source,
     )
 

@@ -9,8 +9,8 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
 * **Route.** The station sends the whole route (``RouteMsg``); the navigator advances the
   intermediate goals itself, so the robot finishes the route if the station disappears (the
   thesis robot only reached its current intermediate goal).
-* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset`` or
-  ``lost``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
+* **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
+  ``lost`` or ``searching``: a global search is deciding where it is, `relocalisation`), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
   the robot is, so no progress timer counts the suspension as being stuck.
 * **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
@@ -38,6 +38,7 @@ from robot_daemon.localisation.localiser import (
     LocaliserEstimate,
     LocaliserState,
 )
+from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
 from robot_daemon.safety.motion_guard import MotionGuard, MotionGuardConfig, default_guard_config
@@ -62,6 +63,7 @@ class StackConfig:
     mux: MuxConfig = field(default_factory=lambda: load_mux_config(DEFAULT_MUX))
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
+    relocalisation: RelocalisationConfig = field(default_factory=RelocalisationConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
     motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
 
@@ -127,6 +129,7 @@ class RobotStack:
         self.localiser = Localiser(grid, config.localiser)
         # Collision monitor under the mux, assisted teleop before it (robot_daemon/safety).
         self.guard = MotionGuard(config.motion_guard, config.laser_mount)
+        self.relocalisation = Relocalisation(grid, self.localiser, config.relocalisation)
         self._mount = config.laser_mount
         self._mount_inv = config.laser_mount.inverse()
         self._localise_due = Periodic(config.rates.localiser_hz)
@@ -143,6 +146,7 @@ class RobotStack:
         self.last_jpeg: bytes | None = None
         self._events: deque[StackEvent] = deque(maxlen=200)
         self._localisation_state = LocaliserState.UNSET
+        self.last_scan_time = 0.0  # [s] of the last localised scan
         for name in ("station_vel", "tablet_vel", PLANNER_TOPIC):
             config.mux.input_by_topic(name)  # raises if the mux config lacks an input we need
         for name in (PAUSE_TOPIC, STOP_TOPIC):
@@ -195,16 +199,27 @@ class RobotStack:
             who = f" by {operator}" if operator else ""
             self._event(now, "info", f"emergency stop released{who}")
 
-    def set_initial_pose(self, pose: Pose2D, now: float) -> None:
-        """The station's (or tablet's "Help me!") initial pose of base_link in ``map``."""
+    def set_initial_pose(self, pose: Pose2D, now: float, verify: bool = False) -> None:
+        """The station's (or tablet's "Help me!") initial pose of base_link in ``map``;
+        with ``verify`` it is only a hint: the global search around it must confirm it."""
         if not self.grid.is_free(pose.x, pose.y):
             raise StackError(
                 f"initial pose ({pose.x:.2f}, {pose.y:.2f}) is not in free space of {self.grid.source}"
             )
+        if verify:
+            event = self.relocalisation.verify_help(pose.compose(self._mount), now)
+            self._event(now, event.level, event.text)
+            return
+        self.relocalisation.cancel()
         self.localiser.set_initial_pose(pose.compose(self._mount), now)
         self._event(
             now, "info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})"
         )
+
+    def relocalise(self, now: float) -> None:
+        """The station's "Relocalise": search the whole map (autonomy waits meanwhile)."""
+        event = self.relocalisation.request(now)
+        self._event(now, event.level, event.text)
 
     def set_route(self, msg: RouteMsg, now: float) -> None:
         """Drive the whole route; replaces any route in progress."""
@@ -233,6 +248,15 @@ class RobotStack:
         self.navigator.cancel()
         self._suspended_reason = None
 
+    def abort_route(self, now: float, reason: str) -> None:
+        """Give up the route in progress and zero the planner's input (an internal error)."""
+        self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+        if self.route is not None and not self.route.finished:
+            self.route.state, self.route.reason = "aborted", reason
+            self._event(now, "error", f"route {self.route.route_id} aborted: {reason}")
+        self.navigator.cancel()
+        self._suspended_reason = None
+
     def reconfigure(self, params: dict[str, Any], now: float) -> None:
         """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
         allowed = {f.name for f in fields(PlannerConfig)}
@@ -256,7 +280,8 @@ class RobotStack:
 
     @property
     def localisation_state(self) -> LocaliserState:
-        return self.localiser.state
+        """The localiser's state, ``searching`` while a global search runs (issue 16)."""
+        return self.relocalisation.state(self.localiser.state, self.last_scan_time)
 
     @property
     def suspended_reason(self) -> str | None:
@@ -270,6 +295,7 @@ class RobotStack:
         if odom is not None:
             self.last_odometry = odom
             self.localiser.on_odometry(odom.pose.compose(self._mount), now)
+            self.relocalisation.on_odometry(odom.pose.compose(self._mount))
         scan = self.backend.read_scan(now)
         if scan is not None:
             self.last_scan = scan
@@ -281,6 +307,7 @@ class RobotStack:
         ):
             self._scan_localised = self.last_scan
             self.last_estimate = self.localiser.on_scan(self.last_scan, now)
+            self._relocalise(now)
             self._track_localisation(now)
         if self._control_due(now):
             self._control(now)
@@ -300,19 +327,32 @@ class RobotStack:
         self.last_output = output
         return output
 
+    def _relocalise(self, now: float) -> None:
+        self.last_scan_time = now
+        speed = self.last_odometry.linear if self.last_odometry is not None else 0.0
+        laser, events = self.relocalisation.step(self.last_scan, speed, now)
+        for event in events:
+            self._event(now, event.level, event.text)
+        if laser is not None:
+            self.localiser.set_initial_pose(laser, now)
+            base = laser.compose(self._mount_inv)
+            self._event(
+                now, "info", f"initial pose set to ({base.x:.2f}, {base.y:.2f}, {base.yaw:.2f})"
+            )
+
     def _track_localisation(self, now: float) -> None:
-        state = self.localiser.state
+        state = self.localisation_state
         if state != self._localisation_state:
             level = "error" if state == LocaliserState.LOST else "info"
             self._event(now, level, f"localisation {state.value}")
             self._localisation_state = state
-            if state == LocaliserState.LOST:
+            if state in (LocaliserState.LOST, LocaliserState.SEARCHING):
                 # Stop now: do not drive blind on the planner's last command until it times out.
                 self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
 
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
-        state = self.localiser.state
+        state = self.localisation_state
         if state != LocaliserState.OK:
             return f"localisation {state.value}"
         locks = {lock.topic for lock in self.mux.active_locks(now)}

@@ -4,12 +4,14 @@ The `interbot_qt.qt_joystick.QtJoystick` circle, buttons for the maximum linear 
 and angular (0.1-2.0 rad/s) speeds, the latency beside it, and a red warning when the link is
 lossy: the Base Station's watchdog then discards speed commands (§5.3.4), so "commands will not
 be obeyed". While touched, the current command is sent as ``{"speed": ...}`` every 100 ms (a
-precise `QTimer`), and one zero on release.
+precise `QTimer`), and one zero on release. Each command carries ``seq`` and ``t`` (issue 11) so
+the station can drop one that arrives out of order or late.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 
 from PySide6.QtCore import QEvent, Qt, QTimer, Signal
 from PySide6.QtWidgets import QGridLayout, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
@@ -21,8 +23,8 @@ from tablet_app.tablet_connection import TabletConnection
 logger = logging.getLogger(__name__)
 
 SEND_PERIOD_MS = 100
-LINEAR_RANGE = (0.1, 1.0)  # [m/s]
-ANGULAR_RANGE = (0.1, 2.0)  # [rad/s]
+LINEAR_RANGE = (0.1, 0.3)  # [m/s] the robot's multiplexer limits the tablet to 0.3 m/s
+ANGULAR_RANGE = (0.1, 1.0)  # [rad/s] and 1 rad/s (resources/config/interbot_mux.yaml)
 STEP = 0.1
 
 
@@ -39,6 +41,7 @@ class QtJoystickScreen(QWidget):
     def __init__(self, connection: TabletConnection, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self._connection = connection
+        self._seq = 0
         self.joystick = QtJoystick(0.3, 0.6)
         self._timer = QTimer(self)
         self._timer.setTimerType(Qt.TimerType.PreciseTimer)
@@ -102,9 +105,13 @@ class QtJoystickScreen(QWidget):
         self.retranslate()
 
     # ---------------------------------------------------------------- sending
+    def _speed(self, linear: float, angular: float) -> Speed:
+        self._seq += 1
+        return Speed(linear, angular, self._seq, round(time.monotonic(), 4))
+
     def _send_current(self) -> None:
         linear, angular = self.joystick.command()
-        self._connection.send(Speed(_quantise(linear), _quantise(angular)))
+        self._connection.send(self._speed(_quantise(linear), _quantise(angular)))
 
     def _on_pressed(self) -> None:
         self._send_current()
@@ -112,7 +119,7 @@ class QtJoystickScreen(QWidget):
 
     def _on_released(self) -> None:
         self._timer.stop()
-        self._connection.send(Speed(0.0, 0.0))
+        self._connection.send(self._speed(0.0, 0.0))
 
     def _step(self, d_linear: float, d_angular: float) -> None:
         linear = min(LINEAR_RANGE[1], max(LINEAR_RANGE[0], self.joystick.linear_max + d_linear))

@@ -71,6 +71,7 @@ class Programs:
                 sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", "interbot1",
                 "--listen", endpoint, "--seed", "1", "--people", "3", "--speed", str(speed),
                 "--start-node", str(START_NODE),
+                "--no-relocalise",  # the screenshots show a person's "Help me!" flow
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

@@ -69,6 +69,7 @@ class LocaliserState(StrEnum):
     UNSET = "unset"  # no initial pose yet
     OK = "ok"
     LOST = "lost"
+    SEARCHING = "searching"  # a global search is under way (reported by the stack, issue 16)
 
 
 @dataclass(frozen=True)

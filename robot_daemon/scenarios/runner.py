@@ -63,6 +63,7 @@ class ScenarioOptions:
     people: int = 4
     odometry: str = "calibrated"
     max_sim_time: float = 3600.0  # [s]
+    cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
@@ -120,8 +121,11 @@ class Metrics:
                 self.corridor_samples += 1
         estimate = stack.pose
         state = stack.localisation_state
-        if state == LocaliserState.LOST and self._last_state != LocaliserState.LOST:
-            self.losses += 1
+        if state != self._last_state and (
+            state == LocaliserState.LOST
+            or (state == LocaliserState.SEARCHING and self._last_state == LocaliserState.OK)
+        ):
+            self.losses += 1  # lost, or a global search started while localised (issue 16)
         self._last_state = state
         if estimate is not None and state == LocaliserState.OK:
             self.loc_errors.append(estimate.distance_to(truth))

@@ -415,3 +415,26 @@ def test_camera_pane_takes_the_image_shape(qtbot, window, station):
         window.fit_camera(aspect)
         want = min(window._left.width() / aspect, 0.45 * total)
         assert abs(window.camera_view.height() - want) <= 2
+
+
+def test_alerts_from_the_robot_reach_the_list_and_the_badge(qtbot, window, station, robot):
+    """A collision the robot reports is an alert: listed, counted on the toolbar, acknowledged."""
+    from interbot_core.topics import Status
+
+    assert window.alerts_action.text() == "No alerts"
+    robot.link.publish_status(Status("error", "collision: motors stalled against an obstacle"))
+
+    def listed() -> bool:
+        station.poll_link()
+        station.tick()
+        return window.alerts_panel.table.rowCount() == 1
+
+    qtbot.waitUntil(listed, timeout=3000)
+    assert window.alerts_panel.table.item(0, 2).text() == "collision"
+    assert window.alerts_action.text() == "1 alert"
+    QTest.mouseClick(window.alerts_badge, Qt.MouseButton.LeftButton)
+    assert window.tabs.currentWidget() is window.alerts_panel
+    QTest.mouseClick(window.alerts_panel.ack_all_button, Qt.MouseButton.LeftButton)
+    station.tick()
+    assert window.alerts_action.text() == "No alerts"
+    assert station.alerts.unacknowledged == []

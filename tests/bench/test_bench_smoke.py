@@ -45,6 +45,12 @@ POSITIVE = {
     ],
     "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "global_search": [
+        "global_search_isr_ms_median",
+        "global_search_isr_ms_p99",
+        "global_search_isr_precompute_ms",
+    ],
+    "relocalise": ["relocalise_isr_cold_kidnaps", "relocalise_isr_cold_detected"],
     "record": [
         "record_offer_us_median",
         "record_offer_us_p99",
@@ -91,6 +97,11 @@ NON_NEGATIVE = {
         "teleop_collisions_unassisted",
         "teleop_collisions_unprotected",
         "teleop_min_clearance_m",
+    ],
+    "global_search": ["global_search_isr_truth_first"],
+    "relocalise": [
+        "relocalise_isr_cold_wrong_relocalisations",
+        "relocalise_isr_cold_help_requests",
     ],
     "record": ["record_dropped"],
     "replay": ["replay_map_drops", "replay_maps_received"],
