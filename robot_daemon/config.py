@@ -11,7 +11,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: auto, help_after_s: 20}  # surface: auto | cell_face | cell_centre
+    localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
@@ -151,16 +151,16 @@ MAP_SURFACES = ("cell_face", "cell_centre")
 
 @dataclass(frozen=True)
 class LocaliserSettings:
-    """Where a wall lies in an occupied map cell, for the scan matcher.
+    """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
+    whatever the backend (issue 12: the choice must not suit the simulator).
 
-    ``cell_face``: on the cell's boundary with free space, true when the world *is* the grid
-    (the simulator) or the map was rasterised from a floor plan. ``cell_centre``: through the
-    cell, true on average for maps built from laser end points (SLAM: gmapping, Hector,
-    Cartographer). ``auto`` picks ``cell_face`` for the simulator and ``cell_centre`` for real
-    hardware.
+    ``cell_centre`` (default): through the cell, true on average for maps built from laser end
+    points (SLAM: gmapping, Hector, Cartographer), the maps real robots use. ``cell_face``: on
+    the cell's boundary with free space, for maps rasterised from a floor plan when the plan is
+    known to be exact.
     """
 
-    map_surface: str = "auto"
+    map_surface: str = "cell_centre"
     help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
 
     def __post_init__(self) -> None:
@@ -172,16 +172,11 @@ class LocaliserSettings:
             raise ConfigError(
                 f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
             )
-        if self.map_surface not in ("auto", *MAP_SURFACES):
+        if self.map_surface not in MAP_SURFACES:
             raise ConfigError(
-                f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
+                f"localiser: 'map_surface' must be cell_face or cell_centre, "
                 f"got {self.map_surface!r}"
             )
-
-    def surface_for(self, backend: str) -> str:
-        if self.map_surface != "auto":
-            return self.map_surface
-        return "cell_face" if backend == "sim" else "cell_centre"
 
 
 @dataclass(frozen=True)

@@ -155,7 +155,7 @@ class Daemon:
                     config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
                 )
         self.backend = backend
-        surface = config.localiser.surface_for(config.backend)
+        surface = config.localiser.map_surface  # one wall model, sim or hardware
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),

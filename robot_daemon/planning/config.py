@@ -97,6 +97,7 @@ class PlannerConfig:
     obstacle_persistence: float = 2.0  # [s]
     obstacle_max_range: float = 4.0  # [m]
     raytrace_max_range: float = 5.0  # [m]
+    allow_unknown: bool = False  # Nav2's allow_unknown (its default is True): see CostmapConfig
     # Global planner.
     planning_resolution: float = 0.1  # [m]
     cost_weight: float = 100.0
@@ -135,6 +136,8 @@ class PlannerConfig:
                 raise PlannerConfigError(
                     f"PlannerConfig.{name} = {value!r} is outside {bracket}{low}, {high}]"
                 )
+        if not isinstance(self.allow_unknown, bool):
+            raise PlannerConfigError("PlannerConfig.allow_unknown must be true or false")
         for name in ("v_samples", "w_samples"):
             if not isinstance(getattr(self, name), int):
                 raise PlannerConfigError(f"PlannerConfig.{name} must be an integer")
@@ -188,6 +191,7 @@ class PlannerConfig:
             obstacle_persistence=self.obstacle_persistence,
             obstacle_max_range=self.obstacle_max_range,
             raytrace_max_range=self.raytrace_max_range,
+            allow_unknown=self.allow_unknown,
         )
 
     def global_planner_config(self) -> GlobalPlannerConfig:

@@ -38,6 +38,7 @@ def main(args: argparse.Namespace) -> int:
         map_yaml=Path(args.map_yaml) if args.map_yaml else DEFAULT_MAP,
         topo_yaml=Path(args.topo) if args.topo else DEFAULT_TOPO,
         seed=args.seed,
+        ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
     )
     try:

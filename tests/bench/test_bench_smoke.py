@@ -30,6 +30,8 @@ POSITIVE = {
     "sim": [
         "raycast_ms_median",
         "raycast_ms_p99",
+        "raycast_building_ms_median",
+        "raycast_building_ms_p99",
         "sim_step_ms_median",
         "sim_step_ms_p99",
         "sim_step_realtime_factor",
@@ -89,6 +91,7 @@ NON_NEGATIVE = {
         "tour_completed",
         "tour_collisions",
         "tour_localisation_losses",
+        "tour_loc_silent_failures",
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
@@ -163,6 +166,29 @@ def test_teleop_parts_add_up() -> None:
     assert r["teleop_station_to_mux_ms_p50"] <= r["teleop_latency_ms_max"]
     # The station's clock() period is the thesis's 100 ms (its median; p99 depends on load).
     assert 80.0 < r["clock_period_ms_p50"] < 130.0
+
+
+def test_quick_tour_is_the_realistic_headline_so_far() -> None:
+    """The first 60 s of the realistic-world tour (bench_tour, quick): the robot drives, touches
+    nothing, never loses itself, and is never silently wrong (> 0.3 m while ok)."""
+    r = quick_result("tour")
+    assert r["tour_stops_total"] == 15
+    assert r["tour_distance_m"] > 5.0  # 60 s at up to 0.25 m/s, minus the first stop's dwell
+    assert r["tour_stops_visited"] >= 1
+    assert r["tour_collisions"] == 0
+    assert r["tour_localisation_losses"] == 0
+    assert r["tour_loc_silent_failures"] == 0
+    assert 0.0 < r["loc_rms_m"] <= r["loc_max_m"] < 0.3
+    assert r["tour_min_clearance_m"] > 0.0
+    assert r["tour_completed"] == 0.0  # 60 s cannot finish a 15-stop tour
+
+
+def test_quick_sim_figures_are_consistent() -> None:
+    r = quick_result("sim")
+    assert r["raycast_ms_median"] <= r["raycast_ms_p99"]
+    assert r["raycast_building_ms_median"] <= r["raycast_building_ms_p99"]
+    assert r["sim_step_ms_median"] <= r["sim_step_ms_p99"]
+    assert r["sim_realtime_span_s"] == pytest.approx(10.0, abs=0.1)
 
 
 @pytest.mark.qt_log_ignore("propagateSizeHints")

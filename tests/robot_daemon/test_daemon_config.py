@@ -57,13 +57,15 @@ def test_unreadable_and_invalid_yaml(tmp_path: Path) -> None:
         load_config(tmp_path / "bad.yaml")
 
 
-def test_map_surface_follows_the_backend_unless_set(tmp_path: Path) -> None:
-    """Simulated walls are the grid's cell faces; SLAM maps put walls through cell centres."""
-    assert DaemonConfig().localiser.surface_for("sim") == "cell_face"
-    assert DaemonConfig().localiser.surface_for("hardware") == "cell_centre"
+def test_map_surface_is_one_model_whatever_the_backend(tmp_path: Path) -> None:
+    """One wall model (SLAM maps put walls through cell centres), not one chosen per backend."""
+    assert DaemonConfig().localiser.map_surface == "cell_centre"
+    assert DaemonConfig(backend="hardware").localiser.map_surface == "cell_centre"
     (tmp_path / "robot.yaml").write_text("localiser: {map_surface: cell_face}\n")
     cfg = load_config(tmp_path / "robot.yaml")
-    assert cfg.localiser.surface_for("hardware") == "cell_face"
+    assert cfg.localiser.map_surface == "cell_face"
+    with pytest.raises(ConfigError, match="map_surface"):
+        parse_config({"localiser": {"map_surface": "auto"}}, "robot.yaml", tmp_path)
     with pytest.raises(ConfigError, match="map_surface"):
         parse_config({"localiser": {"map_surface": "edge"}}, "robot.yaml", tmp_path)
     with pytest.raises(ConfigError, match="help_after_s"):
