@@ -25,6 +25,7 @@ from interbot_core.topics import (
     PlanMsg,
     PoseMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     Topic,
     Twist,
@@ -60,6 +61,7 @@ class RobotState:
         self.mux: MuxMsg | None = None
         self.progress: RouteProgress | None = None
         self.status: Status | None = None
+        self.safety: SafetyMsg | None = None  # collision monitor (issue 17)
         self.plan: PlanMsg | None = None
         self.poses.clear()
         self.version = 0
@@ -116,6 +118,8 @@ class RobotState:
             self.progress = message
         elif topic is Topic.STATUS and isinstance(message, Status):
             self.status = message
+        elif topic is Topic.SAFETY and isinstance(message, SafetyMsg):
+            self.safety = message
         elif topic is Topic.PLAN and isinstance(message, PlanMsg):
             self.plan = message
         else:

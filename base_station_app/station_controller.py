@@ -93,6 +93,7 @@ from interbot_core.supervisor import (
     TourStopReached,
 )
 from interbot_core.topics import (
+    AssistMsg,
     Battery,
     ConfigMsg,
     InitialPose,
@@ -154,6 +155,7 @@ class StationController(QObject):
     tour_stop_reached = Signal(object)  # TourStopReached
     request_shown = Signal(object)  # RequestShown
     route_sent = Signal(object)  # RouteMsg
+    assist_changed = Signal(bool)  # the station's assisted teleoperation
 
     def __init__(
         self,
@@ -220,9 +222,12 @@ class StationController(QObject):
         self._tour_state_sent: p.TourState | None = None
         self._status_sent: p.StatusInfo | None = None
         self._localisation_sent: str | None = None
+        self._safety_sent: p.SafetyInfo | None = None
         self._pose_settling_until = -math.inf  # see INITIAL_POSE_SETTLE_S
         self._teleop_was_active = False
         self._config_pending = True  # (re)send the planner config until a robot receives it
+        self.station_assist = False  # assisted teleoperation of station_vel (issue 17)
+        self._assist_pending = True  # (re)send it until a robot receives it
         self._closed = False
 
         self.link: StationLink | None = StationLink(session) if session is not None else None
@@ -345,6 +350,7 @@ class StationController(QObject):
     def _on_robot_connected(self) -> None:
         """A robot was selected or came back: assert the stop, send config, ask for the route."""
         self._config_pending = True
+        self._assist_pending = True
         self._stop_assert_pending = True
         self.route_mirror.reconnected(self.clock())
 
@@ -356,6 +362,9 @@ class StationController(QObject):
             self._config_pending = not self._send(
                 Topic.CONFIG, ConfigMsg(self.config.planner_params())
             )
+        if self._assist_pending:
+            msg = AssistMsg("station_vel", self.station_assist, stamp=self.clock())
+            self._assist_pending = not self._send(Topic.TELEOP_ASSIST, msg)
 
     def _assert_stop_intent(self) -> None:
         """Tell the robot the operator's stop: engaged (re-sent) or released (its start latch)."""
@@ -368,6 +377,16 @@ class StationController(QObject):
             )
         self._stop_sent_at = now
         self._stop_assert_pending = not delivered
+
+    def set_station_assist(self, enabled: bool) -> None:
+        """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
+        if enabled == self.station_assist:
+            return
+        self.station_assist = enabled
+        self._assist_pending = True
+        self._resend_pending()
+        self.log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
+        self.assist_changed.emit(enabled)
 
     @property
     def selected_robot(self) -> str | None:
@@ -546,6 +565,14 @@ class StationController(QObject):
         if loc != self._localisation_sent and not settling:
             send(p.Localisation(loc))
             self._localisation_sent = loc
+        safety = self.state.safety
+        if safety is not None:  # the collision monitor, for the person at the joystick
+            info = p.SafetyInfo(
+                safety.zone, round(safety.distance, 2), "tablet_vel" in safety.assisted
+            )
+            if info != self._safety_sent:
+                send(info)
+                self._safety_sent = info
         if self.state.pose is None or self.state.pose.state == "unset":
             if not settling:
                 send(p.InitialPose(False))

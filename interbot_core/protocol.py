@@ -1035,6 +1035,45 @@ class StatusInfo(Message):
         )
 
 
+SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
+MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near"
+
+
+@dataclass(frozen=True)
+class SafetyInfo(Message):
+    """The robot's collision monitor for the person at the joystick (issue 17):
+    ``{"safety": {"zone": "stop", "distance": 0.04, "assisted": true}}`` — the most restrictive
+    active zone, the distance [m] from the robot's outline to the nearest laser return
+    (1000 = nothing near) and whether the robot assists the tablet's driving."""
+
+    KEY: ClassVar[str] = "safety"
+    zone: str
+    distance: float
+    assisted: bool
+
+    def __post_init__(self) -> None:
+        _choice(self.zone, "safety.zone", SAFETY_ZONES)
+        distance = _float(self.distance, "safety.distance", " [m]")
+        if not 0.0 <= distance <= MAX_SAFETY_DISTANCE:
+            raise OutOfRange(
+                f"safety.distance = {distance:g} m is outside [0, {MAX_SAFETY_DISTANCE:g}] m",
+                "safety.distance",
+            )
+        _bool(self.assisted, "safety.assisted")
+
+    def to_json(self) -> JsonObject:
+        return {self.KEY: {"zone": self.zone, "distance": self.distance, "assisted": self.assisted}}
+
+    @classmethod
+    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
+        obj = _object(body, "safety", ("zone", "distance", "assisted"))
+        return cls(
+            _choice(obj["zone"], "safety.zone", SAFETY_ZONES),
+            _float(obj["distance"], "safety.distance", " [m]"),
+            _bool(obj["assisted"], "safety.assisted"),
+        )
+
+
 # --------------------------------------------------------------------------------------------
 # Decoding and encoding
 # --------------------------------------------------------------------------------------------
@@ -1070,6 +1109,7 @@ StationMessage = (
     | Permissions
     | Localisation
     | StatusInfo
+    | SafetyInfo
     | Ping
     | Pong
     | ErrorReport
@@ -1106,6 +1146,7 @@ STATION_MESSAGES: Final[Mapping[str, Callable[[object, ProtocolLimits], StationM
     Permissions.KEY: Permissions.from_json,
     Localisation.KEY: Localisation.from_json,
     StatusInfo.KEY: StatusInfo.from_json,
+    SafetyInfo.KEY: SafetyInfo.from_json,
     Ping.KEY: Ping.from_json,
     Pong.KEY: Pong.from_json,
     ErrorReport.KEY: ErrorReport.from_json,

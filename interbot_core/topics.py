@@ -97,6 +97,7 @@ class Topic(enum.StrEnum):
     INITIAL_POSE = "initial_pose"
     RELOCALISE = "relocalise"
     CONFIG = "config"
+    TELEOP_ASSIST = "teleop_assist"
     # State, robot -> Base Station.
     CMD_VEL = "cmd_vel"
     POSE = "pose"
@@ -109,6 +110,7 @@ class Topic(enum.StrEnum):
     STATUS = "status"
     MUX = "mux"
     PLAN = "plan"
+    SAFETY = "safety"
 
 
 def validate_robot_id(robot_id: str) -> str:
@@ -581,6 +583,59 @@ class PlanMsg(JsonMessage):
         _check_stamp(self)
 
 
+TELEOP_INPUT_TOPICS: Final = ("station_vel", "tablet_vel")
+SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
+MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near" is sent as this (JSON has no inf)
+
+
+@dataclass(frozen=True)
+class AssistMsg(JsonMessage):
+    """Assisted teleoperation on/off for one joystick input (``station_vel`` / ``tablet_vel``)."""
+
+    input: str
+    enabled: bool
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_text(self, "input", TELEOP_INPUT_TOPICS)
+        _check_bool(self, "enabled")
+        _check_stamp(self)
+
+
+@dataclass(frozen=True)
+class SafetyMsg(JsonMessage):
+    """The collision monitor's state for the person driving (issue 17; NOT a certified safety
+    function): the most restrictive active ``zone`` and its name, the distance [m] from the
+    footprint to the nearest laser return and the time to contact [s] along the commanded arc
+    (``MAX_SAFETY_DISTANCE`` when none), the share of the commanded speed let through, the
+    inputs with assisted teleoperation on, and what the assistance did last."""
+
+    zone: str
+    zone_name: str = ""
+    distance: float = MAX_SAFETY_DISTANCE
+    time_to_contact: float = MAX_SAFETY_DISTANCE
+    scale: float = 1.0
+    assisted: tuple[str, ...] = ()
+    assist_mode: str = "idle"
+    stamp: float = 0.0
+
+    @classmethod
+    def _convert(cls, name: str, value: Any) -> Any:
+        return tuple(value) if name == "assisted" and isinstance(value, list) else value
+
+    def __post_init__(self) -> None:
+        _check_text(self, "zone", SAFETY_ZONES)
+        _check_text(self, "zone_name")
+        _check_float(self, "distance", 0.0, MAX_SAFETY_DISTANCE)
+        _check_float(self, "time_to_contact", 0.0, MAX_SAFETY_DISTANCE)
+        _check_float(self, "scale", 0.0, 1.0)
+        assisted = self.assisted
+        if not isinstance(assisted, tuple) or not all(a in TELEOP_INPUT_TOPICS for a in assisted):
+            raise _fail(type(self), "assisted", f"must list some of {list(TELEOP_INPUT_TOPICS)}")
+        _check_text(self, "assist_mode", ("idle", "free", "scaled", "slid", "stopped"))
+        _check_stamp(self)
+
+
 def encode_json(message: JsonMessage) -> bytes:
     """Compact UTF-8 JSON of a message (no NaN: fields are validated finite)."""
     return json.dumps(message.to_dict(), separators=(",", ":"), allow_nan=False).encode()
@@ -860,6 +915,7 @@ _SPECS: Final = (
     TopicSpec(Topic.INITIAL_POSE, True, False, True, False, None, InitialPose, "set the localiser's pose"),
     TopicSpec(Topic.RELOCALISE, True, False, True, False, None, Relocalise, "find the robot on the whole map"),
     TopicSpec(Topic.CONFIG, True, False, True, False, None, ConfigMsg, "planner parameters on the fly"),
+    TopicSpec(Topic.TELEOP_ASSIST, True, False, True, False, None, AssistMsg, "assisted teleoperation on/off per joystick input"),
     TopicSpec(Topic.CMD_VEL, False, False, False, True, 20.0, Twist, "mux output sent to the motors"),
     TopicSpec(Topic.POSE, False, False, False, True, 40.0, PoseMsg, "localised pose in the map frame"),
     TopicSpec(Topic.ODOM, False, False, False, True, 20.0, Odom, "wheel odometry"),
@@ -871,6 +927,7 @@ _SPECS: Final = (
     TopicSpec(Topic.STATUS, False, False, True, False, None, Status, "status text for the UI"),
     TopicSpec(Topic.MUX, False, False, False, True, 5.0, MuxMsg, "active velocity source"),
     TopicSpec(Topic.PLAN, False, False, False, True, None, PlanMsg, "the navigator's global path"),
+    TopicSpec(Topic.SAFETY, False, False, False, True, 10.0, SafetyMsg, "collision monitor zone, distance, assistance"),
 )  # fmt: skip
 
 TOPIC_SPECS: Final[Mapping[Topic, TopicSpec]] = {s.topic: s for s in _SPECS}

@@ -25,6 +25,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     COMMAND_TOPICS,
     STATE_TOPICS,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -70,6 +71,7 @@ CommandMessage = (
     | GoalMsg
     | InitialPose
     | ConfigMsg
+    | AssistMsg
     | Relocalise
 )
 

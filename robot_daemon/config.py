@@ -8,6 +8,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     topo: ../maps/isr_floor0_topo.yaml  # topological map
     backend: sim                        # sim | hardware (hardware: issue 7)
     mux: ../resources/config/twist_mux.yaml
+    safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
     localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
@@ -35,6 +36,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = REPO_ROOT / "maps" / "isr_floor0.yaml"
 DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
 DEFAULT_MUX = REPO_ROOT / "resources" / "config" / "interbot_mux.yaml"
+DEFAULT_SAFETY = REPO_ROOT / "resources" / "config" / "collision_monitor.yaml"
 ROBOT_ID_RE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 ENDPOINT_RE = re.compile(r"^(?:tcp|tls)/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
 
@@ -183,6 +185,7 @@ class DaemonConfig:
     map_yaml: Path = DEFAULT_MAP
     topo_yaml: Path = DEFAULT_TOPO
     mux_yaml: Path = DEFAULT_MUX
+    safety_yaml: Path = DEFAULT_SAFETY  # collision monitor + assisted teleop (issue 17)
     backend: str = "sim"
     rates: Rates = field(default_factory=Rates)
     sim: SimSettings = field(default_factory=SimSettings)
@@ -227,6 +230,7 @@ _TOP_KEYS = {
     "map",
     "topo",
     "mux",
+    "safety",
     "backend",
     "rates",
     "sim",
@@ -295,6 +299,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         map_yaml=path("map", DEFAULT_MAP),
         topo_yaml=path("topo", DEFAULT_TOPO),
         mux_yaml=path("mux", DEFAULT_MUX),
+        safety_yaml=path("safety", DEFAULT_SAFETY),
         backend=raw.get("backend", "sim"),
         rates=_section(source, raw, "rates", Rates),
         sim=_section(source, raw, "sim", SimSettings),

@@ -23,6 +23,8 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topics import (
+    MAX_SAFETY_DISTANCE,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -37,6 +39,7 @@ from interbot_core.topics import (
     RouteCancel,
     RouteMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     StopRelease,
     Topic,
@@ -55,6 +58,8 @@ from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
+from robot_daemon.safety.collision_monitor import SafetyConfigError
+from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
@@ -65,6 +70,7 @@ logger = logging.getLogger(__name__)
 
 LOOP_PERIOD = 0.02  # [s] wall time between passes of the control loop (50 Hz)
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
+SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 
 
 @dataclass(frozen=True)
@@ -126,6 +132,10 @@ class Daemon:
         self.options = options = options or DaemonOptions()
         self._clock = clock
         self.grid = load_map(config.map_yaml)
+        try:
+            motion_guard = load_safety_config(config.safety_yaml)
+        except SafetyConfigError as exc:
+            raise ConfigError(str(exc)) from None
         self.topo: TopologicalMap | None = None
         self.route_planner: RoutePlanner | None = None
         if config.topo_yaml.exists():
@@ -149,6 +159,7 @@ class Daemon:
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
+            motion_guard=motion_guard,
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
             relocalisation=RelocalisationConfig(
                 relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
@@ -171,6 +182,7 @@ class Daemon:
                 ("battery", rates.battery_hz),
                 ("image", rates.image_hz),
                 ("map", 1.0 / MAP_REPUBLISH_PERIOD),
+                ("safety", SAFETY_HZ),
             )
         }
         self._progress_key: tuple[int, int, str] | None = None
@@ -232,6 +244,8 @@ class Daemon:
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):
                 self.stack.set_route(self._route_for_goal(msg), now)
+            elif isinstance(msg, AssistMsg):
+                self.stack.set_teleop_assist(msg.input, msg.enabled, now)
         except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
             logger.warning("refused %s command: %s", topic.value, exc)
             if link is not None:
@@ -283,6 +297,8 @@ class Daemon:
             link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
             link.publish_map(stack.localiser.updated_grid())
+        if due["safety"](now):
+            link.publish(Topic.SAFETY, safety_message(stack, now))
         status_due = due["status"](now)
         self._publish_route(link, force=status_due)
         if status_due:
@@ -394,6 +410,22 @@ class Daemon:
             self.backend.set_cmd_vel(0.0, 0.0, self.now)
         except Exception:  # the backend itself is broken: log and go on
             logger.exception("could not set the motors to zero")
+
+
+def safety_message(stack: RobotStack, now: float) -> SafetyMsg:
+    """The motion guard's report as the ``safety`` topic carries it (no inf on the wire)."""
+    r = stack.guard.report()
+    cap = MAX_SAFETY_DISTANCE
+    return SafetyMsg(
+        r.zone,
+        r.zone_name,
+        min(r.distance, cap),
+        min(r.time_to_contact, cap),
+        max(0.0, min(1.0, r.scale)),
+        r.assisted,
+        r.assist_mode,
+        now,
+    )
 
 
 def _jpeg_size(jpeg: bytes) -> tuple[int, int]:

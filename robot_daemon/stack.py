@@ -41,6 +41,7 @@ from robot_daemon.localisation.localiser import (
 from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
+from robot_daemon.safety.motion_guard import MotionGuard, MotionGuardConfig, default_guard_config
 
 logger = logging.getLogger(__name__)
 
@@ -64,6 +65,7 @@ class StackConfig:
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
     relocalisation: RelocalisationConfig = field(default_factory=RelocalisationConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
+    motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
 
 
 @dataclass
@@ -125,6 +127,8 @@ class RobotStack:
             planner = planner.replace(laser_x_offset=config.laser_mount.x)
         self.navigator = Navigator(grid, planner)
         self.localiser = Localiser(grid, config.localiser)
+        # Collision monitor under the mux, assisted teleop before it (robot_daemon/safety).
+        self.guard = MotionGuard(config.motion_guard, config.laser_mount)
         self.relocalisation = Relocalisation(grid, self.localiser, config.relocalisation)
         self._mount = config.laser_mount
         self._mount_inv = config.laser_mount.inverse()
@@ -167,7 +171,19 @@ class RobotStack:
         """A teleoperation command on ``station_vel`` or ``tablet_vel``."""
         if topic == PLANNER_TOPIC:
             raise StackError("planner_vel is the robot's own planner; it is not a command input")
+        linear, angular = self.guard.on_teleop(topic, linear, angular, now)
         self.mux.on_twist(topic, linear, angular, now)
+
+    def set_teleop_assist(self, topic: str, enabled: bool, now: float) -> None:
+        """Assisted teleoperation on or off for ``station_vel`` / ``tablet_vel``."""
+        if topic not in ("station_vel", "tablet_vel"):
+            raise StackError(
+                f"assisted teleoperation applies to station_vel or tablet_vel, not {topic!r}"
+            )
+        if self.guard.set_assist(topic, enabled):
+            self._event(
+                now, "info", f"assisted teleoperation {'on' if enabled else 'off'} for {topic}"
+            )
 
     def on_lock(self, topic: str, engaged: bool, now: float) -> None:
         """``pause_nav`` or ``stop``; the stop lock latches until `release_stop`."""
@@ -283,6 +299,7 @@ class RobotStack:
         scan = self.backend.read_scan(now)
         if scan is not None:
             self.last_scan = scan
+            self.guard.on_scan(scan, now)
         if (
             self.last_scan is not None
             and self.last_scan is not self._scan_localised
@@ -305,7 +322,7 @@ class RobotStack:
 
     def apply_output(self, now: float) -> MuxOutput:
         """Send the multiplexer's current output to the motors (also between loop passes)."""
-        output = self.mux.output(now)
+        output = self.guard.limit(self.mux.output(now), now)  # the collision monitor
         self.backend.set_cmd_vel(output.linear, output.angular, now)
         self.last_output = output
         return output

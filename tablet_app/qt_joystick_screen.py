@@ -16,7 +16,7 @@ import time
 from PySide6.QtCore import QEvent, Qt, QTimer, Signal
 from PySide6.QtWidgets import QGridLayout, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from interbot_core.protocol import Speed
+from interbot_core.protocol import SafetyInfo, Speed
 from interbot_qt.qt_joystick import QtJoystick
 from tablet_app.tablet_connection import TabletConnection
 
@@ -53,6 +53,10 @@ class QtJoystickScreen(QWidget):
         self.warning_label.setObjectName("warning")
         self.warning_label.setWordWrap(True)
         self.warning_label.setVisible(False)
+        self.monitor_label = QLabel()  # the robot's collision monitor (issue 17)
+        self.monitor_label.setObjectName("monitor")
+        self.monitor_label.setWordWrap(True)
+        self._safety: SafetyInfo | None = None
         self.linear_title = QLabel()
         self.angular_title = QLabel()
         self.linear_value = QLabel()
@@ -77,6 +81,7 @@ class QtJoystickScreen(QWidget):
         side = QVBoxLayout()
         side.addWidget(self.latency_label)
         side.addWidget(self.warning_label)
+        side.addWidget(self.monitor_label)
         side.addStretch(1)
         side.addLayout(limits)
         side.addStretch(1)
@@ -94,6 +99,7 @@ class QtJoystickScreen(QWidget):
         self.back_button.clicked.connect(self.back_requested)
         connection.latency_changed.connect(self.set_latency)
         connection.link_lossy_changed.connect(self.set_lossy)
+        connection.safety_received.connect(self.set_safety)
         self._latency_ms: float | None = connection.average_latency_ms
         self.set_lossy(connection.is_lossy)
         self.retranslate()
@@ -128,6 +134,31 @@ class QtJoystickScreen(QWidget):
         self._latency_ms = latency_ms
         self._show_latency()
 
+    def set_safety(self, info: SafetyInfo) -> None:
+        self._safety = info
+        self._show_safety()
+
+    def _show_safety(self) -> None:
+        info = self._safety
+        if info is None:
+            self.monitor_label.setText("")
+            return
+        words = {
+            "none": self.tr("Path clear"),
+            "slowdown": self.tr("Obstacle near: slowing down"),
+            "limit": self.tr("Speed limited"),
+            "approach": self.tr("Obstacle ahead: slowing down"),
+            "stop": self.tr("Stopped: obstacle too close"),
+            "no_data": self.tr("Stopped: the robot cannot see"),
+        }[info.zone]
+        if info.distance < 0.5 and info.zone != "no_data":
+            words += f" ({info.distance * 100:.0f} cm)"
+        if info.assisted:
+            words += "\n" + self.tr("Driving assistance on")
+        self.monitor_label.setText(words)
+        colour = {"none": "#060", "stop": "#c00", "no_data": "#c00"}.get(info.zone, "#a60")
+        self.monitor_label.setStyleSheet(f"color: {colour}; font-weight: bold;")
+
     def set_lossy(self, lossy: bool) -> None:
         self.warning_label.setVisible(lossy)
 
@@ -152,6 +183,7 @@ class QtJoystickScreen(QWidget):
         self.back_button.setText(self.tr("Back"))
         self._show_latency()
         self._show_limits()
+        self._show_safety()
 
     def changeEvent(self, event: QEvent) -> None:
         if event.type() == QEvent.Type.LanguageChange:

@@ -27,6 +27,41 @@
 <context>
     <name>QtJoystickScreen</name>
     <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Path clear</source>
+        <translation>Caminho livre</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Obstacle near: slowing down</source>
+        <translation>Obstáculo perto: a abrandar</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Speed limited</source>
+        <translation>Velocidade limitada</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Obstacle ahead: slowing down</source>
+        <translation>Obstáculo à frente: a abrandar</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Stopped: obstacle too close</source>
+        <translation>Parado: obstáculo demasiado perto</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Stopped: the robot cannot see</source>
+        <translation>Parado: o robô não consegue ver</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Driving assistance on</source>
+        <translation>Assistência à condução ligada</translation>
+    </message>
+    <message>
         <location filename="../../tablet_app/qt_joystick_screen.py" line="136" />
         <source>Latency: –</source>
         <translation>Latência: –</translation>

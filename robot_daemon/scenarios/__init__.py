@@ -13,7 +13,7 @@ from pathlib import Path
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.scenarios.runner import ScenarioOptions, ScenarioResult
 
-SCENARIOS = ("odometry", "tour", "mission", "latency", "kidnap")
+SCENARIOS = ("odometry", "tour", "mission", "latency", "kidnap", "teleop")
 
 
 def load_scenario(name: str) -> Callable[[ScenarioOptions], ScenarioResult]:

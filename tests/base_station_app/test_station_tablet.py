@@ -369,6 +369,25 @@ def test_help_me_with_a_pose_the_robot_never_takes_says_lost_again_after_the_gra
     assert t.of("localisation") == ["unset", "unset"]  # said afresh
 
 
+def test_collision_monitor_is_passed_on_to_the_tablet_when_it_changes(
+    qtbot, station, tablet_factory
+):
+    from interbot_core.topics import SafetyMsg, Topic
+
+    t = handshake(qtbot, tablet_factory)
+    station.state.apply(
+        Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.034, 0.1, 0.0, ("tablet_vel",))
+    )
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("safety")), timeout=3000)
+    assert t.of("safety") == [{"zone": "stop", "distance": 0.03, "assisted": True}]
+    station.tick()  # unchanged: not sent again
+    station.state.apply(Topic.SAFETY, SafetyMsg("none", "", 1000.0, 1000.0, 1.0, ()))
+    station.tick()
+    qtbot.waitUntil(lambda: len(t.of("safety")) == 2, timeout=3000)
+    assert t.of("safety")[1] == {"zone": "none", "distance": 1000.0, "assisted": False}
+
+
 # ------------------------------------------------------------------ bounded work (issue 11)
 def test_a_flooding_tablet_is_rate_limited_and_its_stop_still_passes(
     qtbot, linked, station, robot, tablet_factory

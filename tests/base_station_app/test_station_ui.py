@@ -299,6 +299,24 @@ def test_diagnostics_histograms_follow_period_stats(qtbot, window, station, cloc
     assert "n=9" in label.text() and "mean 100.0 ms" in label.text()
 
 
+def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
+    qtbot, linked, window, robot
+):
+    from interbot_core.topics import SafetyMsg, Topic
+
+    panel = window.teleop_panel
+    assert not panel.assist_check.isChecked()
+    panel.assist_check.click()  # the operator ticks "Assisted driving"
+    # The station's state (off) went out on connecting; the tick sends "on".
+    qtbot.waitUntil(lambda: any(m.enabled for m in robot.of("teleop_assist")), timeout=3000)
+    sent = robot.of("teleop_assist")[-1]
+    assert (sent.input, sent.enabled) == ("station_vel", True)
+    assert linked.station_assist
+    linked.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
+    linked.frame_ready.emit()
+    assert "STOPPED" in panel.monitor_label.text() and "3 cm" in panel.monitor_label.text()
+
+
 def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, robot):
     """A scan stamped between two poses is placed from the interpolated pose, laser mount
     included; points, not a polyline."""

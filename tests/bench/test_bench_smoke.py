@@ -39,6 +39,13 @@ POSITIVE = {
         "stack_step_ms_median",
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
+    "collision_monitor": [
+        "collision_monitor_ms_median",
+        "collision_monitor_ms_p99",
+        "assisted_teleop_ms_median",
+        "collision_monitor_scans",
+    ],
+    "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
     "global_search": [
         "global_search_isr_ms_median",
@@ -88,6 +95,12 @@ NON_NEGATIVE = {
     ],
     "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
     "kidnap": ["kidnap_false_losses"],
+    "teleop_scenario": [
+        "teleop_collisions",
+        "teleop_collisions_unassisted",
+        "teleop_collisions_unprotected",
+        "teleop_min_clearance_m",
+    ],
     "global_search": ["global_search_isr_truth_first"],
     "relocalise": [
         "relocalise_isr_cold_wrong_relocalisations",

@@ -19,6 +19,7 @@ from interbot_core.protocol import (
     InitialPose,
     Localisation,
     Pose,
+    SafetyInfo,
     ShowRequest,
     StatusInfo,
     TourState,
@@ -256,6 +257,16 @@ def test_localisation_lost_offers_help(qtbot: Any, station: Any, window: Any) ->
     qtbot.waitUntil(lambda: window.map_screen.help_banner.isVisible())
     station.send(Localisation("ok"))
     qtbot.waitUntil(lambda: not window.map_screen.help_banner.isVisible())
+
+
+def test_joystick_screen_shows_the_collision_monitor(qtbot: Any, station: Any, window: Any) -> None:
+    window.show_joystick()
+    label = window.joystick_screen.monitor_label
+    station.send(SafetyInfo("stop", 0.04, True))
+    qtbot.waitUntil(lambda: "Stopped" in label.text())
+    assert "4 cm" in label.text() and "assistance on" in label.text()
+    station.send(SafetyInfo("none", 1000.0, False))
+    qtbot.waitUntil(lambda: label.text() == "Path clear")
 
 
 def test_malfunction_report(qtbot: Any, station: Any, window: Any) -> None:
