@@ -22,6 +22,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from base_station_app.qt_alerts_panel import QtAlertsPanel
 from base_station_app.qt_camera_view import QtCameraView
 from base_station_app.qt_config_panel import QtConfigPanel
 from base_station_app.qt_diagnostics_panel import QtDiagnosticsPanel
@@ -41,7 +42,7 @@ from interbot_link.replay import ReplayControlClient
 
 logger = logging.getLogger(__name__)
 
-TAB_NAMES = ("state", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
+TAB_NAMES = ("state", "alerts", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
 
 
 ESTOP_STYLE = (
@@ -50,6 +51,10 @@ ESTOP_STYLE = (
     "QToolButton#estop_button:pressed { background: #900000; }"
 )
 ESTOP_MIN_W, ESTOP_MIN_H = 220, 48  # [px] the largest control on the window
+ALERT_BADGE_STYLE = (
+    "QToolButton#alerts_badge { background: #ffb000; color: black; font-weight: bold;"
+    " border-radius: 10px; padding: 4px 12px; }"
+)
 
 
 class MainWindow(QMainWindow):
@@ -77,6 +82,7 @@ class MainWindow(QMainWindow):
         self.map_view = QtMapView(c)
         self.camera_view = QtCameraView(c)
         self.state_panel = QtStatePanel(c)
+        self.alerts_panel = QtAlertsPanel(c)
         self.teleop_panel = QtTeleopPanel(c)
         self.task_panel = QtTaskPanel(c)
         self.tablet_panel = QtTabletPanel(c)
@@ -88,6 +94,7 @@ class MainWindow(QMainWindow):
             TAB_NAMES,
             (
                 self.state_panel,
+                self.alerts_panel,
                 self.teleop_panel,
                 self.task_panel,
                 self.tablet_panel,
@@ -161,8 +168,11 @@ class MainWindow(QMainWindow):
         self.quit_action = QAction("Quit", self)
         self.quit_action.setShortcut(QKeySequence.StandardKey.Quit)
         self.quit_action.triggered.connect(self.close)
+        self.alerts_action = QAction("No alerts", self)
+        self.alerts_action.triggered.connect(lambda: self.tabs.setCurrentWidget(self.alerts_panel))
         for action in (
             self.estop_action,
+            self.alerts_action,
             self.release_action,
             self.pause_action,
             self.resume_action,
@@ -178,6 +188,18 @@ class MainWindow(QMainWindow):
         self.estop_button.setToolTip("Emergency stop (F12): latches until released here")
         self.estop_button.setStyleSheet(ESTOP_STYLE)
         self.estop_button.setMinimumSize(ESTOP_MIN_W, ESTOP_MIN_H)
+        self.alerts_badge = bar.widgetForAction(self.alerts_action)
+        self.alerts_badge.setObjectName("alerts_badge")
+        c.alert_raised.connect(lambda _alert: self.update_alert_badge())
+        c.clocked.connect(self.update_alert_badge)
+
+    def update_alert_badge(self) -> None:
+        """ "3 alerts" in red while any is unacknowledged; a click shows the list."""
+        count = len(self.controller.alerts.unacknowledged)
+        text = "No alerts" if count == 0 else f"{count} alert{'s' if count > 1 else ''}"
+        if self.alerts_action.text() != text:
+            self.alerts_action.setText(text)
+            self.alerts_badge.setStyleSheet(ALERT_BADGE_STYLE if count else "")
 
     def fit_camera(self, aspect: float | None = None) -> None:
         """Give the camera pane the image's shape (at most 45 % of the height), map the rest."""

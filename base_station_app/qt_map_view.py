@@ -159,7 +159,7 @@ class QtMapView(pg.PlotWidget):
 
     def _create_legend(self, plot: pg.PlotItem) -> None:
         """What each mark means, in the corner: robot, scan, planned path, goals, tour."""
-        legend = plot.addLegend(offset=(8, 8), labelTextSize="9pt", brush=(255, 255, 255, 210))
+        legend = plot.addLegend(offset=(-8, -8), labelTextSize="9pt", brush=(255, 255, 255, 210))
         legend.addItem(pg.PlotDataItem(pen=pg.mkPen((0, 140, 0), width=3)), "robot (localised)")
         legend.addItem(pg.PlotDataItem(pen=pg.mkPen((200, 120, 0), width=3)), "robot (lost)")
         legend.addItem(

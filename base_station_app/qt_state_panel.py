@@ -27,6 +27,7 @@ from base_station_app.display_text import (
 )
 from base_station_app.qt_speedometer import QtSpeedometer
 from base_station_app.station_controller import StationController
+from interbot_core.safety_text import describe_safety
 
 LEVEL_COLOURS = {
     "info": QColor(20, 20, 20),
@@ -64,6 +65,7 @@ class QtStatePanel(QWidget):
             ("localisation", "Localisation"),
             ("battery", "Battery"),
             ("mux", "Velocity source"),
+            ("monitor", "Collision monitor"),
             ("estop", "Emergency stop"),
             ("task", "Current task"),
             ("distance", "Distance to next goal"),
@@ -117,6 +119,10 @@ class QtStatePanel(QWidget):
         if s.mux is not None:
             locks = ", ".join(s.mux.active_locks) or "no locks"
             L["mux"].setText(f"{s.mux.source or 'none (zero)'}; {locks}")
+        if s.safety is not None:
+            said = describe_safety(s.safety.zone, s.safety.distance)
+            assisted = ", ".join(s.safety.assisted) or "none"
+            L["monitor"].setText(f"{said.text}; assisted: {assisted}")
 
     def refresh_task(self) -> None:
         c = self._controller

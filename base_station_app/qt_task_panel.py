@@ -101,12 +101,17 @@ class QtTaskPanel(QWidget):
         self.remove_button = QPushButton("Remove")
         self.cancel_button = QPushButton("Cancel current")
         self.clear_button = QPushButton("Clear queue")
+        self.resume_queue_button = QPushButton("Resume queue")
+        self.resume_queue_button.setToolTip(
+            "After an emergency stop, waiting tasks start only when you resume the queue"
+        )
         for b in (
             self.up_button,
             self.down_button,
             self.remove_button,
             self.cancel_button,
             self.clear_button,
+            self.resume_queue_button,
         ):
             column.addWidget(b)
         column.addStretch(1)
@@ -137,6 +142,9 @@ class QtTaskPanel(QWidget):
         plo.addWidget(self.initial_pick_button)
         plo.addWidget(self.initial_room, 1)
         plo.addWidget(self.initial_room_button)
+        self.relocalise_button = QPushButton("Relocalise")
+        self.relocalise_button.setToolTip("Let the robot find itself on the whole map")
+        plo.addWidget(self.relocalise_button)
         layout.addWidget(pose)
 
         c = controller
@@ -148,13 +156,15 @@ class QtTaskPanel(QWidget):
         self.initial_room_button.clicked.connect(
             lambda: c.set_initial_pose_room(int(self.initial_room.currentData()))
         )
+        self.relocalise_button.clicked.connect(c.relocalise)
         self.deliver_button.clicked.connect(self._deliver)
         self.request_button.clicked.connect(self._deliver)
         self.up_button.clicked.connect(lambda: self._move(-1))
         self.down_button.clicked.connect(lambda: self._move(+1))
         self.remove_button.clicked.connect(self._remove)
-        self.cancel_button.clicked.connect(c.cancel_task)
+        self.cancel_button.clicked.connect(lambda: c.cancel_task())
         self.clear_button.clicked.connect(c.clear_queue)
+        self.resume_queue_button.clicked.connect(c.resume_queue)
         self.tour_resume_button.clicked.connect(c.tour_resume)
         self.tour_end_button.clicked.connect(c.tour_end)
         self.accept_button.clicked.connect(lambda: c.answer_request(True))
@@ -226,3 +236,4 @@ class QtTaskPanel(QWidget):
         self.accept_button.setEnabled(waiting)
         self.decline_button.setEnabled(waiting)
         self.cancel_button.setEnabled(sup.current_task is not None)
+        self.resume_queue_button.setEnabled(sup.held and not self._controller.estop_latched)

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from PySide6.QtCore import QSignalBlocker
 from PySide6.QtWidgets import (
+    QCheckBox,
     QDoubleSpinBox,
     QFormLayout,
     QGridLayout,
@@ -25,6 +27,7 @@ from PySide6.QtWidgets import (
 from base_station_app.station_config import RANGES
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
+from interbot_core.safety_text import describe_safety
 from interbot_qt.qt_joystick import QtJoystick
 
 _PAD = (
@@ -94,6 +97,18 @@ class QtTeleopPanel(QWidget):
         form.addRow("angular", self.angular_max)
         layout.addWidget(limits)
 
+        # Issue 17: assisted driving (robot-side) and what the collision monitor is doing.
+        self.assist_check = QCheckBox("Assisted driving (slide along walls, through doors)")
+        self.assist_check.setChecked(controller.station_assist)
+        self.monitor_label = QLabel("Collision monitor: no report")
+        self.monitor_label.setWordWrap(True)
+        self.monitor_label.setToolTip(
+            "The robot's collision monitor on the laser: NOT a certified safety system. "
+            "The emergency stop is."
+        )
+        layout.addWidget(self.assist_check)
+        layout.addWidget(self.monitor_label)
+
         self.estop_button.clicked.connect(controller.emergency_stop)
         self.release_button.clicked.connect(controller.release_stop)
         self.pause_button.clicked.connect(controller.pause)
@@ -103,6 +118,9 @@ class QtTeleopPanel(QWidget):
         self.linear_max.editingFinished.connect(self._apply_limits)
         self.angular_max.editingFinished.connect(self._apply_limits)
         controller.estop_changed.connect(self._on_estop)
+        self.assist_check.toggled.connect(controller.set_station_assist)
+        controller.assist_changed.connect(self._on_assist)
+        controller.frame_ready.connect(self._on_frame)
         controller.config_changed.connect(self._on_config)
         self._on_estop(controller.estop_latched)
 
@@ -139,6 +157,19 @@ class QtTeleopPanel(QWidget):
             spin.setValue(value)
             spin.blockSignals(False)
         self.joystick.set_limits(c.teleop_linear_max, c.teleop_angular_max)
+
+    def _on_assist(self, enabled: bool) -> None:
+        with QSignalBlocker(self.assist_check):
+            self.assist_check.setChecked(enabled)
+
+    def _on_frame(self) -> None:
+        safety = self._controller.state.safety
+        if safety is None:
+            return
+        said = describe_safety(safety.zone, safety.distance)
+        self.monitor_label.setText(f"Collision monitor: {said.text}")
+        colour = {"info": "#060", "warning": "#a60", "error": "#c00"}[said.level]
+        self.monitor_label.setStyleSheet(f"color: {colour}; font-weight: bold;")
 
     def _on_estop(self, latched: bool) -> None:
         self.release_button.setEnabled(latched)

@@ -25,6 +25,7 @@ from interbot_core.topics import (
     PlanMsg,
     PoseMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     Topic,
     Twist,
@@ -60,6 +61,7 @@ class RobotState:
         self.mux: MuxMsg | None = None
         self.progress: RouteProgress | None = None
         self.status: Status | None = None
+        self.safety: SafetyMsg | None = None  # collision monitor (issue 17)
         self.plan: PlanMsg | None = None
         self.poses.clear()
         self.version = 0
@@ -84,7 +86,10 @@ class RobotState:
     @property
     def estop_engaged(self) -> bool | None:
         """The robot's report: True when its mux has the stop lock active (None: no report)."""
-        return None if self.mux is None else "stop" in self.mux.active_locks
+        if self.mux is None:
+            return None
+        # Lock *names* are reported ("Emergency Stop" in interbot_mux.yaml, "stop" elsewhere).
+        return any("stop" in name.lower() for name in self.mux.active_locks)
 
     def apply(self, topic: Topic, message: object) -> None:
         """Store one decoded message of ``topic``."""
@@ -114,6 +119,8 @@ class RobotState:
             self.progress = message
         elif topic is Topic.STATUS and isinstance(message, Status):
             self.status = message
+        elif topic is Topic.SAFETY and isinstance(message, SafetyMsg):
+            self.safety = message
         elif topic is Topic.PLAN and isinstance(message, PlanMsg):
             self.plan = message
         else:

@@ -29,13 +29,15 @@ RANGES: Final[Mapping[str, tuple[float, float, str]]] = {
     "approach_tolerance": (0.05, 5.0, "m"),
     "goal_tolerance": (0.02, 2.0, "m"),
     "yaw_tolerance": (0.02, math.pi, "rad"),
-    "teleop_linear_max": (0.05, 1.5, "m/s"),
-    "teleop_angular_max": (0.1, 3.0, "rad/s"),
-    "planner_linear_max": (0.05, 1.5, "m/s"),
-    "planner_angular_max": (0.1, 3.0, "rad/s"),
-    "latency_ceiling": (0.05, 10.0, "s"),
+    "teleop_linear_max": (0.05, 0.5, "m/s"),
+    "teleop_angular_max": (0.1, 1.5, "rad/s"),
+    "planner_linear_max": (0.05, 0.5, "m/s"),
+    "planner_angular_max": (0.1, 1.5, "rad/s"),
+    "latency_ceiling": (0.05, 1.0, "s"),
 }
-"""Allowed closed range and unit of every field."""
+"""Allowed closed range and unit of every field. The speed ranges stay within the robot's own
+per-source limits (resources/config/interbot_mux.yaml: the station may offer less, never more);
+a tablet command is never older than 1 s when it drives (issue 11)."""
 
 
 @dataclass(frozen=True)
@@ -47,7 +49,7 @@ class StationConfig:
     yaw_tolerance: float = 0.25  # [rad] final goal heading
     teleop_linear_max: float = 0.4  # [m/s] keyboard, arrow pad and mouse joystick
     teleop_angular_max: float = 0.8  # [rad/s]
-    planner_linear_max: float = 0.5  # [m/s] sent to the robot's planner
+    planner_linear_max: float = 0.25  # [m/s] sent to the robot's planner (its default, Table 6.3)
     planner_angular_max: float = 1.0  # [rad/s]
     latency_ceiling: float = 0.5  # [s] tablet speed commands older than this are discarded
 

@@ -15,6 +15,18 @@ decoder. Beyond the thesis:
 * ``ping`` is answered with ``pong``, and the station pings the tablet every second: the round
   trip of each ``pong`` is the latency shown to the operator.
 
+Bounded work and memory (issue 11), whatever one client sends:
+
+* reads of at most ``MAX_READ_BYTES`` per event-loop turn (the rest next turn; Qt's read buffer
+  is bounded, so a faster sender is held back by TCP), and `TabletInputPolicy` on every object:
+  a per-turn cap and a per-second rate, the rest dropped with an error to the client (the
+  ``stop`` always passes); the station's own e-stop button stays responsive under any input;
+* of the speed commands of one turn only the newest is passed on (a burst after a stall is not
+  replayed);
+* a greeted tablet that answers no ``ping`` for ``pong_timeout_s`` is disconnected, and TCP
+  keepalive (idle 5 s, 3 probes 2 s apart) frees the slot from a peer that vanished without a
+  FIN; a client that does not read is disconnected once ``MAX_OUTPUT_BYTES`` are queued for it.
+
 Framing and validation are the pure `interbot_core.protocol` functions; this object only moves
 bytes (`interbot_qt.qt_tcp_connection.QtTcpConnection`: one write per message, TCP_NODELAY).
 """
@@ -22,6 +34,7 @@ bytes (`interbot_qt.qt_tcp_connection.QtTcpConnection`: one write per message, T
 from __future__ import annotations
 
 import logging
+import socket as pysocket
 from collections.abc import Callable
 
 from PySide6.QtCore import QObject, QTimer, Signal
@@ -40,13 +53,36 @@ from interbot_core.protocol import (
     ProtocolError,
     ProtocolLimits,
     Refused,
+    Speed,
     Welcome,
     decode_tablet_message,
     encode,
 )
+from interbot_core.tablet_input_policy import InputPolicyConfig, TabletInputPolicy
 from interbot_qt.qt_tcp_connection import QtTcpConnection
 
 logger = logging.getLogger(__name__)
+
+MAX_READ_BYTES = 2048  # per event-loop turn (~50 small messages: the per-turn cap)
+MAX_OUTPUT_BYTES = 256 * 1024  # queued for a tablet that does not read: then it is dropped
+KEEPALIVE = (5, 2, 3)  # TCP_KEEPIDLE [s], TCP_KEEPINTVL [s], TCP_KEEPCNT
+
+
+def enable_keepalive(socket: QTcpSocket, idle_s: int, interval_s: int, count: int) -> None:
+    """TCP keepalive with short timers (Linux), so a vanished peer frees its slot in seconds."""
+    socket.setSocketOption(QAbstractSocket.SocketOption.KeepAliveOption, 1)
+    fd = int(socket.socketDescriptor())
+    if fd < 0 or not hasattr(pysocket, "TCP_KEEPIDLE"):
+        return
+    # fromfd() duplicates the descriptor: the options apply to the connection, and closing the
+    # duplicate leaves Qt's descriptor open.
+    with pysocket.fromfd(fd, pysocket.AF_INET, pysocket.SOCK_STREAM) as dup:
+        try:
+            dup.setsockopt(pysocket.IPPROTO_TCP, pysocket.TCP_KEEPIDLE, idle_s)
+            dup.setsockopt(pysocket.IPPROTO_TCP, pysocket.TCP_KEEPINTVL, interval_s)
+            dup.setsockopt(pysocket.IPPROTO_TCP, pysocket.TCP_KEEPCNT, count)
+        except OSError as exc:  # pragma: no cover - platform without these options
+            logger.warning("cannot tune TCP keepalive: %s", exc)
 
 
 class TabletServer(QObject):
@@ -75,6 +111,8 @@ class TabletServer(QObject):
         ping_interval_ms: int = 1000,
         error_budget: ErrorBudget | None = None,
         server: QTcpServer | None = None,
+        input_policy: InputPolicyConfig | None = None,
+        pong_timeout_s: float | None = None,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)
@@ -96,6 +134,13 @@ class TabletServer(QObject):
         self._ping_timer = QTimer(self)
         self._ping_timer.setInterval(ping_interval_ms)
         self._ping_timer.timeout.connect(self.ping)
+        self.policy = TabletInputPolicy(input_policy)
+        # [s] a greeted tablet silent to pings this long is gone (default: 5 pings, >= 3 s)
+        self.pong_timeout_s = (
+            pong_timeout_s if pong_timeout_s is not None else max(3.0, 5 * ping_interval_ms / 1000)
+        )
+        self._last_pong = 0.0
+        self._newest_speed: Speed | None = None
 
     # ------------------------------------------------------------------ state
     @property
@@ -145,12 +190,36 @@ class TabletServer(QObject):
         """Send one message to the connected tablet; False when none is connected."""
         if self._conn is None:
             return False
-        return self._conn.send(msg)
+        ok = self._conn.send(msg)
+        if self._conn.socket.bytesToWrite() > MAX_OUTPUT_BYTES:
+            self._drop_slow_reader()
+            return False
+        return ok
+
+    def _drop_slow_reader(self) -> None:
+        conn = self._conn
+        if conn is None:
+            return
+        queued = conn.socket.bytesToWrite()
+        logger.warning(
+            "tablet %s does not read (%d bytes queued): disconnecting", self._peer, queued
+        )
+        self.protocol_error.emit(f"tablet does not read ({queued} bytes queued): disconnected")
+        conn.abort()  # disconnected() follows and frees the slot
 
     def ping(self) -> None:
-        if self.is_connected:
-            self._ping_seq += 1
-            self.send(Ping(self._ping_seq, self._clock()))
+        if not self.is_connected:
+            return
+        now = self._clock()
+        if self._greeted and now - self._last_pong > self.pong_timeout_s:
+            why = f"no pong for {now - self._last_pong:.1f} s"
+            logger.warning("tablet %s: %s; disconnecting", self._peer, why)
+            self.protocol_error.emit(f"tablet gone: {why}")
+            if self._conn is not None:
+                self._conn.abort()
+            return
+        self._ping_seq += 1
+        self.send(Ping(self._ping_seq, now))
 
     def disconnect_tablet(self, reason: str = "") -> None:
         """Close the tablet's connection (after flushing what was written)."""
@@ -179,12 +248,17 @@ class TabletServer(QObject):
         self.refused.emit(peer, reason)
 
     def _accept(self, socket: QTcpSocket, peer: str) -> None:
-        conn = QtTcpConnection(socket, parent=self)
+        enable_keepalive(socket, *KEEPALIVE)
+        conn = QtTcpConnection(socket, parent=self, max_read_bytes=MAX_READ_BYTES)
         self._conn = conn
         self._peer = peer
         self._greeted = False
         self._budget.reset()
+        self.policy.reset()
+        self._newest_speed = None
+        self._last_pong = self._clock()
         conn.object_received.connect(self._on_object)
+        conn.batch_finished.connect(self._on_batch_finished)
         conn.frame_error.connect(self._on_frame_error)
         conn.disconnected.connect(self._on_disconnected)
         self._ping_timer.start()
@@ -215,21 +289,39 @@ class TabletServer(QObject):
         self._report(error)
 
     def _on_object(self, obj: object) -> None:
+        if self.sender() is not self._conn:
+            return  # a turn still running for a connection that was just dropped
+        if not self.policy.admit(obj, self._clock()):
+            return
         try:
             msg = decode_tablet_message(obj, self.limits)
         except ProtocolError as exc:
             self._report(exc)
             return
-        if isinstance(msg, Hello):
+        if isinstance(msg, Speed):
+            self._newest_speed = msg  # only the newest of a turn is passed on
+        elif isinstance(msg, Hello):
             self._on_hello(msg)
         elif isinstance(msg, Pong):
-            self.latency_measured.emit(max(0.0, msg.round_trip(self._clock())))
+            self._last_pong = self._clock()
+            self.latency_measured.emit(max(0.0, msg.round_trip(self._last_pong)))
         elif isinstance(msg, Ping):
             self.send(msg.pong())
         elif isinstance(msg, ErrorReport):
             self.protocol_error.emit(f"tablet reports {msg.code}: {msg.message}")
         else:
             self.message_received.emit(msg)
+
+    def _on_batch_finished(self) -> None:
+        if self.sender() is not self._conn:
+            return
+        speed, self._newest_speed = self._newest_speed, None
+        if speed is not None:
+            self.message_received.emit(speed)
+        error = self.policy.end_turn(self._clock())
+        if error is not None and self._conn is not None:
+            logger.warning("tablet %s: %s", self._peer, error)
+            self.send(ErrorReport("rate_limited", error))
 
     def _on_hello(self, hello: Hello) -> None:
         if hello.protocol != PROTOCOL_VERSION:

@@ -21,8 +21,8 @@ with the station's Qt thread and distort both figures; the real system runs them
 machines. The daemon publishes the mux output in the same loop pass that computes it, so the
 topic adds only one loopback zenoh hop (~0.2 ms, FIELD_NOTES) to the moment it changed.
 
-The station forwards a fresh, permitted tablet speed on arrival (and its 100 ms clock()
-republishes it while the watchdog keeps it fresh, thesis §5.3.6); the daemon wakes on a command
+The station forwards a fresh, permitted tablet speed once, on arrival (never re-stamped; its
+single-shot watchdog sends one zero after a ceiling of silence, issue 11); the daemon wakes on a command
 and sends the mux output to the motors at once instead of at its next 20 ms pass. The station is
 subclassed to timestamp the message's arrival, which splits each sample into ``tcp_to_station``
 (socket -> the station's Qt event loop) + ``station_to_mux`` (station -> zenoh -> daemon -> mux

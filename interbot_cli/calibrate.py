@@ -14,6 +14,7 @@ the corrected parameters, and both runs are printed as thesis Tables 6.1/6.2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import math
@@ -36,6 +37,8 @@ from robot_daemon.calibration import (
 )
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.safety.motion_guard import default_guard_config
 from robot_daemon.sim.diff_drive import DiffDriveConfig
 from robot_daemon.sim.odometry_model import OdometryConfigError, OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
@@ -124,8 +127,18 @@ class SimulatedRobot:
         self.backend = SimBackend(self.sim, scan_rate_hz=10.0, camera_rate_hz=0.0)
         # Pure scan matching (as the thesis's Hector SLAM, no odometry fusion) and a fixed map,
         # so the reference does not inherit the odometry's error.
-        localiser = LocaliserConfig(odom_blend=False, map_update=False)
-        self.config = StackConfig(localiser=localiser)
+        # This simulated robot's world is the grid itself, whose walls lie on cell faces: the
+        # reference matcher uses that wall model (the daemon's default, cell centres, suits maps
+        # built from laser end points and would bias this reference by half a cell).
+        localiser = LocaliserConfig(
+            odom_blend=False, map_update=False, matcher=ScanMatcherConfig(surface="cell_face")
+        )
+        # The routine backs up along its straight section; the collision monitor caps blind
+        # reversing (nothing behind a 270-degree laser) and would change the very speed the
+        # calibration measures against. This robot is simulated only, so the monitor is off.
+        guard = default_guard_config()
+        guard = guard.replace(monitor=dataclasses.replace(guard.monitor, enabled=False))
+        self.config = StackConfig(localiser=localiser, motion_guard=guard)
         self.stack = RobotStack(self.grid, self.backend, self.config)
         self._mount_inv = self.config.laser_mount.inverse()
         self.stack.set_initial_pose(self.start, 0.0)

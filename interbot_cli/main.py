@@ -36,11 +36,20 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_arguments(p_demo)
 
     p_scn = sub.add_parser("scenario", help="run a thesis test scenario headless on simulated time")
-    p_scn.add_argument("name", help="odometry | tour | mission | latency")
+    p_scn.add_argument("name", help="odometry | tour | mission | latency | kidnap")
     p_scn.add_argument("--map", dest="map_yaml", help="map_server YAML (default: ISR floor 0)")
     p_scn.add_argument("--topo", help="topological map YAML")
     p_scn.add_argument("--seed", type=int, default=1)
+    p_scn.add_argument(
+        "--ideal-world",
+        action="store_true",
+        help="simulate in the map itself, initial pose exact (best case; default: a simulated "
+        "building that differs from the map)",
+    )
     p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
+    p_scn.add_argument(
+        "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
+    )
     p_scn.add_argument(
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
     )

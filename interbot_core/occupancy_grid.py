@@ -168,12 +168,21 @@ def read_pgm(path: str | Path) -> npt.NDArray[np.uint8]:
     if magic not in (b"P5", b"P2") or width <= 0 or height <= 0 or not 0 < maxval <= 255:
         raise MapLoadError(f"{path}: only 8-bit P5/P2 PGM images are supported")
     if magic == b"P5":
-        body = data[pos + 1 : pos + 1 + width * height]
+        body = data[pos + 1 :]
+        if len(body) != width * height:
+            raise MapLoadError(
+                f"{path}: image data is {len(body)} bytes but the header says "
+                f"{width}x{height} = {width * height}"
+            )
         pixels = np.frombuffer(body, dtype=np.uint8)
     else:
-        pixels = np.array(data[pos:].split()[: width * height], dtype=np.uint8)
-    if pixels.size != width * height:
-        raise MapLoadError(f"{path}: image data shorter than {width}x{height}")
+        values = data[pos:].split()
+        if len(values) != width * height:
+            raise MapLoadError(
+                f"{path}: image has {len(values)} values but the header says "
+                f"{width}x{height} = {width * height}"
+            )
+        pixels = np.array(values, dtype=np.uint8)
     image = pixels.reshape(height, width)
     if maxval != 255:
         image = (image.astype(np.uint16) * 255 // maxval).astype(np.uint8)

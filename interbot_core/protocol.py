@@ -363,25 +363,48 @@ class Message:
 
 @dataclass(frozen=True)
 class Speed(Message):
-    """Joystick command: ``{"speed": {"linear": 0.3, "angular": -0.5}}`` [m/s], [rad/s]."""
+    """Joystick command: ``{"speed": {"linear": 0.3, "angular": -0.5}}`` [m/s], [rad/s].
+
+    Optional (issue 11; a thesis-era tablet sends neither): ``seq``, a counter that grows with
+    each command, and ``t``, the tablet's monotonic clock [s] when it sent the command. The
+    station drops a command that arrives out of order or later than its latency ceiling.
+    """
 
     KEY: ClassVar[str] = "speed"
     linear: float  # [m/s]
     angular: float  # [rad/s]
+    seq: int | None = None
+    t: float | None = None  # [s] tablet clock
 
     def __post_init__(self) -> None:
         _check_plain(self.linear, "speed.linear", float)
         _check_plain(self.angular, "speed.angular", float)
+        if self.seq is not None:
+            _check_plain(self.seq, "speed.seq", int)
+        if self.t is not None:
+            _check_plain(self.t, "speed.t", float)
 
     def to_json(self) -> JsonObject:
-        return {self.KEY: {"linear": float(self.linear), "angular": float(self.angular)}}
+        body: dict[str, object] = {"linear": float(self.linear), "angular": float(self.angular)}
+        if self.seq is not None:
+            body["seq"] = self.seq
+        if self.t is not None:
+            body["t"] = float(self.t)
+        return {self.KEY: body}
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "speed", ("linear", "angular"))
+        keys = (
+            "linear",
+            "angular",
+            *tuple(k for k in ("seq", "t") if isinstance(body, dict) and k in body),
+        )
+        obj = _object(body, "speed", keys)
         return cls(
             _bounded_float(obj["linear"], "speed.linear", limits.max_linear, "m/s"),
             _bounded_float(obj["angular"], "speed.angular", limits.max_angular, "rad/s"),
+            _int(obj["seq"], "speed.seq", 0, MAX_SEQ) if "seq" in obj else None,
+            _float(obj["t"], "speed.t", " [s]") if "t" in obj else None,
         )
 
 
@@ -1012,6 +1035,45 @@ class StatusInfo(Message):
         )
 
 
+SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
+MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near"
+
+
+@dataclass(frozen=True)
+class SafetyInfo(Message):
+    """The robot's collision monitor for the person at the joystick (issue 17):
+    ``{"safety": {"zone": "stop", "distance": 0.04, "assisted": true}}`` — the most restrictive
+    active zone, the distance [m] from the robot's outline to the nearest laser return
+    (1000 = nothing near) and whether the robot assists the tablet's driving."""
+
+    KEY: ClassVar[str] = "safety"
+    zone: str
+    distance: float
+    assisted: bool
+
+    def __post_init__(self) -> None:
+        _choice(self.zone, "safety.zone", SAFETY_ZONES)
+        distance = _float(self.distance, "safety.distance", " [m]")
+        if not 0.0 <= distance <= MAX_SAFETY_DISTANCE:
+            raise OutOfRange(
+                f"safety.distance = {distance:g} m is outside [0, {MAX_SAFETY_DISTANCE:g}] m",
+                "safety.distance",
+            )
+        _bool(self.assisted, "safety.assisted")
+
+    def to_json(self) -> JsonObject:
+        return {self.KEY: {"zone": self.zone, "distance": self.distance, "assisted": self.assisted}}
+
+    @classmethod
+    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
+        obj = _object(body, "safety", ("zone", "distance", "assisted"))
+        return cls(
+            _choice(obj["zone"], "safety.zone", SAFETY_ZONES),
+            _float(obj["distance"], "safety.distance", " [m]"),
+            _bool(obj["assisted"], "safety.assisted"),
+        )
+
+
 # --------------------------------------------------------------------------------------------
 # Decoding and encoding
 # --------------------------------------------------------------------------------------------
@@ -1047,6 +1109,7 @@ StationMessage = (
     | Permissions
     | Localisation
     | StatusInfo
+    | SafetyInfo
     | Ping
     | Pong
     | ErrorReport
@@ -1083,6 +1146,7 @@ STATION_MESSAGES: Final[Mapping[str, Callable[[object, ProtocolLimits], StationM
     Permissions.KEY: Permissions.from_json,
     Localisation.KEY: Localisation.from_json,
     StatusInfo.KEY: StatusInfo.from_json,
+    SafetyInfo.KEY: SafetyInfo.from_json,
     Ping.KEY: Ping.from_json,
     Pong.KEY: Pong.from_json,
     ErrorReport.KEY: ErrorReport.from_json,

@@ -236,6 +236,7 @@ class SupervisorState(enum.StrEnum):
     PAUSED = "paused"  # navigating, but the pause lock is on
     AT_TOUR_STOP = "at_tour_stop"
     AWAITING_RESPONSE = "awaiting_response"
+    QUEUE_HELD = "queue_held"  # after an emergency stop: waiting tasks wait for the operator
 
 
 class _Phase(enum.Enum):
@@ -264,6 +265,7 @@ class Supervisor:
         self.config = config if config is not None else SupervisorConfig()
         self._queue: list[Task] = []
         self._paused = False
+        self._held = False
         self._pose: Pose2D | None = None
         self._localized = False
         self._reset_task()
@@ -289,6 +291,8 @@ class Supervisor:
     @property
     def state(self) -> SupervisorState:
         if self._task is None:
+            if self._queue and self._held:
+                return SupervisorState.QUEUE_HELD
             if self._queue and not self._localized:
                 return SupervisorState.WAITING_FOR_POSE
             return SupervisorState.IDLE
@@ -308,6 +312,11 @@ class Supervisor:
     @property
     def paused(self) -> bool:
         return self._paused
+
+    @property
+    def held(self) -> bool:
+        """True while waiting tasks may not start (after an emergency stop)."""
+        return self._held
 
     @property
     def pose(self) -> Pose2D | None:
@@ -383,6 +392,19 @@ class Supervisor:
             return []
         self._paused = False
         return [PauseNavigation(False)]
+
+    def hold_queue(self) -> list[Event]:
+        """Start no waiting task until `release_queue` (the operator's "Resume queue")."""
+        if self._held:
+            return []
+        self._held = True
+        return [QueueChanged(self.queue)]
+
+    def release_queue(self) -> list[Event]:
+        if not self._held:
+            return []
+        self._held = False
+        return [QueueChanged(self.queue)]
 
     def cancel(self) -> list[Event]:
         """Abort the current task (the queue is untouched; the next task starts on update)."""
@@ -481,7 +503,7 @@ class Supervisor:
         # may start at once; each pass either leaves a task running or consumes one from the queue.
         for _ in range(len(self._queue) + 1):
             if self._task is None:
-                if not self._queue or pose is None:
+                if not self._queue or pose is None or self._held:
                     break
                 self._start_next(pose, events)
             if self._phase is _Phase.NEED_ROUTE and pose is not None:

@@ -50,6 +50,7 @@ MAX_LIST_LENGTH: Final = 1024
 """Most waypoints in a route, locks in a mux report, parameters in a config message."""
 MAX_TEXT: Final = 1024
 """Longest free-text field [characters]."""
+ROUTE_ID_MAX: Final = 2**63 - 1  # route ids are random 63-bit numbers (unique across restarts)
 MAX_COORD: Final = 1.0e6  # [m] bound on map coordinates
 MAX_LINEAR: Final = 5.0  # [m/s] bound on any linear velocity on the wire
 MAX_ANGULAR: Final = 2.0 * math.pi  # [rad/s]
@@ -94,7 +95,9 @@ class Topic(enum.StrEnum):
     ROUTE_CANCEL = "route_cancel"
     GOAL = "goal"
     INITIAL_POSE = "initial_pose"
+    RELOCALISE = "relocalise"
     CONFIG = "config"
+    TELEOP_ASSIST = "teleop_assist"
     # State, robot -> Base Station.
     CMD_VEL = "cmd_vel"
     POSE = "pose"
@@ -107,6 +110,7 @@ class Topic(enum.StrEnum):
     STATUS = "status"
     MUX = "mux"
     PLAN = "plan"
+    SAFETY = "safety"
 
 
 def validate_robot_id(robot_id: str) -> str:
@@ -358,7 +362,7 @@ class RouteMsg(JsonMessage):
         return value
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         wps = self.waypoints
         if not isinstance(wps, tuple) or not 1 <= len(wps) <= MAX_LIST_LENGTH:
             raise _fail(type(self), "waypoints", f"must hold 1..{MAX_LIST_LENGTH} waypoints")
@@ -401,7 +405,7 @@ class RouteCancel(JsonMessage):
 
     def __post_init__(self) -> None:
         if self.route_id is not None:
-            _check_int(self, "route_id", 0, 2**53)
+            _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_text(self, "reason")
         _check_stamp(self)
 
@@ -421,7 +425,7 @@ class RouteProgress(JsonMessage):
     stamp: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**53)
+        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
         _check_int(self, "index", 0, MAX_LIST_LENGTH)
         _check_bool(self, "reached_final")
         _check_text(self, "state", ROUTE_STATES)
@@ -448,15 +452,30 @@ class GoalMsg(JsonMessage):
 
 @dataclass(frozen=True)
 class InitialPose(JsonMessage):
-    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!")."""
+    """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!").
+
+    ``verify``: the pose is only a hint (a room picked by a person): the robot searches around
+    it and applies it only if the laser confirms it."""
 
     x: float
     y: float
     yaw: float
     stamp: float = 0.0
+    verify: bool = False
 
     def __post_init__(self) -> None:
         _check_xy_yaw(self)
+        _check_stamp(self)
+        _check_bool(self, "verify")
+
+
+@dataclass(frozen=True)
+class Relocalise(JsonMessage):
+    """Ask the robot to find itself on the whole map (global localisation, issue 16)."""
+
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
         _check_stamp(self)
 
 
@@ -593,6 +612,59 @@ class PlanMsg(JsonMessage):
         _check_stamp(self)
 
 
+TELEOP_INPUT_TOPICS: Final = ("station_vel", "tablet_vel")
+SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
+MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near" is sent as this (JSON has no inf)
+
+
+@dataclass(frozen=True)
+class AssistMsg(JsonMessage):
+    """Assisted teleoperation on/off for one joystick input (``station_vel`` / ``tablet_vel``)."""
+
+    input: str
+    enabled: bool
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_text(self, "input", TELEOP_INPUT_TOPICS)
+        _check_bool(self, "enabled")
+        _check_stamp(self)
+
+
+@dataclass(frozen=True)
+class SafetyMsg(JsonMessage):
+    """The collision monitor's state for the person driving (issue 17; NOT a certified safety
+    function): the most restrictive active ``zone`` and its name, the distance [m] from the
+    footprint to the nearest laser return and the time to contact [s] along the commanded arc
+    (``MAX_SAFETY_DISTANCE`` when none), the share of the commanded speed let through, the
+    inputs with assisted teleoperation on, and what the assistance did last."""
+
+    zone: str
+    zone_name: str = ""
+    distance: float = MAX_SAFETY_DISTANCE
+    time_to_contact: float = MAX_SAFETY_DISTANCE
+    scale: float = 1.0
+    assisted: tuple[str, ...] = ()
+    assist_mode: str = "idle"
+    stamp: float = 0.0
+
+    @classmethod
+    def _convert(cls, name: str, value: Any) -> Any:
+        return tuple(value) if name == "assisted" and isinstance(value, list) else value
+
+    def __post_init__(self) -> None:
+        _check_text(self, "zone", SAFETY_ZONES)
+        _check_text(self, "zone_name")
+        _check_float(self, "distance", 0.0, MAX_SAFETY_DISTANCE)
+        _check_float(self, "time_to_contact", 0.0, MAX_SAFETY_DISTANCE)
+        _check_float(self, "scale", 0.0, 1.0)
+        assisted = self.assisted
+        if not isinstance(assisted, tuple) or not all(a in TELEOP_INPUT_TOPICS for a in assisted):
+            raise _fail(type(self), "assisted", f"must list some of {list(TELEOP_INPUT_TOPICS)}")
+        _check_text(self, "assist_mode", ("idle", "free", "scaled", "slid", "stopped"))
+        _check_stamp(self)
+
+
 def encode_json(message: JsonMessage) -> bytes:
     """Compact UTF-8 JSON of a message (no NaN: fields are validated finite)."""
     return json.dumps(message.to_dict(), separators=(",", ":"), allow_nan=False).encode()
@@ -600,6 +672,16 @@ def encode_json(message: JsonMessage) -> bytes:
 
 def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed")
+
+
+def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """An object whose keys are unique (``{"linear":0.1,"linear":4.9}`` is refused, as on TCP)."""
+    obj: dict[str, Any] = {}
+    for name, value in pairs:
+        if name in obj:
+            raise ValueError(f"duplicate key {name!r}")
+        obj[name] = value
+    return obj
 
 
 M = TypeVar("M", bound=JsonMessage)
@@ -611,7 +693,11 @@ def decode_json(cls: type[M], payload: bytes, topic: str = "") -> M:
     if len(payload) > MAX_JSON_BYTES:
         raise TopicDecodeError(f"{where}: payload of {len(payload)} bytes > {MAX_JSON_BYTES}")
     try:
-        data = json.loads(bytes(payload).decode("utf-8"), parse_constant=_reject_constant)
+        data = json.loads(
+            bytes(payload).decode("utf-8"),
+            parse_constant=_reject_constant,
+            object_pairs_hook=_pairs_without_duplicates,
+        )
         return cls.from_dict(data)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise TopicDecodeError(f"{where}: {exc}") from exc
@@ -856,7 +942,9 @@ _SPECS: Final = (
     TopicSpec(Topic.ROUTE_CANCEL, True, False, True, False, None, RouteCancel, "drop the route in progress"),
     TopicSpec(Topic.GOAL, True, False, True, False, None, GoalMsg, "single goal; the robot plans the route"),
     TopicSpec(Topic.INITIAL_POSE, True, False, True, False, None, InitialPose, "set the localiser's pose"),
+    TopicSpec(Topic.RELOCALISE, True, False, True, False, None, Relocalise, "find the robot on the whole map"),
     TopicSpec(Topic.CONFIG, True, False, True, False, None, ConfigMsg, "planner parameters on the fly"),
+    TopicSpec(Topic.TELEOP_ASSIST, True, False, True, False, None, AssistMsg, "assisted teleoperation on/off per joystick input"),
     TopicSpec(Topic.CMD_VEL, False, False, False, True, 20.0, Twist, "mux output sent to the motors"),
     TopicSpec(Topic.POSE, False, False, False, True, 40.0, PoseMsg, "localised pose in the map frame"),
     TopicSpec(Topic.ODOM, False, False, False, True, 20.0, Odom, "wheel odometry"),
@@ -868,6 +956,7 @@ _SPECS: Final = (
     TopicSpec(Topic.STATUS, False, False, True, False, None, Status, "status text for the UI"),
     TopicSpec(Topic.MUX, False, False, False, True, 5.0, MuxMsg, "active velocity source"),
     TopicSpec(Topic.PLAN, False, False, False, True, None, PlanMsg, "the navigator's global path"),
+    TopicSpec(Topic.SAFETY, False, False, False, True, 10.0, SafetyMsg, "collision monitor zone, distance, assistance"),
 )  # fmt: skip
 
 TOPIC_SPECS: Final[Mapping[Topic, TopicSpec]] = {s.topic: s for s in _SPECS}

@@ -24,6 +24,11 @@ What we do beyond twist_mux (see shared/FIELD_NOTES.md):
   coming back is the recovery.
 * Non-finite velocities are rejected: the message is ignored (counted in ``rejected_count``) and
   the input keeps its previous command and stamp.
+* One speed limit per source (issue 11): an input may carry ``max_linear`` [m/s] and
+  ``max_angular`` [rad/s] (our YAML extension, default unlimited). A command beyond them is
+  scaled down as a whole, ``s = min(1, max_linear/|v|, max_angular/|w|)``, so the robot keeps
+  the commanded curvature (path) and only slows down; the output's reason says so. The robot
+  enforces its limits whatever a user interface offers.
 
 Times are monotonic seconds passed in by the caller; nothing here reads a clock.
 """
@@ -94,20 +99,45 @@ def _check_text(kind: str, what: str, value: object) -> str:
     return value
 
 
+def _check_limit(name: str, key: str, value: object, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise MuxConfigError(f"input {name!r}: {key} must be a number [{unit}] > 0, got {value!r}")
+    limit = float(value)
+    if not limit > 0.0 or math.isnan(limit):
+        raise MuxConfigError(f"input {name!r}: {key} must be > 0 {unit}, got {value!r}")
+    return limit
+
+
 @dataclass(frozen=True, slots=True)
 class MuxInput:
-    """One velocity input: ``timeout`` [s] (0 = never expires), ``priority`` 1..255 (higher wins)."""
+    """One velocity input: ``timeout`` [s] (0 = never expires), ``priority`` 1..255 (higher wins),
+    speed limits ``max_linear`` [m/s] and ``max_angular`` [rad/s] (default: none)."""
 
     name: str
     topic: str
     timeout: float
     priority: int
+    max_linear: float = math.inf
+    max_angular: float = math.inf
 
     def __post_init__(self) -> None:
         _check_text("mux input", "name", self.name)
         _check_text(f"mux input {self.name!r}", "topic", self.topic)
         object.__setattr__(self, "timeout", _check_timeout("input", self.name, self.timeout))
         _check_priority("input", self.name, self.priority)
+        for key, unit in (("max_linear", "m/s"), ("max_angular", "rad/s")):
+            object.__setattr__(self, key, _check_limit(self.name, key, getattr(self, key), unit))
+
+    def limit(self, linear: float, angular: float) -> tuple[float, float, bool]:
+        """The command scaled into the limits (same curvature); True if it was scaled."""
+        scale = 1.0
+        if abs(linear) > self.max_linear:
+            scale = self.max_linear / abs(linear)
+        if abs(angular) > self.max_angular:
+            scale = min(scale, self.max_angular / abs(angular))
+        if scale >= 1.0:
+            return linear, angular, False
+        return linear * scale, angular * scale, True
 
 
 @dataclass(frozen=True, slots=True)
@@ -246,24 +276,29 @@ def _entries(raw: object, key: str, source: str) -> list[tuple[str, Mapping[str,
 
 
 _ENTRY_KEYS = {"name", "topic", "timeout", "priority", "short_desc"}
+_LIMIT_KEYS = {"max_linear", "max_angular"}  # our extension, inputs only
 
 
 def _parse_entry(
     kind: type[MuxInput] | type[MuxLock], label: str, item: Mapping[str, Any], source: str
 ) -> MuxInput | MuxLock:
-    unknown = set(item) - _ENTRY_KEYS
+    allowed = _ENTRY_KEYS | (_LIMIT_KEYS if kind is MuxInput else set())
+    unknown = set(item) - allowed
     if unknown:
         raise MuxConfigError(
             f"{source}: {label} has unknown keys {sorted(unknown)} "
-            f"(allowed: name, topic, timeout, priority)"
+            f"(allowed: {', '.join(sorted(allowed - {'short_desc'}))})"
         )
     missing = [k for k in ("topic", "timeout", "priority") if k not in item]
     if missing:
         raise MuxConfigError(f"{source}: {label} is missing {', '.join(missing)}")
     topic = item["topic"]
     name = item.get("name", topic)
+    limits = {k: item[k] for k in _LIMIT_KEYS if k in item}
     try:
-        return kind(name=name, topic=topic, timeout=item["timeout"], priority=item["priority"])
+        return kind(
+            name=name, topic=topic, timeout=item["timeout"], priority=item["priority"], **limits
+        )
     except MuxConfigError as exc:
         raise MuxConfigError(f"{source}: {label}: {exc}") from None
 
@@ -469,9 +504,11 @@ class VelocityMux:
             if entry.priority < lock_priority:
                 break  # this and every lower one are masked
             state = self._inputs[entry.topic]
-            return MuxOutput(
-                state.linear, state.angular, entry.name, f"input {entry.name}", lock_names
-            )
+            linear, angular, limited = entry.limit(state.linear, state.angular)
+            reason = f"input {entry.name}"
+            if limited:
+                reason += f" (limited to {entry.max_linear:g} m/s, {entry.max_angular:g} rad/s)"
+            return MuxOutput(linear, angular, entry.name, reason, lock_names)
         top_input = max(i.priority for i in self._config.inputs)
         if locks and (valid or lock_priority > top_input):
             top = locks[0]

@@ -25,6 +25,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     COMMAND_TOPICS,
     STATE_TOPICS,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -36,6 +37,7 @@ from interbot_core.topics import (
     PlanMsg,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
@@ -61,8 +63,22 @@ from interbot_link.session import LinkError
 logger = logging.getLogger(__name__)
 
 CommandMessage = (
-    Twist | Lock | StopRelease | RouteMsg | RouteCancel | GoalMsg | InitialPose | ConfigMsg
+    Twist
+    | Lock
+    | StopRelease
+    | RouteMsg
+    | RouteCancel
+    | GoalMsg
+    | InitialPose
+    | ConfigMsg
+    | AssistMsg
+    | Relocalise
 )
+
+PRIORITY_TOPICS = frozenset({str(Topic.STOP), str(Topic.STOP_RELEASE)})
+"""Commands on the priority lane: never queued behind other commands, never dropped for space."""
+PRIORITY_CAPACITY = 65_536
+"""Bound of the priority lane (only a broken station could fill it; then the oldest go)."""
 
 SNAPSHOT_TOPICS = frozenset(STATE_TOPICS - {Topic.SCAN, Topic.IMAGE})
 """State kept for the ``state`` query: everything but the streams (scan, image)."""
@@ -100,6 +116,7 @@ class RobotLink:
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)
         self._raw: list[tuple[str, bytes]] = []
+        self._priority: list[tuple[str, bytes]] = []  # stop / stop_release: always first
         self._capacity = queue_capacity
         self._notify = notify
         self._snapshot: dict[Topic, bytes] = {}
@@ -108,6 +125,8 @@ class RobotLink:
         """Dropped payloads per topic name: malformed, or not a command topic."""
         self.overflow = 0
         """Commands dropped because the queue was full (the daemon loop is not polling)."""
+        self.priority_overflow = 0
+        """Priority commands dropped because even the priority lane was full (never in practice)."""
         self._state_key = state_key(robot_id)
         self._publishers = {
             t: declare_publisher(session, key(robot_id, t), t) for t in STATE_TOPICS
@@ -131,10 +150,16 @@ class RobotLink:
             return
         item = (str(sample.key_expr), sample.payload.to_bytes())
         with self._cond:
-            if len(self._raw) >= self._capacity:
+            if item[0].rsplit("/", 1)[-1] in PRIORITY_TOPICS:
+                if len(self._priority) >= PRIORITY_CAPACITY:
+                    self.priority_overflow += 1
+                    del self._priority[0]
+                self._priority.append(item)
+            elif len(self._raw) >= self._capacity:
                 self.overflow += 1
                 return
-            self._raw.append(item)
+            else:
+                self._raw.append(item)
             self._cond.notify_all()
         if self._notify is not None:
             self._notify()
@@ -154,11 +179,14 @@ class RobotLink:
     def poll_commands(self) -> list[Command]:
         """Decode and return every command received since the last call, oldest first.
 
+        ``stop`` and ``stop_release`` come first (the priority lane), then the others.
+
         Malformed payloads and state topics published by someone else are dropped, counted in
         `decode_errors` and logged; they never reach the daemon.
         """
         with self._lock:
-            raw, self._raw = self._raw, []
+            raw, self._raw = self._priority + self._raw, []
+            self._priority = []
         commands: list[Command] = []
         for key_expr, payload in raw:
             try:
@@ -178,7 +206,7 @@ class RobotLink:
     def wait_commands(self, timeout: float) -> bool:
         """Block up to ``timeout`` [s] until a command is queued (for loops that can sleep)."""
         with self._cond:
-            return self._cond.wait_for(lambda: bool(self._raw), timeout)
+            return self._cond.wait_for(lambda: bool(self._raw or self._priority), timeout)
 
     def subscribed(self, topic: Topic) -> bool:
         """True if some station subscribes to state ``topic`` (skip encoding images if not)."""

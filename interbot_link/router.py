@@ -14,7 +14,6 @@ building layout uses clients.
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 from collections.abc import Sequence
@@ -24,9 +23,10 @@ import zenoh
 from interbot_link.security import LinkSecurity, check_local_endpoints
 from interbot_link.session import (
     DEFAULT_LEASE_MS,
-    KEEP_ALIVE_PER_LEASE,
     LinkConfigError,
     LinkOpenError,
+    build_config,
+    check_lease,
     validate_endpoint,
 )
 
@@ -53,25 +53,15 @@ def router_config(
         check_local_endpoints(endpoints, "interbot router")
     if security is not None and security.role != "router":
         raise LinkConfigError(f"{security.identity.name!r} is a {security.role}, not a router")
-    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
-        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
-    config = zenoh.Config()
+    check_lease(lease_ms)
     settings: dict[str, object] = {
         "mode": "router",
         "listen/endpoints": endpoints,
         "connect/endpoints": [],
         "scouting/multicast/enabled": False,
         "scouting/gossip/enabled": False,
-        "transport/link/tx/lease": lease_ms,
-        "transport/link/tx/keep_alive": KEEP_ALIVE_PER_LEASE,
-        "adminspace/enabled": False,
     }
-    if security is not None:
-        settings["transport/link/tls"] = security.tls()
-        settings["access_control"] = security.access_control()
-    for key_path, value in settings.items():
-        config.insert_json5(key_path, json.dumps(value))
-    return config
+    return build_config(settings, lease_ms, security)
 
 
 def open_router(

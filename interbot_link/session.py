@@ -132,9 +132,7 @@ def session_config(
         raise LinkConfigError("give at least one listen or connect endpoint")
     if mode == "client" and (listen or not connect):
         raise LinkConfigError("a client only connects: give connect endpoints and no listen")
-    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
-        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
-    config = zenoh.Config()
+    check_lease(lease_ms)
     settings: dict[str, object] = {
         "mode": mode,
         "listen/endpoints": listen,
@@ -147,6 +145,22 @@ def session_config(
             "period_max_ms": CONNECT_RETRY_MAX_MS,
             "period_increase_factor": 2,
         },
+    }
+    return build_config(settings, lease_ms, security)
+
+
+def check_lease(lease_ms: int) -> None:
+    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
+        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
+
+
+def build_config(
+    settings: dict[str, object], lease_ms: int, security: LinkSecurity | None
+) -> zenoh.Config:
+    """``settings`` plus what every Interbot node shares (lease, keep-alive, no admin space,
+    TLS and access control when secure) as a `zenoh.Config`."""
+    settings = {
+        **settings,
         "transport/link/tx/lease": lease_ms,
         "transport/link/tx/keep_alive": KEEP_ALIVE_PER_LEASE,
         "adminspace/enabled": False,
@@ -154,6 +168,7 @@ def session_config(
     if security is not None:
         settings["transport/link/tls"] = security.tls()
         settings["access_control"] = security.access_control()
+    config = zenoh.Config()
     for key_path, value in settings.items():
         config.insert_json5(key_path, json.dumps(value))
     return config

@@ -34,6 +34,7 @@ from interbot_core.topics import (
     GoalMsg,
     InitialPose,
     Lock,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     StopRelease,
@@ -383,6 +384,9 @@ class StationLink:
 
     def send_initial_pose(self, pose: InitialPose) -> bool:
         return self.send(Topic.INITIAL_POSE, pose)
+
+    def send_relocalise(self, request: Relocalise) -> bool:
+        return self.send(Topic.RELOCALISE, request)
 
     def send_config(self, config: ConfigMsg) -> bool:
         return self.send(Topic.CONFIG, config)

@@ -7,6 +7,11 @@ it, and `interbot_core.protocol.encode` frames each outgoing message, which is w
 ``write()`` call on a socket with ``LowDelayOption`` (TCP_NODELAY) set, so no message waits for
 Nagle + delayed ACK (FIELD_NOTES: 40-45 ms per message otherwise).
 
+Bounded work (issue 11): with ``max_read_bytes`` set, one event-loop turn reads and decodes at
+most that many bytes and schedules the rest for the next turn (so timers and clicks interleave
+with a flood), and Qt's own read buffer is bounded too, so a sender that outpaces us is held
+back by TCP rather than by our memory. ``batch_finished`` follows the objects of each turn.
+
 It is direction-agnostic: it emits decoded JSON objects (dicts) and leaves validation to the
 owner (`decode_station_message` on the Tablet, `decode_tablet_message` on the Base Station).
 It can create its own client socket (`connect_to_host`) or adopt one accepted by a
@@ -17,7 +22,7 @@ from __future__ import annotations
 
 import logging
 
-from PySide6.QtCore import QObject, Signal
+from PySide6.QtCore import QObject, QTimer, Signal
 from PySide6.QtNetwork import QAbstractSocket, QTcpSocket
 
 from interbot_core.protocol import (
@@ -39,6 +44,7 @@ class QtTcpConnection(QObject):
     """
 
     object_received = Signal(object)
+    batch_finished = Signal()  # after the objects of one read (one event-loop turn)
     frame_error = Signal(object)
     connected = Signal()
     disconnected = Signal()
@@ -49,9 +55,12 @@ class QtTcpConnection(QObject):
         socket: QTcpSocket | None = None,
         parent: QObject | None = None,
         max_frame_bytes: int = DEFAULT_MAX_FRAME_BYTES,
+        max_read_bytes: int | None = None,
     ) -> None:
         super().__init__(parent)
         self._max_frame_bytes = max_frame_bytes
+        self._max_read_bytes = max_read_bytes
+        self._read_scheduled = False
         self._decoder = JsonStreamDecoder(max_frame_bytes)
         self._socket = socket if socket is not None else QTcpSocket()
         self._socket.setParent(self)
@@ -59,6 +68,8 @@ class QtTcpConnection(QObject):
         self._socket.disconnected.connect(self.disconnected)
         self._socket.readyRead.connect(self._on_ready_read)
         self._socket.errorOccurred.connect(self._on_error)
+        if max_read_bytes is not None:
+            self._socket.setReadBufferSize(max(4 * max_read_bytes, max_frame_bytes))
         if self.is_connected:
             self._set_low_delay()
 
@@ -108,13 +119,21 @@ class QtTcpConnection(QObject):
         self.connected.emit()
 
     def _on_ready_read(self) -> None:
-        data = bytes(self._socket.readAll().data())
+        self._read_scheduled = False
+        if self._max_read_bytes is None:
+            data = bytes(self._socket.readAll().data())
+        else:
+            data = bytes(self._socket.read(self._max_read_bytes).data())
+            if self._socket.bytesAvailable() > 0 and not self._read_scheduled:
+                self._read_scheduled = True  # the rest next turn: let timers and clicks run
+                QTimer.singleShot(0, self, self._on_ready_read)
         for item in self._decoder.feed(data):
             if isinstance(item, ProtocolError):
                 logger.warning("bad frame from %s: %s", self._peer(), item.message)
                 self.frame_error.emit(item)
             else:
                 self.object_received.emit(item)
+        self.batch_finished.emit()
 
     def _on_error(self, error: QAbstractSocket.SocketError) -> None:
         if error == QAbstractSocket.SocketError.RemoteHostClosedError:

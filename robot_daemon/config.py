@@ -8,12 +8,18 @@ configuration is logged once at start-up. Example (all keys optional except wher
     topo: ../maps/isr_floor0_topo.yaml  # topological map
     backend: sim                        # sim | hardware (hardware: issue 7)
     mux: ../resources/config/twist_mux.yaml
+    safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: auto}     # auto | cell_face | cell_centre (see LocaliserSettings)
+    localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
+    start_latched: true                 # start with the emergency stop latched (see below)
     recording: {directory: recordings, max_file_mb: 256, max_total_mb: 4096}  # MCAP (issue 18)
+
+``start_latched`` (default true): after a (re)start the robot does not move until a station
+that sees it releases the stop (a station re-asserts its operator's stop, or releases it, on
+every connection). Set it false only for a robot that runs with no station at all.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = REPO_ROOT / "maps" / "isr_floor0.yaml"
 DEFAULT_TOPO = REPO_ROOT / "maps" / "isr_floor0_topo.yaml"
 DEFAULT_MUX = REPO_ROOT / "resources" / "config" / "interbot_mux.yaml"
+DEFAULT_SAFETY = REPO_ROOT / "resources" / "config" / "collision_monitor.yaml"
 ROBOT_ID_RE = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 ENDPOINT_RE = re.compile(r"^(?:tcp|tls)/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
 
@@ -144,28 +151,32 @@ MAP_SURFACES = ("cell_face", "cell_centre")
 
 @dataclass(frozen=True)
 class LocaliserSettings:
-    """Where a wall lies in an occupied map cell, for the scan matcher.
+    """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
+    whatever the backend (issue 12: the choice must not suit the simulator).
 
-    ``cell_face``: on the cell's boundary with free space, true when the world *is* the grid
-    (the simulator) or the map was rasterised from a floor plan. ``cell_centre``: through the
-    cell, true on average for maps built from laser end points (SLAM: gmapping, Hector,
-    Cartographer). ``auto`` picks ``cell_face`` for the simulator and ``cell_centre`` for real
-    hardware.
+    ``cell_centre`` (default): through the cell, true on average for maps built from laser end
+    points (SLAM: gmapping, Hector, Cartographer), the maps real robots use. ``cell_face``: on
+    the cell's boundary with free space, for maps rasterised from a floor plan when the plan is
+    known to be exact.
     """
 
-    map_surface: str = "auto"
+    map_surface: str = "cell_centre"
+    help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
 
     def __post_init__(self) -> None:
-        if self.map_surface not in ("auto", *MAP_SURFACES):
+        if not (
+            isinstance(self.help_after_s, (int, float))
+            and math.isfinite(self.help_after_s)
+            and 0.0 <= self.help_after_s <= 3600.0
+        ):
             raise ConfigError(
-                f"localiser: 'map_surface' must be auto, cell_face or cell_centre, "
+                f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
+            )
+        if self.map_surface not in MAP_SURFACES:
+            raise ConfigError(
+                f"localiser: 'map_surface' must be cell_face or cell_centre, "
                 f"got {self.map_surface!r}"
             )
-
-    def surface_for(self, backend: str) -> str:
-        if self.map_surface != "auto":
-            return self.map_surface
-        return "cell_face" if backend == "sim" else "cell_centre"
 
 
 @dataclass(frozen=True)
@@ -174,6 +185,7 @@ class DaemonConfig:
     map_yaml: Path = DEFAULT_MAP
     topo_yaml: Path = DEFAULT_TOPO
     mux_yaml: Path = DEFAULT_MUX
+    safety_yaml: Path = DEFAULT_SAFETY  # collision monitor + assisted teleop (issue 17)
     backend: str = "sim"
     rates: Rates = field(default_factory=Rates)
     sim: SimSettings = field(default_factory=SimSettings)
@@ -182,12 +194,17 @@ class DaemonConfig:
     security: SecuritySettings = field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
     recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
+    start_latched: bool = True  # stop latched at start until a station releases it
     source: str = "<defaults>"
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot_id, str) or not ROBOT_ID_RE.match(self.robot_id):
             raise ConfigError(
                 f"{self.source}: 'robot_id' {self.robot_id!r} must be 1-32 of A-Z a-z 0-9 _ -"
+            )
+        if not isinstance(self.start_latched, bool):
+            raise ConfigError(
+                f"{self.source}: 'start_latched' must be true or false, got {self.start_latched!r}"
             )
         if self.backend not in ("sim", "hardware"):
             raise ConfigError(
@@ -203,7 +220,8 @@ class DaemonConfig:
             f"robot_id={self.robot_id} backend={self.backend} map={self.map_yaml} "
             f"topo={self.topo_yaml} listen={list(self.zenoh.listen)} "
             f"connect={list(self.zenoh.connect)} rates={self.rates} "
-            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')}"
+            f"security={self.security.keys or ('INSECURE' if self.security.insecure else 'off (loopback only)')} "
+            f"start_latched={self.start_latched}"
         )
 
 
@@ -212,6 +230,7 @@ _TOP_KEYS = {
     "map",
     "topo",
     "mux",
+    "safety",
     "backend",
     "rates",
     "sim",
@@ -220,6 +239,7 @@ _TOP_KEYS = {
     "hardware",
     "recording",
     "security",
+    "start_latched",
 }
 
 
@@ -279,6 +299,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         map_yaml=path("map", DEFAULT_MAP),
         topo_yaml=path("topo", DEFAULT_TOPO),
         mux_yaml=path("mux", DEFAULT_MUX),
+        safety_yaml=path("safety", DEFAULT_SAFETY),
         backend=raw.get("backend", "sim"),
         rates=_section(source, raw, "rates", Rates),
         sim=_section(source, raw, "sim", SimSettings),
@@ -289,6 +310,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         ),
         hardware=hardware,
         recording=recording,
+        start_latched=raw.get("start_latched", True),
         source=source,
     )
 

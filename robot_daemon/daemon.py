@@ -10,10 +10,12 @@ service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh 
 from __future__ import annotations
 
 import logging
+import secrets
 import socket
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +26,8 @@ from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topics import (
     MAX_POSE_VARIANCE,
+    MAX_SAFETY_DISTANCE,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -34,9 +38,11 @@ from interbot_core.topics import (
     Odom,
     PoseMsg,
     RangeEncoding,
+    Relocalise,
     RouteCancel,
     RouteMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     StopRelease,
     Topic,
@@ -48,20 +54,26 @@ from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.relocalisation import RelocalisationConfig
+from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
+from robot_daemon.safety.collision_monitor import SafetyConfigError
+from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
-from robot_daemon.stack import Periodic, RobotStack, StackConfig, StackError
+from robot_daemon.stack import STOP_TOPIC, Periodic, RobotStack, StackConfig, StackError
 from robot_daemon.systemd_notify import SystemdNotifier
 
 logger = logging.getLogger(__name__)
 
 LOOP_PERIOD = 0.02  # [s] wall time between passes of the control loop (50 Hz)
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
+SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 
 
 @dataclass(frozen=True)
@@ -70,6 +82,7 @@ class DaemonOptions:
 
     auto_localise: bool = False  # set the initial pose at the sim's start (demo convenience)
     start_node: int | None = None  # sim: start at this topological node (default: home)
+    relocalise: bool = True  # search the map by itself at start-up, when lost, when kidnapped
     record_dir: Path | None = None  # --record DIR: MCAP recording (robot_daemon/recording)
     foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
@@ -122,13 +135,19 @@ class Daemon:
         self.options = options = options or DaemonOptions()
         self._clock = clock
         self.grid = load_map(config.map_yaml)
+        try:
+            motion_guard = load_safety_config(config.safety_yaml)
+        except SafetyConfigError as exc:
+            raise ConfigError(str(exc)) from None
         self.topo: TopologicalMap | None = None
         self.route_planner: RoutePlanner | None = None
-        try:
+        if config.topo_yaml.exists():
+            # A topological map that is there but wrong (dangling arcs, duplicate ids) is refused:
+            # starting without it would hide the error until a goal is refused.
             self.topo = load_topological_map(config.topo_yaml)
             self.route_planner = RoutePlanner(self.topo)
-        except TopologicalMapError as exc:
-            logger.warning("no topological map (%s): goals by node id are refused", exc)
+        else:
+            logger.warning("no topological map %s: goals by node id are refused", config.topo_yaml)
         rates = config.rates
         self.start_pose = self._start_pose(options.start_node)
         if backend is None:
@@ -139,13 +158,24 @@ class Daemon:
                     config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
                 )
         self.backend = backend
-        surface = config.localiser.surface_for(config.backend)
+        surface = config.localiser.map_surface  # one wall model, sim or hardware
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
+            motion_guard=motion_guard,
             localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+            relocalisation=RelocalisationConfig(
+                relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
+                on_unset=options.relocalise,
+                on_lost=options.relocalise,
+                background=options.relocalise,
+            ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)
+        # Global searches (0.1-1 s) run on a worker thread, never stalling the 50 Hz loop.
+        self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
+        if options.relocalise:
+            self.stack.relocalisation.run_searches_in(self._search_thread)
         self._due = {
             name: Periodic(hz)
             for name, hz in (
@@ -155,15 +185,22 @@ class Daemon:
                 ("battery", rates.battery_hz),
                 ("image", rates.image_hz),
                 ("map", 1.0 / MAP_REPUBLISH_PERIOD),
+                ("safety", SAFETY_HZ),
             )
         }
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
-        self._route_ids = 10**9  # ids for routes the robot plans itself (goal messages)
+        self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
+        self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
         if options.auto_localise:
             self.stack.set_initial_pose(self.start_pose, 0.0)
+        if config.start_latched:
+            # After a (re)start nothing moves until a station that sees the robot releases the
+            # stop (it re-asserts its operator's stop, or releases it, on every connection).
+            self.stack.on_lock(STOP_TOPIC, True, 0.0)
+            self.stack.on_lock(STOP_TOPIC, False, 0.0)  # latched, released only by stop_release
 
     def _start_pose(self, start_node: int | None) -> Pose2D:
         if self.topo is None:
@@ -203,26 +240,33 @@ class Daemon:
             elif isinstance(msg, RouteCancel):
                 self.stack.cancel_route(now, msg.reason or "cancelled by the station")
             elif isinstance(msg, InitialPose):
-                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now)
+                self.stack.set_initial_pose(Pose2D(msg.x, msg.y, msg.yaw), now, msg.verify)
+            elif isinstance(msg, Relocalise):
+                self.stack.relocalise(now)
             elif isinstance(msg, ConfigMsg):
                 self.stack.reconfigure(dict(msg.params), now)
             elif isinstance(msg, GoalMsg):
                 self.stack.set_route(self._route_for_goal(msg), now)
+            elif isinstance(msg, AssistMsg):
+                self.stack.set_teleop_assist(msg.input, msg.enabled, now)
         except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
             logger.warning("refused %s command: %s", topic.value, exc)
             if link is not None:
                 link.publish_status(Status("error", f"refused {topic.value}: {exc}", stamp=now))
 
     def _route_for_goal(self, goal: GoalMsg) -> RouteMsg:
-        """A route for a single goal: through the topological map to a node, or straight."""
-        self._route_ids += 1
+        """A route for a single goal: through the topological map to a node, or straight.
+
+        Its id is random (63 bits), so it never repeats one from before a restart.
+        """
+        route_id = secrets.randbits(63)
         target = Pose2D(goal.x, goal.y, goal.yaw)
         pose = self.stack.pose
         if goal.node_id is None or self.route_planner is None or pose is None:
-            return RouteMsg(self._route_ids, ((target.x, target.y, target.yaw),))
+            return RouteMsg(route_id, ((target.x, target.y, target.yaw),))
         route = self.route_planner.plan(pose, goal.node_id)
         waypoints = tuple((w.x, w.y, w.yaw) for w in route.waypoints)
-        return RouteMsg(self._route_ids, waypoints, tuple(route.node_ids))
+        return RouteMsg(route_id, waypoints, tuple(route.node_ids))
 
     # -- publishing -----------------------------------------------------------------------------
 
@@ -267,10 +311,15 @@ class Daemon:
             link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
             link.publish_map(stack.localiser.updated_grid())
+        if due["safety"](now):
+            link.publish(Topic.SAFETY, safety_message(stack, now))
         status_due = due["status"](now)
         self._publish_route(link, force=status_due)
         if status_due:
             self._publish_plan(link, now)
+            for level, text in self._health.changes(self.backend.device_status()):
+                logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
+                link.publish_status(Status(level, text, stamp=now))
         for event in stack.drain_events():
             link.publish_status(Status(event.level, event.text, stamp=event.stamp))
 
@@ -287,6 +336,10 @@ class Daemon:
     def _publish_route(self, link: RobotLink, force: bool) -> None:
         route = self.stack.route
         if route is None:
+            # Say "no route" too: a station that reconnects learns that the robot has none.
+            if force or self._progress_key is None:
+                self._progress_key = (0, 0, "idle")
+                link.publish_route_progress(RouteProgress(0, 0, False, "idle", "", self.now))
             return
         key = (route.route_id, route.index, route.state)
         if key != self._progress_key or force:
@@ -310,7 +363,21 @@ class Daemon:
         notifier.ready(f"robot {self.config.robot_id} serving")
         logger.info("daemon ready: %s", self.config.summary())
         next_tick = time.monotonic()
-        while not stop.is_set():
+        try:
+            while not stop.is_set():
+                next_tick = self._pass(link, notifier, next_tick)
+                # Sleep until the next pass, or until a command arrives.
+                link.wait_commands(max(0.0, next_tick - time.monotonic()))
+        finally:
+            # Every way out (stop, exception, KeyboardInterrupt) leaves the motors at zero.
+            self._motors_to_zero()
+            self.backend.close()
+            self._search_thread.shutdown(wait=False, cancel_futures=True)
+            notifier.stopping()
+
+    def _pass(self, link: RobotLink, notifier: SystemdNotifier, next_tick: float) -> float:
+        """One pass of the loop; a component's error is reported and stops the robot."""
+        try:
             self._advance_time()
             commands = link.poll_commands()
             for command in commands:
@@ -335,10 +402,44 @@ class Daemon:
                         self.now,
                     )
                 )
-            # Sleep until the next pass, or until a command arrives.
-            link.wait_commands(max(0.0, next_tick - time.monotonic()))
-        self.backend.close()
-        notifier.stopping()
+        except Exception as exc:  # any component: report, stop, carry on
+            self._on_component_error(exc, link)
+            next_tick = time.monotonic() + LOOP_PERIOD
+        return next_tick
+
+    def _on_component_error(self, exc: Exception, link: RobotLink) -> None:
+        """Zero the motors, give up the route (the station is told) and report the error."""
+        self.component_errors += 1
+        logger.exception("component error in the control loop; robot stopped")
+        self._motors_to_zero()
+        text = f"internal error, robot stopped: {type(exc).__name__}: {exc}"[:900]
+        try:
+            self.stack.abort_route(self.now, text)
+            link.publish_status(Status("error", text, stamp=self.now))
+        except Exception:  # reporting must not take the loop down
+            logger.exception("could not report the component error")
+
+    def _motors_to_zero(self) -> None:
+        try:
+            self.backend.set_cmd_vel(0.0, 0.0, self.now)
+        except Exception:  # the backend itself is broken: log and go on
+            logger.exception("could not set the motors to zero")
+
+
+def safety_message(stack: RobotStack, now: float) -> SafetyMsg:
+    """The motion guard's report as the ``safety`` topic carries it (no inf on the wire)."""
+    r = stack.guard.report()
+    cap = MAX_SAFETY_DISTANCE
+    return SafetyMsg(
+        r.zone,
+        r.zone_name,
+        min(r.distance, cap),
+        min(r.time_to_contact, cap),
+        max(0.0, min(1.0, r.scale)),
+        r.assisted,
+        r.assist_mode,
+        now,
+    )
 
 
 def _jpeg_size(jpeg: bytes) -> tuple[int, int]:

@@ -87,6 +87,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="[HOST:]PORT",
         help="serve the run live to Foxglove (WebSocket; loopback only)",
     )
+    p.add_argument(
+        "--no-relocalise",
+        action="store_true",
+        help="do not search the map for the robot's pose by itself (a person gives it: Help me!)",
+    )
     p.add_argument("-v", "--verbose", action="store_true")
     return p
 
@@ -147,7 +152,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         config = resolve_config(args)
         logger.info("configuration: %s", config.summary())
         options = DaemonOptions(
-            args.auto_localise, args.start_node, record_dir=args.record, foxglove=args.foxglove
+            args.auto_localise,
+            args.start_node,
+            relocalise=not args.no_relocalise,
+            record_dir=args.record,
+            foxglove=args.foxglove,
         )
         serve(config, options, stop)
     except (ConfigError, LinkConfigError, MapLoadError, TopologicalMapError, MuxError) as exc:

@@ -89,7 +89,14 @@ class SimBackend:
     def device_status(self) -> list[DeviceStatus]:
         return [
             DeviceStatus("laser", True, "simulated UTM-30LX", {"scans": self._scan_reads}),
-            DeviceStatus("motors", True, "simulated differential drive"),
+            # The simulated robot's contact sensor (a bumper, or the motors' stall current):
+            # how often the footprint touched a wall, an obstacle or a person.
+            DeviceStatus(
+                "motors",
+                True,
+                "simulated differential drive",
+                {"contacts": self.sim.collisions},
+            ),
             DeviceStatus("camera", True, "simulated camera"),
         ]
 

@@ -16,7 +16,7 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
   ``degraded`` into ``lost`` (a stop) within ``LocaliserConfig.lost_after_s``. Slower, the robot
   travels less on odometry alone between scans and people have more time to react.
 * **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
-  ``lost`` or ``searching``), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
+  ``lost`` or ``searching``: a global search is deciding where it is, `relocalisation`), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
   the robot is, so no progress timer counts the suspension as being stuck.
 * **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
@@ -47,8 +47,10 @@ from robot_daemon.localisation.localiser import (
     LocaliserEstimate,
     LocaliserState,
 )
+from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
+from robot_daemon.safety.motion_guard import MotionGuard, MotionGuardConfig, default_guard_config
 
 logger = logging.getLogger(__name__)
 
@@ -70,7 +72,9 @@ class StackConfig:
     mux: MuxConfig = field(default_factory=lambda: load_mux_config(DEFAULT_MUX))
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
+    relocalisation: RelocalisationConfig = field(default_factory=RelocalisationConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
+    motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
     degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
 
     def __post_init__(self) -> None:
@@ -141,6 +145,9 @@ class RobotStack:
             planner = planner.replace(laser_x_offset=config.laser_mount.x)
         self.navigator = Navigator(grid, planner)
         self.localiser = Localiser(grid, config.localiser)
+        # Collision monitor under the mux, assisted teleop before it (robot_daemon/safety).
+        self.guard = MotionGuard(config.motion_guard, config.laser_mount)
+        self.relocalisation = Relocalisation(grid, self.localiser, config.relocalisation)
         self._mount = config.laser_mount
         self._mount_inv = config.laser_mount.inverse()
         self._localise_due = Periodic(config.rates.localiser_hz)
@@ -157,6 +164,7 @@ class RobotStack:
         self.last_jpeg: bytes | None = None
         self._events: deque[StackEvent] = deque(maxlen=200)
         self._localisation_state = LocaliserState.UNSET
+        self.last_scan_time = 0.0  # [s] of the last localised scan
         for name in ("station_vel", "tablet_vel", PLANNER_TOPIC):
             config.mux.input_by_topic(name)  # raises if the mux config lacks an input we need
         for name in (PAUSE_TOPIC, STOP_TOPIC):
@@ -181,7 +189,19 @@ class RobotStack:
         """A teleoperation command on ``station_vel`` or ``tablet_vel``."""
         if topic == PLANNER_TOPIC:
             raise StackError("planner_vel is the robot's own planner; it is not a command input")
+        linear, angular = self.guard.on_teleop(topic, linear, angular, now)
         self.mux.on_twist(topic, linear, angular, now)
+
+    def set_teleop_assist(self, topic: str, enabled: bool, now: float) -> None:
+        """Assisted teleoperation on or off for ``station_vel`` / ``tablet_vel``."""
+        if topic not in ("station_vel", "tablet_vel"):
+            raise StackError(
+                f"assisted teleoperation applies to station_vel or tablet_vel, not {topic!r}"
+            )
+        if self.guard.set_assist(topic, enabled):
+            self._event(
+                now, "info", f"assisted teleoperation {'on' if enabled else 'off'} for {topic}"
+            )
 
     def on_lock(self, topic: str, engaged: bool, now: float) -> None:
         """``pause_nav`` or ``stop``; the stop lock latches until `release_stop`."""
@@ -197,16 +217,27 @@ class RobotStack:
             who = f" by {operator}" if operator else ""
             self._event(now, "info", f"emergency stop released{who}")
 
-    def set_initial_pose(self, pose: Pose2D, now: float) -> None:
-        """The station's (or tablet's "Help me!") initial pose of base_link in ``map``."""
+    def set_initial_pose(self, pose: Pose2D, now: float, verify: bool = False) -> None:
+        """The station's (or tablet's "Help me!") initial pose of base_link in ``map``;
+        with ``verify`` it is only a hint: the global search around it must confirm it."""
         if not self.grid.is_free(pose.x, pose.y):
             raise StackError(
                 f"initial pose ({pose.x:.2f}, {pose.y:.2f}) is not in free space of {self.grid.source}"
             )
+        if verify:
+            event = self.relocalisation.verify_help(pose.compose(self._mount), now)
+            self._event(now, event.level, event.text)
+            return
+        self.relocalisation.cancel()
         self.localiser.set_initial_pose(pose.compose(self._mount), now)
         self._event(
             now, "info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})"
         )
+
+    def relocalise(self, now: float) -> None:
+        """The station's "Relocalise": search the whole map (autonomy waits meanwhile)."""
+        event = self.relocalisation.request(now)
+        self._event(now, event.level, event.text)
 
     def set_route(self, msg: RouteMsg, now: float) -> None:
         """Drive the whole route; replaces any route in progress."""
@@ -235,6 +266,15 @@ class RobotStack:
         self.navigator.cancel()
         self._suspended_reason = None
 
+    def abort_route(self, now: float, reason: str) -> None:
+        """Give up the route in progress and zero the planner's input (an internal error)."""
+        self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+        if self.route is not None and not self.route.finished:
+            self.route.state, self.route.reason = "aborted", reason
+            self._event(now, "error", f"route {self.route.route_id} aborted: {reason}")
+        self.navigator.cancel()
+        self._suspended_reason = None
+
     def reconfigure(self, params: dict[str, Any], now: float) -> None:
         """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
         allowed = {f.name for f in fields(PlannerConfig)}
@@ -258,7 +298,8 @@ class RobotStack:
 
     @property
     def localisation_state(self) -> LocaliserState:
-        return self.localiser.state
+        """The localiser's state, ``searching`` while a global search runs (issue 16)."""
+        return self.relocalisation.state(self.localiser.state, self.last_scan_time)
 
     @property
     def pose_covariance(self) -> npt.NDArray[np.float64]:
@@ -288,9 +329,11 @@ class RobotStack:
         if odom is not None:
             self.last_odometry = odom
             self.localiser.on_odometry(odom.pose.compose(self._mount), now)
+            self.relocalisation.on_odometry(odom.pose.compose(self._mount))
         scan = self.backend.read_scan(now)
         if scan is not None:
             self.last_scan = scan
+            self.guard.on_scan(scan, now)
         if (
             self.last_scan is not None
             and self.last_scan is not self._scan_localised
@@ -298,6 +341,7 @@ class RobotStack:
         ):
             self._scan_localised = self.last_scan
             self.last_estimate = self.localiser.on_scan(self.last_scan, now)
+            self._relocalise(now)
             self._track_localisation(now)
         if self._control_due(now):
             self._control(now)
@@ -312,13 +356,26 @@ class RobotStack:
 
     def apply_output(self, now: float) -> MuxOutput:
         """Send the multiplexer's current output to the motors (also between loop passes)."""
-        output = self.mux.output(now)
+        output = self.guard.limit(self.mux.output(now), now)  # the collision monitor
         self.backend.set_cmd_vel(output.linear, output.angular, now)
         self.last_output = output
         return output
 
+    def _relocalise(self, now: float) -> None:
+        self.last_scan_time = now
+        speed = self.last_odometry.linear if self.last_odometry is not None else 0.0
+        laser, events = self.relocalisation.step(self.last_scan, speed, now)
+        for event in events:
+            self._event(now, event.level, event.text)
+        if laser is not None:
+            self.localiser.set_initial_pose(laser, now)
+            base = laser.compose(self._mount_inv)
+            self._event(
+                now, "info", f"initial pose set to ({base.x:.2f}, {base.y:.2f}, {base.yaw:.2f})"
+            )
+
     def _track_localisation(self, now: float) -> None:
-        state = self.localiser.state
+        state = self.localisation_state
         if state != self._localisation_state:
             level = {LocaliserState.LOST: "error", LocaliserState.DEGRADED: "warning"}.get(
                 state, "info"
@@ -328,13 +385,13 @@ class RobotStack:
                 text += f": {self.last_estimate.reason}"
             self._event(now, level, text)
             self._localisation_state = state
-            if state == LocaliserState.LOST:
+            if state in (LocaliserState.LOST, LocaliserState.SEARCHING):
                 # Stop now: do not drive blind on the planner's last command until it times out.
                 self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
 
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
-        state = self.localiser.state
+        state = self.localisation_state
         if state not in (LocaliserState.OK, LocaliserState.DEGRADED):
             return f"localisation {state.value}"
         locks = {lock.topic for lock in self.mux.active_locks(now)}

@@ -64,7 +64,7 @@ from tablet_app.qt_map_view import QtMapView
 from tablet_app.qt_motion_bar import QtMotionBar
 from tablet_app.tablet_connection import ConnectionState, TabletConnection
 from tablet_app.tablet_session import Help, TabletSession
-from tablet_app.texts import activity_text, notice_text
+from tablet_app.texts import activity_text, notice_text, unavailable_text
 from tablet_app.translations import LanguageSwitcher
 from tablet_app.ui_metrics import font_px, touch_target_px
 
@@ -140,10 +140,14 @@ class TabletWindow(QMainWindow):
         self.status_label.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
         self.help_button = QPushButton()
         self.help_button.setObjectName("helpButton")
+        self.unavailable_label = QLabel()  # why some buttons are greyed out
+        self.unavailable_label.setObjectName("unavailable")
+        self.unavailable_label.setWordWrap(True)
         header = QHBoxLayout(self.header)
         header.addWidget(self.connection_label, 1)
         header.addWidget(self.activity_label, 1)
         header.addWidget(self.status_label, 1)
+        header.addWidget(self.unavailable_label, 1)
         header.addWidget(self.help_button)
         self.menu = QtMainMenu()
         self.joystick_screen = QtJoystickScreen(self.connection)
@@ -396,6 +400,9 @@ class TabletWindow(QMainWindow):
             self._open(show)
 
     def _render_permissions(self, perms: Permissions) -> None:
+        text = unavailable_text(perms.teleop, perms.goals, perms.tours, perms.requests)
+        self.unavailable_label.setText(text)
+        self.unavailable_label.setVisible(bool(text) and self.session.connected)
         self.menu.joystick_button.setEnabled(perms.teleop)
         self.map_screen.drive_button.setEnabled(perms.teleop)
         self.motion_bar.manual_button.setEnabled(perms.teleop)

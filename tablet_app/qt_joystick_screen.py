@@ -4,25 +4,27 @@ The `interbot_qt.qt_joystick.QtJoystick` circle, buttons for the maximum linear 
 and angular (0.1-2.0 rad/s) speeds, the latency beside it, and a red warning when the link is
 lossy: the Base Station's watchdog then discards speed commands (§5.3.4), so "commands will not
 be obeyed". While touched, the current command is sent as ``{"speed": ...}`` every 100 ms (a
-precise `QTimer`), and one zero on release.
+precise `QTimer`), and one zero on release. Each command carries ``seq`` and ``t`` (issue 11) so
+the station can drop one that arrives out of order or late.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 
 from PySide6.QtCore import QEvent, Qt, QTimer, Signal
 from PySide6.QtWidgets import QGridLayout, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from interbot_core.protocol import Speed
+from interbot_core.protocol import SafetyInfo, Speed
 from interbot_qt.qt_joystick import QtJoystick
 from tablet_app.tablet_connection import TabletConnection
 
 logger = logging.getLogger(__name__)
 
 SEND_PERIOD_MS = 100
-LINEAR_RANGE = (0.1, 1.0)  # [m/s]
-ANGULAR_RANGE = (0.1, 2.0)  # [rad/s]
+LINEAR_RANGE = (0.1, 0.3)  # [m/s] the robot's multiplexer limits the tablet to 0.3 m/s
+ANGULAR_RANGE = (0.1, 1.0)  # [rad/s] and 1 rad/s (resources/config/interbot_mux.yaml)
 STEP = 0.1
 
 
@@ -39,6 +41,7 @@ class QtJoystickScreen(QWidget):
     def __init__(self, connection: TabletConnection, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self._connection = connection
+        self._seq = 0
         self.joystick = QtJoystick(0.3, 0.6)
         self._timer = QTimer(self)
         self._timer.setTimerType(Qt.TimerType.PreciseTimer)
@@ -50,6 +53,10 @@ class QtJoystickScreen(QWidget):
         self.warning_label.setObjectName("warning")
         self.warning_label.setWordWrap(True)
         self.warning_label.setVisible(False)
+        self.monitor_label = QLabel()  # the robot's collision monitor (issue 17)
+        self.monitor_label.setObjectName("monitor")
+        self.monitor_label.setWordWrap(True)
+        self._safety: SafetyInfo | None = None
         self.linear_title = QLabel()
         self.angular_title = QLabel()
         self.linear_value = QLabel()
@@ -74,6 +81,7 @@ class QtJoystickScreen(QWidget):
         side = QVBoxLayout()
         side.addWidget(self.latency_label)
         side.addWidget(self.warning_label)
+        side.addWidget(self.monitor_label)
         side.addStretch(1)
         side.addLayout(limits)
         side.addStretch(1)
@@ -91,14 +99,19 @@ class QtJoystickScreen(QWidget):
         self.back_button.clicked.connect(self.back_requested)
         connection.latency_changed.connect(self.set_latency)
         connection.link_lossy_changed.connect(self.set_lossy)
+        connection.safety_received.connect(self.set_safety)
         self._latency_ms: float | None = connection.average_latency_ms
         self.set_lossy(connection.is_lossy)
         self.retranslate()
 
     # ---------------------------------------------------------------- sending
+    def _speed(self, linear: float, angular: float) -> Speed:
+        self._seq += 1
+        return Speed(linear, angular, self._seq, round(time.monotonic(), 4))
+
     def _send_current(self) -> None:
         linear, angular = self.joystick.command()
-        self._connection.send(Speed(_quantise(linear), _quantise(angular)))
+        self._connection.send(self._speed(_quantise(linear), _quantise(angular)))
 
     def _on_pressed(self) -> None:
         self._send_current()
@@ -106,7 +119,7 @@ class QtJoystickScreen(QWidget):
 
     def _on_released(self) -> None:
         self._timer.stop()
-        self._connection.send(Speed(0.0, 0.0))
+        self._connection.send(self._speed(0.0, 0.0))
 
     def _step(self, d_linear: float, d_angular: float) -> None:
         linear = min(LINEAR_RANGE[1], max(LINEAR_RANGE[0], self.joystick.linear_max + d_linear))
@@ -120,6 +133,31 @@ class QtJoystickScreen(QWidget):
     def set_latency(self, latency_ms: float | None) -> None:
         self._latency_ms = latency_ms
         self._show_latency()
+
+    def set_safety(self, info: SafetyInfo) -> None:
+        self._safety = info
+        self._show_safety()
+
+    def _show_safety(self) -> None:
+        info = self._safety
+        if info is None:
+            self.monitor_label.setText("")
+            return
+        words = {
+            "none": self.tr("Path clear"),
+            "slowdown": self.tr("Obstacle near: slowing down"),
+            "limit": self.tr("Speed limited"),
+            "approach": self.tr("Obstacle ahead: slowing down"),
+            "stop": self.tr("Stopped: obstacle too close"),
+            "no_data": self.tr("Stopped: the robot cannot see"),
+        }[info.zone]
+        if info.distance < 0.5 and info.zone != "no_data":
+            words += f" ({info.distance * 100:.0f} cm)"
+        if info.assisted:
+            words += "\n" + self.tr("Driving assistance on")
+        self.monitor_label.setText(words)
+        colour = {"none": "#060", "stop": "#c00", "no_data": "#c00"}.get(info.zone, "#a60")
+        self.monitor_label.setStyleSheet(f"color: {colour}; font-weight: bold;")
 
     def set_lossy(self, lossy: bool) -> None:
         self.warning_label.setVisible(lossy)
@@ -145,6 +183,7 @@ class QtJoystickScreen(QWidget):
         self.back_button.setText(self.tr("Back"))
         self._show_latency()
         self._show_limits()
+        self._show_safety()
 
     def changeEvent(self, event: QEvent) -> None:
         if event.type() == QEvent.Type.LanguageChange:

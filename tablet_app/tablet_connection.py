@@ -34,6 +34,7 @@ from interbot_core.protocol import (
     Pose,
     ProtocolError,
     Refused,
+    SafetyInfo,
     ShowRequest,
     StatusInfo,
     TourState,
@@ -69,6 +70,7 @@ class TabletConnection(QObject):
     cancel_received = Signal(object)  # Cancel
     permissions_received = Signal(object)  # Permissions
     localisation_received = Signal(object)  # Localisation
+    safety_received = Signal(object)  # SafetyInfo (the robot's collision monitor)
     status_received = Signal(object)  # StatusInfo
     error_received = Signal(object)  # ErrorReport from the station
     welcome_received = Signal(object)  # Welcome
@@ -130,6 +132,7 @@ class TabletConnection(QObject):
             Cancel: self.cancel_received.emit,
             Permissions: self._on_permissions,
             Localisation: self.localisation_received.emit,
+            SafetyInfo: self.safety_received.emit,
             StatusInfo: self.status_received.emit,
             ErrorReport: self.error_received.emit,
             Welcome: self._on_welcome,

@@ -81,6 +81,8 @@ def activity_text(room_name: Callable[[int], str], session: TabletSession) -> st
         return QCoreApplication.translate("TabletTexts", "Stopped by the operator")
     if s.lost:
         return QCoreApplication.translate("TabletTexts", "I do not know where I am")
+    if s.localisation == "searching":
+        return QCoreApplication.translate("TabletTexts", "Finding my position…")
     goal = room_name(s.goal.room) if s.goal is not None else None
     state = s.activity
     if state == "navigating":
@@ -108,3 +110,22 @@ def activity_text(room_name: Callable[[int], str], session: TabletSession) -> st
         ),
     }
     return plain.get(state, state)
+
+
+def unavailable_text(teleop: bool, goals: bool, tours: bool, requests: bool) -> str:
+    """What the station does not allow now, said plainly (empty when everything is allowed)."""
+    names = [
+        name
+        for allowed, name in (
+            (teleop, QCoreApplication.translate("TabletTexts", "driving with the joystick")),
+            (goals, QCoreApplication.translate("TabletTexts", "trips to rooms")),
+            (tours, QCoreApplication.translate("TabletTexts", "guided tours")),
+            (requests, QCoreApplication.translate("TabletTexts", "requests")),
+        )
+        if not allowed
+    ]
+    if not names:
+        return ""
+    return _fill(
+        QCoreApplication.translate("TabletTexts", "Not available now: %1"), ", ".join(names)
+    )

@@ -71,6 +71,7 @@ class Programs:
                 sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", "interbot1",
                 "--listen", endpoint, "--seed", "1", "--people", "3", "--speed", str(speed),
                 "--start-node", str(START_NODE),
+                "--no-relocalise",  # the screenshots show a person's "Help me!" flow
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
@@ -152,6 +153,18 @@ def save(pixmap: QPixmap, out: Path, name: str) -> None:
     sys.stdout.write(f"wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path}\n")
 
 
+def help_me(p: Programs, room: int) -> None:
+    """ "Help me!" on the tablet, then the room the robot is at, until the robot confirms."""
+    t, s = p.tablet, p.station
+    t.show_map()
+    p.wait(lambda: t.map_screen.help_button.isVisible(), 15, "the Help me! button")
+    click(t.map_screen.help_button)
+    click(t.map_view.room_button(room))
+    click(t.dialog.yes_button)  # type: ignore[union-attr]
+    p.wait(lambda: s.state.localisation == "ok", 30, "the robot to be localised")
+    p.wait(lambda: not t.session.lost, 10, "the tablet to know")
+
+
 def tablet_screens(p: Programs, out: Path, suffix: str) -> None:
     """Menu, joystick, map, room and request dialogs, malfunction report at every size."""
     t = p.tablet
@@ -191,7 +204,7 @@ def tablet_screens(p: Programs, out: Path, suffix: str) -> None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "screenshots")
-    parser.add_argument("--speed", type=float, default=4.0, help="simulated seconds per second")
+    parser.add_argument("--speed", type=float, default=2.0, help="simulated seconds per second")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -213,11 +226,7 @@ def main() -> int:
         t.apply_metrics()
 
         # 2. Help me!: choose the room the robot is at; the robot confirms.
-        click(t.map_screen.help_button)
-        click(t.map_view.room_button(START_NODE))
-        click(t.dialog.yes_button)  # type: ignore[union-attr]
-        p.wait(lambda: s.state.localisation == "ok", 20, "the robot to be localised")
-        p.wait(lambda: not t.session.lost, 10, "the tablet to know")
+        help_me(p, START_NODE)
 
         # 3. The tablet's screens, in English and in Portuguese.
         tablet_screens(p, out, "")
@@ -227,6 +236,8 @@ def main() -> int:
         t.languages.set_language("en")
 
         # 4. Take me there: the robot drives, both programs show it.
+        if t.session.lost:  # a loaded machine can starve the robot's localiser: ask again
+            help_me(p, START_NODE)
         t.show_map()
         click(t.map_view.room_button(GOAL_ROOM))
         click(t.dialog.go_button)  # type: ignore[union-attr]

@@ -27,32 +27,67 @@
 <context>
     <name>QtJoystickScreen</name>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="129" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Path clear</source>
+        <translation>Caminho livre</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Obstacle near: slowing down</source>
+        <translation>Obstáculo perto: a abrandar</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Speed limited</source>
+        <translation>Velocidade limitada</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Obstacle ahead: slowing down</source>
+        <translation>Obstáculo à frente: a abrandar</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Stopped: obstacle too close</source>
+        <translation>Parado: obstáculo demasiado perto</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Stopped: the robot cannot see</source>
+        <translation>Parado: o robô não consegue ver</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="133"/>
+        <source>Driving assistance on</source>
+        <translation>Assistência à condução ligada</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="136" />
         <source>Latency: –</source>
         <translation>Latência: –</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="132" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="139" />
         <source>Latency: %1 ms</source>
         <translation>Latência: %1 ms</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="141" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="148" />
         <source>Connection is lossy: commands will not be obeyed until it recovers.</source>
         <translation>Ligação com perdas: os comandos não serão obedecidos até que recupere.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="143" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="150" />
         <source>Maximum linear speed</source>
         <translation>Velocidade linear máxima</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="144" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="151" />
         <source>Maximum angular speed</source>
         <translation>Velocidade angular máxima</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/qt_joystick_screen.py" line="145" />
+        <location filename="../../tablet_app/qt_joystick_screen.py" line="152" />
         <source>Back</source>
         <translation>Voltar</translation>
     </message>
@@ -332,211 +367,236 @@
 <context>
     <name>TabletTexts</name>
     <message>
-        <location filename="../../tablet_app/texts.py" line="25" />
+        <location filename="../../tablet_app/texts.py" line="27" />
         <source>a collision</source>
         <translation>uma colisão</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="26" />
+        <location filename="../../tablet_app/texts.py" line="28" />
         <source>a wrong position</source>
         <translation>uma posição errada</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="27" />
+        <location filename="../../tablet_app/texts.py" line="29" />
         <source>a wrong orientation</source>
         <translation>uma orientação errada</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="28" />
+        <location filename="../../tablet_app/texts.py" line="30" />
         <source>a problem</source>
         <translation>um problema</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="36" />
+        <location filename="../../tablet_app/texts.py" line="38" />
         <source>Arrived at %1.</source>
         <translation>Cheguei a %1.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="37" />
+        <location filename="../../tablet_app/texts.py" line="39" />
         <source>Cancelled. I have stopped.</source>
         <translation>Cancelado. Parei.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="38" />
+        <location filename="../../tablet_app/texts.py" line="40" />
         <source>The operator cancelled the task: %1</source>
         <translation>O operador cancelou a tarefa: %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="41" />
+        <location filename="../../tablet_app/texts.py" line="43" />
         <source>The Base Station is still taking me to %1: ask the operator.</source>
         <translation>A Estação Base continua a levar-me para %1: fale com o operador.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="44" />
+        <location filename="../../tablet_app/texts.py" line="46" />
         <source>Checking that I am at %1…</source>
         <translation>A confirmar que estou em %1…</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="45" />
+        <location filename="../../tablet_app/texts.py" line="47" />
         <source>Thank you! I am at %1.</source>
         <translation>Obrigado! Estou em %1.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="46" />
+        <location filename="../../tablet_app/texts.py" line="48" />
         <source>I could not confirm that I am at %1. Please try another room.</source>
         <translation>Não consegui confirmar que estou em %1. Experimente outra sala, por favor.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="49" />
+        <location filename="../../tablet_app/texts.py" line="51" />
         <source>Thank you: the operator has your report of %1.</source>
         <translation>Obrigado: o operador recebeu o seu relato de %1.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="52" />
+        <location filename="../../tablet_app/texts.py" line="54" />
         <source>Request sent: I will bring “%1” from %2 to %3.</source>
         <translation>Pedido enviado: vou levar “%1” de %2 para %3.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="55" />
+        <location filename="../../tablet_app/texts.py" line="57" />
         <source>Thank you! I am on my way.</source>
         <translation>Obrigado! Vou a caminho.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="56" />
+        <location filename="../../tablet_app/texts.py" line="58" />
         <source>Declined. I will tell the person who asked.</source>
         <translation>Recusado. Vou avisar quem pediu.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="59" />
+        <location filename="../../tablet_app/texts.py" line="61" />
         <source>Guided tour requested.</source>
         <translation>Visita guiada pedida.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="60" />
+        <location filename="../../tablet_app/texts.py" line="62" />
         <source>The guided tour has ended.</source>
         <translation>A visita guiada terminou.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="61" />
+        <location filename="../../tablet_app/texts.py" line="63" />
         <source>Refused by the Base Station: %1</source>
         <translation>Recusado pela Estação Base: %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="62" />
+        <location filename="../../tablet_app/texts.py" line="64" />
         <source>The Base Station says: %1</source>
         <translation>A Estação Base diz: %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="63" />
+        <location filename="../../tablet_app/texts.py" line="65" />
         <source>Not connected: nothing was sent.</source>
         <translation>Sem ligação: nada foi enviado.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="77" />
+        <location filename="../../tablet_app/texts.py" line="79" />
         <source>Not connected to the Base Station</source>
         <translation>Sem ligação à Estação Base</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="79" />
-        <location filename="../../tablet_app/texts.py" line="104" />
+        <location filename="../../tablet_app/texts.py" line="81" />
+        <location filename="../../tablet_app/texts.py" line="106" />
         <source>Stopped by the operator</source>
         <translation>Parado pelo operador</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="81" />
+        <location filename="../../tablet_app/texts.py" line="83" />
         <source>I do not know where I am</source>
         <translation>Não sei onde estou</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="86" />
+        <location filename="../../tablet_app/texts.py" line="88" />
         <source>On my way to %1</source>
         <translation>A caminho de %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="88" />
+        <location filename="../../tablet_app/texts.py" line="90" />
         <source>On my way</source>
         <translation>A caminho</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="92" />
+        <location filename="../../tablet_app/texts.py" line="94" />
         <source>%1 m to go</source>
         <translation>faltam %1 m</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="95" />
+        <location filename="../../tablet_app/texts.py" line="97" />
         <source>Ready</source>
         <translation>Pronto</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="96" />
+        <location filename="../../tablet_app/texts.py" line="98" />
         <source>Waiting to know where I am</source>
         <translation>À espera de saber onde estou</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="97" />
+        <location filename="../../tablet_app/texts.py" line="99" />
         <source>Paused</source>
         <translation>Em pausa</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="98" />
+        <location filename="../../tablet_app/texts.py" line="100" />
         <source>At a tour stop: waiting for you</source>
         <translation>Numa paragem da visita: à sua espera</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/texts.py" line="101" />
+        <location filename="../../tablet_app/texts.py" line="103" />
         <source>Waiting for an answer at the room</source>
         <translation>À espera de resposta na sala</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="118" />
+        <source>driving with the joystick</source>
+        <translation>conduzir com o joystick</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="119" />
+        <source>trips to rooms</source>
+        <translation>idas às salas</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="120" />
+        <source>guided tours</source>
+        <translation>visitas guiadas</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="121" />
+        <source>requests</source>
+        <translation>pedidos</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="128" />
+        <source>Not available now: %1</source>
+        <translation>Indisponível agora: %1</translation>
     </message>
 </context>
 <context>
     <name>TabletWindow</name>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="408" />
+        <location filename="../../tablet_app/main_window.py" line="413" />
         <source>The operator does not allow this now.</source>
         <translation>O operador não permite isto agora.</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="438" />
+        <location filename="../../tablet_app/main_window.py" line="443" />
         <source>Connected to %1</source>
         <translation>Ligado a %1</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="441" />
+        <location filename="../../tablet_app/main_window.py" line="446" />
         <source>%1 ms</source>
         <translation>%1 ms</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="443" />
+        <location filename="../../tablet_app/main_window.py" line="448" />
         <source>Connecting to %1…</source>
         <translation>A ligar a %1…</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="445" />
+        <location filename="../../tablet_app/main_window.py" line="450" />
         <source>Disconnected: reconnecting in %1 s</source>
         <translation>Desligado: a voltar a ligar dentro de %1 s</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="449" />
+        <location filename="../../tablet_app/main_window.py" line="454" />
         <source>Disconnected</source>
         <translation>Desligado</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="492" />
+        <location filename="../../tablet_app/main_window.py" line="497" />
         <source>Interbot Tablet</source>
         <translation>Tablet do Interbot</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="493" />
+        <location filename="../../tablet_app/main_window.py" line="498" />
         <source>Help me!</source>
         <translation>Ajuda-me!</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="513" />
+        <location filename="../../tablet_app/main_window.py" line="518" />
         <source>Operator</source>
         <translation>Operador</translation>
     </message>
     <message>
-        <location filename="../../tablet_app/main_window.py" line="514" />
+        <location filename="../../tablet_app/main_window.py" line="519" />
         <source>Leave the kiosk and close the tablet application?</source>
         <translation>Sair do modo quiosque e fechar a aplicação do tablet?</translation>
     </message>

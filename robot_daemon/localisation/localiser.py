@@ -84,6 +84,7 @@ class LocaliserState(StrEnum):
     OK = "ok"
     DEGRADED = "degraded"  # tracking, but the pose is uncertain or the last scans disagree
     LOST = "lost"
+    SEARCHING = "searching"  # a global search is under way (reported by the stack, issue 16)
 
 
 @dataclass(frozen=True)
@@ -146,6 +147,11 @@ class LocaliserConfig:
     impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
     impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
     impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
+    # A scan that fits the map this well (hit fraction) may see through an opening the map has
+    # closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
+    # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
+    see_through_min_confidence: float = 0.9
+    see_through_landing_m: float = 0.15
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -190,6 +196,8 @@ class LocaliserConfig:
             ("impossible_min_run", self.impossible_min_run, 1, 100),
             ("lost_after_scans", self.lost_after_scans, 1, 1000),
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
+            ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
+            ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -367,7 +375,8 @@ class Localiser:
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
-            impossible = self.impossible_fraction(points, pose)
+            see_through = confidence >= cfg.see_through_min_confidence
+            impossible = self.impossible_fraction(points, pose, see_through)
             if not reason and confidence < cfg.lost_confidence:
                 reason = f"scan does not fit the map (hit fraction {confidence:.2f})"
             if not reason and impossible > cfg.lost_impossible:
@@ -510,12 +519,23 @@ class Localiser:
         xs, ys = self._to_map(points, pose)
         return float(np.mean(self._distance_to_map(xs, ys) <= self.config.hit_tolerance_m))
 
-    def impossible_fraction(self, points: FloatArray, pose: Pose2D) -> float:
+    def impossible_fraction(
+        self, points: FloatArray, pose: Pose2D, see_through: bool = False
+    ) -> float:
         """Fraction of traced beams that are impossible at ``pose`` (see `impossible_beams`),
-        counting only runs of at least ``impossible_min_run`` neighbouring impossible beams."""
+        counting only runs of at least ``impossible_min_run`` neighbouring impossible beams.
+
+        ``see_through``: beams that pass a wall and end on a mapped surface behind it (within
+        ``see_through_landing_m``) saw through an unmapped opening and are not counted.
+        """
         mask = self.impossible_beams(points, pose)
         if mask.size == 0:
             return 0.0
+        if see_through and mask.any():
+            pts = subsample_points(points, self.config.impossible_max_beams)
+            xs, ys = self._to_map(pts[mask], pose)
+            landed = self._distance_to_map(xs, ys) <= self.config.see_through_landing_m
+            mask[np.flatnonzero(mask)[landed]] = False
         k = self.config.impossible_min_run
         if k > 1 and mask.any():
             mask = _long_runs(mask, k)

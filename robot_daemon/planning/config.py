@@ -22,48 +22,55 @@ class PlannerConfigError(ValueError):
     """A navigation parameter is unknown or out of range; the message names it."""
 
 
-# field -> (lowest allowed, highest allowed, lowest is inclusive)
+# field -> (lowest allowed, highest allowed, lowest is inclusive). Closed, physically sensible
+# bounds (issue 11): no value in them can exhaust memory or freeze the control loop (with
+# `MAX_ROLLOUT_STEPS` and `MAX_FIELD_CELLS` below), from a file or a ``config`` message alike.
 _RANGES: dict[str, tuple[float, float, bool]] = {
-    "max_linear_speed": (0.0, 2.0, False),
-    "min_linear_speed": (-2.0, 2.0, True),
-    "max_angular_speed": (0.0, 2 * math.pi, False),
-    "linear_acceleration": (0.0, 10.0, False),
-    "angular_acceleration": (0.0, 20.0, False),
-    "goal_xy_tolerance": (0.0, 10.0, False),
-    "goal_yaw_tolerance": (0.0, math.pi, False),
-    "approach_tolerance": (0.0, 20.0, False),
-    "robot_length": (0.0, 5.0, False),
-    "robot_width": (0.0, 5.0, False),
-    "laser_x_offset": (-2.0, 2.0, True),
-    "inflation_radius": (0.0, 5.0, False),
-    "cost_scaling_factor": (0.0, 100.0, False),
-    "obstacle_persistence": (0.0, 60.0, False),
-    "obstacle_max_range": (0.0, 60.0, False),
-    "raytrace_max_range": (0.0, 60.0, False),
-    "planning_resolution": (0.0, 1.0, False),
-    "cost_weight": (0.0, 1e6, False),
-    "path_spacing": (0.0, 5.0, False),
-    "replan_period": (0.0, 60.0, False),
-    "sim_time": (0.0, 10.0, False),
-    "sim_dt": (0.0, 1.0, False),
-    "v_samples": (2, 101, True),
-    "w_samples": (3, 201, True),
-    "lookahead": (0.0, 10.0, False),
-    "local_grid_resolution": (0.0, 0.5, False),
-    "slowdown_clearance": (0.0, 5.0, False),
-    "slowdown_min_fraction": (0.0, 1.0, False),
-    "approach_slowdown_distance": (0.0, 10.0, False),
-    "rotate_to_heading_angle": (0.0, math.pi, False),
-    "yaw_gain": (0.0, 20.0, False),
-    "min_rotation_speed": (0.0, 2 * math.pi, True),
-    "progress_distance": (0.0, 100.0, False),
-    "progress_timeout": (0.0, 600.0, False),
-    "blocked_timeout": (0.0, 3600.0, False),
-    "spin_angle": (0.0, 2 * math.pi, False),
-    "backup_distance": (0.0, 5.0, True),
-    "backup_speed": (0.0, 2.0, False),
-    "wait_duration": (0.0, 600.0, True),
+    "max_linear_speed": (0.05, 1.0, True),
+    "min_linear_speed": (-0.5, 1.0, True),
+    "max_angular_speed": (0.1, 3.0, True),
+    "linear_acceleration": (0.05, 3.0, True),
+    "angular_acceleration": (0.1, 10.0, True),
+    "goal_xy_tolerance": (0.01, 2.0, True),
+    "goal_yaw_tolerance": (0.01, math.pi, True),
+    "approach_tolerance": (0.05, 5.0, True),
+    "robot_length": (0.1, 2.0, True),
+    "robot_width": (0.1, 2.0, True),
+    "laser_x_offset": (-1.0, 1.0, True),
+    "inflation_radius": (0.05, 3.0, True),
+    "cost_scaling_factor": (0.1, 50.0, True),
+    "obstacle_persistence": (0.0, 60.0, True),
+    "obstacle_max_range": (0.5, 30.0, True),
+    "raytrace_max_range": (0.5, 30.0, True),
+    "planning_resolution": (0.025, 0.5, True),
+    "cost_weight": (0.0, 1e4, True),
+    "path_spacing": (0.05, 2.0, True),
+    "replan_period": (0.1, 60.0, True),
+    "sim_time": (0.3, 5.0, True),
+    "sim_dt": (0.02, 0.5, True),
+    "v_samples": (2, 41, True),
+    "w_samples": (3, 61, True),
+    "lookahead": (0.2, 5.0, True),
+    "local_grid_resolution": (0.02, 0.2, True),
+    "slowdown_clearance": (0.0, 2.0, True),
+    "slowdown_min_fraction": (0.05, 1.0, True),
+    "approach_slowdown_distance": (0.05, 5.0, True),
+    "rotate_to_heading_angle": (0.1, math.pi, True),
+    "yaw_gain": (0.1, 10.0, True),
+    "min_rotation_speed": (0.0, 1.0, True),
+    "progress_distance": (0.05, 5.0, True),
+    "progress_timeout": (1.0, 300.0, True),
+    "blocked_timeout": (1.0, 3600.0, True),
+    "spin_angle": (0.0, 2 * math.pi, True),
+    "backup_distance": (0.0, 1.0, True),
+    "backup_speed": (0.02, 0.5, True),
+    "wait_duration": (0.0, 120.0, True),
 }
+MAX_ROLLOUT_STEPS = 20_000
+"""Most integration steps of one local-planner cycle, ``v_samples * w_samples * sim_time/sim_dt``
+(the default is 3 465, about 10 ms here; the bound keeps a cycle well under 0.1 s)."""
+MAX_FIELD_CELLS = 1_000_000
+"""Most cells of the robot-centred obstacle grid (about 8 MB of float64)."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +97,7 @@ class PlannerConfig:
     obstacle_persistence: float = 2.0  # [s]
     obstacle_max_range: float = 4.0  # [m]
     raytrace_max_range: float = 5.0  # [m]
+    allow_unknown: bool = False  # Nav2's allow_unknown (its default is True): see CostmapConfig
     # Global planner.
     planning_resolution: float = 0.1  # [m]
     cost_weight: float = 100.0
@@ -128,6 +136,8 @@ class PlannerConfig:
                 raise PlannerConfigError(
                     f"PlannerConfig.{name} = {value!r} is outside {bracket}{low}, {high}]"
                 )
+        if not isinstance(self.allow_unknown, bool):
+            raise PlannerConfigError("PlannerConfig.allow_unknown must be true or false")
         for name in ("v_samples", "w_samples"):
             if not isinstance(getattr(self, name), int):
                 raise PlannerConfigError(f"PlannerConfig.{name} must be an integer")
@@ -143,6 +153,20 @@ class PlannerConfig:
             )
         if self.sim_dt > self.sim_time:
             raise PlannerConfigError("PlannerConfig.sim_dt must be <= sim_time")
+        steps = self.v_samples * self.w_samples * max(1, round(self.sim_time / self.sim_dt))
+        if steps > MAX_ROLLOUT_STEPS:
+            raise PlannerConfigError(
+                f"PlannerConfig: v_samples x w_samples x sim_time/sim_dt = {steps} rollout steps"
+                f" per cycle > {MAX_ROLLOUT_STEPS} (it would stall the control loop)"
+            )
+        reach = max(self.max_linear_speed, abs(self.min_linear_speed)) * self.sim_time
+        half = reach + math.hypot(0.5 * self.robot_length, 0.5 * self.robot_width) + 0.6
+        cells = math.ceil(2 * half / self.local_grid_resolution) ** 2
+        if cells > MAX_FIELD_CELLS:
+            raise PlannerConfigError(
+                f"PlannerConfig: local_grid_resolution = {self.local_grid_resolution} m gives a "
+                f"{cells}-cell obstacle grid > {MAX_FIELD_CELLS}; use a coarser resolution"
+            )
 
     @property
     def inscribed_radius(self) -> float:
@@ -167,6 +191,7 @@ class PlannerConfig:
             obstacle_persistence=self.obstacle_persistence,
             obstacle_max_range=self.obstacle_max_range,
             raytrace_max_range=self.raytrace_max_range,
+            allow_unknown=self.allow_unknown,
         )
 
     def global_planner_config(self) -> GlobalPlannerConfig:

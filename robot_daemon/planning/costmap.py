@@ -1,7 +1,8 @@
 """A 2-D navigation costmap: the a-priori map plus live laser obstacles, inflated as in Nav2.
 
 The global costmap of the Hybrid Motion Planner (thesis §3.3.1): obstacles of the a-priori metric
-map (occupied *and* unknown cells are lethal) and obstacles the laser sees within
+map (occupied *and* unknown cells are lethal; with ``allow_unknown``, as Nav2's planners by
+default, unknown cells are traversable at the highest non-lethal cost) and obstacles the laser sees within
 ``obstacle_max_range`` are inflated "to mark all the areas where the robot's position is not
 valid". Live obstacles are marked for ``obstacle_persistence`` seconds and cleared earlier when a
 later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does.
@@ -40,6 +41,7 @@ LETHAL = 254
 INSCRIBED = 253
 MAX_NON_LETHAL = 252
 FREE_COST = 0
+UNKNOWN_COST = MAX_NON_LETHAL  # allow_unknown: the dearest traversable cell
 
 
 class CostmapConfigError(ValueError):
@@ -56,6 +58,10 @@ class CostmapConfig:
     obstacle_persistence: float = 2.0  # [s] how long a laser mark lives without a new hit
     obstacle_max_range: float = 4.0  # [m] obstacle_max_range: beams beyond do not mark
     raytrace_max_range: float = 5.0  # [m] raytrace_max_range: beams clear up to here
+    # Nav2's planner ``allow_unknown`` with the static layer's ``track_unknown_space``: unknown
+    # cells are then not obstacles (not inflated) but cost UNKNOWN_COST, the most a traversable
+    # cell costs, so paths cross them only where nothing known will do. False: unknown is lethal.
+    allow_unknown: bool = False
 
     def __post_init__(self) -> None:
         positive = (
@@ -112,27 +118,37 @@ class Costmap:
         self.grid = grid
         self.config = config or CostmapConfig()
         self.resolution = grid.resolution
-        static = np.ascontiguousarray(grid.blocked())
-        static.setflags(write=False)
-        self._static_obstacles = static
-        self._static_distance = ndimage.distance_transform_edt(
-            ~static, sampling=self.resolution
-        ).astype(np.float32)
-        self._static_costs = self._costs_from_distance(self._static_distance)
-        self._static_costs.setflags(write=False)
+        self._build_static()
         # Time [s] until which each cell holds a live laser obstacle (-inf: none).
-        self._marked_until = np.full(static.shape, -np.inf, dtype=np.float64)
+        self._marked_until = np.full(grid.cells.shape, -np.inf, dtype=np.float64)
         self._cache_key: tuple[float, int] | None = None
         self._cache: npt.NDArray[np.uint8] = self._static_costs
         self._version = 0
 
     # -- configuration ---------------------------------------------------------------------
 
+    def _build_static(self) -> None:
+        """The static layer: obstacles of the a-priori map, their distance field and costs."""
+        grid = self.grid
+        static = np.ascontiguousarray(
+            grid.occupied() if self.config.allow_unknown else grid.blocked()
+        )
+        static.setflags(write=False)
+        self._unknown = (grid.blocked() & ~grid.occupied()) if self.config.allow_unknown else None
+        self._static_obstacles = static
+        self._static_distance = ndimage.distance_transform_edt(
+            ~static, sampling=self.resolution
+        ).astype(np.float32)
+        self._static_costs = self._costs_from_distance(self._static_distance)
+        self._static_costs.setflags(write=False)
+
     def reconfigure(self, config: CostmapConfig) -> None:
         """Adopt new inflation / obstacle parameters (recomputes the static layer if needed)."""
         old = self.config
         self.config = config
-        if (old.inscribed_radius, old.inflation_radius, old.cost_scaling_factor) != (
+        if old.allow_unknown != config.allow_unknown:
+            self._build_static()
+        elif (old.inscribed_radius, old.inflation_radius, old.cost_scaling_factor) != (
             config.inscribed_radius,
             config.inflation_radius,
             config.cost_scaling_factor,
@@ -141,11 +157,17 @@ class Costmap:
             self._static_costs.setflags(write=False)
         self._touch()
 
-    def _costs_from_distance(self, distance: npt.NDArray[np.float32]) -> npt.NDArray[np.uint8]:
+    def _costs_from_distance(
+        self, distance: npt.NDArray[np.float32], window: tuple[slice, slice] | None = None
+    ) -> npt.NDArray[np.uint8]:
         c = self.config
-        return inflation_cost(
+        costs = inflation_cost(
             distance, c.inscribed_radius, c.inflation_radius, c.cost_scaling_factor
         )
+        if self._unknown is not None:
+            unknown = self._unknown if window is None else self._unknown[window]
+            costs[unknown & (costs < UNKNOWN_COST)] = UNKNOWN_COST
+        return costs
 
     def _touch(self) -> None:
         self._version += 1
@@ -255,7 +277,8 @@ class Costmap:
             )
             distance = np.minimum(self._static_distance[r0:r1, c0:c1], live_distance)
             result = self._static_costs.copy()
-            result[r0:r1, c0:c1] = self._costs_from_distance(distance.astype(np.float32))
+            window = (slice(r0, r1), slice(c0, c1))
+            result[window] = self._costs_from_distance(distance.astype(np.float32), window)
             result.setflags(write=False)
         self._cache_key = key
         self._cache = result
@@ -267,6 +290,12 @@ class Costmap:
         if not bool(self.grid.in_bounds(row, col)):
             return LETHAL
         return int(self.costs(now)[int(row), int(col)])
+
+    @property
+    def static_distance(self) -> npt.NDArray[np.float32]:
+        """Distance [m] from each cell to the a-priori map's nearest obstacle (occupied/unknown)."""
+        result: npt.NDArray[np.float32] = self._static_distance
+        return result
 
     @property
     def static_costs(self) -> npt.NDArray[np.uint8]:

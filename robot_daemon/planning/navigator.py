@@ -45,6 +45,7 @@ from robot_daemon.planning.local_planner import (
     limit_step,
     obstacle_points_near,
 )
+from robot_daemon.planning.scan_filter import remove_shadows
 
 logger = logging.getLogger(__name__)
 
@@ -103,6 +104,7 @@ class Navigator:
         self._progress_pose: Pose2D | None = None
         self._progress_time = 0.0
         self._stuck_since: float | None = None
+        self._last_obstacle_points: npt.NDArray[np.float64] | None = None
         self._episode_start: float | None = None
         self._recovery_step = 0
         self._behaviour: _Behaviour | None = None
@@ -207,6 +209,7 @@ class Navigator:
         cfg = self.config
         sensor = Pose2D(cfg.laser_x_offset, 0.0, 0.0)
         if scan is not None:
+            scan = remove_shadows(scan)  # mixed pixels would close doors in the costmap
             self.costmap.update(now, pose, scan, sensor)
         if self._state in (NavState.IDLE, NavState.SUCCEEDED, NavState.BLOCKED):
             return self._emit(0.0, 0.0)
@@ -324,6 +327,7 @@ class Navigator:
             scan_pts = scan.points(max_range=2.0 * half)
             scan_pts = scan_pts + np.array([self.config.laser_x_offset, 0.0])
             pts = np.vstack((pts, scan_pts))
+        self._last_obstacle_points = pts
         return self.local_planner.make_field(pts)
 
     def _rotate_to_goal(self, now: float, pose: Pose2D, target: Pose2D, dt: float) -> NavCommand:
@@ -358,6 +362,7 @@ class Navigator:
             self._behaviour = None
             message = (
                 f"blocked: {reason}; recoveries made no progress for {cfg.blocked_timeout:g} s"
+                f"; {self._where(pose)}"
             )
             logger.warning(message)
             return self._emit(0.0, 0.0, message)
@@ -371,6 +376,24 @@ class Navigator:
             self.costmap.clear()
             return self._finish_behaviour(now, pose)
         return self._emit(*self._brake(DEFAULT_DT))
+
+    def _where(self, pose: Pose2D) -> str:
+        """Where the robot is boxed in and by what (for the blocked message)."""
+        target = self._goals[self._index] if self._goals else None
+        text = f"at ({pose.x:.2f}, {pose.y:.2f})"
+        if target is not None:
+            text += f" heading for goal {self._index} ({target.x:.2f}, {target.y:.2f})"
+        row, col = self.grid.world_to_cell(pose.x, pose.y)
+        if bool(self.grid.in_bounds(row, col)):
+            wall = float(self.costmap.static_distance[int(row), int(col)])
+            text += f"; the map's nearest wall {wall:.2f} m away"
+        pts = self._last_obstacle_points
+        if pts is not None and pts.size:
+            d = np.hypot(pts[:, 0], pts[:, 1])
+            k = int(np.argmin(d))
+            bearing = math.degrees(math.atan2(pts[k, 1], pts[k, 0]))
+            text += f"; nearest obstacle seen {d[k]:.2f} m from the centre at {bearing:+.0f} deg"
+        return text
 
     def _brake(self, dt: float) -> tuple[float, float]:
         cfg = self.config

@@ -13,7 +13,7 @@ from pathlib import Path
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.scenarios.runner import ScenarioOptions, ScenarioResult
 
-SCENARIOS = ("odometry", "tour", "mission", "latency")
+SCENARIOS = ("odometry", "tour", "mission", "latency", "kidnap", "teleop")
 
 
 def load_scenario(name: str) -> Callable[[ScenarioOptions], ScenarioResult]:
@@ -38,6 +38,8 @@ def main(args: argparse.Namespace) -> int:
         map_yaml=Path(args.map_yaml) if args.map_yaml else DEFAULT_MAP,
         topo_yaml=Path(args.topo) if args.topo else DEFAULT_TOPO,
         seed=args.seed,
+        ideal_world=bool(getattr(args, "ideal_world", False)),
+        cold_start=bool(getattr(args, "cold_start", False)),
     )
     try:
         run = load_scenario(args.name)

@@ -9,16 +9,22 @@ is neither the start nor the room), the end of the mission. Modes:
 * ``autonomous``: the supervisor sends the routes and the robot's planner drives (thesis §6.3.1).
 * ``teleoperation``: the station does not send routes to the robot; a scripted operator
   (`HumanDriver`) drives on ``station_vel`` every 100 ms. It sees what the station shows (the
-  robot's published pose and scan, the map, the supervisor's route) and never the truth: it plans
-  a path to the route's current node with the robot's global planner on the static map, follows
-  it by pure pursuit (lookahead 0.8 m) at up to 0.6 m/s, slows with the free range ahead in the
-  scan and with path curvature, turns in place when the path points away, and at the goal turns
-  to the goal's heading.
+  robot's published pose and scan, the map, the supervisor's route) and never the truth, and
+  sees it late: ``PERCEPTION_DELAY`` after the robot published it (video, pose and scan on the
+  station's screen), and its joystick moves ``REACTION_TIME`` after it decides. It plans a path to
+  the route's current node with the robot's global planner on the static map, follows it by pure
+  pursuit (lookahead 0.8 m) at no more than autonomy's speed limits (the stack's
+  ``max_linear_speed`` and ``max_angular_speed``: a fair comparison, issue 17), slows with the
+  free range ahead in the scan and with path curvature, turns in place when the path points
+  away, and at the goal turns to the goal's heading.
 * ``shared`` (thesis §6.3.2): routes are sent and the same operator drives only on long straight
   stretches (the path ahead straight within 20 deg for >= 4 m, robot aligned, no narrow passage
   beside it in the scan, >= 3 m from the leg's goal); at corners, doorways, inside rooms and near
   the goal it releases the joystick (one zero command, then silence) and autonomy takes over once
   ``station_vel`` times out; the stack replans from where the robot is.
+* ``teleoperation_assisted`` and ``shared_assisted``: the same with the station's assisted
+  teleoperation switched on (``teleop_assist``); the collision monitor is on in every mode. The
+  figures ``assistance`` compare each pair (duration, collisions, clearance, speed).
 
 Checkpoints (Table 6.6): Start -> P1 -> Task -> P2 -> P3 -> End, with Task = the request shown
 in the room and End = the delivery finished. P1 is the intermediate topological node of the first
@@ -33,12 +39,14 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
+from interbot_core.laser_scan import LaserScan
 from interbot_core.supervisor import (
     Delivery,
     RequestShown,
@@ -59,10 +67,12 @@ from robot_daemon.scenarios.runner import (
 
 logger = logging.getLogger(__name__)
 
-MODES = ("autonomous", "teleoperation", "shared")
+MODES = ("autonomous", "teleoperation", "shared", "teleoperation_assisted", "shared_assisted")
 ACCEPT_AFTER_S = 3.0  # [s] the person in the room reads the request, then accepts
-OPERATOR_MAX_LINEAR = 0.6  # [m/s] the teleoperation interface's maximum (thesis §6.3.1)
-OPERATOR_MAX_ANGULAR = 0.8  # [rad/s]
+PERCEPTION_DELAY = 0.3  # [s] robot state -> the operator's eyes (link, video, screen refresh)
+REACTION_TIME = 0.25  # [s] the operator's decision -> the joystick moves
+WAIT_BEFORE_EVADING = 3.0  # [s] standing behind something before steering around it
+EVADE_S = 1.5  # [s]
 LOOKAHEAD = 0.8  # [m] pure pursuit
 STRAIGHT_ENTER = 4.0  # [m] shared control: straight path ahead to take the joystick
 STRAIGHT_STAY = 1.5  # [m] ... and to keep it
@@ -157,6 +167,12 @@ class HumanDriver:
     def __init__(self, system: SimulatedSystem, shared: bool) -> None:
         self.system = system
         self.shared = shared
+        limits = system.stack.config.planner  # the same limits as autonomy (issue 17)
+        self.max_linear = limits.max_linear_speed
+        self.max_angular = limits.max_angular_speed
+        self._seen: deque[tuple[float, Pose2D | None, LaserScan | None]] = deque()
+        self._view: tuple[Pose2D | None, LaserScan | None] = (None, None)
+        self._joystick: deque[tuple[float, float, float]] = deque()  # (due, linear, angular)
         config = PlannerConfig()
         self.planner = GlobalPlanner(system.grid, config.global_planner_config())
         self.costs = Costmap(system.grid, config.costmap_config()).static_costs
@@ -166,6 +182,7 @@ class HumanDriver:
         self.driving = False  # shared mode: the operator holds the joystick
         self.handovers = 0
         self.teleop_time = 0.0
+        self._waiting = 0.0  # [s] standing behind something right ahead
 
     # -- what the station shows ---------------------------------------------------------------
 
@@ -193,7 +210,7 @@ class HumanDriver:
 
     def _front_range(self) -> float:
         """Free range [m] straight ahead in the robot's published scan (a 0.7 m wide lane)."""
-        scan = self.system.stack.last_scan
+        scan = self._view[1]
         if scan is None:
             return math.inf
         pts = scan.points()
@@ -203,12 +220,25 @@ class HumanDriver:
         return float(pts[lane, 0].min()) if np.any(lane) else math.inf
 
     def _side_clearance(self) -> float:
-        scan = self.system.stack.last_scan
+        scan = self._view[1]
         if scan is None:
             return math.inf
         pts = scan.points()
         side = (np.abs(pts[:, 0]) < 0.5) & (np.abs(pts[:, 1]) > 0.0)
         return float(np.abs(pts[side, 1]).min()) if np.any(side) else math.inf
+
+    def _freer_side(self) -> float:
+        """+1 if there is more room to the left within 1 m ahead in the scan, else -1."""
+        scan = self._view[1]
+        if scan is None:
+            return 1.0
+        pts = scan.points()
+        ahead = (pts[:, 0] > -0.2) & (pts[:, 0] < 1.0)
+        left = pts[ahead & (pts[:, 1] > 0), 1]
+        right = -pts[ahead & (pts[:, 1] < 0), 1]
+        room_left = float(left.min()) if left.size else math.inf
+        room_right = float(right.min()) if right.size else math.inf
+        return 1.0 if room_left >= room_right else -1.0
 
     def _straight_ahead(self, pose: Pose2D, start: int) -> tuple[float, float]:
         """(length [m] of the path ahead within 20 deg of its first direction, that direction)."""
@@ -228,11 +258,26 @@ class HumanDriver:
 
     # -- the 100 ms loop -----------------------------------------------------------------------
 
+    def observe(self, now: float) -> None:
+        """What the robot publishes now reaches the operator's eyes PERCEPTION_DELAY later; the
+        joystick moves REACTION_TIME after a decision (called after every daemon step)."""
+        stack = self.system.stack
+        self._seen.append((now, stack.pose, stack.last_scan))
+        while self._seen and self._seen[0][0] <= now - PERCEPTION_DELAY + 1e-9:
+            _, pose, scan = self._seen.popleft()
+            self._view = (pose, scan)
+        while self._joystick and self._joystick[0][0] <= now + 1e-9:
+            _, linear, angular = self._joystick.popleft()
+            stack.on_twist("station_vel", linear, angular, now)
+
+    def _send(self, now: float, linear: float, angular: float) -> None:
+        self._joystick.append((now + REACTION_TIME, linear, angular))
+
     def tick(self, now: float) -> bool:
         system = self.system
         if system.of(TaskFinished):
             return True
-        pose = system.stack.pose
+        pose = self._view[0]
         target = self._target()
         if pose is None or target is None:
             self._release(now)
@@ -256,12 +301,12 @@ class HumanDriver:
             self.driving = True
             self.teleop_time += 0.1
         linear, angular = self._pursue(pose, goal, final, nearest, to_goal)
-        system.stack.on_twist("station_vel", linear, angular, now)
+        self._send(now, linear, angular)
         return False
 
     def _release(self, now: float) -> None:
         if self.driving:
-            self.system.stack.on_twist("station_vel", 0.0, 0.0, now)  # joystick springs back
+            self._send(now, 0.0, 0.0)  # joystick springs back
         self.driving = False
 
     def _pursue(
@@ -283,20 +328,29 @@ class HumanDriver:
         )
         bearing = math.atan2(local.y, local.x)
         if abs(bearing) > 0.8:
-            return 0.0, math.copysign(min(OPERATOR_MAX_ANGULAR, 0.3 + abs(bearing)), bearing)
+            return 0.0, math.copysign(min(self.max_angular, 0.3 + abs(bearing)), bearing)
         l2 = max(local.x**2 + local.y**2, 1e-6)
         curvature = 2.0 * local.y / l2
-        v = OPERATOR_MAX_LINEAR
-        v = min(v, OPERATOR_MAX_ANGULAR / max(abs(curvature), 1e-6))
+        v = self.max_linear
+        v = min(v, self.max_angular / max(abs(curvature), 1e-6))
         front = self._front_range() - 0.3  # from the laser to the bumper
-        v = min(v, OPERATOR_MAX_LINEAR * max(0.0, min(1.0, (front - 0.4) / 1.5)))
+        v = min(v, self.max_linear * max(0.0, min(1.0, (front - 0.4) / 1.5)))
         if final:
             v = min(v, max(0.08, 0.5 * to_goal))
-        w = max(-OPERATOR_MAX_ANGULAR, min(OPERATOR_MAX_ANGULAR, v * curvature))
+        w = max(-self.max_angular, min(self.max_angular, v * curvature))
         if v < 0.05 and front < 0.6:
             if abs(bearing) > 0.15:  # a door jamb ahead: square up to the carrot first
                 return 0.0, math.copysign(0.4, bearing)
-            return 0.0, 0.0  # something right ahead: wait for it to move
+            # Something right ahead: wait for it to move; after WAIT_BEFORE_EVADING s, steer
+            # around it on the side with more room, as a person at the joystick would.
+            self._waiting += 0.1
+            if self._waiting > WAIT_BEFORE_EVADING:
+                if self._waiting > WAIT_BEFORE_EVADING + EVADE_S:
+                    self._waiting = 0.0
+                turn = math.copysign(0.5, self._freer_side())
+                return (0.0 if front < 0.3 else 0.08), turn
+            return 0.0, 0.0
+        self._waiting = 0.0
         return v, w
 
 
@@ -304,7 +358,9 @@ def run_mode(options: ScenarioOptions, mode: str) -> dict[str, Any]:
     """One mission in ``mode``; returns its figures."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    system = SimulatedSystem(options, start_node=0, send_routes=mode != "teleoperation")
+    base = mode.removesuffix("_assisted")
+    system = SimulatedSystem(options, start_node=0, send_routes=base != "teleoperation")
+    system.stack.set_teleop_assist("station_vel", mode.endswith("_assisted"), system.now)
     system.hooks.append(auto_answer_requests(ACCEPT_AFTER_S))
     system.localise()
     topo = system.topo
@@ -320,10 +376,12 @@ def run_mode(options: ScenarioOptions, mode: str) -> dict[str, Any]:
     text = f"Please take this to the {topo.node(bar).name}"
     system.apply(system.supervisor.submit(Delivery(text, room, bar)))
     t0 = system.now
-    driver = HumanDriver(system, shared=mode == "shared") if mode != "autonomous" else None
+    driver = HumanDriver(system, shared=base == "shared") if base != "autonomous" else None
     track: list[tuple[float, float, float]] = []
 
     def on_step(now: float) -> None:
+        if driver is not None:
+            driver.observe(now)
         if round(now * 50) % 5 == 0:
             truth = system.sim.true_pose()
             track.append((now, truth.x, truth.y))
@@ -360,6 +418,9 @@ def run_mode(options: ScenarioOptions, mode: str) -> dict[str, Any]:
     if driver is not None:
         figures["operator_handovers"] = driver.handovers
         figures["operator_teleop_s"] = round(driver.teleop_time, 1)
+        figures["operator_max_linear_mps"] = driver.max_linear
+        figures["operator_delay_s"] = PERCEPTION_DELAY + REACTION_TIME
+    figures["monitor_interventions"] = system.stack.guard.interventions
     return figures
 
 
@@ -405,12 +466,12 @@ def _mmss(seconds: float) -> str:
 def format_tables(results: dict[str, dict[str, Any]]) -> str:
     lines = [
         "Test Scenario 3 (thesis Tables 6.5 and 6.7): localisation and obstacle clearance",
-        "Test type       Duration  Collisions  Loc. losses  Min. clearance (cm)      Mean linear",
-        "                (mm:ss)   (#)         (#)          min     max     mean     speed (m/s)",
+        "Test type               Duration  Collisions  Loc. losses  Min. clearance (cm)      Mean linear",
+        "                        (mm:ss)   (#)         (#)          min     max     mean     speed (m/s)",
     ]
     for mode, f in results.items():
         lines.append(
-            f"{mode:<15} {_mmss(f['duration_s']):<9} {f['collisions']:<11} "
+            f"{mode:<23} {_mmss(f['duration_s']):<9} {f['collisions']:<11} "
             f"{f['localisation_losses']:<12} {f['min_clearance_m'] * 100:<7.1f} "
             f"{f['max_clearance_m'] * 100:<7.1f} {f['mean_clearance_m'] * 100:<8.2f} "
             f"{f['mean_speed_mps']:.4f}{'' if f['completed'] else '  (NOT COMPLETED)'}"
@@ -418,21 +479,44 @@ def format_tables(results: dict[str, dict[str, Any]]) -> str:
     lines += [
         "",
         "Test Scenario 3 (thesis Tables 6.6 and 6.7): time between checkpoints (s)",
-        "Test type       Start->P1  P1->Task   Task->P2   P2->P3     P3->End",
+        "Test type               Start->P1  P1->Task   Task->P2   P2->P3     P3->End",
     ]
     for mode, f in results.items():
         cells = " ".join(
             f"{'-' if v is None else f'{v:.3f}':<10}" for v in f["checkpoint_times_s"].values()
         )
-        lines.append(f"{mode:<15} {cells}")
+        lines.append(f"{mode:<23} {cells}")
     first = next(iter(results.values()))
     lines.append("checkpoints: " + "; ".join(f"{v}" for v in first["checkpoints"].values()))
     return "\n".join(lines)
 
 
+def assistance_effect(results: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """How switching the station's assisted teleoperation on changes each operator mode."""
+    out: dict[str, dict[str, Any]] = {}
+    for base in ("teleoperation", "shared"):
+        off, on = results.get(base), results.get(f"{base}_assisted")
+        if off is None or on is None:
+            continue
+        out[base] = {
+            "completed": [off["completed"], on["completed"]],
+            "duration_change_s": round(on["duration_s"] - off["duration_s"], 1),
+            "collisions": [off["collisions"], on["collisions"]],
+            "min_clearance_m": [off["min_clearance_m"], on["min_clearance_m"]],
+            "mean_speed_mps": [off["mean_speed_mps"], on["mean_speed_mps"]],
+            "monitor_interventions": [off["monitor_interventions"], on["monitor_interventions"]],
+        }
+    return out
+
+
 def run(options: ScenarioOptions) -> ScenarioResult:
     results = {mode: run_mode(options, mode) for mode in MODES}
-    figures: dict[str, Any] = {**results, "seed": options.seed, "people": options.people}
+    figures: dict[str, Any] = {
+        **results,
+        "assistance": assistance_effect(results),
+        "seed": options.seed,
+        "people": options.people,
+    }
     return ScenarioResult("mission", format_tables(results), figures)
 
 

@@ -1,5 +1,11 @@
 """The whole robot stack and the Base Station's logic, headless on simulated time.
 
+By default the simulator runs in its OWN building (`robot_daemon.sim.realistic_world`): the
+map's source drawn again at 2 cm with walls a few centimetres off, clutter, changed doors and
+glass, a UTM-30LX error model, odometry with slip, and an initial pose set by a person (up to
+0.3 m and 10 degrees off). ``ScenarioOptions.ideal_world`` keeps the old best case (world = map,
+exact initial pose) for comparison.
+
 `SimulatedSystem` wires what runs on three machines in the thesis into one loop: the simulator
 (the robot's body and sensors), the `RobotStack` (the Processing Unit: localiser, navigator,
 multiplexer) stepped at the daemon's 50 Hz, and the station's `Supervisor` driven at the
@@ -10,6 +16,7 @@ it reaches the robot.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -38,10 +45,14 @@ from interbot_core.supervisor import (
 )
 from interbot_core.topics import RouteMsg
 from interbot_core.topological_map import TopologicalMap, load_topological_map
-from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
-from robot_daemon.localisation.localiser import LocaliserState
+from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO, LocaliserSettings
+from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.sim.laser_sim import LaserConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
+from robot_daemon.sim.realistic_world import SimWorldSpec, build_sim_world, plan_beside
 from robot_daemon.sim.simulator import SimConfig, Simulator
+from robot_daemon.sim.world import RectObstacle
 from robot_daemon.sim_backend import SimBackend
 from robot_daemon.stack import RobotStack, StackConfig
 
@@ -61,8 +72,10 @@ class ScenarioOptions:
     topo_yaml: Path = DEFAULT_TOPO
     seed: int = 1
     people: int = 4
-    odometry: str = "calibrated"
+    odometry: str = "realistic"  # the ideal world uses "calibrated" in its place
     max_sim_time: float = 3600.0  # [s]
+    ideal_world: bool = False  # True: the simulator's world IS the map, initial pose exact
+    cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
@@ -75,11 +88,30 @@ class ScenarioResult:
     figures: dict[str, Any]
 
 
+# Issue 12: a pose this far from the truth must not be reported ok (a "silent failure").
+SILENT_FAILURE_M = 0.3  # [m]
+SILENT_FAILURE_RAD = math.radians(10.0)
+INITIAL_POSE_MAX_ERROR = (0.3, math.radians(10.0))  # [m], [rad] a person setting the pose
+
+
+def person_set_pose_error(rng: np.random.Generator) -> Pose2D:
+    """How far off a person sets the initial pose: 0.1-0.3 m in any direction, 3-10 degrees.
+
+    Not smaller than 0.1 m / 3 degrees, so every run exercises the localiser's convergence.
+    """
+    max_xy, max_yaw = INITIAL_POSE_MAX_ERROR
+    distance = rng.uniform(0.1, max_xy)
+    direction = rng.uniform(-math.pi, math.pi)
+    yaw = rng.choice([-1.0, 1.0]) * rng.uniform(math.radians(3.0), max_yaw)
+    return Pose2D(distance * math.cos(direction), distance * math.sin(direction), float(yaw))
+
+
 def odometry_model(name: str) -> OdometryErrorModel:
     models = {
         "perfect": OdometryErrorModel.perfect,
         "calibrated": OdometryErrorModel.calibrated,
         "uncalibrated": OdometryErrorModel.uncalibrated,
+        "realistic": OdometryErrorModel.realistic,
     }
     if name not in models:
         raise ValueError(f"odometry model must be one of {sorted(models)}, got {name!r}")
@@ -100,8 +132,9 @@ class Metrics:
     loc_errors: list[float] = field(default_factory=list)
     heading_errors: list[float] = field(default_factory=list)
     losses: int = 0
-    silent_failures: int = 0  # samples > 0.3 m or > 10 degrees off while reported ok (issue 12)
-    degraded_s: float = 0.0
+    silent_failures: int = 0  # samples reported ok while > 0.3 m or 10 degrees off the truth
+    degraded_s: float = 0.0  # simulated seconds spent in the degraded state
+    worst: tuple[float, float, float] = (0.0, math.nan, math.nan)  # (error [m], true x, y)
     _last_pose: Pose2D | None = None
     _last_state: LocaliserState | None = None
 
@@ -122,17 +155,27 @@ class Metrics:
                 self.corridor_samples += 1
         estimate = stack.pose
         state = stack.localisation_state
-        if state == LocaliserState.LOST and self._last_state != LocaliserState.LOST:
-            self.losses += 1
+        if state != self._last_state and (
+            state == LocaliserState.LOST
+            or (
+                state == LocaliserState.SEARCHING
+                and self._last_state in (LocaliserState.OK, LocaliserState.DEGRADED)
+            )
+        ):
+            self.losses += 1  # lost, or a global search started while localised (issue 16)
         self._last_state = state
         if estimate is not None and state == LocaliserState.OK:
-            self.loc_errors.append(estimate.distance_to(truth))
-            self.heading_errors.append(abs(angle_diff(estimate.yaw, truth.yaw)))
-            if self.loc_errors[-1] > 0.3 or self.heading_errors[-1] > math.radians(10.0):
+            error = estimate.distance_to(truth)
+            heading = abs(angle_diff(estimate.yaw, truth.yaw))
+            self.loc_errors.append(error)
+            self.heading_errors.append(heading)
+            if error > SILENT_FAILURE_M or heading > SILENT_FAILURE_RAD:
                 self.silent_failures += 1
+            if error > self.worst[0]:
+                self.worst = (error, truth.x, truth.y)
         self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
 
-    def figures(self) -> dict[str, float]:
+    def figures(self) -> dict[str, Any]:
         loc = np.asarray(self.loc_errors) if self.loc_errors else np.zeros(1)
         heading = np.asarray(self.heading_errors) if self.heading_errors else np.zeros(1)
         clear = np.asarray(self.clearances) if self.clearances else np.full(1, math.nan)
@@ -154,6 +197,8 @@ class Metrics:
             "loc_max_m": round(float(loc.max()), 4),
             "loc_heading_rms_deg": round(float(np.degrees(np.sqrt(np.mean(heading**2)))), 3),
             "loc_heading_max_deg": round(float(np.degrees(heading.max())), 3),
+            "loc_silent_failures": self.silent_failures,
+            "loc_worst_at": [round(self.worst[1], 2), round(self.worst[2], 2)],
         }
 
 
@@ -182,14 +227,45 @@ class SimulatedSystem:
                 self.topo.home_id if start_node is None else start_node
             ).pose
         self.start_pose = start_pose
+        odometry = options.odometry
+        if options.ideal_world and odometry == "realistic":
+            odometry = "calibrated"
         sim_config = SimConfig(
             internal_dt=SIM_DT,
             start_pose=start_pose,
             n_people=options.people,
-            odometry=odometry_model(options.odometry),
+            odometry=odometry_model(odometry),
         )
-        self.sim = Simulator(self.grid, sim_config, rng_seed=options.seed)
-        stack_config = stack_config or StackConfig()
+        world_grid = self.grid
+        # What the person setting the initial pose gets wrong (ideal world: nothing).
+        self.initial_pose_error = Pose2D(0.0, 0.0, 0.0)
+        self.world_spec: SimWorldSpec | None = None
+        if not options.ideal_world:
+            world_seed, pose_seed = np.random.SeedSequence([options.seed, 12]).spawn(2)
+            self.world_spec = build_sim_world(
+                self.grid,
+                np.random.default_rng(world_seed),
+                plan_yaml=plan_beside(Path(options.map_yaml)),
+                topo=self.topo,
+                keep_clear=[(start_pose.x, start_pose.y)],
+            )
+            world_grid = self.world_spec.grid
+            sim_config = dataclasses.replace(
+                sim_config,
+                laser=LaserConfig.realistic(),
+                obstacles=tuple(
+                    RectObstacle(i.center_x, i.center_y, i.size_x, i.size_y, i.yaw)
+                    for i in self.world_spec.items
+                ),
+                glass=tuple((g.x0, g.y0, g.x1, g.y1) for g in self.world_spec.glass),
+            )
+            self.initial_pose_error = person_set_pose_error(np.random.default_rng(pose_seed))
+        self.sim = Simulator(world_grid, sim_config, rng_seed=options.seed)
+        if stack_config is None:  # the daemon's wall model, the same as on the robot
+            surface = LocaliserSettings().map_surface
+            stack_config = StackConfig(
+                localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface))
+            )
         rates = stack_config.rates
         self.backend = SimBackend(
             self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0
@@ -212,8 +288,11 @@ class SimulatedSystem:
     # -- the station's side ------------------------------------------------------------------
 
     def localise(self) -> None:
-        """The operator sets the initial pose where the robot stands (thesis: required)."""
-        self.stack.set_initial_pose(self.start_pose, self.now)
+        """The operator sets the initial pose where the robot stands (thesis: required).
+
+        A person clicking the pose on the map is off by ``initial_pose_error`` (realistic world).
+        """
+        self.stack.set_initial_pose(self.start_pose.compose(self.initial_pose_error), self.now)
 
     def _route_message(self, started: RouteStarted) -> RouteMsg:
         self._route_ids += 1

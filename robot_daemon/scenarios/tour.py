@@ -2,13 +2,15 @@
 
 The robot starts at home, localised by the operator; the visitor asks for a guided tour; at each
 stop the robot pauses, shows the room's information and the visitor taps Resume a few seconds
-later. Figures come from the simulator's ground truth; the realtime factor is simulated time
-over wall time for the whole stack (localiser, planner, multiplexer, simulator, supervisor).
+later. A localiser lost for 60 s with nobody to re-set the pose ends the tour as failed.
+Figures come from the simulator's ground truth; the realtime factor is simulated time over wall
+time for the whole stack (localiser, planner, multiplexer, simulator, supervisor).
 """
 
 from __future__ import annotations
 
 from interbot_core.supervisor import GuidedTour, TaskFinished, TourStopReached
+from robot_daemon.localisation.localiser import LocaliserState
 from robot_daemon.scenarios.runner import (
     ScenarioOptions,
     ScenarioResult,
@@ -17,6 +19,7 @@ from robot_daemon.scenarios.runner import (
 )
 
 STOP_DWELL_S = 5.0  # [s] the visitor reads the room's information, then taps Resume
+LOST_GIVE_UP_S = 60.0  # [s] lost this long with nobody re-setting the pose: the tour has failed
 
 
 def run(options: ScenarioOptions) -> ScenarioResult:
@@ -25,21 +28,36 @@ def run(options: ScenarioOptions) -> ScenarioResult:
     system.localise()
     system.apply(system.supervisor.submit(GuidedTour()))
     start = system.now
-    completed = system.run_until(lambda: bool(system.of(TaskFinished)))
+    lost_since: list[float] = []  # when the localiser last became lost (nobody re-localises)
+
+    def done() -> bool:
+        if system.stack.localisation_state == LocaliserState.LOST:
+            if not lost_since:
+                lost_since.append(system.now)
+            return system.now - lost_since[0] >= LOST_GIVE_UP_S
+        lost_since.clear()
+        return bool(system.of(TaskFinished))
+
+    completed = system.run_until(done)
     finished = system.of(TaskFinished)
     ok = bool(finished) and finished[0][1].ok
+    if lost_since and not finished:
+        reason = f"localisation lost at {lost_since[0]:.1f} s and not re-set by an operator"
+    else:
+        reason = finished[0][1].reason if finished else "time limit reached"
     stops = system.of(TourStopReached)
     total = len(system.supervisor.tour_stops) or len(system.topo.tour_nodes())
     duration = system.now - start
     figures = {
         "completed": bool(completed and ok),
-        "reason": finished[0][1].reason if finished else "time limit reached",
+        "reason": reason,
         "duration_s": round(duration, 1),
         "collisions": system.sim.collisions,
         "stops_visited": len(stops),
         "stops_total": total,
         "people": options.people,
         "seed": options.seed,
+        "world": "ideal (world = map)" if options.ideal_world else "realistic",
         **system.metrics.figures(),
         "realtime_factor": round(system.realtime_factor(), 1),
     }
@@ -56,6 +74,8 @@ def run(options: ScenarioOptions) -> ScenarioResult:
             f"{figures['min_clearance_m'] * 100:.1f} cm; corridor speed "
             f"{figures['corridor_speed_ratio'] * 100:.0f} % of max; "
             f"{figures['realtime_factor']:.1f}x real time",
+            f"world: {figures['world']}; silent localisation failures (ok but > 0.3 m or "
+            f"10 deg off): {figures['loc_silent_failures']} of the 10 Hz samples",
         ]
     )
     return ScenarioResult("tour", table, figures)

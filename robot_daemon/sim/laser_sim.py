@@ -4,6 +4,22 @@ Sensor (thesis §4.1.5; Hokuyo UTM-30LX datasheet): 1081 beams over 270 degrees 
 steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaussian noise
 (sigma 0.03 m by default, the datasheet's +-30 mm accuracy at 0.1-10 m).
 
+``LaserConfig.realistic()`` is the error model of a real UTM-30LX as the simulated world uses it
+(issue 12; Pomerleau et al., "Noise characterization of depth sensors for surface inspections",
+2012, and Okubo et al., "Characterization of the Hokuyo URG-04LX", 2009, for the effects):
+
+* per-beam noise ``N(0, noise_sigma)`` (10 mm) plus a slowly varying bias common to the scan, an
+  Ornstein-Uhlenbeck process ``b(t + dt) = b e^{-dt/tau} + bias_sigma sqrt(1 - e^{-2 dt/tau}) n``
+  (stationary std ``bias_sigma``, time constant ``bias_tau``: the sensor's temperature drift);
+* dropouts: a beam returns nothing (+inf, REP-117) with probability
+  ``dropout_probability + far_dropout_per_m * range`` (dark or grazing surfaces far away);
+* mixed pixels: where neighbouring beams differ by more than ``mixed_pixel_jump`` the farther one
+  returns, with probability ``mixed_pixel_probability``, a range uniformly between the two (the
+  spot straddles the edge and the sensor averages the echoes);
+* glass (``World.glass``): a beam meeting a pane within ``glass_return_angle`` of its normal is
+  reflected back and returns the pane's range; any other beam passes through and returns what is
+  behind the pane.
+
 No-return convention (REP-117): a beam with nothing within ``range_max`` reports ``+inf``; a
 return closer than ``range_min`` reports ``-inf``. Consumers use ``LaserScan.valid()``.
 
@@ -70,6 +86,25 @@ class LaserConfig:
     mount_x: float = 0.2  # [m] ahead of base_link
     mount_y: float = 0.0  # [m]
     mount_yaw: float = 0.0  # [rad]
+    bias_sigma: float = 0.0  # [m] stationary std of the slowly varying range bias
+    bias_tau: float = 20.0  # [s] its time constant
+    dropout_probability: float = 0.0  # per beam: no return (+inf)
+    far_dropout_per_m: float = 0.0  # [1/m] extra dropout probability per metre of range
+    mixed_pixel_probability: float = 0.0  # at a range discontinuity
+    mixed_pixel_jump: float = 0.3  # [m] what counts as a discontinuity
+    glass_return_angle: float = 0.17  # [rad] panes return beams this close to their normal
+
+    @classmethod
+    def realistic(cls) -> LaserConfig:
+        """A real UTM-30LX (see the module docstring): 10 mm noise, 10 mm drifting bias."""
+        return cls(
+            noise_sigma=0.01,
+            bias_sigma=0.01,
+            bias_tau=20.0,
+            dropout_probability=0.003,
+            far_dropout_per_m=0.002,
+            mixed_pixel_probability=0.5,
+        )
 
     def __post_init__(self) -> None:
         if self.beams < 1:
@@ -82,6 +117,19 @@ class LaserConfig:
             raise LaserConfigError("LaserConfig.scan_period must be > 0 s")
         if not (math.isfinite(self.noise_sigma) and self.noise_sigma >= 0):
             raise LaserConfigError("LaserConfig.noise_sigma must be >= 0 m")
+        if not (math.isfinite(self.bias_sigma) and 0 <= self.bias_sigma <= 1.0):
+            raise LaserConfigError("LaserConfig.bias_sigma must be in [0, 1] m")
+        if not (math.isfinite(self.bias_tau) and self.bias_tau > 0):
+            raise LaserConfigError("LaserConfig.bias_tau must be > 0 s")
+        for name in ("dropout_probability", "mixed_pixel_probability"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise LaserConfigError(f"LaserConfig.{name} must be in [0, 1]")
+        if not 0.0 <= self.far_dropout_per_m <= 1.0:
+            raise LaserConfigError("LaserConfig.far_dropout_per_m must be in [0, 1] 1/m")
+        if not 0.0 < self.mixed_pixel_jump <= 100.0:
+            raise LaserConfigError("LaserConfig.mixed_pixel_jump must be in (0, 100] m")
+        if not 0.0 <= self.glass_return_angle <= math.pi / 2:
+            raise LaserConfigError("LaserConfig.glass_return_angle must be in [0, pi/2] rad")
 
     @property
     def mount(self) -> Pose2D:
@@ -213,6 +261,37 @@ class RayCaster:
         best = t[np.arange(n), which]
         return best, np.where(np.isfinite(best), which, -1)
 
+    def cast_glass(
+        self, origin_x: float, origin_y: float, angles: FloatArray, return_angle: float
+    ) -> FloatArray:
+        """Range [m] to the first glass pane that reflects each beam back (inf if none).
+
+        Slab test per axis-aligned pane: entry at ``t = max(t_x, t_y)`` over the near faces;
+        the face entered is the one of the larger; it reflects when the beam is within
+        ``return_angle`` of that face's normal (``|cos| >= cos(return_angle)``).
+        """
+        n = angles.size
+        best = np.full(n, np.inf)
+        if not self.world.glass:
+            return best
+        cx, cy = np.cos(angles), np.sin(angles)
+        threshold = math.cos(return_angle)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv_x, inv_y = 1.0 / cx, 1.0 / cy
+            for x0, y0, x1, y1 in self.world.glass:
+                tx0, tx1 = (x0 - origin_x) * inv_x, (x1 - origin_x) * inv_x
+                ty0, ty1 = (y0 - origin_y) * inv_y, (y1 - origin_y) * inv_y
+                tx_near, tx_far = np.minimum(tx0, tx1), np.maximum(tx0, tx1)
+                ty_near, ty_far = np.minimum(ty0, ty1), np.maximum(ty0, ty1)
+                t_in = np.fmax(tx_near, ty_near)
+                t_out = np.fmin(tx_far, ty_far)
+                hit = (t_in <= t_out) & (t_in > 0)
+                # Normal of the entered face: x-face if tx_near is the later entry.
+                cos_incidence = np.where(tx_near >= ty_near, np.abs(cx), np.abs(cy))
+                reflect = hit & (cos_incidence >= threshold)
+                best = np.where(reflect & (t_in < best), t_in, best)
+        return best
+
     def cast(
         self,
         origin_x: float,
@@ -220,9 +299,17 @@ class RayCaster:
         angles: FloatArray,
         max_range: float,
         circles: FloatArray | None = None,
+        glass_return_angle: float = 0.0,
     ) -> FloatArray:
-        """Noise-free range [m] to walls or people along each world-frame angle; inf if none."""
+        """Noise-free range [m] to walls or people along each world-frame angle; inf if none.
+
+        Glass panes (``World.glass``) return only beams within ``glass_return_angle`` of their
+        normal; other beams see through them.
+        """
         ranges = self.cast_walls(origin_x, origin_y, angles, max_range)
+        if self.world.glass:
+            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle)
+            ranges = np.minimum(ranges, np.where(pane <= max_range, pane, np.inf))
         if circles is not None and circles.size:
             people, _ = self.cast_circles(origin_x, origin_y, angles, circles)
             ranges = np.minimum(ranges, np.where(people <= max_range, people, np.inf))
@@ -242,6 +329,40 @@ class LaserSim:
         self.caster = RayCaster(world)
         self._rng = rng if rng is not None else np.random.default_rng(0)
         self._beam_angles = self.config.beam_angles()
+        self._bias = 0.0  # [m] current slowly varying range bias
+        self._bias_stamp: float | None = None
+
+    def _advance_bias(self, stamp: float) -> float:
+        """The Ornstein-Uhlenbeck range bias at ``stamp`` [s] (see the module docstring)."""
+        c = self.config
+        if c.bias_sigma <= 0.0:
+            return 0.0
+        if self._bias_stamp is None:
+            self._bias = float(self._rng.normal(0.0, c.bias_sigma))
+        else:
+            decay = math.exp(-max(stamp - self._bias_stamp, 0.0) / c.bias_tau)
+            kick = c.bias_sigma * math.sqrt(max(1.0 - decay * decay, 0.0))
+            self._bias = self._bias * decay + kick * float(self._rng.normal())
+        self._bias_stamp = stamp
+        return self._bias
+
+    def _mix_pixels(self, ranges: FloatArray) -> None:
+        """Farther beam of each discontinuous neighbour pair -> a range between the two."""
+        c = self.config
+        a, b = ranges[:-1], ranges[1:]
+        finite = np.isfinite(a) & np.isfinite(b)
+        with np.errstate(invalid="ignore"):
+            jump = finite & (np.abs(a - b) > c.mixed_pixel_jump)
+        pairs = np.flatnonzero(jump)
+        if pairs.size == 0:
+            return
+        chosen = pairs[self._rng.random(pairs.size) < c.mixed_pixel_probability]
+        if chosen.size == 0:
+            return
+        near = np.minimum(ranges[chosen], ranges[chosen + 1])
+        far = np.maximum(ranges[chosen], ranges[chosen + 1])
+        farther = np.where(ranges[chosen] > ranges[chosen + 1], chosen, chosen + 1)
+        ranges[farther] = near + self._rng.random(chosen.size) * (far - near)
 
     def sensor_pose(self, robot_pose: Pose2D) -> Pose2D:
         """World pose of the laser frame for a base_link pose."""
@@ -254,12 +375,24 @@ class LaserSim:
         c = self.config
         sensor = self.sensor_pose(robot_pose)
         true = self.caster.cast(
-            sensor.x, sensor.y, self._beam_angles + sensor.yaw, c.range_max, circles
+            sensor.x,
+            sensor.y,
+            self._beam_angles + sensor.yaw,
+            c.range_max,
+            circles,
+            c.glass_return_angle,
         )
         ranges = true.copy()
+        if c.mixed_pixel_probability > 0:
+            self._mix_pixels(ranges)
         finite = np.isfinite(ranges)
         if c.noise_sigma > 0:
             ranges[finite] += self._rng.normal(0.0, c.noise_sigma, int(finite.sum()))
+        if c.bias_sigma > 0:
+            ranges[finite] += self._advance_bias(stamp)
+        if c.dropout_probability > 0 or c.far_dropout_per_m > 0:
+            p = c.dropout_probability + c.far_dropout_per_m * np.where(finite, ranges, 0.0)
+            ranges[finite & (self._rng.random(ranges.size) < p)] = np.inf
         ranges[finite & (ranges > c.range_max)] = np.inf
         ranges[finite & (ranges < c.range_min)] = -np.inf
         return LaserScan(

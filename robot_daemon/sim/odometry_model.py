@@ -17,6 +17,11 @@ The odometry then integrates the measured arcs ``s * arc_true + noise`` with the
 (exact arc per update). Noise is zero-mean Gaussian with variance proportional to the distance
 rolled (``noise_per_sqrt_m**2 * |arc|`` per wheel), drawn from a seeded ``numpy.random.Generator``.
 
+Wheel slip on turns (``turn_slip``): in a turn the tyres scrub, so the body turns less than the
+wheels' arcs say. The body's yaw rate is ``omega_wheels * (1 - s)`` with
+``s = turn_slip * |omega| / (|omega| + 0.3 rad/s) * (1 + 0.5 n)``, ``n ~ N(0, 1)`` per update
+(clipped to [0, 2 turn_slip]); the encoders still report the wheels' arcs.
+
 Frames (REP-105): the result is the pose of ``base_link`` in ``odom``, which drifts without
 bound and never jumps; the ``map`` frame is the simulator's ground truth and is never exposed
 through this module.
@@ -48,8 +53,13 @@ class OdometryErrorModel:
     wheel_scale_right: float = 1.0
     track_scale: float = 1.0
     noise_per_sqrt_m: float = 0.0  # [m / sqrt(m)] per-wheel std after rolling 1 m
+    turn_slip: float = 0.0  # fraction of the wheels' rotation lost to scrubbing in turns
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.turn_slip) and 0.0 <= self.turn_slip <= 0.2):
+            raise OdometryConfigError(
+                f"OdometryErrorModel.turn_slip must be in [0, 0.2], got {self.turn_slip!r}"
+            )
         for name in ("wheel_scale_left", "wheel_scale_right", "track_scale"):
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.5 <= value <= 2.0):
@@ -76,6 +86,12 @@ class OdometryErrorModel:
     def calibrated(cls, noise_per_sqrt_m: float = 0.002) -> OdometryErrorModel:
         """Thesis Table 6.2: after calibration the robot moves ~3 % slower than commanded."""
         return cls(1.0295, 1.0305, 1.0, noise_per_sqrt_m)
+
+    @classmethod
+    def realistic(cls, noise_per_sqrt_m: float = 0.003) -> OdometryErrorModel:
+        """The calibrated robot as it really is: wheels 0.5 % unequal, the track 1.5 % off
+        (believed / true), 3 % slip in turns."""
+        return cls(1.0275, 1.0325, 1.015, noise_per_sqrt_m, turn_slip=0.03)
 
     @property
     def mean_wheel_scale(self) -> float:
@@ -143,6 +159,15 @@ class WheelOdometry:
     def velocity(self) -> tuple[float, float]:
         """(linear [m/s], angular [rad/s]) measured over the last update."""
         return self._linear, self._angular
+
+    def slip_factor(self, angular: float) -> float:
+        """Body yaw rate / wheels' yaw rate for a turn at ``angular`` [rad/s] (1 = no slip)."""
+        slip = self.model.turn_slip
+        if slip <= 0.0 or angular == 0.0:
+            return 1.0
+        mean = slip * abs(angular) / (abs(angular) + 0.3)
+        s = mean * (1.0 + 0.5 * float(self._rng.normal()))
+        return 1.0 - min(max(s, 0.0), 2.0 * slip)
 
     def measure(self, true_left: float, true_right: float) -> tuple[float, float]:
         """Measured wheel arcs [m] for true arcs [m]: scale error plus distance-dependent noise."""

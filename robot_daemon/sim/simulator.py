@@ -71,6 +71,7 @@ class SimConfig:
     battery: BatteryConfig = field(default_factory=BatteryConfig)
     crowd: CrowdConfig = field(default_factory=CrowdConfig)
     obstacles: tuple[RectObstacle, ...] = ()
+    glass: tuple[tuple[float, float, float, float], ...] = ()  # panes x0, y0, x1, y1 [m]
     n_people: int = 0  # people spawned on generated routes at start
     start_pose: Pose2D | None = None  # None: the most open point of the map, facing +x
     contact_hysteresis: float = 0.02  # [m]
@@ -97,7 +98,7 @@ class Simulator:
     ) -> None:
         self.config = config = config or SimConfig()
         odom_seed, laser_seed, people_seed = np.random.SeedSequence(rng_seed).spawn(3)
-        self.world = World(grid, config.obstacles)
+        self.world = World(grid, config.obstacles, config.glass)
         self.drive = DiffDrive(config.drive)
         self._pose = config.start_pose or self._most_open_pose()
         self.odometry_model = WheelOdometry(
@@ -236,14 +237,15 @@ class Simulator:
         if self._battery.cutoff:
             self.drive.stop()
         linear_cmd, angular_cmd = self.drive.advance(dt)
-        linear, angular = true_body_velocity(
+        linear, wheel_angular = true_body_velocity(
             cfg.odometry, cfg.drive.track_width, linear_cmd, angular_cmd
         )
+        angular = wheel_angular * self.odometry_model.slip_factor(wheel_angular)
         fraction = 1.0
         if linear != 0.0 or angular != 0.0:
             fraction = self._move(linear, angular, dt)
         self._true_velocity = (linear * fraction, angular * fraction)
-        half = 0.5 * angular * self._true_track
+        half = 0.5 * wheel_angular * self._true_track
         arc = fraction * dt
         self.odometry_model.update((linear - half) * arc, (linear + half) * arc, dt)
         self._ticks += 1

@@ -3,7 +3,7 @@
 Walls are the blocked cells of the map (occupied *or unknown*: an unexplored region is treated as
 solid, the conservative choice) plus static rectangles added on top of the a-priori map (the
 "new static obstacle" the robot did not map). A Euclidean distance transform of the blocked cells
-(``scipy.ndimage.distance_transform_edt``, Maurer et al., IEEE PAMI 25(2), 2003) gives, for each
+(exact, Felzenszwalb & Huttenlocher, Theory of Computing 8, 2012, via OpenCV) gives, for each
 cell, the distance ``D`` between its centre and the nearest blocked cell centre. For a point p in
 a cell with centre c, the distance to the nearest blocked *square* is at least
 
@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -76,15 +75,45 @@ class RectObstacle:
         return to_world(Pose2D(self.center_x, self.center_y, self.yaw), fp.corners_local())
 
 
-class World:
-    """Static walls (map + obstacles), their distance transform, and collision queries."""
+def _edt(blocked: npt.NDArray[np.bool_]) -> npt.NDArray[np.float32]:
+    """Exact Euclidean distance [cells] from each cell to the nearest blocked cell.
 
-    def __init__(self, grid: OccupancyGrid, obstacles: Iterable[RectObstacle] = ()) -> None:
+    OpenCV's ``DIST_MASK_PRECISE`` (Felzenszwalb & Huttenlocher's exact transform) equals
+    ``scipy.ndimage.distance_transform_edt`` to float32 precision and is ~10x faster on a
+    2 cm building.
+    """
+    free = np.ascontiguousarray(~blocked, dtype=np.uint8)
+    edt = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return np.asarray(edt, dtype=np.float32)
+
+
+class World:
+    """Static walls (map + obstacles), their distance transform, and collision queries.
+
+    ``glass``: axis-aligned panes (``x0, y0, x1, y1`` [m]) that are solid for collisions,
+    people and clearance but absent from the ray-casting field: the laser model decides per beam
+    whether a pane returns it (``laser_sim``).
+    """
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        obstacles: Iterable[RectObstacle] = (),
+        glass: Iterable[tuple[float, float, float, float]] = (),
+    ) -> None:
         if grid.origin_yaw != 0.0:
             raise WorldConfigError(f"{grid.source}: only maps with origin yaw 0 are supported")
         self.grid = grid
         self.resolution = grid.resolution
         self._obstacles: list[RectObstacle] = list(obstacles)
+        self.glass: tuple[tuple[float, float, float, float], ...] = tuple(
+            (float(a), float(b), float(c), float(d)) for a, b, c, d in glass
+        )
+        for pane in self.glass:
+            if not (
+                all(math.isfinite(v) for v in pane) and pane[0] < pane[2] and pane[1] < pane[3]
+            ):
+                raise WorldConfigError(f"glass pane {pane} needs finite x0 < x1 and y0 < y1")
         self._footprint_cache: dict[RobotFootprint, FloatArray] = {}
         self.version = 0  # bumped whenever the walls change
         self._rebuild()
@@ -117,14 +146,24 @@ class World:
         for rect in self._obstacles:
             self._rasterise(mask, rect)
         blocked = grid.blocked() | (mask > 0)
+        glass = np.zeros_like(blocked)
+        for x0, y0, x1, y1 in self.glass:
+            r0, c0 = grid.world_to_cell(x0 + 1e-6, y0 + 1e-6)
+            r1, c1 = grid.world_to_cell(x1 - 1e-6, y1 - 1e-6)
+            glass[max(int(r0), 0) : int(r1) + 1, max(int(c0), 0) : int(c1) + 1] = True
         padded = np.ones((grid.height + 2 * PAD, grid.width + 2 * PAD), dtype=bool)
-        padded[PAD:-PAD, PAD:-PAD] = blocked
-        edt = ndimage.distance_transform_edt(~padded)  # [cells], 0 on blocked cells
+        padded[PAD:-PAD, PAD:-PAD] = blocked | glass
+        edt = _edt(padded)  # [cells], 0 on blocked cells
         self.blocked_padded = padded
         self.edt_cells = np.asarray(edt, dtype=np.float32)
+        opaque = padded
+        if glass.any():  # the laser's field ignores the panes
+            opaque = np.ones_like(padded)
+            opaque[PAD:-PAD, PAD:-PAD] = blocked
+            edt = _edt(opaque)
         # Safe sphere-tracing step [cells] (see module docstring); exactly 0 on a blocked cell.
         step = np.maximum(edt - SQRT2, RAY_FINE_STEP)
-        step[padded] = 0.0
+        step[opaque] = 0.0
         self.ray_step_flat = np.ascontiguousarray(step.ravel(), dtype=np.float64)
         self.padded_width = padded.shape[1]
         self.padded_height = padded.shape[0]

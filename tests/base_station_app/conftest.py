@@ -133,10 +133,17 @@ def linked(qtbot, station: StationController, robot: FakeRobot) -> StationContro
     """The station once the robot receives its commands (subscriptions propagated)."""
 
     def ok() -> bool:
-        return station._send(Topic.CONFIG, ConfigMsg({"max_linear_speed": 0.5}))
+        station._resend_pending()  # the stop intent (release of the start latch) and config
+        sent = station._send(Topic.CONFIG, ConfigMsg({"max_linear_speed": 0.5}))
+        return sent and not station._stop_assert_pending
 
     qtbot.waitUntil(ok, timeout=3000)
-    robot.poll()
+
+    def quiet() -> bool:  # everything sent so far has arrived
+        qtbot.wait(50)
+        return not robot.poll()
+
+    qtbot.waitUntil(quiet, timeout=3000)
     robot.commands.clear()
     return station
 

@@ -29,7 +29,7 @@ from base_station_app.teleop import Direction, TeleopInput
 from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import Delivery, GoHome, GoTo, GoToPose, GuidedTour
-from interbot_core.topics import MuxMsg, PoseMsg, Topic
+from interbot_core.topics import MuxMsg, PoseMsg, SafetyMsg, Topic
 
 
 # ------------------------------------------------------------------ StationConfig
@@ -230,11 +230,24 @@ def test_robot_state_versions_and_derived_fields():
     assert s.localised_pose == Pose2D(1.0, 2.0, 0.5)
     s.apply(Topic.MUX, MuxMsg(None, "stop", ("stop",)))
     assert s.estop_engaged is True
+    s.apply(Topic.SAFETY, SafetyMsg("approach", "FootprintApproach", 0.3, 0.8, 0.5))
+    assert s.safety is not None and s.safety.zone == "approach"
     s.apply(Topic.POSE, "not a pose")  # ignored
-    assert s.version == 3
+    assert s.version == 4
     for i in range(5):
         s.add_log(float(i), "info", f"line {i}")
     assert [e.text for e in s.log] == ["line 2", "line 3", "line 4"]
+
+
+def test_safety_text_for_the_person_driving():
+    from interbot_core.safety_text import describe_safety
+
+    stop = describe_safety("stop", 0.04, assisted=False)
+    assert stop.text == "STOPPED: obstacle too close (4 cm); assisted driving off"
+    assert stop.level == "error"
+    assert describe_safety("none", 1000.0).text == "clear"
+    assert describe_safety("slowdown", 0.3).level == "warning"
+    assert describe_safety("no_data", 0.0).text == "STOPPED: no laser data"
 
 
 def test_labels_sit_on_clear_floor_not_on_furniture(topo):

@@ -143,6 +143,9 @@ def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, 
     msg = robot.of("initial_pose")[0]
     assert isinstance(msg, InitialPose)
     assert (msg.x, msg.y, msg.yaw) == (node.x, node.y, node.yaw)
+    assert msg.verify  # a room is a hint: the robot confirms it by laser before trusting it
+    station.relocalise()  # the "Relocalise" button: the robot searches the whole map
+    qtbot.waitUntil(lambda: bool(len(robot.of("relocalise")) == 1), timeout=3000)
     new = StationConfig(planner_linear_max=0.3, approach_tolerance=1.0, latency_ceiling=0.3)
     station.set_config(new)
     qtbot.waitUntil(
@@ -174,14 +177,9 @@ def test_robot_state_scan_and_lost_robot(qtbot, linked, station, robot, localise
     assert any("lost" in e.text for e in station.state.log)
 
 
-def test_restarted_robot_gets_route_and_config_again(qtbot, linked, station, robot, localise, topo):
+def _restart_robot(qtbot, station, robot) -> None:
     from interbot_link import RobotLink
 
-    localise(topo.nodes[0].pose)
-    station.submit(GoTo(9))
-    station.tick()
-    qtbot.waitUntil(lambda: len(robot.of("route")) == 1, timeout=3000)
-    first = robot.of("route")[0]
     robot.link.close()
 
     def gone() -> bool:
@@ -192,13 +190,107 @@ def test_restarted_robot_gets_route_and_config_again(qtbot, linked, station, rob
     robot.link = RobotLink(robot.session, "r1")
     robot.commands.clear()
 
-    def back() -> bool:
+
+def test_restarted_robot_gets_config_and_stop_intent_but_never_the_route(
+    qtbot, linked, station, robot, localise, topo, clock
+):
+    """Issue 11: a restarted robot is released from its start latch (the operator's stop is
+    not engaged) and configured, but its old route is not re-sent: the robot reports that it
+    has none ("idle") and the task ends with that reason."""
+    localise(topo.nodes[0].pose)
+    station.submit(GoTo(9))
+    station.tick()
+    qtbot.waitUntil(lambda: len(robot.of("route")) == 1, timeout=3000)
+    _restart_robot(qtbot, station, robot)
+
+    def configured() -> bool:
         station.poll_link()
         station.tick()
-        return robot.of("route") == [first]
+        return bool(robot.of("config")) and bool(robot.of("stop_release"))
 
-    qtbot.waitUntil(back, timeout=5000)
-    assert any(isinstance(c, ConfigMsg) for c in robot.of("config"))
+    qtbot.waitUntil(configured, timeout=5000)
+    assert robot.of("stop")[-1].engaged is False
+    assert station.supervisor.current_task is not None  # not yet: the robot has not answered
+    robot.link.publish_route_progress(RouteProgress(0, 0, False, "idle"))
+
+    def ended() -> bool:
+        station.poll_link()
+        station.tick()
+        return station.supervisor.current_task is None
+
+    qtbot.waitUntil(ended, timeout=3000)
+    assert any("has no route" in e.text for e in station.state.log)
+    for _ in range(5):
+        clock.advance(1.0)
+        station.poll_link()
+        station.tick()
+    qtbot.wait(100)
+    assert robot.of("route") == []
+
+
+def test_silent_robot_after_reconnect_loses_the_route(
+    qtbot, linked, station, robot, localise, topo, clock
+):
+    localise(topo.nodes[0].pose)
+    station.submit(GoTo(9))
+    station.tick()
+    qtbot.waitUntil(lambda: len(robot.of("route")) == 1, timeout=3000)
+    _restart_robot(qtbot, station, robot)
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.robots["r1"]), timeout=3000)
+    clock.advance(5.5)
+    station.tick()
+    assert station.supervisor.current_task is None
+    assert any("did not report it" in e.text for e in station.state.log)
+    qtbot.wait(100)
+    assert robot.of("route") == []
+
+
+def test_emergency_stop_while_robot_away_is_delivered_on_reconnect(
+    qtbot, linked, station, robot, clock
+):
+    from interbot_link import RobotLink
+
+    robot.link.close()
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.robots["r1"] is False))
+    station.emergency_stop()
+    assert station.estop_latched
+    assert any("stop is kept" in e.text for e in station.state.log)
+    robot.link = RobotLink(robot.session, "r1")
+    robot.commands.clear()
+
+    def delivered() -> bool:
+        station.poll_link()
+        station.tick()
+        return bool(robot.of("stop"))
+
+    qtbot.waitUntil(delivered, timeout=5000)
+    assert all(lock.engaged for lock in robot.of("stop"))
+    assert robot.of("stop_release") == []
+
+
+def test_route_no_robot_received_ends_its_task(qtbot, linked, station, robot, localise, topo):
+    localise(topo.nodes[0].pose)
+    robot.link.close()
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.robots["r1"] is False))
+    station.submit(GoTo(9))
+    station.tick()  # the route is sent once, to nobody
+    station.tick()  # its task ends
+    assert station.supervisor.current_task is None
+    assert station.route is None
+    assert any("no robot received route" in e.text for e in station.state.log)
+
+
+def test_route_ids_are_random_63_bit(qtbot, linked, station, robot, localise, topo):
+    localise(topo.nodes[0].pose)
+    ids = []
+    for node in (5, 9):
+        station.submit(GoTo(node))
+        station.tick()
+        qtbot.waitUntil(lambda: bool(len(robot.of("route")) == len(ids) + 1), timeout=3000)
+        ids.append(robot.of("route")[-1].route_id)
+        station.cancel_task()
+    assert ids[0] != ids[1] and all(0 <= i < 2**63 for i in ids)
+    assert max(ids) > 2**40  # not a counter from 1
 
 
 def _route_sent_to_robot(qtbot, station, robot, topo, node: int) -> RouteMsg:
@@ -241,3 +333,23 @@ def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, local
     qtbot.waitUntil(finished, timeout=3000)
     assert not station.goal_reached
     assert any("blocked: no path" in e.text for e in station.state.log)
+
+
+def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
+    qtbot, linked, station, robot, clock
+):
+    from interbot_core.topics import MuxMsg
+
+    station.emergency_stop()
+    qtbot.waitUntil(lambda: bool(robot.of("stop")), timeout=3000)
+    robot.link.publish_mux(MuxMsg(None, "no valid input", ()))  # a robot that lost the stop
+
+    def resent() -> bool:
+        station.poll_link()
+        clock.advance(0.2)
+        station.tick()
+        return len(robot.of("stop")) >= 2
+
+    qtbot.waitUntil(resent, timeout=3000)
+    assert all(lock.engaged for lock in robot.of("stop"))
+    assert any("reports no emergency stop" in e.text for e in station.state.log)

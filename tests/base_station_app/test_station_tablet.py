@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import json
 
+from base_station_app.station_config import StationConfig
 from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
-from interbot_core.topics import RouteMsg, Twist
+from interbot_core.topics import RouteMsg, RouteProgress, Twist
 
 
 def handshake(qtbot, tablet_factory):
@@ -103,23 +104,92 @@ def test_frame_too_large_closes(qtbot, station, tablet_factory):
 
 
 def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tablet_factory, clock):
+    """Forwarded once, on arrival; clock() never re-stamps it; the single-shot watchdog (thesis
+    Fig. 5.10) sends one explicit zero when the tablet goes silent for the ceiling."""
+    station.set_config(StationConfig(latency_ceiling=0.15))
     t = handshake(qtbot, tablet_factory)
     t.send({"speed": {"linear": 0.3, "angular": -0.2}})
-    # Forwarded on arrival, before any clock() tick.
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 1), timeout=3000)
-    clock.advance(0.1)
-    station.tick()  # still fresh: republished
-    clock.advance(station.config.latency_ceiling + 0.05)
-    station.tick()  # stale: discarded, one explicit zero
-    clock.advance(0.1)
-    station.tick()  # nothing more
-    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 3), timeout=3000)
-    qtbot.wait(50)
+    arrived = clock.now
+    for _ in range(3):
+        clock.advance(0.1)
+        station.tick()  # no republishing of the tablet's command
+    assert station.tablet_watchdog.isActive()
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 2), timeout=3000)
+    qtbot.wait(300)
     sent = robot.of("tablet_vel")
-    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.3, -0.2), (0.0, 0.0)]
+    assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.0, 0.0)]
+    assert sent[0].stamp == arrived  # stamped with its arrival, never again
     assert all(isinstance(v, Twist) for v in sent)
     assert station.tablet_discarded == 1
     assert station.tablet_speed is None
+    assert not station.tablet_forwarding
+
+
+def test_out_of_order_and_late_speed_commands_are_dropped(
+    qtbot, linked, station, robot, tablet_factory, clock
+):
+    t = handshake(qtbot, tablet_factory)
+
+    def speed(linear, seq, t_tablet):
+        t.send({"speed": {"linear": linear, "angular": 0.0, "seq": seq, "t": t_tablet}})
+        qtbot.wait(30)  # one read turn each (a burst in one turn forwards only its newest)
+
+    speed(0.1, 10, 50.0)  # offset 50 s: the fastest delivery so far
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 1), timeout=3000)
+    clock.advance(0.1)
+    speed(0.2, 9, 49.9)  # out of order
+    speed(0.25, 11, 50.1)  # fresh
+    qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 2), timeout=3000)
+    clock.advance(2.0)  # the tablet froze; its backlog arrives now, 2 s late
+    speed(0.3, 12, 50.2)
+    speed(0.3, 13, 50.3)
+    qtbot.waitUntil(lambda: bool(station.freshness.dropped_stale == 2), timeout=3000)
+    qtbot.wait(100)
+    assert [v.linear for v in robot.of("tablet_vel") if v.linear] == [0.1, 0.25]
+    assert station.freshness.dropped_out_of_order == 1
+
+
+def test_only_the_newest_speed_of_a_burst_is_forwarded(
+    qtbot, linked, station, robot, tablet_factory
+):
+    """A thesis-era tablet's backlog (no seq/t) arriving at once after a stall: one command."""
+    t = handshake(qtbot, tablet_factory)
+    burst = b"".join(
+        json.dumps({"speed": {"linear": 0.01 * k, "angular": 0.0}}).encode() for k in range(1, 21)
+    )
+    t.send_raw(burst)
+    qtbot.waitUntil(lambda: bool(robot.of("tablet_vel")), timeout=3000)
+    qtbot.wait(100)
+    assert [v.linear for v in robot.of("tablet_vel")] == [0.2]
+
+
+def test_no_tablet_speed_forwarded_while_the_stop_is_engaged(
+    qtbot, linked, station, robot, tablet_factory
+):
+    t = handshake(qtbot, tablet_factory)
+    station.emergency_stop()
+    t.send({"speed": {"linear": 0.3, "angular": 0.0}})
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert "emergency stop" in t.of("error")[0]["message"]
+    qtbot.wait(100)
+    assert robot.of("tablet_vel") == []
+
+
+def test_tablet_stop_cancels_a_route_this_station_did_not_start(
+    qtbot, linked, station, robot, tablet_factory
+):
+    """A restarted station: the robot still drives route 77 from before; the tablet is told
+    and its stop cancels it."""
+    t = handshake(qtbot, tablet_factory)
+    robot.link.publish_route_progress(RouteProgress(77, 1, False, "active"))
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.route_mirror.foreign), timeout=3000)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("status")), timeout=3000)
+    assert "route 77" in t.of("status")[-1]["task"]
+    t.send({"stop": True})
+    qtbot.waitUntil(lambda: bool(robot.of("route_cancel")), timeout=3000)
+    assert robot.of("route_cancel")[0].route_id is None
 
 
 def test_speed_period_statistics(qtbot, station, tablet_factory, clock):
@@ -297,3 +367,109 @@ def test_help_me_with_a_pose_the_robot_never_takes_says_lost_again_after_the_gra
     _flushed(qtbot, t, 3)
     assert t.of("initial_pose")[unset_count:] == [False]
     assert t.of("localisation") == ["unset", "unset"]  # said afresh
+
+
+def test_collision_monitor_is_passed_on_to_the_tablet_when_it_changes(
+    qtbot, station, tablet_factory
+):
+    from interbot_core.topics import SafetyMsg, Topic
+
+    t = handshake(qtbot, tablet_factory)
+    station.state.apply(
+        Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.034, 0.1, 0.0, ("tablet_vel",))
+    )
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("safety")), timeout=3000)
+    assert t.of("safety") == [{"zone": "stop", "distance": 0.03, "assisted": True}]
+    station.tick()  # unchanged: not sent again
+    station.state.apply(Topic.SAFETY, SafetyMsg("none", "", 1000.0, 1000.0, 1.0, ()))
+    station.tick()
+    qtbot.waitUntil(lambda: len(t.of("safety")) == 2, timeout=3000)
+    assert t.of("safety")[1] == {"zone": "none", "distance": 1000.0, "assisted": False}
+
+
+# ------------------------------------------------------------------ bounded work (issue 11)
+def test_a_flooding_tablet_is_rate_limited_and_its_stop_still_passes(
+    qtbot, linked, station, robot, tablet_factory
+):
+    from base_station_app.tablet_server import MAX_READ_BYTES
+
+    t = handshake(qtbot, tablet_factory)
+    flood = json.dumps({"pause": True}).encode() * 2000  # 28 KB: several read turns
+    t.send_raw(flood + json.dumps({"stop": True}).encode())
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    error = t.of("error")[0]
+    assert error["code"] == "rate_limited" and "dropped" in error["message"]
+    qtbot.waitUntil(lambda: station.tablet.policy.dropped > 1500, timeout=3000)
+    assert station.tablet.policy.dropped <= 2000 - 49  # a burst of 50 (hello took one)
+    qtbot.waitUntil(lambda: any(e.text == "tablet: stop" for e in station.state.log))
+    assert len(flood) > 3 * MAX_READ_BYTES  # it took several turns: the event loop ran between
+    assert station.tablet.is_connected  # rate limiting is not a protocol error
+    assert len(t.of("error")) <= 2  # one error a second, not one per dropped message
+
+
+def test_a_tablet_that_answers_no_ping_is_disconnected(qtbot, station, tablet_factory, clock):
+    handshake(qtbot, tablet_factory)
+    station.tablet.ping()
+    clock.advance(station.tablet.pong_timeout_s + 0.1)
+    station.tablet.ping()
+    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=3000)
+
+
+def test_a_tablet_that_does_not_read_is_disconnected(qtbot, station, tablet_factory):
+    import socket
+
+    from interbot_core.protocol import StatusInfo
+
+    t = handshake(qtbot, tablet_factory)
+    t.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    big = StatusInfo("x" * 400, "y" * 400)
+    sent = 0
+    while station.tablet.is_connected and sent < 40_000:  # up to 32 MB that nobody reads
+        for _ in range(100):
+            station.tablet.send(big)
+        sent += 100
+        qtbot.wait(1)
+    assert not station.tablet.is_connected
+    assert sent * 800 < 16e6  # kernel buffers filled, then at most 256 KiB more were queued
+
+
+def test_the_tablet_is_told_when_the_robot_is_offline(
+    qtbot, linked, station, robot, tablet_factory
+):
+    t = handshake(qtbot, tablet_factory)
+    robot.publish_pose(1.0, 2.0, 0.0)
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.state.pose), timeout=3000)
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("pose")), timeout=3000)
+    robot.link.close()
+    qtbot.waitUntil(lambda: bool(station.poll_link() or not station.robot_online), timeout=3000)
+    poses = len(t.of("pose"))
+    station.tick()
+    qtbot.waitUntil(lambda: bool(t.of("status")) and "offline" in t.of("status")[-1]["message"])
+    perms = t.of("permissions")[-1]
+    assert not any(perms.values())  # the tablet offers nothing that cannot work
+    t.send({"goal": 3})
+    qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
+    assert "offline" in t.of("error")[-1]["message"]
+    station.tick()
+    qtbot.wait(50)
+    assert len(t.of("pose")) == poses  # no stale pose
+    assert station.supervisor.queue == ()
+
+
+def test_tablet_socket_has_short_tcp_keepalive(qtbot, station, tablet_factory):
+    """A tablet that vanished without a FIN (battery out, Wi-Fi gone) frees the slot in ~11 s."""
+    import socket
+
+    from base_station_app.tablet_server import KEEPALIVE
+
+    handshake(qtbot, tablet_factory)
+    fd = int(station.tablet._conn.socket.socketDescriptor())
+    with socket.fromfd(fd, socket.AF_INET, socket.SOCK_STREAM) as s:
+        assert s.getsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE) == 1
+        idle = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPIDLE)
+        interval = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPINTVL)
+        count = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPCNT)
+    assert (idle, interval, count) == KEEPALIVE
+    assert station.tablet.is_connected  # the duplicate descriptor closed, the connection not

@@ -299,6 +299,24 @@ def test_diagnostics_histograms_follow_period_stats(qtbot, window, station, cloc
     assert "n=9" in label.text() and "mean 100.0 ms" in label.text()
 
 
+def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
+    qtbot, linked, window, robot
+):
+    from interbot_core.topics import SafetyMsg, Topic
+
+    panel = window.teleop_panel
+    assert not panel.assist_check.isChecked()
+    panel.assist_check.click()  # the operator ticks "Assisted driving"
+    # The station's state (off) went out on connecting; the tick sends "on".
+    qtbot.waitUntil(lambda: any(m.enabled for m in robot.of("teleop_assist")), timeout=3000)
+    sent = robot.of("teleop_assist")[-1]
+    assert (sent.input, sent.enabled) == ("station_vel", True)
+    assert linked.station_assist
+    linked.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
+    linked.frame_ready.emit()
+    assert "STOPPED" in panel.monitor_label.text() and "3 cm" in panel.monitor_label.text()
+
+
 def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, robot):
     """A scan stamped between two poses is placed from the interpolated pose, laser mount
     included; points, not a polyline."""
@@ -397,3 +415,26 @@ def test_camera_pane_takes_the_image_shape(qtbot, window, station):
         window.fit_camera(aspect)
         want = min(window._left.width() / aspect, 0.45 * total)
         assert abs(window.camera_view.height() - want) <= 2
+
+
+def test_alerts_from_the_robot_reach_the_list_and_the_badge(qtbot, window, station, robot):
+    """A collision the robot reports is an alert: listed, counted on the toolbar, acknowledged."""
+    from interbot_core.topics import Status
+
+    assert window.alerts_action.text() == "No alerts"
+    robot.link.publish_status(Status("error", "collision: motors stalled against an obstacle"))
+
+    def listed() -> bool:
+        station.poll_link()
+        station.tick()
+        return window.alerts_panel.table.rowCount() == 1
+
+    qtbot.waitUntil(listed, timeout=3000)
+    assert window.alerts_panel.table.item(0, 2).text() == "collision"
+    assert window.alerts_action.text() == "1 alert"
+    QTest.mouseClick(window.alerts_badge, Qt.MouseButton.LeftButton)
+    assert window.tabs.currentWidget() is window.alerts_panel
+    QTest.mouseClick(window.alerts_panel.ack_all_button, Qt.MouseButton.LeftButton)
+    station.tick()
+    assert window.alerts_action.text() == "No alerts"
+    assert station.alerts.unacknowledged == []

@@ -30,6 +30,8 @@ POSITIVE = {
     "sim": [
         "raycast_ms_median",
         "raycast_ms_p99",
+        "raycast_building_ms_median",
+        "raycast_building_ms_p99",
         "sim_step_ms_median",
         "sim_step_ms_p99",
         "sim_step_realtime_factor",
@@ -37,7 +39,20 @@ POSITIVE = {
         "stack_step_ms_median",
     ],
     "tour": ["loc_rms_m", "loc_max_m", "tour_duration_s", "tour_realtime_factor"],
+    "collision_monitor": [
+        "collision_monitor_ms_median",
+        "collision_monitor_ms_p99",
+        "assisted_teleop_ms_median",
+        "collision_monitor_scans",
+    ],
+    "teleop_scenario": ["teleop_runs", "teleop_progress_m", "teleop_progress_unassisted_m"],
     "kidnap": ["kidnap_pairs", "kidnap_detected_fraction", "kidnap_detect_s_median"],
+    "global_search": [
+        "global_search_isr_ms_median",
+        "global_search_isr_ms_p99",
+        "global_search_isr_precompute_ms",
+    ],
+    "relocalise": ["relocalise_isr_cold_kidnaps", "relocalise_isr_cold_detected"],
     "record": [
         "record_offer_us_median",
         "record_offer_us_p99",
@@ -77,6 +92,7 @@ NON_NEGATIVE = {
         "tour_completed",
         "tour_collisions",
         "tour_localisation_losses",
+        "tour_loc_silent_failures",
     ],
     "reallogs": [
         "reallog_intel_whole_lost_scans",
@@ -86,6 +102,17 @@ NON_NEGATIVE = {
         "reallog_all_silent_failures",
     ],
     "kidnap": ["kidnap_false_losses"],
+    "teleop_scenario": [
+        "teleop_collisions",
+        "teleop_collisions_unassisted",
+        "teleop_collisions_unprotected",
+        "teleop_min_clearance_m",
+    ],
+    "global_search": ["global_search_isr_truth_first"],
+    "relocalise": [
+        "relocalise_isr_cold_wrong_relocalisations",
+        "relocalise_isr_cold_help_requests",
+    ],
     "record": ["record_dropped"],
     "replay": ["replay_map_drops", "replay_maps_received"],
     "teleop": ["teleop_missed", "teleop_tcp_to_station_ms_p50"],
@@ -146,6 +173,29 @@ def test_teleop_parts_add_up() -> None:
     assert r["teleop_station_to_mux_ms_p50"] <= r["teleop_latency_ms_max"]
     # The station's clock() period is the thesis's 100 ms (its median; p99 depends on load).
     assert 80.0 < r["clock_period_ms_p50"] < 130.0
+
+
+def test_quick_tour_is_the_realistic_headline_so_far() -> None:
+    """The first 60 s of the realistic-world tour (bench_tour, quick): the robot drives, touches
+    nothing, never loses itself, and is never silently wrong (> 0.3 m while ok)."""
+    r = quick_result("tour")
+    assert r["tour_stops_total"] == 15
+    assert r["tour_distance_m"] > 5.0  # 60 s at up to 0.25 m/s, minus the first stop's dwell
+    assert r["tour_stops_visited"] >= 1
+    assert r["tour_collisions"] == 0
+    assert r["tour_localisation_losses"] == 0
+    assert r["tour_loc_silent_failures"] == 0
+    assert 0.0 < r["loc_rms_m"] <= r["loc_max_m"] < 0.3
+    assert r["tour_min_clearance_m"] > 0.0
+    assert r["tour_completed"] == 0.0  # 60 s cannot finish a 15-stop tour
+
+
+def test_quick_sim_figures_are_consistent() -> None:
+    r = quick_result("sim")
+    assert r["raycast_ms_median"] <= r["raycast_ms_p99"]
+    assert r["raycast_building_ms_median"] <= r["raycast_building_ms_p99"]
+    assert r["sim_step_ms_median"] <= r["sim_step_ms_p99"]
+    assert r["sim_realtime_span_s"] == pytest.approx(10.0, abs=0.1)
 
 
 @pytest.mark.qt_log_ignore("propagateSizeHints")

@@ -222,7 +222,8 @@ def _build_daemon(endpoint: str, start_node: int | None) -> tuple[Daemon, RigBac
     )
     rates = config.rates
     backend = RigBackend(sim, scan_rate_hz=max(rates.localiser_hz, rates.scan_hz))
-    options = DaemonOptions(auto_localise=False, start_node=start_node)
+    # The person's "Help me!" flow: the robot does not search the map by itself here.
+    options = DaemonOptions(auto_localise=False, start_node=start_node, relocalise=False)
     return Daemon(config, options, backend=backend), backend
 
 

@@ -125,6 +125,9 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
     assert rig.window.dialog is None
     rig.wait(lambda: "Pause Navigation" not in rig.daemon.stack.last_output.active_locks,
              5.0, "the pause lock to be released")  # fmt: skip
+    # The robot settles its route at its next control cycle after the lock is released.
+    rig.wait(lambda: rig.daemon.stack.route is not None
+             and rig.daemon.stack.route.state == "succeeded", 5.0, "the route to succeed")  # fmt: skip
     route = rig.daemon.stack.route
     assert route is not None and route.state == "succeeded" and route.node_ids[-1] == SECRETARIAT
     assert any("tour ended by the user after 2 of" in e.text for e in rig.station.state.log)

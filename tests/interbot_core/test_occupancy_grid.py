@@ -84,8 +84,17 @@ def test_bad_map_files_name_the_problem(tmp_path: Path, text: str, message: str)
 
 def test_truncated_pgm(tmp_path: Path) -> None:
     (tmp_path / "x.pgm").write_bytes(b"P5\n10 10\n255\n" + bytes(20))
-    with pytest.raises(MapLoadError, match="shorter"):
+    with pytest.raises(MapLoadError, match="20 bytes but the header says 10x10 = 100"):
         read_pgm(tmp_path / "x.pgm")
+
+
+def test_pgm_with_more_data_than_its_header_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "x.pgm").write_bytes(b"P5\n10 10\n255\n" + bytes(150))
+    with pytest.raises(MapLoadError, match=r"x\.pgm: image data is 150 bytes .* = 100"):
+        read_pgm(tmp_path / "x.pgm")
+    (tmp_path / "y.pgm").write_bytes(b"P2\n2 2\n255\n1 2 3 4 5\n")
+    with pytest.raises(MapLoadError, match="5 values but the header says 2x2 = 4"):
+        read_pgm(tmp_path / "y.pgm")
 
 
 @pytest.mark.realdata

@@ -45,6 +45,7 @@ from interbot_core.protocol import (
     Refused,
     RequestAnswer,
     RequestFrom,
+    SafetyInfo,
     ShowRequest,
     Speed,
     StatusInfo,
@@ -98,6 +99,7 @@ STATION_EXAMPLES: list[Message] = [
     Permissions(True, True, False, False),
     Localisation("lost"),
     StatusInfo("goal 7", "on the way"),
+    SafetyInfo("stop", 0.04, True),
     Ping(2, 0.25),
     Pong(2, 0.25),
     ErrorReport("invalid_json", "frame is not valid JSON"),
@@ -327,6 +329,10 @@ def test_invalid_limits_are_rejected(kwargs: dict[str, Any]) -> None:
         lambda: Localisation("fine"),
         lambda: TourState([1], (), None),  # type: ignore[arg-type]
         lambda: StatusInfo("\udc00", ""),
+        lambda: SafetyInfo("danger", 0.1, True),
+        lambda: SafetyInfo("stop", -0.1, True),
+        lambda: SafetyInfo("stop", math.inf, False),
+        lambda: SafetyInfo("stop", 0.1, 1),  # type: ignore[arg-type]
     ],
 )
 def test_invalid_messages_cannot_be_constructed(build: Any) -> None:

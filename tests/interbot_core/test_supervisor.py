@@ -431,3 +431,23 @@ def test_robot_success_at_a_tour_stop_pauses_the_tour(sup: Supervisor) -> None:
     events = sup.robot_route_succeeded(sim.now)
     assert [type(e) for e in events] == [TourStopReached]
     assert sup.state is SupervisorState.AT_TOUR_STOP and sup.visited_tour_stops == (first,)
+
+
+def test_a_held_queue_starts_nothing_until_released() -> None:
+    from pathlib import Path
+
+    from interbot_core.supervisor import GoTo, Supervisor, SupervisorState
+    from interbot_core.topological_map import load_topological_map
+
+    topo = load_topological_map(
+        Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml"
+    )
+    sup = Supervisor(topo)
+    sup.hold_queue()
+    sup.submit(GoTo(5))
+    sup.update(0.0, topo.nodes[0].pose)
+    assert sup.current_task is None and sup.state is SupervisorState.QUEUE_HELD
+    assert sup.hold_queue() == []  # idempotent
+    sup.release_queue()
+    sup.update(0.1, topo.nodes[0].pose)
+    assert sup.current_task == GoTo(5)

@@ -21,6 +21,7 @@ from interbot_core.topics import (
     MAX_JSON_BYTES,
     STATE_TOPICS,
     TOPIC_SPECS,
+    AssistMsg,
     Battery,
     ConfigMsg,
     GoalMsg,
@@ -35,6 +36,7 @@ from interbot_core.topics import (
     RobotIdError,
     RouteMsg,
     RouteProgress,
+    SafetyMsg,
     Status,
     StopRelease,
     Topic,
@@ -114,6 +116,8 @@ EXAMPLES = {
     Topic.BATTERY: Battery(25.9, 2.1, 0.8, 1.0),
     Topic.STATUS: Status("warning", "localisation lost", "guided tour", 12.5, 2.0),
     Topic.MUX: MuxMsg(None, "stop lock engaged", ("stop",), 0.0, 0.0, 5.0),
+    Topic.TELEOP_ASSIST: AssistMsg("station_vel", True, 2.0),
+    Topic.SAFETY: SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0, ("tablet_vel",), "slid", 3.0),
 }
 
 

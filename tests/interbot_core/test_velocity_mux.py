@@ -475,3 +475,36 @@ MuxMachine.TestCase.settings = settings(
     suppress_health_check=[HealthCheck.too_slow],
 )
 TestMuxAgainstReference = MuxMachine.TestCase
+
+
+# ------------------------------------------------------------------ per-source limits (issue 11)
+def test_each_source_is_limited_on_the_robot_keeping_the_curvature() -> None:
+    from robot_daemon.config import DEFAULT_MUX
+
+    config = load_mux_config(DEFAULT_MUX)
+    tablet = config.input_by_topic("tablet_vel")
+    assert (tablet.max_linear, tablet.max_angular) == (0.3, 1.0)
+    assert all(math.isfinite(i.max_linear) for i in config.inputs)
+    mux = VelocityMux(config)
+    mux.on_twist("tablet_vel", 1.0, 0.5, 0.0)  # the thesis issue: 1.0 m/s from the tablet
+    out = mux.output(0.1)
+    assert out.linear == pytest.approx(0.3) and out.angular == pytest.approx(0.15)
+    assert "limited to 0.3 m/s" in out.reason
+    mux.on_twist("tablet_vel", -0.1, -2.0, 0.2)  # angular bound binds
+    out = mux.output(0.2)
+    assert out.angular == pytest.approx(-1.0) and out.linear == pytest.approx(-0.05)
+    mux.on_twist("tablet_vel", 0.2, 0.1, 0.3)  # within: untouched
+    assert (mux.output(0.3).linear, mux.output(0.3).reason) == (0.2, "input Tablet")
+
+
+def test_limits_in_yaml_are_validated() -> None:
+    base = {"topics": [{"name": "a", "topic": "a", "timeout": 0.5, "priority": 1}]}
+    base["topics"][0]["max_linear"] = -1.0
+    with pytest.raises(MuxConfigError, match="max_linear must be > 0"):
+        parse_mux_config(base)
+    base["topics"][0]["max_linear"] = "fast"
+    with pytest.raises(MuxConfigError, match="max_linear must be a number"):
+        parse_mux_config(base)
+    lock = {"name": "s", "topic": "s", "timeout": 0.0, "priority": 2, "max_linear": 1.0}
+    with pytest.raises(MuxConfigError, match="unknown keys"):
+        parse_mux_config({"topics": [{"topic": "a", "timeout": 0, "priority": 1}], "locks": [lock]})

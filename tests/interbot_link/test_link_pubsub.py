@@ -169,8 +169,32 @@ def test_commands_reach_poll_commands_in_order(pair: Pair) -> None:
         return len(received) >= len(sent)
 
     wait_until(collect)
-    assert received == sent
+    # stop and stop_release travel on the priority lane: each lane keeps its order.
+    lane = {Topic.STOP, Topic.STOP_RELEASE}
+    assert [r for r in received if r[0] in lane] == [m for m in sent if m[0] in lane]
+    assert [r for r in received if r[0] not in lane] == [m for m in sent if m[0] not in lane]
     assert pair.robot.decode_errors == {}
+
+
+def test_stop_is_never_dropped_and_never_waits_behind_a_full_queue(pair: Pair) -> None:
+    """Issue 11: a full command queue drops velocity commands, never the stop; polled, the
+    stop and its release come before every other command."""
+    pair.select()
+    capacity = 1024
+
+    def full() -> bool:  # velocity commands may be dropped on the way (DROP): send until full
+        for i in range(200):
+            pair.station.send_station_vel(Twist(0.1, 0.0, float(i)))
+        return pair.robot.overflow > 0
+
+    wait_until(full, 20.0)
+    pair.station.send_stop(Lock(True, 9999.0))
+    pair.station.send_stop_release(StopRelease("tester", 10000.0))
+    wait_until(lambda: len(pair.robot._priority) == 2, 10.0)
+    commands = pair.robot.poll_commands()
+    assert [c.topic for c in commands[:2]] == [Topic.STOP, Topic.STOP_RELEASE]
+    assert len(commands) <= capacity + 2
+    assert pair.robot.priority_overflow == 0
 
 
 def test_state_topics_reach_the_station(pair: Pair) -> None:

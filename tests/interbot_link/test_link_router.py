@@ -45,6 +45,7 @@ def start_robot(robot_id: str, router: str) -> Robot:
         robot_id=robot_id,
         sim=SimSettings(seed=1, people=0, realtime_factor=1.0),
         zenoh=ZenohSettings((), (router,), mode="client"),
+        start_latched=False,  # a bare link, not a station: nobody would release the start latch
     )
     daemon = Daemon(config, DaemonOptions(auto_localise=True))
     resources = ExitStack()

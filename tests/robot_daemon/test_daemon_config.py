@@ -57,12 +57,42 @@ def test_unreadable_and_invalid_yaml(tmp_path: Path) -> None:
         load_config(tmp_path / "bad.yaml")
 
 
-def test_map_surface_follows_the_backend_unless_set(tmp_path: Path) -> None:
-    """Simulated walls are the grid's cell faces; SLAM maps put walls through cell centres."""
-    assert DaemonConfig().localiser.surface_for("sim") == "cell_face"
-    assert DaemonConfig().localiser.surface_for("hardware") == "cell_centre"
+def test_map_surface_is_one_model_whatever_the_backend(tmp_path: Path) -> None:
+    """One wall model (SLAM maps put walls through cell centres), not one chosen per backend."""
+    assert DaemonConfig().localiser.map_surface == "cell_centre"
+    assert DaemonConfig(backend="hardware").localiser.map_surface == "cell_centre"
     (tmp_path / "robot.yaml").write_text("localiser: {map_surface: cell_face}\n")
     cfg = load_config(tmp_path / "robot.yaml")
-    assert cfg.localiser.surface_for("hardware") == "cell_face"
+    assert cfg.localiser.map_surface == "cell_face"
+    with pytest.raises(ConfigError, match="map_surface"):
+        parse_config({"localiser": {"map_surface": "auto"}}, "robot.yaml", tmp_path)
     with pytest.raises(ConfigError, match="map_surface"):
         parse_config({"localiser": {"map_surface": "edge"}}, "robot.yaml", tmp_path)
+    with pytest.raises(ConfigError, match="help_after_s"):
+        parse_config({"localiser": {"help_after_s": -1}}, "robot.yaml", tmp_path)
+    config = parse_config({"localiser": {"help_after_s": 45}}, "robot.yaml", tmp_path)
+    assert config.localiser.help_after_s == 45
+
+
+def test_the_daemon_says_a_new_contact_once_as_a_collision() -> None:
+    """Device health reaches the station as status lines the alert rules recognise."""
+    from unittest.mock import MagicMock
+
+    from robot_daemon.backend import DeviceStatus
+    from robot_daemon.config import DaemonConfig, SimSettings
+    from robot_daemon.daemon import Daemon, DaemonOptions
+
+    daemon = Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions())
+    contacts = [0]
+    daemon.backend.device_status = lambda: [  # type: ignore[method-assign]
+        DeviceStatus("motors", True, "sim", {"contacts": contacts[0]})
+    ]
+    link = MagicMock()
+    texts: list[str] = []
+    link.publish_status.side_effect = lambda status: texts.append(status.text)
+    for step in range(6):
+        daemon.now = step * 1.0  # the status rate is 2 Hz: every call is due
+        contacts[0] = 0 if step < 3 else 1
+        daemon.publish(link)
+    collisions = [t for t in texts if t.startswith("collision:")]
+    assert len(collisions) == 1 and "1 new contact" in collisions[0]

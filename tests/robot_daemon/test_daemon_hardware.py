@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 from interbot_core.laser_scan import LaserScan
-from interbot_core.topics import Battery, Topic, Twist
+from interbot_core.topics import Battery, StopRelease, Topic, Twist
 from interbot_link import StateMessage, StationLink, open_session
 from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
 from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
@@ -97,6 +97,8 @@ def test_station_drives_emulated_hardware_through_the_daemon(
                 counts0 = roboteq.counts()
 
                 def wheels_turn() -> bool:
+                    # As a station does on connecting: release the robot's start latch.
+                    station.send_stop_release(StopRelease("test station"))
                     station.send_station_vel(Twist(0.2, 0.0))
                     left, right = roboteq.applied_rpm
                     return left != 0.0 and right != 0.0

@@ -99,6 +99,7 @@ class SecureRig:
             sim=SimSettings(seed=3, people=0, odometry="calibrated", realtime_factor=4.0),
             zenoh=ZenohSettings((endpoint,), ()),
             security=SecuritySettings(keys),
+            start_latched=False,  # a bare link, not a station: nobody would release the latch
         )
         security, insecure = link_security(config)
         assert security is not None and not insecure
@@ -142,6 +143,10 @@ def test_rogue_peers_never_move_the_robot_nor_release_the_stop(
     station.select_robot(ROBOT)
 
     def driving() -> bool:
+        # The robot starts latched (issue 11): the operator's station releases it, as a real
+        # station does on connecting, then drives.
+        station.send_stop(Lock(False))
+        station.send_stop_release(StopRelease("operator"))
         station.send_station_vel(Twist(0.2, 0.0))
         return rig.daemon.stack.last_output.source == "Base Station"
 

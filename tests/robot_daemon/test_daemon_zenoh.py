@@ -67,6 +67,7 @@ def rig(free_tcp_port: Callable[[], int], wait_until: Callable[..., None]) -> It
         robot_id=ROBOT,
         sim=SimSettings(seed=3, people=0, odometry="calibrated", realtime_factor=8.0),
         zenoh=ZenohSettings((endpoint,), ()),
+        start_latched=False,  # a bare link, not a station: nobody would release the start latch
     )
     daemon = Daemon(config, DaemonOptions(auto_localise=False))
     stop = threading.Event()

@@ -112,3 +112,17 @@ def test_help_is_offered_on_every_screen(qtbot: Any, station: Any, window: Any) 
     click(window.help_button)
     assert window.stack.currentWidget() is window.map_screen
     assert window.map_screen.drive_button.isVisible()  # straight into choosing a room
+
+
+def test_greyed_out_buttons_say_why(qtbot: Any, station: Any, window: Any) -> None:
+    from interbot_core.protocol import Permissions
+
+    assert not window.unavailable_label.isVisible()
+    station.send(Permissions(False, True, False, True))
+    qtbot.waitUntil(lambda: window.unavailable_label.isVisible())
+    assert window.unavailable_label.text() == (
+        "Not available now: driving with the joystick, guided tours"
+    )
+    assert not window.menu.joystick_button.isEnabled()
+    station.send(Permissions(True, True, True, True))
+    qtbot.waitUntil(lambda: not window.unavailable_label.isVisible())

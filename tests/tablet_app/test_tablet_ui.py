@@ -19,6 +19,7 @@ from interbot_core.protocol import (
     InitialPose,
     Localisation,
     Pose,
+    SafetyInfo,
     ShowRequest,
     StatusInfo,
     TourState,
@@ -36,7 +37,19 @@ pytestmark = pytest.mark.qt_log_ignore("This plugin does not support propagateSi
 
 
 def commands(station: Any) -> list[dict[str, Any]]:
-    return [obj for obj in station.received if not ({"ping", "pong"} & obj.keys())]
+    """What the tablet sent, without pings and without the speed stamps (``seq``, ``t``)."""
+    out = []
+    for obj in station.received:
+        if {"ping", "pong"} & obj.keys():
+            continue
+        if isinstance(obj.get("speed"), dict):
+            obj = {"speed": {k: v for k, v in obj["speed"].items() if k not in ("seq", "t")}}
+        out.append(obj)
+    return out
+
+
+def speed_stamps(station: Any) -> list[tuple[int, float]]:
+    return [(o["speed"]["seq"], o["speed"]["t"]) for o in station.received if "speed" in o]
 
 
 def click(widget: Any) -> None:
@@ -246,6 +259,16 @@ def test_localisation_lost_offers_help(qtbot: Any, station: Any, window: Any) ->
     qtbot.waitUntil(lambda: not window.map_screen.help_banner.isVisible())
 
 
+def test_joystick_screen_shows_the_collision_monitor(qtbot: Any, station: Any, window: Any) -> None:
+    window.show_joystick()
+    label = window.joystick_screen.monitor_label
+    station.send(SafetyInfo("stop", 0.04, True))
+    qtbot.waitUntil(lambda: "Stopped" in label.text())
+    assert "4 cm" in label.text() and "assistance on" in label.text()
+    station.send(SafetyInfo("none", 1000.0, False))
+    qtbot.waitUntil(lambda: label.text() == "Path clear")
+
+
 def test_malfunction_report(qtbot: Any, station: Any, window: Any) -> None:
     click(window.menu.malfunction_button)
     dialog = window.dialog
@@ -298,8 +321,10 @@ def test_joystick_touch_sends_speeds_every_100ms_and_zero_on_release(
     click(window.menu.joystick_button)
     screen = window.joystick_screen
     joystick = screen.joystick
-    click(screen.linear_up)  # 0.3 -> 0.4 m/s
-    assert joystick.linear_max == pytest.approx(0.4)
+    click(screen.linear_up)  # 0.3 m/s is the most the robot allows the tablet
+    assert joystick.linear_max == pytest.approx(0.3)
+    click(screen.linear_down)  # 0.3 -> 0.2 m/s
+    assert joystick.linear_max == pytest.approx(0.2)
     c = joystick.center().toPoint()
     r = joystick.radius()
     inside = c + QPoint(-round(r * 0.3), -round(r * 0.5))
@@ -314,7 +339,7 @@ def test_joystick_touch_sends_speeds_every_100ms_and_zero_on_release(
     assert all(cmd == first for cmd in commands(station))
     touch(joystick, device, "move", outside)
     edge = _expected_speed(joystick, outside)
-    assert edge["speed"]["linear"] == pytest.approx(-0.4 * 2**-0.5, abs=2e-3)
+    assert edge["speed"]["linear"] == pytest.approx(-0.2 * 2**-0.5, abs=2e-3)
     assert edge["speed"]["angular"] == pytest.approx(-0.6 * 2**-0.5, abs=2e-3)
     qtbot.waitUntil(lambda: edge in commands(station))
     touch(joystick, device, "release", outside)
@@ -322,6 +347,9 @@ def test_joystick_touch_sends_speeds_every_100ms_and_zero_on_release(
     qtbot.waitUntil(lambda: commands(station)[-1] == zero)
     assert not screen._timer.isActive()
     assert commands(station).count(zero) == 1
+    stamps = speed_stamps(station)  # every command numbered and stamped, in order
+    assert [seq for seq, _ in stamps] == sorted({seq for seq, _ in stamps})
+    assert [t for _, t in stamps] == sorted(t for _, t in stamps)
 
 
 def test_joystick_mouse_drag(qtbot: Any, station: Any, window: Any) -> None:

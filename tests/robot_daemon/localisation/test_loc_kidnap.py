@@ -195,3 +195,20 @@ def test_long_runs_keeps_exactly_the_runs_of_k_or_more(flags: list[bool], k: int
 def test_impossible_config_rejects_out_of_range(kwargs: dict[str, float]) -> None:
     with pytest.raises(LocaliserConfigError, match=next(iter(kwargs))):
         LocaliserConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_beams_through_an_unmapped_opening_onto_a_mapped_wall_are_not_impossible() -> None:
+    """A glass pane (or a door now open) in a wall the map has solid: beams cross the wall and
+    end on the mapped wall behind it. With ``see_through`` (a scan that fits the map well) they
+    do not count; beams ending in the middle of nowhere still do."""
+    cells = np.full((120, 120), FREE, dtype=np.int8)
+    cells[40:44, :] = OCCUPIED  # the wall with the pane, y = 2.0..2.2 m
+    cells[100:102, :] = OCCUPIED  # the mapped wall behind it, y = 5.0..5.1 m
+    loc = Localiser(OccupancyGrid(cells, 0.05, 0.0, 0.0))
+    pose = Pose2D(3.0, 1.0, math.pi / 2)  # laser facing the pane (+y)
+    angles = np.linspace(-0.3, 0.3, 25)
+    through = _beams(4.0 / np.cos(angles), angles)  # ends on the wall at y = 5.0
+    nowhere = _beams(2.5 / np.cos(angles), angles)  # ends at y = 3.5: in free space
+    assert loc.impossible_fraction(through, pose) > 0.5
+    assert loc.impossible_fraction(through, pose, see_through=True) == 0.0
+    assert loc.impossible_fraction(nowhere, pose, see_through=True) > 0.5

@@ -156,3 +156,19 @@ def test_door_of_0_9_m_stays_passable() -> None:
 def test_invalid_costmap_config_names_the_field(changes: dict[str, float]) -> None:
     with pytest.raises(CostmapConfigError, match=next(iter(changes))):
         CostmapConfig(**changes)
+
+
+def test_allow_unknown_makes_unknown_traversable_at_the_highest_cost() -> None:
+    """Nav2's allow_unknown: unknown cells are not obstacles (not inflated) but cost 252."""
+    from robot_daemon.planning.costmap import UNKNOWN_COST
+
+    cells = np.full((40, 40), FREE, dtype=np.int8)
+    cells[:, 20:] = UNKNOWN
+    grid = OccupancyGrid(cells, 0.05, 0.0, 0.0)
+    strict = Costmap(grid).costs(0.0)
+    assert strict[10, 25] == LETHAL and strict[10, 17] >= 253  # lethal and inflated
+    nav2 = Costmap(grid, CostmapConfig(allow_unknown=True))
+    costs = nav2.costs(0.0)
+    assert costs[10, 25] == UNKNOWN_COST and costs[10, 17] == 0  # dear, not inflated
+    nav2.reconfigure(CostmapConfig(allow_unknown=False))
+    assert nav2.costs(0.0)[10, 25] == LETHAL

@@ -192,6 +192,10 @@ def test_reports_blocked_in_a_dead_end_after_recoveries() -> None:
     for behaviour in ("clear_costmap", "spin", "back_up", "wait"):
         assert behaviour in reasons
     assert "no path" in commands[-1].reason and "15 s" in commands[-1].reason
+    # Where and why: the robot's position, its goal, and the obstacle in front (the trolley).
+    where = commands[-1].reason
+    assert f"at ({pose.x:.2f}, {pose.y:.2f})" in where and "(9.00, 1.50)" in where
+    assert "nearest obstacle seen" in where and "map's nearest wall" in where
     assert min(footprint_clearance(world, p) for p in poses) > 0.0
     assert max(p.x for p in poses) > 3.5  # it drove into the corridor before seeing the trolley
     assert pose.x < 7.5 - 0.3

@@ -41,6 +41,7 @@ def record_daemon_run(directory: Path, endpoint: str) -> Path:
         robot_id=ROBOT,
         sim=SimSettings(seed=3, people=0, realtime_factor=8.0),
         zenoh=ZenohSettings((endpoint,), ()),
+        start_latched=False,  # the recording's own stop is the one under test
     )
     options = DaemonOptions(record_dir=directory)
     daemon = Daemon(config, options)

@@ -92,7 +92,8 @@ def _follow_the_clock(source: RecordingSource) -> None:
 
 def test_a_truncated_recording_is_refused(daemon_recording: Path, tmp_path: Path) -> None:
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(daemon_recording.read_bytes()[:200_000])
+    data = daemon_recording.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])  # however long the recording, half of it
     with pytest.raises(ReplayFileError, match=r"cut short|not an MCAP"):
         RecordingSource(cut)
 

@@ -30,8 +30,13 @@ def _write_world(tmp_path: Path) -> ScenarioOptions:
     }
     TopologicalMap.from_dict(data, "small_topo.yaml", tmp_path)
     (tmp_path / "small_topo.yaml").write_text(yaml.safe_dump(data), encoding="utf-8")
+    # The scenario's own logic on a tiny synthetic corridor: world = map (the realistic world
+    # of issue 12 is exercised by test_scn_tour.py and the benchmarks).
     return ScenarioOptions(
-        map_yaml=tmp_path / "small.yaml", topo_yaml=tmp_path / "small_topo.yaml", people=0
+        map_yaml=tmp_path / "small.yaml",
+        topo_yaml=tmp_path / "small_topo.yaml",
+        people=0,
+        ideal_world=True,
     )
 
 

@@ -44,9 +44,12 @@ def _write_world(tmp_path: Path) -> ScenarioOptions:
     }
     TopologicalMap.from_dict(data, "small_topo.yaml", tmp_path)
     (tmp_path / "small_topo.yaml").write_text(yaml.safe_dump(data), encoding="utf-8")
+    # The scenario's own logic on a tiny synthetic floor: world = map (the realistic world of
+    # issue 12 is exercised by test_scn_tour.py and the benchmarks).
     return ScenarioOptions(
         map_yaml=tmp_path / "small.yaml",
         topo_yaml=tmp_path / "small_topo.yaml",
+        ideal_world=True,
         people=0,
         max_sim_time=400.0,
     )
@@ -71,5 +74,8 @@ def test_mode_completes_in_checkpoint_order(tmp_path: Path, mode: str) -> None:
     assert all(v is not None and v >= 0 for v in figures["checkpoint_times_s"].values())
     assert figures["collisions"] == 0
     assert figures["localisation_losses"] == 0
-    if mode == "teleoperation":
-        assert figures["mean_speed_mps"] > 0.25  # faster than the 0.25 m/s autonomy limit
+    if mode.startswith("teleoperation"):
+        # The operator drives within autonomy's limits (issue 17), seeing the robot late.
+        assert figures["operator_max_linear_mps"] == 0.25
+        assert figures["operator_delay_s"] >= 0.5
+        assert 0.1 < figures["mean_speed_mps"] <= 0.25 + 1e-3

@@ -13,7 +13,6 @@ from robot_daemon.sim.diff_drive import RobotFootprint
 from robot_daemon.sim.people import Crowd, CrowdConfig, PeopleConfigError, PersonState
 from robot_daemon.sim.world import World
 
-WILLOW = Path("/work/shared/data/maps/willow.yaml")
 FAR_AWAY = Pose2D(-100.0, -100.0, 0.0)
 FP = RobotFootprint()
 
@@ -62,9 +61,8 @@ def test_unreachable_waypoint_is_rejected() -> None:
 
 
 @pytest.mark.realdata
-@pytest.mark.skipif(not WILLOW.exists(), reason="willow map not available")
-def test_generated_people_stay_in_free_space_on_willow() -> None:
-    world = World(load_map(WILLOW))
+def test_generated_people_stay_in_free_space_on_willow(shared_data: Path) -> None:
+    world = World(load_map(shared_data / "maps" / "willow.yaml"))
     crowd = Crowd(world, np.random.default_rng(7))
     crowd.spawn(6)
     assert run(crowd, world, 60.0) >= 0.0

@@ -15,8 +15,6 @@ from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, SimConfigError, Simulator
 from robot_daemon.sim.world import RectObstacle
 
-WILLOW = Path("/work/shared/data/maps/willow.yaml")
-
 
 def room() -> OccupancyGrid:
     """A 10 x 6 m room with one-cell walls (0.05 m cells): free x in [0.05, 9.95]."""
@@ -169,9 +167,10 @@ def test_odometry_reading_velocities() -> None:
 
 
 @pytest.mark.realdata
-@pytest.mark.skipif(not WILLOW.exists(), reason="willow map not available")
-def test_runs_on_willow_with_people() -> None:
-    sim = Simulator(load_map(WILLOW), SimConfig(n_people=3), rng_seed=2)
+def test_runs_on_willow_with_people(shared_data: Path) -> None:
+    sim = Simulator(
+        load_map(shared_data / "maps" / "willow.yaml"), SimConfig(n_people=3), rng_seed=2
+    )
     start = sim.true_pose()
     assert sim.world.clearance_at(start.x, start.y) > 1.0
     for k in range(300):  # 3 s at 100 Hz, scans at 10 Hz

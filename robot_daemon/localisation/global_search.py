@@ -1,0 +1,522 @@
+"""Global localisation: branch-and-bound correlative scan matching over the whole map.
+
+Correlative scan matching (Olson, "Real-Time Correlative Scan Matching", ICRA 2009) scores a
+pose ``ξ = (x, y, θ)`` of the laser by how well the scan's end points ``p_i`` land on the map's
+walls,
+
+    score(ξ) = 1/n · Σ_i  L(T_ξ p_i),      L(c) = exp(-d(c)² / (2 σ²)),
+
+with ``d(c)`` the distance from cell ``c`` to the nearest occupied cell. The search over every
+free cell and every heading is made tractable by branch and bound (Hess, Kohler, Rapp, Andor,
+"Real-Time Loop Closure in 2D LIDAR SLAM", ICRA 2016, §V): for each heading the scan is rotated
+once and snapped to the grid, and a *node* ``(θ, i, j, h)`` stands for the ``2^h × 2^h`` block
+of translations starting at cell ``(i, j)``. Its bound
+
+    bound(θ, i, j, h) = 1/n · Σ_i  M_h(c_i + (i, j)),   M_h(c) = max L over [c, c + 2^h)²,
+
+uses the precomputed *max-grid* ``M_h`` of the same block size (Hess's "precomputation
+grids"), so it is never below the score of any translation in the block, and it is exact at
+``h = 0``. Nodes whose bound is below the threshold cannot hold an answer and are cut.
+
+How the search runs here (vectorised with numpy; one node is one row of a batch):
+
+1. *Best bound first, depth first* to find an incumbent fast: from the top-level nodes with the
+   best bounds, descend greedily keeping the ``beam_width`` best children per level (a batched
+   form of Hess's depth-first search that explores the best bound first) to a leaf.
+2. *Exact pruning, level by level*: the threshold is ``τ = max(min_score, best - keep_margin)``;
+   every node with ``bound < τ`` is cut; the survivors' children are scored as one batch. What
+   reaches the leaves is *every* pose scoring at least ``τ``: not only the best, but also any
+   runner-up within ``keep_margin`` of it, which the decision (`relocaliser`) needs to call a
+   place ambiguous.
+3. *Ranked hypotheses*: the surviving leaves are reduced by non-maximum suppression (a leaf
+   within ``cluster_xy_m`` and ``cluster_yaw_rad`` of a better one is a near-duplicate of it)
+   and returned best first with their scores.
+
+Only translations where the laser can be are searched: known-free cells at least
+``min_clearance_m`` from any occupied or unknown cell. The search grid is coarser than the map
+(``resolution_m``, 0.1 m by default); the pose is refined afterwards by the local matcher.
+Poses here are of the *laser* in ``map``, like the localiser's.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+_LEVELS = 255  # likelihood quantised to uint8: 0..255
+_CHUNK = 1 << 21  # gathered values per batch (bounds memory to a few tens of MB)
+
+
+class GlobalSearchConfigError(ValueError):
+    """A global-search parameter is outside its allowed range."""
+
+
+@dataclass(frozen=True)
+class GlobalSearchConfig:
+    """Global search parameters (SI units)."""
+
+    resolution_m: float = 0.10  # search grid; a multiple of the map's resolution
+    likelihood_sigma_m: float = 0.10  # σ of the likelihood field L
+    angular_step_rad: float = math.radians(1.5)  # headings searched: 2π / step
+    max_range_m: float = 30.0  # end points farther than this are not used
+    point_spacing_m: float = 0.25  # voxel filter of the end points (sensor frame)
+    max_points: int = 80  # end points used at most
+    min_points: int = 20  # fewer valid end points: no search (nothing to match)
+    depth: int = 6  # top-level blocks are 2^depth search cells wide
+    # Headings per node at each level, finest (must be 1) to top: a node of level h covers
+    # angle_groups[h] neighbouring headings as well as its 2^h x 2^h translations.
+    angle_groups: tuple[int, ...] = (1, 1, 2, 4, 4, 8, 8)
+    min_score: float = 0.35  # leaves below this are never hypotheses
+    keep_margin: float = 0.05  # hypotheses scoring at least best - keep_margin are all kept
+    beam_width: int = 2000  # nodes per level in the greedy first descent
+    redive_above: int = 20000  # a level with more nodes than this gets a fresh dive ...
+    redive_width: int = 200  # ... from this many of its best bounds
+    max_nodes: int = 30000  # nodes kept per level at most (best bounds); beyond: incomplete
+    max_hypotheses: int = 16  # ranked hypotheses returned at most
+    cluster_xy_m: float = 0.6  # near-duplicate: this close in position ...
+    cluster_yaw_rad: float = 0.35  # ... and in heading to a better hypothesis
+    min_clearance_m: float = 0.10  # the laser is at least this far from occupied/unknown
+    # End points on unknown cells next to free space (glass, clutter the mapping run did not
+    # resolve: Willow Garage) count this much of a hit; 0 = only occupied cells are walls.
+    unknown_weight: float = 0.5
+
+    def __post_init__(self) -> None:
+        checks: list[tuple[str, float, float, float]] = [
+            ("resolution_m", self.resolution_m, 0.01, 1.0),
+            ("likelihood_sigma_m", self.likelihood_sigma_m, 0.01, 2.0),
+            ("angular_step_rad", self.angular_step_rad, 0.002, 0.5),
+            ("max_range_m", self.max_range_m, 1.0, 100.0),
+            ("point_spacing_m", self.point_spacing_m, 0.0, 2.0),
+            ("max_points", self.max_points, 10, 255),
+            ("min_points", self.min_points, 3, 255),
+            ("depth", self.depth, 1, 10),
+            ("min_score", self.min_score, 0.0, 1.0),
+            ("keep_margin", self.keep_margin, 0.0, 1.0),
+            ("beam_width", self.beam_width, 1, 10000),
+            ("max_nodes", self.max_nodes, 100, 10**8),
+            ("redive_above", self.redive_above, 1, 10**8),
+            ("redive_width", self.redive_width, 1, 10**6),
+            ("max_hypotheses", self.max_hypotheses, 1, 1000),
+            ("cluster_xy_m", self.cluster_xy_m, 0.0, 10.0),
+            ("cluster_yaw_rad", self.cluster_yaw_rad, 0.0, math.pi),
+            ("min_clearance_m", self.min_clearance_m, 0.0, 2.0),
+            ("unknown_weight", self.unknown_weight, 0.0, 1.0),
+        ]
+        for name, value, low, high in checks:
+            if not (math.isfinite(value) and low <= value <= high):
+                raise GlobalSearchConfigError(
+                    f"GlobalSearchConfig.{name} must be in [{low}, {high}], got {value}"
+                )
+        groups = self.angle_groups
+        if len(groups) != self.depth + 1 or groups[0] != 1:
+            raise GlobalSearchConfigError(
+                f"GlobalSearchConfig.angle_groups needs depth + 1 = {self.depth + 1} entries "
+                f"starting with 1, got {groups}"
+            )
+        for a, b in itertools.pairwise(groups):
+            if b < a or b % a or b & (b - 1):
+                raise GlobalSearchConfigError(
+                    "GlobalSearchConfig.angle_groups must be non-decreasing powers of two, "
+                    f"got {groups}"
+                )
+        if self.min_points > self.max_points:
+            raise GlobalSearchConfigError("GlobalSearchConfig.min_points must be <= max_points")
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One place the robot may be: the laser's pose in ``map`` and its correlative score."""
+
+    pose: Pose2D
+    score: float  # mean likelihood of the end points, 0..1
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """Ranked hypotheses (best first; near-duplicates removed) and what the search cost."""
+
+    hypotheses: tuple[Hypothesis, ...]
+    points_used: int
+    nodes_evaluated: int
+    threshold: float  # every pose scoring at least this was found (0 if no search ran) ...
+    complete: bool = True  # ... unless the node budget cut the search (then some may be missing)
+
+    @property
+    def best(self) -> Hypothesis | None:
+        return self.hypotheses[0] if self.hypotheses else None
+
+
+@dataclass(frozen=True)
+class SearchRegion:
+    """An axis-aligned box of the map frame [m] to which the laser's position is restricted."""
+
+    x_min: float
+    y_min: float
+    x_max: float
+    y_max: float
+
+    def __post_init__(self) -> None:
+        vals = (self.x_min, self.y_min, self.x_max, self.y_max)
+        if not all(math.isfinite(v) for v in vals):
+            raise ValueError(f"SearchRegion must be finite, got {vals}")
+        if not (self.x_min < self.x_max and self.y_min < self.y_max):
+            raise ValueError(f"SearchRegion needs min < max, got {vals}")
+
+    @staticmethod
+    def around(x: float, y: float, radius: float) -> SearchRegion:
+        return SearchRegion(x - radius, y - radius, x + radius, y + radius)
+
+
+def select_points(points: FloatArray, max_range_m: float, spacing_m: float, cap: int) -> FloatArray:
+    """End points for the search: within ``max_range_m``, one per ``spacing_m`` voxel (so near
+    walls do not outvote far ones), at most ``cap`` (fixed stride, deterministic)."""
+    if points.shape[0] == 0:
+        return points
+    r2 = np.einsum("ij,ij->i", points, points)
+    pts = points[r2 <= max_range_m**2]
+    if spacing_m > 0.0 and pts.shape[0]:
+        keys = np.floor(pts / spacing_m).astype(np.int64)
+        _, first = np.unique(keys[:, 0] * 1_000_003 + keys[:, 1], return_index=True)
+        pts = pts[np.sort(first)]
+    if pts.shape[0] > cap:
+        pts = pts[np.linspace(0, pts.shape[0] - 1, cap).round().astype(np.intp)]
+    out: FloatArray = pts
+    return out
+
+
+class GlobalSearch:
+    """Branch-and-bound correlative search of one scan over the whole map (precomputed once)."""
+
+    def __init__(self, grid: OccupancyGrid, config: GlobalSearchConfig | None = None) -> None:
+        self.config = cfg = config or GlobalSearchConfig()
+        factor = max(1, round(cfg.resolution_m / grid.resolution))
+        self.grid = grid
+        self.factor = factor
+        self.resolution = res = grid.resolution * factor
+        occ = grid.occupied()
+        fine_dist = (
+            np.asarray(ndimage.distance_transform_edt(~occ), dtype=np.float64) * grid.resolution
+            if occ.any()
+            else np.full(occ.shape, np.inf)
+        )
+        fine_clear = (
+            np.asarray(ndimage.distance_transform_edt(~grid.blocked()), dtype=np.float64)
+            * grid.resolution
+        )
+        self.fine_distance = fine_dist  # [m] map cell -> nearest occupied cell (verification)
+        # Coarse cells: the nearest wall from anywhere in the block (min distance), and whether
+        # the laser can stand somewhere in the block (max clearance).
+        dist = _block_reduce(fine_dist, factor, np.min, np.inf)
+        clear = _block_reduce(fine_clear, factor, np.max, 0.0)
+        self.height, self.width = dist.shape
+        likelihood = np.exp(-0.5 * (dist / cfg.likelihood_sigma_m) ** 2)
+        if cfg.unknown_weight > 0.0:
+            blocked = _block_reduce(fine_clear, factor, np.min, np.inf)
+            unknown = np.exp(-0.5 * (blocked / cfg.likelihood_sigma_m) ** 2)
+            likelihood = np.maximum(likelihood, cfg.unknown_weight * unknown)
+        lik8 = np.rint(likelihood * _LEVELS).astype(np.uint8)
+
+        # Padded max-grids (zeros beyond the map), all levels in one flat array: level k at
+        # [k * level_size, (k + 1) * level_size). Any end point within max_range of any
+        # searched translation stays inside. The last level is all 255 (no bound at all) for
+        # windows wider than the widest max-grid.
+        top = 1 << cfg.depth
+        self.pad = pad = math.ceil(cfg.max_range_m / res) + 2
+        hp = -(-self.height // top) * top
+        wp = -(-self.width // top) * top
+        self.stride = stride = wp + 2 * pad
+        rows = hp + 2 * pad
+        self.level_size = rows * stride
+        self.max_level = max_level = cfg.depth + 3
+        grids = np.zeros((max_level + 2, rows, stride), dtype=np.uint8)
+        grids[0, pad : pad + self.height, pad : pad + self.width] = lik8
+        for k in range(1, max_level + 1):
+            s = 1 << (k - 1)
+            prev, cur = grids[k - 1], grids[k]
+            cur[:] = prev
+            np.maximum(cur[:-s, :], prev[s:, :], out=cur[:-s, :])
+            tmp = cur.copy()
+            np.maximum(cur[:, :-s], tmp[:, s:], out=cur[:, :-s])
+        grids[max_level + 1] = _LEVELS
+        self._grids = grids.reshape(-1)
+
+        # Where the laser may be, and per level which blocks hold any such cell.
+        cand = np.zeros((hp, wp), dtype=bool)
+        cand[: self.height, : self.width] = clear >= max(cfg.min_clearance_m, 1e-9)
+        self.candidates = cand
+        self._cand_blocks: list[npt.NDArray[np.bool_]] = [cand]
+        for h in range(1, cfg.depth + 1):
+            b = 1 << h
+            blocks: npt.NDArray[np.bool_] = np.any(
+                cand.reshape(hp // b, b, wp // b, b), axis=(1, 3)
+            )
+            self._cand_blocks.append(blocks)
+        group_top = cfg.angle_groups[-1]
+        n_angles = max(1, round(2.0 * math.pi / cfg.angular_step_rad / group_top)) * group_top
+        self.angles = np.arange(n_angles) * (2.0 * math.pi / n_angles)
+
+    # ------------------------------------------------------------------ search
+
+    def search(self, points: FloatArray, region: SearchRegion | None = None) -> SearchResult:
+        """Every pose of the laser scoring within ``keep_margin`` of the best, ranked.
+
+        ``points`` are the scan's end points in the laser frame (N, 2) [m]; ``region`` limits
+        the laser's position (the "Help me!" room); headings are always all searched.
+        """
+        cfg = self.config
+        pts = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
+        n = int(pts.shape[0])
+        if n < cfg.min_points:
+            return SearchResult((), n, 0, 0.0)
+        offsets = self._level_offsets(pts)
+        evaluated = 0
+        top = cfg.depth
+        grp, ii, jj = self._top_nodes(region)
+        if grp.size == 0:
+            return SearchResult((), n, 0, 0.0)
+        sums = self._bounds(offsets[top], grp, ii, jj)
+        evaluated += grp.size
+        to_int = _LEVELS * n
+
+        # 1. Greedy best-bound-first descent for an incumbent (a real leaf score).
+        order = np.argsort(sums)[::-1][: cfg.beam_width]
+        incumbent, cost = self._dive(top, offsets, grp[order], ii[order], jj[order], region)
+        evaluated += cost
+        tau = max(cfg.min_score, incumbent - cfg.keep_margin)
+        tau_int = math.ceil(tau * to_int - 1e-6)
+
+        # 2. Exact pruning level by level: every leaf with score >= tau survives.
+        keep_mask = sums >= tau_int
+        grp, ii, jj = grp[keep_mask], ii[keep_mask], jj[keep_mask]
+        complete = True
+        for h in range(top, 0, -1):
+            grp, ii, jj = self._children(h, grp, ii, jj, region)
+            if grp.size == 0:
+                break
+            sums = self._bounds(offsets[h - 1], grp, ii, jj)
+            evaluated += grp.size
+            if h - 1 >= 2 and sums.size > cfg.redive_above:
+                # Many nodes left: dive again from this level's best bounds; a better
+                # incumbent raises tau before the (larger) finer levels are expanded.
+                order = np.argsort(sums)[::-1][: cfg.redive_width]
+                leaf, cost = self._dive(h - 1, offsets, grp[order], ii[order], jj[order], region)
+                evaluated += cost
+                tau = max(tau, leaf - cfg.keep_margin)
+                tau_int = math.ceil(tau * to_int - 1e-6)
+            if h == 1 and sums.size:
+                tau = max(tau, float(sums.max()) / to_int - cfg.keep_margin)
+                tau_int = math.ceil(tau * to_int - 1e-6)
+            keep_mask = sums >= tau_int
+            grp, ii, jj, sums = grp[keep_mask], ii[keep_mask], jj[keep_mask], sums[keep_mask]
+            if grp.size > cfg.max_nodes:
+                # Too many look-alike places to search exhaustively in time: keep the best
+                # bounds and say the answer may be incomplete (the decision treats that as
+                # ambiguous unless verification settles it).
+                best = np.argpartition(sums, sums.size - cfg.max_nodes)[-cfg.max_nodes :]
+                grp, ii, jj, sums = grp[best], ii[best], jj[best], sums[best]
+                complete = False
+        if grp.size == 0:
+            return SearchResult((), n, evaluated, tau, complete)
+        hyps = self._rank(grp, ii, jj, sums.astype(np.float64) / to_int)
+        return SearchResult(hyps, n, evaluated, tau, complete)
+
+    def _dive(
+        self,
+        h: int,
+        offsets: list[IntArray],
+        grp: IntArray,
+        ii: IntArray,
+        jj: IntArray,
+        region: SearchRegion | None,
+    ) -> tuple[float, int]:
+        """Best leaf score found by descending from level-``h`` nodes keeping, per level, the
+        nodes with the best bounds (a batched depth-first, best-bound-first search; Hess et al.
+        2016 §V.C); and the number of nodes it evaluated."""
+        width = grp.size
+        n = offsets[0].shape[1]
+        cost = 0
+        for level in range(h, 0, -1):
+            grp, ii, jj = self._children(level, grp, ii, jj, region)
+            if grp.size == 0:
+                return 0.0, cost
+            sums = self._bounds(offsets[level - 1], grp, ii, jj)
+            cost += grp.size
+            keep = np.argsort(sums)[::-1][:width]
+            grp, ii, jj = grp[keep], ii[keep], jj[keep]
+            if level == 1:
+                return float(sums[keep[0]]) / (_LEVELS * n), cost
+        return 0.0, cost
+
+    def score(self, points: FloatArray, pose: Pose2D) -> float:
+        """The correlative score of one laser pose (same points and field as the search)."""
+        cfg = self.config
+        pts = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
+        if pts.shape[0] == 0:
+            return 0.0
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        x = pose.x + c * pts[:, 0] - s * pts[:, 1]
+        y = pose.y + s * pts[:, 0] + c * pts[:, 1]
+        col = np.floor((x - self.grid.origin_x) / self.resolution).astype(np.intp)
+        row = np.floor((y - self.grid.origin_y) / self.resolution).astype(np.intp)
+        col = np.clip(col + self.pad, 0, self.stride - 1)
+        row = np.clip(row + self.pad, 0, self.level_size // self.stride - 1)
+        vals = self._grids[row * self.stride + col]
+        return float(vals.mean()) / _LEVELS
+
+    # -------------------------------------------------------------- internals
+
+    def _level_offsets(self, pts: FloatArray) -> list[IntArray]:
+        """Per level h, flat offsets (n_groups_h, n) of each end point's bounding window.
+
+        For a node of level h (angle group ``g``, block ``[i, i + 2^h)²``) end point ``p``
+        lands, over the group's headings and the block's translations, inside the rectangle
+        ``(i, j) + [lo_p, hi_p + 2^h)``, where ``lo_p``/``hi_p`` are the extremes of its
+        grid-snapped rotated offsets over the group. The max-grid of the smallest level ``k``
+        with ``2^k`` covering that rectangle, anchored at its low corner, bounds every leaf
+        under the node; windows wider than the largest max-grid read the all-255 level.
+        """
+        cfg = self.config
+        c, s = np.cos(self.angles)[:, None], np.sin(self.angles)[:, None]
+        px, py = pts[:, 0][None, :], pts[:, 1][None, :]
+        dcol = np.rint((c * px - s * py) / self.resolution).astype(np.intp)
+        drow = np.rint((s * px + c * py) / self.resolution).astype(np.intp)
+        n_ang, n = dcol.shape
+        # Each end point is scored by the best cell within half a heading step of its arc, so
+        # a far wall still counts at the heading nearest the truth (Olson's blurred cost).
+        reach = np.hypot(pts[:, 0], pts[:, 1]) * (math.pi / n_ang) / self.resolution
+        e = np.floor(reach + 0.5).astype(np.intp)[None, :]
+        out: list[IntArray] = []
+        for h in range(cfg.depth + 1):
+            g = cfg.angle_groups[h]
+            r = drow.reshape(n_ang // g, g, n)
+            q = dcol.reshape(n_ang // g, g, n)
+            lo_r, lo_c = r.min(axis=1) - e, q.min(axis=1) - e
+            span = np.maximum(r.max(axis=1) + e - lo_r, q.max(axis=1) + e - lo_c) + (1 << h)
+            level = np.ceil(np.log2(span)).astype(np.intp)
+            np.minimum(level, self.max_level + 1, out=level)
+            out.append(lo_r * self.stride + lo_c + level * self.level_size)
+        return out
+
+    def _top_nodes(self, region: SearchRegion | None) -> tuple[IntArray, IntArray, IntArray]:
+        h = self.config.depth
+        bi, bj = np.nonzero(self._cand_blocks[h])
+        ii, jj = bi.astype(np.intp) << h, bj.astype(np.intp) << h
+        if region is not None:
+            inside = self._blocks_overlap(region, ii, jj, 1 << h)
+            ii, jj = ii[inside], jj[inside]
+        n_grp = self.angles.size // self.config.angle_groups[h]
+        grp = np.repeat(np.arange(n_grp, dtype=np.intp), ii.size)
+        return grp, np.tile(ii, n_grp), np.tile(jj, n_grp)
+
+    def _blocks_overlap(
+        self, region: SearchRegion, ii: IntArray, jj: IntArray, size: int
+    ) -> npt.NDArray[np.bool_]:
+        g, r = self.grid, self.resolution
+        c0 = math.floor((region.x_min - g.origin_x) / r)
+        c1 = math.floor((region.x_max - g.origin_x) / r)
+        r0 = math.floor((region.y_min - g.origin_y) / r)
+        r1 = math.floor((region.y_max - g.origin_y) / r)
+        out: npt.NDArray[np.bool_] = (
+            (jj + size - 1 >= c0) & (jj <= c1) & (ii + size - 1 >= r0) & (ii <= r1)
+        )
+        return out
+
+    def _children(
+        self, h: int, grp: IntArray, ii: IntArray, jj: IntArray, region: SearchRegion | None
+    ) -> tuple[IntArray, IntArray, IntArray]:
+        """The level h - 1 nodes under each node: its heading groups split as the schedule
+        says, times the four sub-blocks that hold a candidate cell (and meet ``region``)."""
+        groups = self.config.angle_groups
+        split = groups[h] // groups[h - 1]
+        if split > 1:
+            grp = (grp[:, None] * split + np.arange(split, dtype=np.intp)[None, :]).reshape(-1)
+            ii = np.repeat(ii, split)
+            jj = np.repeat(jj, split)
+        s = 1 << (h - 1)
+        c_grp = np.repeat(grp, 4)
+        c_i = (ii[:, None] + np.array([0, 0, s, s], dtype=np.intp)[None, :]).reshape(-1)
+        c_j = (jj[:, None] + np.array([0, s, 0, s], dtype=np.intp)[None, :]).reshape(-1)
+        ok = self._cand_blocks[h - 1][c_i >> (h - 1), c_j >> (h - 1)]
+        if region is not None:
+            ok &= self._blocks_overlap(region, c_i, c_j, s)
+        return c_grp[ok], c_i[ok], c_j[ok]
+
+    def _bounds(
+        self, offsets: IntArray, grp: IntArray, ii: IntArray, jj: IntArray
+    ) -> npt.NDArray[np.int64]:
+        """Σ_p M(window_p + (i, j)) per node, in quantised units (exact scores at h = 0).
+
+        Nodes are taken heading group by heading group, so each batch adds one row of
+        offsets to a column of block bases (a broadcast, not a gather of offsets). With at
+        most 255 points of at most 255 each, a sum fits in 16 bits.
+        """
+        base = (ii + self.pad) * self.stride + jj + self.pad
+        n = offsets.shape[1]
+        order = np.argsort(grp, kind="stable")
+        g_sorted, b_sorted = grp[order], base[order]
+        cuts = np.flatnonzero(np.diff(g_sorted)) + 1
+        starts = np.concatenate(([0], cuts)).tolist()
+        ends = np.concatenate((cuts, [grp.size])).tolist()
+        sums = np.empty(grp.size, dtype=np.uint16)
+        grids = self._grids
+        step = max(1, _CHUNK // n)
+        for s0, e0 in zip(starts, ends, strict=True):
+            row = offsets[g_sorted[s0]]
+            for s in range(s0, e0, step):
+                e = min(e0, s + step)
+                idx = b_sorted[s:e, None] + row
+                np.sum(grids.take(idx), axis=1, dtype=np.uint16, out=sums[s:e])
+        out = np.empty(grp.size, dtype=np.int64)
+        out[order] = sums
+        return out
+
+    def _rank(
+        self, ang: IntArray, ii: IntArray, jj: IntArray, scores: FloatArray
+    ) -> tuple[Hypothesis, ...]:
+        """Best first, each leaf within the cluster radius of a better one dropped."""
+        cfg = self.config
+        order = np.argsort(-scores, kind="stable")
+        g, r = self.grid, self.resolution
+        xs = g.origin_x + (jj[order] + 0.5) * r
+        ys = g.origin_y + (ii[order] + 0.5) * r
+        yaws = self.angles[ang[order]]
+        sc = scores[order]
+        alive = np.ones(order.size, dtype=bool)
+        out: list[Hypothesis] = []
+        k = 0
+        while k < order.size and len(out) < cfg.max_hypotheses:
+            if not alive[k]:
+                k += 1
+                continue
+            out.append(Hypothesis(Pose2D(float(xs[k]), float(ys[k]), float(yaws[k])), float(sc[k])))
+            dyaw = np.abs((yaws - yaws[k] + math.pi) % (2.0 * math.pi) - math.pi)
+            near = (np.hypot(xs - xs[k], ys - ys[k]) <= cfg.cluster_xy_m) & (
+                dyaw <= cfg.cluster_yaw_rad
+            )
+            alive &= ~near
+            k += 1
+        return tuple(out)
+
+
+def _block_reduce(a: FloatArray, factor: int, reduce: np.ufunc | object, fill: float) -> FloatArray:
+    """``a`` reduced over ``factor x factor`` blocks (the edge padded with ``fill``)."""
+    if factor == 1:
+        return a
+    h, w = a.shape
+    hp, wp = -(-h // factor) * factor, -(-w // factor) * factor
+    padded = np.full((hp, wp), fill, dtype=np.float64)
+    padded[:h, :w] = a
+    blocks = padded.reshape(hp // factor, factor, wp // factor, factor)
+    out: FloatArray = reduce(blocks, axis=(1, 3))  # type: ignore[operator]
+    return out

@@ -1,0 +1,469 @@
+"""Deciding where the robot is from global-search hypotheses, safely (issue 16).
+
+A wrong relocalisation is far worse than a slow one, so a hypothesis of `global_search` is
+never trusted on its correlative score alone. The decision follows multi-hypothesis tracking
+(Thrun, Burgard, Fox, *Probabilistic Robotics*, 2005, §7.4 and §8.3: global localisation keeps
+every mode alive until the data removes all but one):
+
+1. **Verify.** Each hypothesis (laser pose) is refined by the localiser's own Hector matcher and
+   checked with the whole scan: the fraction of end points on the map (``confidence``) and the
+   fraction of beams that pass *through* walls (the localiser's see-through test). A place
+   whose walls the laser sees through is not where the robot is, however well the end points
+   fit; this is what tells look-alike rooms and corridor doors apart.
+2. **Track.** Verified hypotheses become *candidates*, moved by odometry between scans and
+   re-verified on every scan. A candidate that fails ``drop_after`` scans in a row, or whose
+   match jumps away from its odometry prediction, is dropped. Fresh global searches run every
+   ``search_every_s`` and add new candidates (near-duplicates of a candidate merge into it).
+3. **Accept** the best candidate only when it has been verified on ``accept_scans`` scans over
+   at least ``accept_s`` seconds, **and** no other candidate (not a near-duplicate) is within
+   ``margin`` of its quality, **and** the last search was exhaustive (the node budget did not
+   cut it and it returned fewer than ``max_hypotheses``), or ``agree_searches`` searches each
+   found it the best verified place and it fits clearly (``agree_min_quality``; a budget-cut
+   search drops the *lowest* bounds first, and a look-alike of the best place bounds as high as
+   it does, so it is kept with it), or the robot has since moved ``motion_to_trust_m`` (motion
+   removed the look-alikes). The margin is checked against every candidate still tracked, also
+   one that failed the last scan (a place that fits now and then is still a look-alike).
+   Symmetric places therefore stay *ambiguous* until motion disambiguates them; the stack does
+   not drive autonomously meanwhile, and after ``help_after_s`` it asks a person ("Help me!").
+
+The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
+from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
+far-away place explains the scan clearly better (``kidnap_margin``) than the tracked pose.
+
+Poses here are of the laser in ``map``, like the localiser's; time is injected.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from interbot_core.geometry import Pose2D, angle_diff
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.localisation.global_search import (
+    GlobalSearch,
+    GlobalSearchConfig,
+    SearchRegion,
+    SearchResult,
+)
+from robot_daemon.localisation.localiser import Localiser
+from robot_daemon.localisation.scan_matcher import subsample_points
+
+logger = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class RelocaliserConfigError(ValueError):
+    """A relocaliser parameter is outside its allowed range."""
+
+
+@dataclass(frozen=True)
+class RelocaliserConfig:
+    """Relocaliser parameters (SI units)."""
+
+    search: GlobalSearchConfig = field(default_factory=GlobalSearchConfig)
+    search_every_s: float = 1.0  # a fresh global search this often while undecided
+    verify_hypotheses: int = 12  # best search hypotheses verified per search
+    max_candidates: int = 8  # candidates tracked at once (best quality kept)
+    hit_tolerance_m: float = 0.10  # an end point this close to a wall is a hit
+    min_confidence: float = 0.55  # verified: at least this fraction of end points on walls ...
+    max_impossible: float = 0.04  # ... and at most this fraction of beams through walls
+    max_jump_m: float = 0.4  # re-verification moving a candidate farther than this: inconsistent
+    max_jump_rad: float = 0.3
+    drop_after: int = 2  # failed verifications in a row that drop a candidate
+    accept_scans: int = 5  # verified scans in a row needed to accept
+    accept_s: float = 0.8  # ... spanning at least this long [s]
+    margin: float = 0.1  # the runner-up's quality must be this much lower
+    duplicate_xy_m: float = 0.6  # candidates this close (and within duplicate_yaw_rad) merge
+    duplicate_yaw_rad: float = 0.35
+    motion_to_trust_m: float = 2.0  # travel that lets an inexhaustive search be trusted
+    agree_searches: int = 2  # ... or this many searches, each finding the candidate best, ...
+    agree_min_quality: float = 0.7  # ... with at least this quality (a clear fit)
+    help_after_s: float = 20.0  # undecided this long: ask a person ("Help me!")
+    background_every_s: float = 5.0  # standing kidnap check period while localised
+    standing_speed: float = 0.02  # [m/s] below: the robot stands (background check allowed)
+    kidnap_margin: float = 0.15  # another place this much better than the tracked pose: kidnap
+    kidnap_min_distance_m: float = 1.0  # ... and at least this far from it
+    max_range_m: float = 30.0  # end points used for verification
+
+    def __post_init__(self) -> None:
+        checks: list[tuple[str, float, float, float]] = [
+            ("search_every_s", self.search_every_s, 0.05, 60.0),
+            ("verify_hypotheses", self.verify_hypotheses, 1, 100),
+            ("max_candidates", self.max_candidates, 1, 100),
+            ("hit_tolerance_m", self.hit_tolerance_m, 0.01, 1.0),
+            ("min_confidence", self.min_confidence, 0.0, 1.0),
+            ("max_impossible", self.max_impossible, 0.0, 1.0),
+            ("max_jump_m", self.max_jump_m, 0.01, 10.0),
+            ("max_jump_rad", self.max_jump_rad, 0.01, math.pi),
+            ("drop_after", self.drop_after, 1, 100),
+            ("accept_scans", self.accept_scans, 1, 1000),
+            ("accept_s", self.accept_s, 0.0, 60.0),
+            ("margin", self.margin, 0.0, 1.0),
+            ("duplicate_xy_m", self.duplicate_xy_m, 0.0, 10.0),
+            ("duplicate_yaw_rad", self.duplicate_yaw_rad, 0.0, math.pi),
+            ("motion_to_trust_m", self.motion_to_trust_m, 0.0, 100.0),
+            ("agree_searches", self.agree_searches, 1, 100),
+            ("agree_min_quality", self.agree_min_quality, 0.0, 1.0),
+            ("help_after_s", self.help_after_s, 0.0, 3600.0),
+            ("background_every_s", self.background_every_s, 0.1, 3600.0),
+            ("standing_speed", self.standing_speed, 0.0, 1.0),
+            ("kidnap_margin", self.kidnap_margin, 0.0, 1.0),
+            ("kidnap_min_distance_m", self.kidnap_min_distance_m, 0.0, 100.0),
+            ("max_range_m", self.max_range_m, 0.5, 200.0),
+        ]
+        for name, value, low, high in checks:
+            if not (math.isfinite(value) and low <= value <= high):
+                raise RelocaliserConfigError(
+                    f"RelocaliserConfig.{name} must be in [{low}, {high}], got {value}"
+                )
+
+
+@dataclass(frozen=True)
+class Verification:
+    """A hypothesis checked against the whole scan."""
+
+    pose: Pose2D  # refined laser pose
+    confidence: float  # fraction of end points within hit_tolerance of a wall
+    impossible: float  # fraction of beams passing through walls
+
+    @property
+    def quality(self) -> float:
+        """One figure to rank places by: hits, less the beams that see through walls."""
+        return self.confidence - 2.0 * self.impossible
+
+
+@dataclass
+class Candidate:
+    """A verified place the robot may be, tracked by odometry."""
+
+    pose: Pose2D
+    quality: float
+    first_seen: float  # [s]
+    streak: int = 1  # verified scans in a row
+    failures: int = 0  # failed verifications in a row
+    wins: int = 1  # global searches whose best hypothesis, verified, this candidate was
+
+
+@dataclass(frozen=True)
+class RelocaliserStatus:
+    """What the relocaliser is doing, for the station and the tablet."""
+
+    active: bool
+    reason: str  # why it searches: start-up, lost, request, help-me, kidnap
+    candidates: int
+    since: float  # [s] when this search started
+    help_needed: bool  # undecided for longer than help_after_s
+    text: str
+
+
+class Relocaliser:
+    """Global search + verification + tracking: finds the robot anywhere on the map."""
+
+    def __init__(
+        self,
+        grid: OccupancyGrid,
+        localiser: Localiser,
+        config: RelocaliserConfig | None = None,
+        search: GlobalSearch | None = None,
+    ) -> None:
+        self.config = cfg = config or RelocaliserConfig()
+        self.localiser = localiser
+        self.search_engine = search or GlobalSearch(grid, cfg.search)
+        self._grid = grid
+        self._dist = self.search_engine.fine_distance
+        self._candidates: list[Candidate] = []
+        self._active = False
+        self._reason = ""
+        self._since = 0.0
+        self._region: SearchRegion | None = None
+        self._last_search = -math.inf
+        self._last_result: SearchResult | None = None
+        self._exhaustive = False
+        self._odom: Pose2D | None = None
+        self._travel_m = 0.0  # since the last search that was not exhaustive
+        self._last_background = -math.inf
+        self.searches = 0  # global searches run (for figures)
+        self.last_failure = ""
+        # With an executor (the daemon: a worker thread) searches run beside the control loop
+        # and their hypotheses, moved by the odometry since, are verified on a later scan;
+        # without (scenarios, tests) they run at once, deterministically.
+        self.executor: Executor | None = None
+        self._pending: tuple[Future[SearchResult], Pose2D | None, str] | None = None
+
+    # ------------------------------------------------------------------ control
+
+    @property
+    def active(self) -> bool:
+        return self._active
+
+    @property
+    def candidates(self) -> tuple[Candidate, ...]:
+        return tuple(self._candidates)
+
+    def start(self, now: float, reason: str, region: SearchRegion | None = None) -> None:
+        """Start (or restart) a search; ``region`` limits it (a "Help me!" room)."""
+        logger.info("relocalisation started at t=%.2f (%s)", now, reason)
+        self._active = True
+        self._reason = reason
+        self._since = now
+        self._region = region
+        self._candidates = []
+        self._last_search = -math.inf
+        self._last_result = None
+        self._exhaustive = False
+        self._travel_m = 0.0
+        self.last_failure = ""
+        self._pending = None
+
+    def stop(self) -> None:
+        self._active = False
+        self._candidates = []
+        self._region = None
+        self._pending = None
+
+    def status(self, now: float) -> RelocaliserStatus:
+        cfg = self.config
+        if not self._active:
+            return RelocaliserStatus(False, "", 0, 0.0, False, "")
+        help_needed = now - self._since >= cfg.help_after_s
+        n = len(self._candidates)
+        if n == 0:
+            text = "finding my position…"
+        elif n == 1:
+            text = "finding my position… (checking one place)"
+        else:
+            text = f"finding my position… ({n} look-alike places)"
+        return RelocaliserStatus(True, self._reason, n, self._since, help_needed, text)
+
+    # ------------------------------------------------------------------ inputs
+
+    def on_odometry(self, odom_laser: Pose2D) -> None:
+        """Latest odometry pose of the laser (``odom`` frame): moves every candidate."""
+        if self._odom is not None:
+            step = odom_laser.relative_to(self._odom)
+            self._travel_m += math.hypot(step.x, step.y)
+            for cand in self._candidates:
+                cand.pose = cand.pose.compose(step)
+        self._odom = odom_laser
+
+    def on_scan(self, scan: LaserScan, now: float) -> Pose2D | None:
+        """One scan while searching; returns the accepted laser pose, else None."""
+        if not self._active:
+            return None
+        cfg = self.config
+        points = scan.points(cfg.max_range_m)
+        if points.shape[0] < cfg.search.min_points:
+            self.last_failure = "too few laser returns"
+            return None
+        self._reverify(points, now)
+        done = self._collect("search")
+        if done is not None:
+            self._use_search(done[0], done[1], points, now)
+        elif self._pending is None and now - self._last_search >= cfg.search_every_s - 1e-9:
+            self._last_search = now
+            result = self._run_search(points, self._region, "search")
+            if result is not None:
+                self._use_search(result, Pose2D(0.0, 0.0, 0.0), points, now)
+        return self._decide(now)
+
+    def _run_search(
+        self, points: FloatArray, region: SearchRegion | None, kind: str
+    ) -> SearchResult | None:
+        """The search's result now, or None when it was handed to the executor."""
+        self.searches += 1
+        if self.executor is None:
+            return self.search_engine.search(points, region)
+        future = self.executor.submit(self.search_engine.search, points, region)
+        self._pending = (future, self._odom, kind)
+        return None
+
+    def _collect(self, kind: str) -> tuple[SearchResult, Pose2D] | None:
+        """A finished search of ``kind`` and the laser's odometry motion since it was asked."""
+        if self._pending is None or self._pending[2] != kind or not self._pending[0].done():
+            return None
+        future, odom_then, _ = self._pending
+        self._pending = None
+        result = future.result()
+        if odom_then is None or self._odom is None:
+            return result, Pose2D(0.0, 0.0, 0.0)
+        return result, self._odom.relative_to(odom_then)
+
+    def check_standing(
+        self, scan: LaserScan, pose: Pose2D, speed: float, now: float
+    ) -> Verification | None:
+        """Background kidnap check while tracking ``pose`` (laser): every ``background_every_s``
+        while standing, search the whole map; return the far place that explains the scan
+        clearly better than ``pose`` (a kidnap), else None."""
+        cfg = self.config
+        points = scan.points(cfg.max_range_m)
+        if points.shape[0] < cfg.search.min_points:
+            return None
+        done = self._collect("background")
+        if done is not None:
+            result, moved = done
+            if math.hypot(moved.x, moved.y) > 0.05 or abs(moved.yaw) > 0.05:
+                return None  # it did not stand still meanwhile: the check is void
+        elif (
+            self._pending is None
+            and abs(speed) <= cfg.standing_speed
+            and now - self._last_background >= cfg.background_every_s
+        ):
+            self._last_background = now
+            ran = self._run_search(points, None, "background")
+            if ran is None:
+                return None
+            result = ran
+        else:
+            return None
+        here = self.verify(points, pose, refine=False)
+        for hyp in result.hypotheses[: cfg.verify_hypotheses]:
+            if hyp.pose.distance_to(pose) < cfg.kidnap_min_distance_m:
+                continue
+            there = self.verify(points, hyp.pose)
+            if there.pose.distance_to(pose) < cfg.kidnap_min_distance_m:
+                continue
+            if self._verified(there) and there.quality >= here.quality + cfg.kidnap_margin:
+                logger.warning(
+                    "background check: the scan fits (%.2f, %.2f) (quality %.2f) better than "
+                    "the tracked pose (quality %.2f): kidnapped",
+                    there.pose.x,
+                    there.pose.y,
+                    there.quality,
+                    here.quality,
+                )
+                return there
+        return None
+
+    # ------------------------------------------------------------------ verification
+
+    def verify(self, points: FloatArray, pose: Pose2D, refine: bool = True) -> Verification:
+        """Refine ``pose`` with the localiser's matcher and check it against the whole scan."""
+        if refine:
+            pose = self.localiser.matcher.match(points, pose).pose
+        fine = subsample_points(points, 400)
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        xs = pose.x + c * fine[:, 0] - s * fine[:, 1]
+        ys = pose.y + s * fine[:, 0] + c * fine[:, 1]
+        g = self._grid
+        col = np.floor((xs - g.origin_x) / g.resolution).astype(np.intp)
+        row = np.floor((ys - g.origin_y) / g.resolution).astype(np.intp)
+        inside = (row >= 0) & (row < g.height) & (col >= 0) & (col < g.width)
+        d = np.full(xs.shape, np.inf)
+        d[inside] = self._dist[row[inside], col[inside]]
+        confidence = float(np.mean(d <= self.config.hit_tolerance_m)) if d.size else 0.0
+        impossible = self.localiser.impossible_fraction(points, pose)
+        return Verification(pose, confidence, impossible)
+
+    def _verified(self, v: Verification) -> bool:
+        cfg = self.config
+        if not (v.confidence >= cfg.min_confidence and v.impossible <= cfg.max_impossible):
+            return False
+        return self._region is None or (
+            self._region.x_min <= v.pose.x <= self._region.x_max
+            and self._region.y_min <= v.pose.y <= self._region.y_max
+        )
+
+    def _reverify(self, points: FloatArray, now: float) -> None:
+        cfg = self.config
+        kept: list[Candidate] = []
+        for cand in self._candidates:
+            v = self.verify(points, cand.pose)
+            jump = v.pose.distance_to(cand.pose) > cfg.max_jump_m or (
+                abs(angle_diff(v.pose.yaw, cand.pose.yaw)) > cfg.max_jump_rad
+            )
+            if self._verified(v) and not jump:
+                cand.pose, cand.quality = v.pose, v.quality
+                cand.streak += 1
+                cand.failures = 0
+            else:
+                cand.streak = 0
+                cand.failures += 1
+            if cand.failures < cfg.drop_after:
+                kept.append(cand)
+        self._candidates = kept
+        del now
+
+    def _use_search(
+        self, result: SearchResult, moved: Pose2D, points: FloatArray, now: float
+    ) -> None:
+        """Verify a search's hypotheses (moved by ``moved`` since its scan) on ``points``."""
+        cfg = self.config
+        self._last_result = result
+        exhaustive = result.complete and len(result.hypotheses) < cfg.search.max_hypotheses
+        if not exhaustive:
+            self._travel_m = 0.0
+        self._exhaustive = exhaustive
+        for rank, hyp in enumerate(result.hypotheses[: cfg.verify_hypotheses]):
+            v = self.verify(points, hyp.pose.compose(moved))
+            if not self._verified(v):
+                continue
+            # A win: the search's own best place, verified. When the search's best fails the
+            # check (people in front of it, say) nobody wins: it may still be the truth.
+            win = int(rank == 0)
+            dup = self._duplicate_of(v.pose)
+            if dup is not None:
+                dup.wins += win  # already tracked (its re-verification keeps it current)
+            else:
+                self._candidates.append(Candidate(v.pose, v.quality, now, wins=win))
+        self._candidates.sort(key=lambda c: -c.quality)
+        del self._candidates[cfg.max_candidates :]
+        if not self._candidates:
+            self.last_failure = (
+                "no place on the map explains the scan"
+                if result.hypotheses
+                else "the global search found nothing"
+            )
+
+    def _duplicate_of(self, pose: Pose2D) -> Candidate | None:
+        cfg = self.config
+        for cand in self._candidates:
+            if (
+                cand.pose.distance_to(pose) <= cfg.duplicate_xy_m
+                and abs(angle_diff(cand.pose.yaw, pose.yaw)) <= cfg.duplicate_yaw_rad
+            ):
+                return cand
+        return None
+
+    def _decide(self, now: float) -> Pose2D | None:
+        cfg = self.config
+        alive = [c for c in self._candidates if c.streak > 0]
+        if not alive:
+            return None
+        alive.sort(key=lambda c: -c.quality)
+        best = alive[0]
+        if best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9:
+            return None
+        # Every candidate still tracked counts, even one that failed the last scan: a place
+        # that passes one scan and fails the next is still a look-alike.
+        for other in self._candidates:
+            if other is not best and other.quality >= best.quality - cfg.margin:
+                self.last_failure = "look-alike places"
+                return None
+        trusted = (
+            self._exhaustive
+            or self._travel_m >= cfg.motion_to_trust_m
+            or (best.wins >= cfg.agree_searches and best.quality >= cfg.agree_min_quality)
+        )
+        if not trusted:
+            self.last_failure = "look-alike places (search not exhaustive)"
+            return None
+        logger.info(
+            "relocalised at (%.2f, %.2f, %.2f) after %.2f s (%s; quality %.2f, %d candidate(s))",
+            best.pose.x,
+            best.pose.y,
+            best.pose.yaw,
+            now - self._since,
+            self._reason,
+            best.quality,
+            len(alive),
+        )
+        self.stop()
+        return best.pose

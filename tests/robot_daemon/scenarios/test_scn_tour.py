@@ -1,0 +1,90 @@
+"""The guided tour's headline, guarded: on the realistic world (a building that is not the map,
+people about, the initial pose set by hand) a short tour completes with no collision and no
+localisation loss; and the tour graphs shipped for the two real buildings are drivable."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from interbot_core.occupancy_grid import load_map
+from interbot_core.topological_map import load_topological_map
+from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
+from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.global_planner import GlobalPlanner
+from robot_daemon.scenarios import tour
+from robot_daemon.scenarios.runner import ScenarioOptions
+
+REPO = Path(__file__).resolve().parents[3]
+REAL_GRAPHS = {
+    "willow": REPO / "maps" / "willow_topo.yaml",
+    "fetch_office": REPO / "maps" / "fetch_office_topo.yaml",
+}
+SHORT_TOUR_STOPS = ("Secretariat", "Restrooms")  # the Restrooms' wall is glass (seed 1)
+
+
+def _reduced_topo(tmp_path: Path, stops: tuple[str, ...]) -> Path:
+    """The ISR graph with only ``stops`` (and home) as tour stops."""
+    data: dict[str, Any] = yaml.safe_load(DEFAULT_TOPO.read_text())
+    data["map"] = str(DEFAULT_MAP)
+    for node in data["nodes"]:
+        node["tour"] = node["name"] in stops
+    path = tmp_path / "isr_short_tour.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.fixture(scope="module")
+def short_tour(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    topo = _reduced_topo(tmp_path_factory.mktemp("tour"), SHORT_TOUR_STOPS)
+    options = ScenarioOptions(topo_yaml=topo, seed=1, people=3, max_sim_time=300.0)
+    figures = tour.run(options).figures
+    print(figures)  # shown by pytest when a test fails
+    return figures
+
+
+def test_short_realistic_tour_completes_without_collision_or_loss(
+    short_tour: dict[str, Any],
+) -> None:
+    f = short_tour
+    assert f["completed"], f["reason"]
+    assert f["stops_visited"] == f["stops_total"] == len(SHORT_TOUR_STOPS)
+    assert f["collisions"] == 0
+    assert f["localisation_losses"] == 0
+    assert f["loc_silent_failures"] == 0
+    assert f["world"] == "realistic"
+
+
+def test_short_realistic_tour_is_never_silently_lost(short_tour: dict[str, Any]) -> None:
+    """While the localiser reports ok its error stays under issue 12's 0.3 m (the start pose
+    was set by hand up to 0.3 m / 10 degrees off); the robot never touched anything."""
+    assert short_tour["loc_max_m"] < 0.3
+    assert short_tour["loc_heading_max_deg"] < 10.0
+    assert short_tour["min_clearance_m"] > 0.0
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name", sorted(REAL_GRAPHS))
+def test_real_building_graph_is_drivable(name: str, shared_data: Path) -> None:
+    """Every arc of the shipped graph plans on the map's costmap with the robot's footprint
+    (0.55 m wide, Nav2 inflation), and the graph finds its map relative to the project root."""
+    topo = load_topological_map(REAL_GRAPHS[name])
+    assert topo.map_yaml_path is not None
+    assert topo.map_yaml_path.resolve() == (shared_data / "maps" / f"{name}.yaml").resolve()
+    assert len(topo.tour_nodes()) >= 10
+    grid = load_map(topo.map_yaml_path)
+    config = PlannerConfig()
+    costs = Costmap(grid, config.costmap_config()).costs(0.0)
+    planner = GlobalPlanner(grid, config.global_planner_config())
+    for u, v, weight in topo.weighted_arcs():
+        a, b = topo.node(u).pose, topo.node(v).pose
+        path = planner.plan(costs, (a.x, a.y), (b.x, b.y))
+        length = sum(math.dist(p, q) for p, q in itertools.pairwise(path))
+        # Straight, clear arcs: the planned path is no detour.
+        assert length < 1.5 * weight + 0.5, f"{topo.node(u).name} -> {topo.node(v).name}"

@@ -1,0 +1,101 @@
+"""Issue 11 in the daemon: the start latch, the loop that survives a component's error and
+leaves the motors at zero on every way out."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from unittest import mock
+
+import pytest
+
+from interbot_core.topics import Status, StopRelease, Topic, Twist
+from interbot_link import Command
+from robot_daemon.config import ConfigError, DaemonConfig, SimSettings, parse_config
+from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.systemd_notify import SystemdNotifier
+
+
+class RecordingLink:
+    """Enough of `RobotLink` for the loop: commands in, everything published recorded."""
+
+    def __init__(self, commands: list[Command] | None = None) -> None:
+        self.commands = list(commands or [])
+        self.statuses: list[Status] = []
+
+    def poll_commands(self) -> list[Command]:
+        out, self.commands = self.commands, []
+        return out
+
+    def wait_commands(self, timeout: float) -> bool:
+        return False
+
+    def subscribed(self, topic: Topic) -> bool:
+        return False
+
+    def publish_status(self, status: Status) -> None:
+        self.statuses.append(status)
+
+    def __getattr__(self, name: str) -> object:
+        if name.startswith("publish"):
+            return lambda *args, **kwargs: None
+        raise AttributeError(name)
+
+
+@pytest.fixture(scope="module")
+def shared() -> Daemon:
+    """One daemon for the tests that do not care about its stop latch (building one is slow)."""
+    return Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions(auto_localise=True))
+
+
+@pytest.fixture
+def daemon() -> Daemon:
+    return Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions(auto_localise=True))
+
+
+def test_start_latched_is_the_default_and_validated(tmp_path: Path) -> None:
+    assert DaemonConfig().start_latched is True
+    assert parse_config({"start_latched": False}, "r.yaml", tmp_path).start_latched is False
+    with pytest.raises(ConfigError, match="'start_latched' must be true or false"):
+        parse_config({"start_latched": "yes"}, "r.yaml", tmp_path)
+
+
+def test_a_started_daemon_does_not_move_until_released(daemon: Daemon) -> None:
+    link = RecordingLink([Command(Topic.STATION_VEL, Twist(0.3, 0.0))])
+    daemon._pass(link, SystemdNotifier({}), 0.0)  # type: ignore[arg-type]
+    out = daemon.stack.last_output
+    assert (out.linear, out.angular) == (0.0, 0.0) and "Emergency Stop" in out.active_locks
+    link.commands = [
+        Command(Topic.STOP_RELEASE, StopRelease("station")),
+        Command(Topic.STATION_VEL, Twist(0.3, 0.0, stamp=1.0)),
+    ]
+    daemon._pass(link, SystemdNotifier({}), 0.0)  # type: ignore[arg-type]
+    assert daemon.stack.last_output.linear == pytest.approx(0.3)
+
+
+def test_a_component_error_is_reported_and_stops_the_robot(shared: Daemon) -> None:
+    daemon = shared
+    link = RecordingLink()
+    commands: list[tuple[float, float]] = []
+    real = daemon.backend.set_cmd_vel
+    daemon.backend.set_cmd_vel = lambda v, w, now: (commands.append((v, w)), real(v, w, now))  # type: ignore[method-assign]
+    with mock.patch.object(daemon.stack, "step", side_effect=RuntimeError("scan matcher exploded")):
+        next_tick = daemon._pass(link, SystemdNotifier({}), 0.0)  # type: ignore[arg-type]
+    assert next_tick > 0.0  # the loop carries on
+    assert daemon.component_errors == 1
+    assert commands[-1] == (0.0, 0.0)
+    assert link.statuses and "scan matcher exploded" in link.statuses[-1].text
+    assert link.statuses[-1].level == "error"
+
+
+def test_every_exit_sets_the_motors_to_zero(shared: Daemon) -> None:
+    daemon = shared
+    commands: list[tuple[float, float]] = []
+    daemon.backend.set_cmd_vel = lambda v, w, now: commands.append((v, w))  # type: ignore[method-assign]
+    link = RecordingLink()
+    with (
+        mock.patch.object(daemon, "_pass", side_effect=KeyboardInterrupt),
+        pytest.raises(KeyboardInterrupt),
+    ):
+        daemon.run(link, threading.Event(), SystemdNotifier({}))  # type: ignore[arg-type]
+    assert commands == [(0.0, 0.0)]
