@@ -12,7 +12,7 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   random walks per metre). The match ``x_m`` comes with an information matrix ``I_m``: the
   point-to-surface information of its inliers (`scan_matcher.normal_information`, at most
   ``match_effective_points`` counted as independent, over ``match_sigma_m²``), limited along
-  the weakest direction to what sliding the scan there shows (`_without_slide`). The update is
+  the weakest direction to what sliding the scan there shows (`_slide_test`). The update is
   ``P = (P_pred⁻¹ + I_m)⁻¹``, ``x = x_pred + P I_m (x_m - x_pred)``: where the scan constrains
   the pose the match wins, along a featureless corridor the prediction does and ``P`` grows.
   A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
@@ -24,7 +24,7 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
 * **States: never silently wrong.** ``ok``; ``degraded`` when the pose's largest sigma exceeds
   ``degraded_sigma_m`` (or yaw ``degraded_sigma_rad``), when the scan fits the map poorly (hit
   fraction below ``degraded_confidence``) or when the scan is bad (below), back to ``ok`` after
-  ``ok_after_s`` of good scans; ``lost`` after bad scans for ``lost_after_s`` seconds and
+  ``ok_after_s`` and ``ok_after_scans`` of good scans; ``lost`` after bad scans for ``lost_after_s`` seconds and
   ``lost_after_scans`` scans in a row. A scan is *bad* if its hit fraction is below
   ``lost_confidence``, if more than ``lost_impossible`` of its beams are *impossible* at the
   estimate (below), or if its match was rejected. While lost the pose follows odometry alone
@@ -130,11 +130,14 @@ class LocaliserConfig:
     slide_test_m: float = 0.3  # shift testing the information along the weakest direction
     slide_turn_rad: float = 0.025  # the slide test also tries the shifted pose turned by ±this
     slide_max_m: float = 1.5  # the slide test's shift grows with the prior's sigma up to this
+    slide_step_m: float = 0.15  # the slide test's profile samples offsets this far apart
+    slide_better: float = 0.05  # a pose on the slide profile scoring this much better: re-match
     slide_points: int = 150  # end points the slide test uses
     gate_chi2: float = 16.27  # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
     degraded_sigma_m: float = 0.1  # largest position sigma above this -> degraded
     degraded_sigma_rad: float = 0.05  # yaw sigma above this -> degraded
     ok_after_s: float = 0.3  # good, certain scans for this long before degraded -> ok
+    ok_after_scans: int = 3  # ... and at least this many in a row (at any scan rate)
     tolerance_m: float = 0.3  # `certainty` is the probability of an error within these
     tolerance_rad: float = math.radians(10.0)
     map_update: bool = True
@@ -181,6 +184,8 @@ class LocaliserConfig:
             ("slide_turn_rad", self.slide_turn_rad, 0.0, 0.5),
             ("slide_points", self.slide_points, 20, 5000),
             ("slide_max_m", self.slide_max_m, 0.01, 10.0),
+            ("slide_step_m", self.slide_step_m, 0.01, 10.0),
+            ("slide_better", self.slide_better, 0.0, 10.0),
             ("degraded_sigma_m", self.degraded_sigma_m, 1e-3, 100.0),
             ("degraded_sigma_rad", self.degraded_sigma_rad, 1e-4, math.pi),
             ("ok_after_s", self.ok_after_s, 0.0, 60.0),
@@ -195,6 +200,7 @@ class LocaliserConfig:
             ("impossible_max_steps", self.impossible_max_steps, 1, 1000),
             ("impossible_min_run", self.impossible_min_run, 1, 100),
             ("lost_after_scans", self.lost_after_scans, 1, 1000),
+            ("ok_after_scans", self.ok_after_scans, 1, 1000),
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
             ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
             ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
@@ -256,6 +262,7 @@ class Localiser:
         self._bad_since: float | None = None
         self._bad_scans = 0  # bad scans in a row
         self._good_since: float | None = None
+        self._good_scans = 0  # good, certain scans in a row while degraded
         self._full_search = True
         self._cov = np.zeros((3, 3))
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
@@ -364,7 +371,15 @@ class Localiser:
             syaw = math.sqrt(cov_pred[2, 2])
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
             result = self.matcher.match(points, predicted, start)
-            fused = self._fuse(predicted, cov_pred, result, step, points)
+            info, better = self._slide_test(points, result, cov_pred)
+            if better is not None:
+                # The profile along the weak direction found a clearly better fit: the match
+                # stopped in a local optimum of a corridor. Match again from there.
+                retry = self.matcher.match(points, better, min(1, len(self.matcher.levels) - 1))
+                if retry.score > result.score:
+                    result = retry
+                    info, _ = self._slide_test(points, result, cov_pred)
+            fused = self._fuse(predicted, cov_pred, result, step, info)
             if fused is None:
                 pose, cov = predicted, cov_pred
                 reason = "match rejected (inconsistent with odometry)"
@@ -402,7 +417,8 @@ class Localiser:
         ``lost_after_scans`` of bad scans in a row (lost is kept until `set_initial_pose`). A
         pose whose covariance exceeds ``degraded_sigma_m`` / ``degraded_sigma_rad``, or whose
         scan fits the map poorly (hit fraction below ``degraded_confidence``), is degraded.
-        Back to ok after ``ok_after_s`` of good, certain scans.
+        Back to ok after ``ok_after_s`` and ``ok_after_scans`` of good, certain scans in a
+        row (both: at 10 Hz the time decides, at a log's one scan per second the count).
         """
         cfg = self.config
         if bad_reason:
@@ -436,7 +452,9 @@ class Localiser:
         if self._state is LocaliserState.DEGRADED:
             if self._good_since is None:
                 self._good_since = now
-            if now - self._good_since < cfg.ok_after_s:
+                self._good_scans = 0
+            self._good_scans += 1
+            if now - self._good_since < cfg.ok_after_s or self._good_scans < cfg.ok_after_scans:
                 return self._state
         self._state = LocaliserState.OK
         return self._state
@@ -661,58 +679,66 @@ class Localiser:
         out: FloatArray = result.normal_info * scale
         return out
 
-    def slide_ratio(self, points: FloatArray, pose: Pose2D, shift: FloatArray) -> float:
-        """Best score of the scan at ``pose ± shift`` (x [m], y [m], yaw [rad] added in the
-        map frame), each also turned by ``± slide_turn_rad``, over its score at ``pose``, on
-        the matcher's level 1 (10 cm cells). One batched interpolation for all the poses."""
+    def slide_profile(
+        self, points: FloatArray, pose: Pose2D, direction: FloatArray, offsets: FloatArray
+    ) -> FloatArray:
+        """Score of the scan at ``pose`` moved by ``± t · direction`` for each ``t`` in
+        ``offsets`` (``direction``: x, y, yaw per metre, added in the map frame), each also
+        turned by ``± slide_turn_rad`` (the best of the three), over its score at ``pose``, on
+        the matcher's level 1 (10 cm cells): one row per sign (+, -), one column per offset.
+        One batched interpolation for all the poses."""
         cfg = self.config
         level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
         pts = subsample_points(points, cfg.slide_points)
         # At each shifted position the heading may re-settle a little (a profile over yaw:
         # a slide along a corridor seen at an angle comes with a degree or two of turn).
         t = cfg.slide_turn_rad
-        signs = np.array([0.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
-        turns = np.array([0.0, 0.0, t, -t, 0.0, t, -t])
-        px = pose.x + signs * shift[0]
-        py = pose.y + signs * shift[1]
-        yaw = pose.yaw + signs * shift[2] + turns
+        k = offsets.size
+        along = np.concatenate(([0.0], np.repeat(offsets, 3), -np.repeat(offsets, 3)))
+        turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 2 * k)))
+        px = pose.x + along * direction[0]
+        py = pose.y + along * direction[1]
+        yaw = pose.yaw + along * direction[2] + turns
         c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
         sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
         xs = (px[:, None] + c * sx - s * sy).ravel()
         ys = (py[:, None] + s * sx + c * sy).ravel()
-        scores = level.interpolate(xs, ys)[0].reshape(signs.size, -1).mean(axis=1)
+        scores = level.interpolate(xs, ys)[0].reshape(along.size, -1).mean(axis=1)
         base = float(scores[0])
         if base <= 0.0:
-            return 1.0
-        return float(scores[1:].max()) / base
+            return np.ones((2, k))
+        ratio: FloatArray = scores[1:].reshape(2, k, 3).max(axis=2) / base
+        return ratio
 
-    def _without_slide(
-        self,
-        points: FloatArray,
-        result: MatchResult,
-        info: FloatArray,
-        cov_pred: FloatArray | None = None,
-    ) -> FloatArray:
-        """``info`` with its information along the scan's weakest position direction ``d``
-        limited to what sliding the scan along ``d`` shows.
+    def _slide_test(
+        self, points: FloatArray, result: MatchResult, cov_pred: FloatArray | None = None
+    ) -> tuple[FloatArray, Pose2D | None]:
+        """The match's information (`match_information`) with its information along the
+        scan's weakest position direction ``d`` limited to what sliding the scan along ``d``
+        shows, and the pose along ``d`` that fits clearly better than the match (its score
+        ratio above ``1 + slide_better``), if the profile found one.
 
-        The point-to-surface information counts every end point with its local normal; in a
-        corridor of binned walls, door frames and jagged cells give it information along the
+        The point-to-surface information counts every end point with its surface's normal; in
+        a corridor, door recesses, people and jagged wall cells give it information along the
         corridor that the match does not have at the scale of decimetres (the matcher slides:
-        Intel Research Lab, 0.3 m with a claimed sigma of 2 cm), and a long corridor seen at
-        an angle couples the slide with a degree or two of turn (`slide_ratio` lets the heading
-        re-settle). ``d`` is the weakest eigenvector of the position information; the scan is
-        moved by ``± slide_test_m`` along it (3 sigma of the matcher's 10 cm level), so the end
-        points
-        that constrain ``d`` leave their surfaces: the relative drop of the score, ``1 -
-        ratio``, is the fraction of end points that do, and the information along ``d`` is at
-        most ``(1 - ratio)`` times the inliers' (effective) count over ``match_sigma_m²``.
-        Where the scan fits as well after the shift it is zero, and the update along ``d`` is
-        left to the prediction (odometry), whose covariance keeps growing there
+        Intel Research Lab, 0.3 m with a claimed sigma of 2 cm), a long corridor seen at an
+        angle couples the slide with a degree or two of turn (`slide_profile` lets the heading
+        re-settle), and door recesses every few metres make look-alike poses a metre apart
+        (the MIT Infinite Corridor). ``d`` is the weakest eigenvector of the position
+        information; the scan is moved along it by offsets ``t`` every ``slide_step_m`` up to
+        the shift (``slide_test_m``, 3 sigma of the matcher's 10 cm level, or 3 sigma of the
+        prediction along ``d``, up to ``slide_max_m``). At offset ``t`` an end point that
+        constrains ``d`` loses ``q(t) = 1 - exp(-t² / 2σ²)`` of its score (σ: the level's field
+        width), so ``(1 - ratio(t)) / q(t)`` bounds the fraction of end points that constrain
+        ``d``; the smallest over the profile (a look-alike pose anywhere within the prior's
+        spread makes it ~0) times the inliers' effective count over ``match_sigma_m²`` caps
+        the information along ``d``. Where the scan fits as well elsewhere the update along
+        ``d`` is left to the prediction (odometry), whose covariance keeps growing there
         (degeneracy-aware fusion as in Zhang, Kaess and Singh, "On degeneracy of optimization-
         based state estimation problems", ICRA 2016).
         """
         cfg = self.config
+        info = self.match_information(result)
         _, vecs = np.linalg.eigh(info[:2, :2])
         v = np.array([vecs[0, 0], vecs[1, 0], 0.0])
         # The shift covers the prediction's spread along v (3 sigma, up to slide_max_m): the
@@ -722,19 +748,29 @@ class Localiser:
         if cov_pred is not None:
             spread = 3.0 * math.sqrt(max(float(v @ cov_pred @ v), 0.0))
             shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
-        d = v * shift  # the shift [m]
-        idv = info @ d
-        dd = float(d @ idv)
+        dd = float(v @ info @ v)  # information along v [1/m²]
         if dd <= 0.0:
-            return info
-        ratio = self.slide_ratio(points, result.pose, d)
+            return info, None
+        n_steps = max(1, math.ceil(shift / cfg.slide_step_m - 1e-9))
+        offsets = shift * np.arange(1, n_steps + 1) / n_steps
+        ratios = self.slide_profile(points, result.pose, v, offsets)
+        better = None
+        best = np.unravel_index(int(np.argmax(ratios)), ratios.shape)
+        if ratios[best] > 1.0 + cfg.slide_better:
+            t = offsets[best[1]] * (1.0 if best[0] == 0 else -1.0)
+            p = result.pose
+            better = Pose2D(p.x + t * v[0], p.y + t * v[1], p.yaw)
+        level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
+        q = 1.0 - np.exp(-(offsets**2) / (2.0 * level.sigma**2))
+        fraction = float(np.clip((1.0 - ratios) / q[None, :], 0.0, 1.0).min())
         n_eff = min(float(result.n_inliers), cfg.match_effective_points)
-        supported = max(0.0, 1.0 - ratio) * n_eff * shift**2 / cfg.match_sigma_m**2
+        supported = fraction * n_eff / cfg.match_sigma_m**2
         if supported >= dd:
-            return info
+            return info, better
+        idv = info @ v
         out: FloatArray = info - np.outer(idv, idv) / dd
-        out += (supported / float(d @ d) ** 2) * np.outer(d, d)
-        return out
+        out += supported * np.outer(v, v)
+        return out, better
 
     def _fuse(
         self,
@@ -742,10 +778,12 @@ class Localiser:
         cov_pred: FloatArray,
         result: MatchResult,
         step: Pose2D,
-        points: FloatArray | None = None,
+        info: FloatArray | None = None,
     ) -> tuple[Pose2D, FloatArray] | None:
         """Kalman update of the prediction with the match, in information form; None when the
         match fails the gates (Mahalanobis ``gate_chi2``, and the plausible-jump bound).
+        ``info``: the match's information (default `match_information`; `on_scan` passes it
+        through `_slide_test`).
 
         ``P = (P_pred⁻¹ + I_m)⁻¹`` and ``x = x_pred + P I_m (x_m - x_pred)``: the match moves the
         pose only along the directions the scan constrains (large ``I_m``); along a featureless
@@ -754,9 +792,8 @@ class Localiser:
         defined even where ``I_m`` is singular) gates the match.
         """
         cfg = self.config
-        info = self.match_information(result)
-        if points is not None:
-            info = self._without_slide(points, result, info, cov_pred)
+        if info is None:
+            info = self.match_information(result)
         try:
             p_post = np.linalg.inv(np.linalg.inv(cov_pred) + info)
         except np.linalg.LinAlgError:

@@ -80,6 +80,10 @@ class ScanMatcherConfig:
     fine_max_iterations: int = 10  # finest level: iterate until converged, at most this
     converged_m: float = 0.002  # a step below this [m] and converged_rad is converged
     converged_rad: float = 0.001
+    # Scale [m] of the surface orientation (`surface_tensor`) that gives each inlier's normal
+    # for the match information: the Gaussian-weighted scatter of the finest level's surface
+    # nodes within about 3 times this.
+    tensor_sigma_m: float = 0.15
 
     def __post_init__(self) -> None:
         if not 1 <= self.levels <= 5:
@@ -102,6 +106,10 @@ class ScanMatcherConfig:
             )
         if not (0.0 < self.converged_m <= 1.0 and 0.0 < self.converged_rad <= 1.0):
             raise ScanMatcherConfigError("converged_m and converged_rad must be in (0, 1]")
+        if not 0.01 <= self.tensor_sigma_m <= 2.0:
+            raise ScanMatcherConfigError(
+                f"tensor_sigma_m must be 0.01..2 m, got {self.tensor_sigma_m}"
+            )
         if not 0.0 <= self.damping <= 1.0:
             raise ScanMatcherConfigError(f"damping must be 0..1, got {self.damping}")
         if self.surface not in SURFACES:
@@ -165,6 +173,30 @@ class LikelihoodLevel:
         field[p:-p, p:-p] = inner
         self.field = field
         self._rebuild_corners(0, h + 2 * p, 0, w + 2 * p)
+        # Per padded lattice node: the surface orientation (txx, txy, tyy) of `surface_tensor`,
+        # NaN where no surface is near (set by `ScanMatcher` on the finest level only).
+        self.tensor: npt.NDArray[np.float32] | None = None
+
+    def set_surface_tensor(self, tensor: npt.NDArray[np.float32]) -> None:
+        """Attach `surface_tensor`'s (h, w, 3) field (unpadded lattice) to this level."""
+        h, w = self.field.shape
+        p = PAD
+        padded = np.full((h, w, 3), np.nan, dtype=np.float32)
+        padded[p:-p, p:-p] = tensor
+        self.tensor = padded.reshape(-1, 3)
+
+    def tensor_at(self, px: FloatArray, py: FloatArray) -> npt.NDArray[np.float32]:
+        """(txx, txy, tyy) at the lattice node nearest each map-frame point (NaN rows: none)."""
+        if self.tensor is None:
+            return np.full((px.size, 3), np.nan, dtype=np.float32)
+        inv = 1.0 / self.resolution
+        h, w = self.field.shape
+        u = np.rint((px - self.origin_x) * inv + (PAD - self.lattice_offset)).astype(np.intp)
+        v = np.rint((py - self.origin_y) * inv + (PAD - self.lattice_offset)).astype(np.intp)
+        np.clip(u, 0, w - 1, out=u)
+        np.clip(v, 0, h - 1, out=v)
+        out: npt.NDArray[np.float32] = self.tensor[v * w + u]
+        return out
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -267,6 +299,55 @@ def face_vertices(occupied: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
     return out
 
 
+def surface_nodes(
+    occupied: npt.NDArray[np.bool_], surface: str
+) -> tuple[npt.NDArray[np.bool_], float]:
+    """The lattice nodes on the map's surfaces and the lattice offset (see `surface_distance`)."""
+    if surface == "cell_centre":
+        return obstacle_surface(occupied), 0.5
+    return face_vertices(occupied), 0.0
+
+
+def surface_tensor(nodes: npt.NDArray[np.bool_], sigma_nodes: float) -> npt.NDArray[np.float32]:
+    """Local orientation of the surfaces: at every lattice node, ``I - C / tr(C)`` with ``C``
+    the Gaussian-weighted (``sigma_nodes``) scatter matrix of the surface nodes around it.
+
+    Returns (h, w, 3) = (txx, txy, tyy), NaN where the nodes within reach weigh less than one
+    node. Along a straight wall ``C`` is elongated along it and the tensor is ``n nᵀ`` with
+    ``n`` the wall's normal; at a corner or a small blob it tends to ``I / 2`` (both directions
+    constrained). It is the position information of one end point on that surface per unit
+    variance (trace 1), robust where ``∇M`` is not: a wall binned from scan end points is a
+    dotted, jagged line whose gradient turns along the wall between the dots and would claim
+    information along a featureless corridor that the map does not have (the MIT Infinite
+    Corridor log: half the inliers' gradients along it). Separable Gaussian moment filters.
+    """
+    f = nodes.astype(np.float64)
+    radius = max(1, math.ceil(3.0 * sigma_nodes))
+    k = np.arange(-radius, radius + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (k / sigma_nodes) ** 2)
+    g0, g1, g2 = g, g * k, g * k * k
+
+    # Moments of the node offsets (x: columns, y: rows) about each node, then about their
+    # mean: rows filtered once per kernel, then columns.
+    r0, r1, r2 = (ndimage.correlate1d(f, kr, axis=0, mode="constant") for kr in (g0, g1, g2))
+
+    def cols(a: FloatArray, kc: FloatArray) -> FloatArray:
+        out: FloatArray = ndimage.correlate1d(a, kc, axis=1, mode="constant")
+        return out
+
+    m0, mx, mxx = cols(r0, g0), cols(r0, g1), cols(r0, g2)
+    my, mxy, myy = cols(r1, g0), cols(r1, g1), cols(r2, g0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ex, ey = mx / m0, my / m0
+        cxx = mxx / m0 - ex * ex
+        cxy = mxy / m0 - ex * ey
+        cyy = myy / m0 - ey * ey
+        tr = cxx + cyy
+        out = np.stack((1.0 - cxx / tr, -cxy / tr, 1.0 - cyy / tr), axis=-1)
+    out[~((m0 >= 1.0) & (tr > 1e-9))] = np.nan
+    return out.astype(np.float32)
+
+
 def surface_distance(
     occupied: npt.NDArray[np.bool_], resolution: float, surface: str
 ) -> tuple[FloatArray, float]:
@@ -277,10 +358,7 @@ def surface_distance(
     ``cell_face``: nodes at cell corners, surfaces on the faces between occupied and free cells
     (a map whose cells are solid squares: a rasterised floor plan, or a ray-casting simulator).
     """
-    if surface == "cell_centre":
-        nodes, offset = obstacle_surface(occupied), 0.5
-    else:
-        nodes, offset = face_vertices(occupied), 0.0
+    nodes, offset = surface_nodes(occupied, surface)
     if nodes.any():
         distance = np.asarray(ndimage.distance_transform_edt(~nodes), dtype=np.float64)
         return distance * resolution, offset
@@ -348,6 +426,11 @@ class ScanMatcher:
                     0.5 * grid.resolution if self.config.surface == "cell_face" else 0.0,
                 )
             )
+            if level == 0:
+                nodes, _ = surface_nodes(occupied, self.config.surface)
+                self.levels[0].set_surface_tensor(
+                    surface_tensor(nodes, self.config.tensor_sigma_m / res)
+                )
         logger.debug(
             "scan matcher: %d levels %s m", len(self.levels), [lv.resolution for lv in self.levels]
         )
@@ -405,7 +488,8 @@ class ScanMatcher:
                     jt = gy * rx - gx * ry
                     hessian = _hessian(gx, gy, jt)
                     score = float(m.mean()) if m.size else 0.0
-                    normal_info, n_inliers = normal_information(m, gx, gy, rx, ry)
+                    tensor = level.tensor_at(rx + px, ry + py)
+                    normal_info, n_inliers = normal_information(m, gx, gy, rx, ry, tensor)
                     break
                 r = 1.0 - m
                 jt = gy * rx - gx * ry  # ∇M · ∂S/∂ψ
@@ -427,18 +511,26 @@ class ScanMatcher:
 
 
 def normal_information(
-    m: FloatArray, gx: FloatArray, gy: FloatArray, rx: FloatArray, ry: FloatArray
+    m: FloatArray,
+    gx: FloatArray,
+    gy: FloatArray,
+    rx: FloatArray,
+    ry: FloatArray,
+    tensor: npt.NDArray[np.float32] | None = None,
 ) -> tuple[FloatArray, int]:
-    """Point-to-surface information ``Σ J_nᵀ J_n`` of the inliers, and their number.
+    """Point-to-surface information ``Σ Aᵢᵀ Tᵢ Aᵢ`` of the inliers, and their number.
 
     Hector's ``H`` is built from ``∇M``, which vanishes where an end point sits exactly on a
     surface (the peak of M): at the solution it measures the residual noise as much as the
     geometry. The covariance needs the geometry: for an end point at distance ``d`` from a
-    surface with unit normal ``n``, ``∂d/∂ξ = (n_x, n_y, n · R'(ψ) s_i)``, the Jacobian of
-    point-to-line ICP (Censi, "An accurate closed-form estimate of ICP's covariance", ICRA
-    2007). ``n`` is ``∇M / |∇M|``; only inliers (``M > INLIER_M``: within 2 sigma of a surface)
-    count, so beams into open space or onto people add nothing. Along a featureless corridor
-    every normal is across it, so the information along it is (near) zero.
+    surface with unit normal ``n``, ``∂d/∂ξ = nᵀ Aᵢ`` with ``Aᵢ = [I₂ | R'(ψ) sᵢ]``, the
+    Jacobian of point-to-line ICP (Censi, "An accurate closed-form estimate of ICP's
+    covariance", ICRA 2007), whose information is ``Aᵢᵀ n nᵀ Aᵢ``. ``Tᵢ`` is the surface's
+    orientation tensor at the end point (`surface_tensor`: ``n nᵀ`` on a straight wall, about
+    ``I / 2`` at a corner), or ``n nᵀ`` with ``n = ∇M / |∇M|`` where the map has none (new
+    obstacles). Only inliers (``M > INLIER_M``: within 2 sigma of a surface) count, so beams
+    into open space or onto people add nothing. Along a featureless corridor every ``Tᵢ`` is
+    across it, so the information along it is (near) zero.
     """
     g = np.hypot(gx, gy)
     sel = (m > INLIER_M) & (g > 1e-9)
@@ -447,8 +539,20 @@ def normal_information(
         return np.zeros((3, 3)), 0
     inv = 1.0 / g[sel]
     nx, ny = gx[sel] * inv, gy[sel] * inv
-    jt = ny * rx[sel] - nx * ry[sel]
-    return _hessian(nx, ny, jt), n
+    txx, txy, tyy = nx * nx, nx * ny, ny * ny
+    if tensor is not None:
+        t = tensor[sel].astype(np.float64)
+        have = ~np.isnan(t[:, 0])
+        txx = np.where(have, t[:, 0], txx)
+        txy = np.where(have, t[:, 1], txy)
+        tyy = np.where(have, t[:, 2], tyy)
+    jx, jy = -ry[sel], rx[sel]  # ∂S/∂ψ = R'(ψ) sᵢ
+    ax = txx * jx + txy * jy  # T (∂S/∂ψ)
+    ay = txy * jx + tyy * jy
+    a, b, d = float(txx.sum()), float(txy.sum()), float(tyy.sum())
+    e, f = float(ax.sum()), float(ay.sum())
+    c = float((jx * ax + jy * ay).sum())
+    return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
 
 
 def _hessian(gx: FloatArray, gy: FloatArray, jt: FloatArray) -> FloatArray:

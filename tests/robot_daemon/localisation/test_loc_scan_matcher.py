@@ -21,6 +21,7 @@ from robot_daemon.localisation.scan_matcher import (
     face_vertices,
     obstacle_surface,
     subsample_points,
+    surface_tensor,
 )
 
 # Start poses in free space of the synthetic office, spread over the rooms.
@@ -249,3 +250,39 @@ def test_subsample_points_is_deterministic_and_bounded() -> None:
 def test_config_rejects_out_of_range(kwargs: dict[str, object]) -> None:
     with pytest.raises(ScanMatcherConfigError):
         ScanMatcherConfig(**kwargs)  # type: ignore[arg-type]
+
+
+def test_surface_tensor_is_the_normal_of_a_dotted_wall_and_isotropic_at_a_corner() -> None:
+    """A wall binned from scan end points is a dotted, jagged line: its orientation tensor is
+    still (close to) n nᵀ across it, with no information along it; a corner constrains both."""
+    nodes = np.zeros((60, 60), dtype=bool)
+    nodes[30, 5:55:2] = True  # a dotted wall along x, every other node
+    nodes[31, 6:55:6] = True  # with jagged cells
+    nodes[30:55, 54] = True  # a wall along y meeting it at (30, 54)
+    tensor = surface_tensor(nodes, 3.0)
+    txx, txy, tyy = tensor[30, 20]
+    assert tyy > 0.95 and txx < 0.05 and abs(txy) < 0.05
+    txx, _, tyy = tensor[45, 54]
+    assert txx > 0.95 and tyy < 0.05
+    txx, _, tyy = tensor[30, 54]
+    assert 0.25 < txx < 0.75 and 0.25 < tyy < 0.75
+    assert np.isnan(tensor[5, 5]).all()  # no surface within reach
+
+
+def test_match_information_along_a_dotted_corridor_is_small() -> None:
+    """Two dotted walls 1.4 m apart: the match's information across the corridor is many times
+    its information along it (the gradient of the binned field alone claimed about as much)."""
+    cells = np.zeros((40, 400), dtype=np.int8)
+    cells[5, ::2] = OCCUPIED
+    cells[33, 1::2] = OCCUPIED
+    grid = OccupancyGrid(cells, 0.05, 0.0, 0.0, 0.0, "<corridor>")
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface="cell_centre"))
+    pose = Pose2D(10.0, 0.95, 0.0)
+    angles = np.linspace(-2.3, 2.3, 541)
+    sines = np.sin(angles)
+    angles = angles[np.abs(sines) > 0.7 / 8.0]  # beams meeting a wall within 8 m
+    ranges = 0.7 / np.abs(np.sin(angles))  # the walls are 0.7 m to either side
+    points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+    result = matcher.match(points, pose, 0)
+    info = result.normal_info
+    assert info[1, 1] > 20.0 * info[0, 0]
