@@ -10,9 +10,12 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   ``x_pred = x ⊕ u`` with ``u`` the odometry increment since the previous scan, and
   ``P_pred = F P Fᵀ + G Q(u) Gᵀ`` (``Q``: `LocaliserConfig.odom_*`, AMCL-like alphas plus
   random walks per metre). The match ``x_m`` comes with an information matrix ``I_m``: the
-  point-to-surface information of its inliers (`scan_matcher.normal_information`, at most
+  point-to-surface information of its inliers (`scan_matcher.normal_information`, with each
+  surface's orientation from the map, `scan_matcher.surface_tensor`; at most
   ``match_effective_points`` counted as independent, over ``match_sigma_m²``), limited along
-  the weakest direction to what sliding the scan there shows (`_slide_test`). The update is
+  the weakest direction to what sliding the scan there shows, over every offset the
+  prediction allows (`_slide_test`: a look-alike pose within 3 sigma caps it near zero; a
+  clearly better one is matched again from there). The update is
   ``P = (P_pred⁻¹ + I_m)⁻¹``, ``x = x_pred + P I_m (x_m - x_pred)``: where the scan constrains
   the pose the match wins, along a featureless corridor the prediction does and ``P`` grows.
   A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
