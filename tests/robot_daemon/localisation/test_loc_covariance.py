@@ -8,6 +8,7 @@ map does constrain it is caught by the scans.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -169,3 +170,20 @@ def test_bad_initial_covariance_is_refused_and_changes_nothing(world) -> None:
         with pytest.raises(LocaliserConfigError):
             loc.set_initial_pose(Pose2D(1.0, 1.0, 0.0), 0.0, bad)
     assert loc.pose is None and loc.state is LocaliserState.UNSET
+
+
+def test_back_to_ok_takes_good_scans_in_a_row_at_a_slow_scan_rate(world) -> None:
+    """At one scan per second (a CARMEN log) the 0.3 s of good scans that end a degraded spell
+    would be a single scan: ok comes back only after ``ok_after_scans`` good scans in a row."""
+    truth = Pose2D(12.0, 4.0, -1.2)
+    loc = Localiser(world.grid)
+    loc.on_odometry(Pose2D(0.0, 0.0, 0.0), 0.0)
+    loc.set_initial_pose(truth, 0.0)
+    blind = dataclasses.replace(
+        world.scan(truth, 1.0), ranges=np.full_like(world.scan(truth, 1.0).ranges, np.inf)
+    )
+    assert loc.on_scan(blind, 1.0).state is LocaliserState.DEGRADED  # too few beams
+    states = [loc.on_scan(world.scan(truth, float(t)), float(t)).state for t in range(2, 7)]
+    # ok_after_scans = 3: the 1st and 2nd good scans (1 s and 2 s in) are still degraded.
+    assert states[:2] == [LocaliserState.DEGRADED] * 2
+    assert states[2:] == [LocaliserState.OK] * 3
