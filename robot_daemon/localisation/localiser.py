@@ -738,19 +738,38 @@ class Localiser:
         the information along ``d``. Where the scan fits as well elsewhere the update along
         ``d`` is left to the prediction (odometry), whose covariance keeps growing there
         (degeneracy-aware fusion as in Zhang, Kaess and Singh, "On degeneracy of optimization-
-        based state estimation problems", ICRA 2016).
+        based state estimation problems", ICRA 2016). Under a wide prior (3 sigma along it
+        beyond ``slide_test_m``: a person's initial pose, a degraded spell) the strongest
+        direction is tested the same way: a match 0.3 m off in a local optimum must not claim
+        the centimetres that would gate out the right one afterwards.
         """
         cfg = self.config
         info = self.match_information(result)
         _, vecs = np.linalg.eigh(info[:2, :2])
-        v = np.array([vecs[0, 0], vecs[1, 0], 0.0])
-        # The shift covers the prediction's spread along v (3 sigma, up to slide_max_m): the
-        # information must hold over the poses the prior allows, not only locally (door
-        # frames every few metres of a long corridor make local minima a metre apart).
-        shift = cfg.slide_test_m
-        if cov_pred is not None:
-            spread = 3.0 * math.sqrt(max(float(v @ cov_pred @ v), 0.0))
-            shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
+        better: Pose2D | None = None
+        for col in (0, 1):
+            v = np.array([vecs[0, col], vecs[1, col], 0.0])
+            # The shift covers the prediction's spread along v (3 sigma, up to slide_max_m):
+            # the information must hold over the poses the prior allows, not only locally
+            # (door frames every few metres of a long corridor make local minima a metre
+            # apart).
+            shift = cfg.slide_test_m
+            if cov_pred is not None:
+                spread = 3.0 * math.sqrt(max(float(v @ cov_pred @ v), 0.0))
+                if col == 1 and spread <= shift:
+                    break  # the strongest direction: tested only under a wide prior
+                shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
+            elif col == 1:
+                break
+            info, found = self._slide_along(points, result, info, v, shift)
+            better = better or found
+        return info, better
+
+    def _slide_along(
+        self, points: FloatArray, result: MatchResult, info: FloatArray, v: FloatArray, shift: float
+    ) -> tuple[FloatArray, Pose2D | None]:
+        """`_slide_test` along one direction ``v`` (unit, x y yaw) up to ``shift`` [m]."""
+        cfg = self.config
         dd = float(v @ info @ v)  # information along v [1/m²]
         if dd <= 0.0:
             return info, None
