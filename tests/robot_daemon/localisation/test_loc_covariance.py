@@ -95,7 +95,7 @@ def test_covariance_is_larger_along_a_corridor_than_across(fused_run) -> None:
         assert cov.shape == (3, 3) and np.allclose(cov, cov.T)
         assert np.all(np.linalg.eigvalsh(cov) > 0.0)
         assert math.sqrt(cov[0, 0]) > 10.0 * math.sqrt(cov[1, 1])  # along x, across y
-        assert math.sqrt(cov[1, 1]) < 0.02
+        assert math.sqrt(cov[1, 1]) < 0.025  # a person's 0.3 m prior tests 0.9 m across
     # Along the corridor nothing is measured: the uncertainty only grows with the travel.
     assert sigmas_along[-1] > sigmas_along[0]
     assert all(b >= a - 1e-9 for a, b in itertools.pairwise(sigmas_along))
