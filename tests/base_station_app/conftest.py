@@ -112,7 +112,7 @@ def station(
         topo_path=TOPO_PATH,
         clock=clock,
         tablet_port=0,
-        timing=Timing(clock_ms=100, frame_ms=10, ping_ms=100),
+        timing=Timing(clock_ms=100, frame_ms=10, ping_ms=100, choice_grace_ms=0),
     )
     assert controller.start(timers=False)
 

@@ -1,0 +1,106 @@
+"""What the station holds for ONE robot: its state, its supervisor and the mirror of its route.
+
+Issue 14 (per-robot supervision): a station supervising a fleet keeps, for every robot, its own
+`Supervisor` (queue, tour, pause, requests), its own `RouteMirror` (the robot owns its route;
+shared/DESIGN.md "State has one owner") and the must-arrive state the station re-sends until
+that robot receives it (the operator's stop intent, the planner configuration, the assisted-
+teleoperation flag). `RobotMirror` is that bundle; `health` names the colour the map draws the
+robot in. Plain Python (no Qt): the controller owns the link and the timers, and acts on it.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+
+from base_station_app.robot_state import RobotState
+from base_station_app.tablet_session import describe_task
+from interbot_core.route_mirror import RouteMirror
+from interbot_core.route_planner import RoutePlanner
+from interbot_core.supervisor import RequestShown, Supervisor, SupervisorConfig
+from interbot_core.topics import RouteMsg
+from interbot_core.topological_map import TopologicalMap
+
+
+class Health(enum.StrEnum):
+    """How the map draws a robot (issue 14): the first that applies, in this order."""
+
+    OFFLINE = "offline"  # liveliness token gone (or never seen)
+    STOPPED = "stopped"  # its multiplexer reports the emergency-stop lock
+    LOST = "lost"  # the localiser is lost, searching, or has no pose yet
+    DEGRADED = "degraded"  # the localiser (or the robot) says it is degraded
+    OK = "ok"
+
+
+class RobotMirror:
+    """One robot as the station knows it (see the module docstring)."""
+
+    def __init__(
+        self,
+        robot_id: str | None,
+        topo: TopologicalMap,
+        planner: RoutePlanner,
+        supervisor_config: SupervisorConfig,
+    ) -> None:
+        self.robot_id = robot_id  # None: the mirror of "no robot selected yet"
+        self.online = False
+        self.state = RobotState()
+        self.supervisor = Supervisor(topo, planner, supervisor_config)
+        self.route_mirror = RouteMirror()
+        self.route: RouteMsg | None = None  # the route this station sent it and still mirrors
+        self.route_index = 0
+        self.goal_reached = False
+        self.verdict_of: int | None = None  # route whose end the robot reported, if handled
+        self.route_undelivered: int | None = None  # a route no robot received: end its task
+        self.stop_assert_pending = True  # (re)assert the operator's stop intent to this robot
+        self.stop_sent_at = -math.inf
+        self.config_pending = True  # (re)send the planner config until this robot receives it
+        self.assist_pending = True  # (re)send the station's assist flag likewise
+        self.shown_request: tuple[int, RequestShown] | None = None
+        self.pose_settling_until = -math.inf  # see station_controller.INITIAL_POSE_SETTLE_S
+
+    def __repr__(self) -> str:
+        return f"RobotMirror({self.robot_id!r}, online={self.online})"
+
+    def connected(self, now: float) -> None:
+        """The robot was selected, watched or came back: re-send must-arrive state; ask it."""
+        self.config_pending = True
+        self.assist_pending = True
+        self.stop_assert_pending = True
+        self.route_mirror.reconnected(now)
+
+    @property
+    def health(self) -> Health:
+        state = self.state
+        if not self.online:
+            return Health.OFFLINE
+        if state.estop_engaged:
+            return Health.STOPPED
+        loc = state.localisation
+        if loc in ("lost", "unset", "searching"):
+            return Health.LOST
+        if loc == "degraded":
+            return Health.DEGRADED
+        return Health.OK
+
+    def task_text(self, names: dict[int, str]) -> str:
+        task = self.supervisor.current_task
+        foreign = self.route_mirror.foreign
+        if task is None and foreign is not None:
+            return f"route {foreign.route_id} (started before this station)"
+        return "idle" if task is None else describe_task(task, names)
+
+    def status_text(self, estop_latched: bool) -> str:
+        sup = self.supervisor
+        if estop_latched:
+            return "emergency stop engaged"
+        if not self.online:
+            return "robot offline"
+        foreign = self.route_mirror.foreign
+        if sup.current_task is None and foreign is not None:
+            return f"robot {foreign.state} on a route this station did not start; stop cancels it"
+        text = str(sup.state).replace("_", " ")
+        d = sup.distance_to_next_goal
+        if d is not None:
+            text += f", {d:.1f} m to the next goal"
+        return text
