@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from base_station_app.robot_mirror import RobotMirror
+from base_station_app.robot_mirror import RobotMirror, RobotView
 
 
 @dataclass(frozen=True)
@@ -78,6 +78,10 @@ class Fleet:
         return ([self._unselected] if self.selected_id is None else []) + [
             self.mirrors[r] for r in sorted(self.mirrors)
         ]
+
+    def views(self, names: dict[int, str]) -> list[RobotView]:
+        """Every robot seen, by id, as the map and the robot list draw it."""
+        return [self.mirrors[r].view(r == self.selected_id, names) for r in sorted(self.mirrors)]
 
     @property
     def online(self) -> list[str]:

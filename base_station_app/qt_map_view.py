@@ -28,6 +28,7 @@ from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
 from base_station_app.map_rooms import MapLabel, map_labels, room_at
+from base_station_app.qt_fleet_layer import HEALTH_COLOURS, QtFleetLayer
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -150,7 +151,9 @@ class QtMapView(pg.PlotWidget):
         plot.addItem(self.robot_item)
         self.pick_item = pg.PlotCurveItem(pen=pg.mkPen((200, 0, 200), width=3), connect="finite")
         plot.addItem(self.pick_item)
+        self.fleet_layer = QtFleetLayer(plot, footprint_xy, ROBOT_RADIUS)  # every robot (#14)
         self._create_legend(plot)
+        self.fleet_layer.add_legend(self.legend)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
         self._label_font.setPointSize(LABEL_POINT_SIZE)
@@ -241,8 +244,10 @@ class QtMapView(pg.PlotWidget):
             if first:
                 self._place_labels(grid)
                 self.fit_map()
+        self.fleet_layer.redraw(c.fleet.views(c.names))
         sup = c.supervisor
         key = (
+            c.selected.health,
             c.state.version,
             id(c.route),
             sup.route_index,
@@ -264,7 +269,7 @@ class QtMapView(pg.PlotWidget):
             self.scan_item.setData([], [])
             return
         pose = Pose2D(pose_msg.x, pose_msg.y, pose_msg.yaw)
-        pen = (0, 140, 0) if pose_msg.state == "ok" else (200, 120, 0)
+        pen = HEALTH_COLOURS[self._controller.selected.health]  # the fleet's colours (#14)
         self.robot_item.setPen(pg.mkPen(pen, width=3))
         xy = footprint_xy(pose)
         self.robot_item.setData(xy[:, 0], xy[:, 1])
@@ -384,6 +389,10 @@ class QtMapView(pg.PlotWidget):
         super().mouseReleaseEvent(event)
         if press is not None and (event.position() - press).manhattanLength() <= CLICK_SLOP_PX:
             x, y = self.map_point(event.position())
+            robot = self.fleet_layer.robot_at(x, y)  # a click on a robot commands it (#14)
+            if robot is not None and robot != self._controller.selected_robot:
+                self._controller.select_robot(robot)
+                return
             node = room_at(x, y, self._controller.topo, self._controller.rooms)
             if node is not None:
                 self.room_clicked.emit(node)

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import enum
 import math
+from dataclasses import dataclass
 
 from base_station_app.robot_state import RobotState
 from base_station_app.tablet_session import describe_task
+from interbot_core.geometry import Pose2D
 from interbot_core.route_mirror import RouteMirror
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import RequestShown, Supervisor, SupervisorConfig
@@ -30,6 +32,20 @@ class Health(enum.StrEnum):
     LOST = "lost"  # the localiser is lost, searching, or has no pose yet
     DEGRADED = "degraded"  # the localiser (or the robot) says it is degraded
     OK = "ok"
+
+
+@dataclass(frozen=True)
+class RobotView:
+    """What a view draws of one robot: a snapshot, so no widget holds robot state."""
+
+    robot_id: str
+    selected: bool
+    health: Health
+    pose: Pose2D | None  # last pose (any localiser state but unset); None: never localised
+    plan: tuple[tuple[float, float], ...]  # the navigator's path for the route it drives
+    task: str  # what it is doing, in words
+    queued: int  # tasks waiting in its queue
+    key: tuple[object, ...]  # changes whenever anything drawn changes
 
 
 class RobotMirror:
@@ -82,6 +98,26 @@ class RobotMirror:
         if loc == "degraded":
             return Health.DEGRADED
         return Health.OK
+
+    def view(self, selected: bool, names: dict[int, str]) -> RobotView:
+        """A snapshot for the map and the robot list."""
+        msg = self.state.pose
+        pose = None if msg is None or msg.state == "unset" else Pose2D(msg.x, msg.y, msg.yaw)
+        plan = self.state.plan
+        points = plan.points if plan is not None and self.route is not None else ()
+        health = self.health
+        task = self.task_text(names)
+        queued = len(self.supervisor.queue)
+        return RobotView(
+            self.robot_id or "",
+            selected,
+            health,
+            pose,
+            points,
+            task,
+            queued,
+            (selected, health, pose, id(plan), self.route is None, task, queued),
+        )
 
     def task_text(self, names: dict[int, str]) -> str:
         task = self.supervisor.current_task
