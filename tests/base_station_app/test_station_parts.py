@@ -1,0 +1,122 @@
+"""The station controller's Qt-free parts (issue 13 split, issue 14 fleet): no Qt, no zenoh."""
+
+from __future__ import annotations
+
+import pytest
+
+from base_station_app.fleet import Ask, Fleet, Select
+from base_station_app.robot_mirror import Health, RobotMirror
+from base_station_app.tablet_policy import TabletPolicy
+from base_station_app.teleop import Direction
+from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
+from interbot_core import protocol as p
+from interbot_core.route_planner import RoutePlanner
+from interbot_core.supervisor import GoTo, SupervisorConfig
+from interbot_core.topics import MuxMsg, PoseMsg, Topic
+from interbot_core.topological_map import TopologicalMap
+
+
+@pytest.fixture
+def fleet(topo: TopologicalMap) -> Fleet:
+    planner = RoutePlanner(topo)
+    return Fleet(lambda r: RobotMirror(r, topo, planner, SupervisorConfig()), grace_s=0.5)
+
+
+def online(fleet: Fleet, *robots: str) -> None:
+    for r in robots:
+        fleet.mirror(r).online = True
+
+
+def test_one_robot_is_selected_after_the_grace_several_are_asked_for_once(fleet: Fleet) -> None:
+    online(fleet, "b")
+    assert fleet.choose(10.0) is None  # discovery still running
+    online(fleet, "a")
+    assert fleet.choose(10.4) is None
+    assert fleet.choose(10.6) == Ask(("a", "b"))  # never "the first seen"
+    assert fleet.choose(10.7) is None  # asked once for this set
+    online(fleet, "c")
+    assert fleet.choose(10.8) == Ask(("a", "b", "c"))  # a new robot: ask again
+
+    single = Fleet(fleet._make, grace_s=0.5)
+    online(single, "only")
+    single.choose(0.0)
+    assert single.choose(0.6) == Select("only")
+
+
+def test_a_preferred_robot_is_waited_for_and_nothing_else_chosen(fleet: Fleet) -> None:
+    fleet.preferred = "c"
+    online(fleet, "a", "b")
+    assert fleet.choose(0.0) is None
+    assert fleet.choose(99.0) is None  # neither asked nor another picked
+    online(fleet, "c")
+    assert fleet.choose(99.1) == Select("c")
+    fleet.select("c")
+    assert fleet.choose(99.2) is None  # chosen: nothing more to decide
+
+
+def test_each_robot_has_its_own_queue_and_the_first_adopts_earlier_orders(fleet: Fleet) -> None:
+    fleet.selected.supervisor.submit(GoTo(3))  # before any robot: the placeholder takes it
+    fleet.selected.supervisor.submit(GoTo(4))
+    _, a = fleet.select("a")
+    assert a.supervisor.current_task == GoTo(3) or GoTo(3) in a.supervisor.queue
+    _, b = fleet.select("b")
+    assert b.supervisor is not a.supervisor
+    assert b.supervisor.queue == () and b.supervisor.current_task is None
+    b.supervisor.submit(GoTo(5))
+    assert GoTo(5) not in a.supervisor.queue
+    assert [m.robot_id for m in fleet.all()] == ["a", "b"]
+
+
+def test_health_names_the_state_colour(topo: TopologicalMap) -> None:
+    m = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    assert m.health is Health.OFFLINE
+    m.online = True
+    assert m.health is Health.LOST  # no pose yet
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok"))
+    assert m.health is Health.OK
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="searching"))
+    assert m.health is Health.LOST
+    m.state.apply(Topic.MUX, MuxMsg(None, active_locks=("Emergency Stop",)))
+    assert m.health is Health.STOPPED
+    m.online = False
+    assert m.health is Health.OFFLINE
+    view = m.view(False, {})
+    assert view.pose is not None and view.pose.x == 1.0 and view.health is Health.OFFLINE
+
+
+def test_arbiter_forwards_fresh_tablet_commands_once_and_zeroes_once() -> None:
+    arb = TeleopArbiter(0.5, 0.5, 1.0)
+    verdict = arb.on_tablet_speed(p.Speed(0.2, 0.1, seq=1, t=0.0), 10.0, stopped=False)
+    assert isinstance(verdict, Forward) and verdict.twist.stamp == 10.0
+    assert arb.on_tablet_speed(p.Speed(0.2, 0.1, seq=1, t=0.0), 10.1, stopped=False) is None
+    assert arb.stop_tablet() is True  # one explicit zero
+    assert arb.stop_tablet() is False  # and only one
+    assert arb.on_tablet_speed(p.Speed(0.2, 0.1, seq=2), 10.2, stopped=True) == Refuse(
+        "emergency stop engaged: speed ignored"
+    )
+    assert arb.on_tablet_speed(p.Speed(0.2, 0.1, seq=3), 10.3, stopped=True) is None  # told
+
+
+def test_arbiter_keys_send_while_held_and_one_zero_on_release() -> None:
+    arb = TeleopArbiter(0.5, 0.4, 1.0)
+    arb.press(Direction.FORWARD)
+    assert arb.keys_changed(stopped=False) == (0.4, 0.0)
+    assert arb.keys_command(stopped=True) is None  # nothing during a stop
+    arb.release(Direction.FORWARD)
+    assert arb.keys_changed(stopped=False) == (0.0, 0.0)
+    assert arb.keys_changed(stopped=False) is None
+
+
+def test_tablet_policy_refuses_with_the_reason_and_owns_by_identity() -> None:
+    policy = TabletPolicy()
+    assert policy.refusal("goals", robot_online=True, estop_latched=False) is None
+    assert "offline" in str(policy.refusal("goals", robot_online=False, estop_latched=False))
+    assert "emergency stop" in str(policy.refusal("teleop", True, True))
+    policy.permissions = policy.permissions.with_kind("tours", False)
+    assert "does not allow tours" in str(policy.refusal("tours", True, False))
+    assert policy.refusal(None, False, True) is None  # stop, pause, help: always
+    mine, equal = GoTo(3), GoTo(3)
+    policy.adopt(mine)
+    assert policy.owns(mine) and not policy.owns(equal)  # the object, not its value
+    policy.forget(mine)
+    assert not policy.owns(mine)
