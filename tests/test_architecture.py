@@ -100,3 +100,71 @@ def test_no_test_doubles_in_product_packages() -> None:
         if p.stem.startswith(("fake_", "stub_", "mock_")) or p.stem.endswith(("_fake", "_stub"))
     ]
     assert doubles == []
+
+
+# Issue 13/14: "no widget holds robot or task state". Widgets (qt_*.py, the main window) reach
+# the station's state only through the controller: they may import value types (tasks, views,
+# enums) but never a class that owns robot, route, queue, teleop or tablet state.
+STATE_OWNERS = {
+    "Supervisor",  # interbot_core.supervisor: queue, tour, requests
+    "RouteMirror",
+    "RobotMirror",
+    "Fleet",
+    "RobotState",
+    "TeleopArbiter",
+    "TeleopInput",
+    "TabletPolicy",
+    "AlertList",
+    "AlertRules",
+    "SpeedFreshness",
+    "LatencyWatchdog",
+    "StationLink",
+    "FleetWatch",
+}
+STATION_QT_FREE = (
+    "fleet.py",
+    "robot_mirror.py",
+    "teleop_arbiter.py",
+    "tablet_policy.py",
+    "robot_state.py",
+    "alerts.py",
+    "tablet_session.py",
+)
+
+
+def imported_names(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.Import):
+            names.update(alias.name.rsplit(".", 1)[-1] for alias in node.names)
+    return names
+
+
+def widget_files() -> list[Path]:
+    apps = [*package_files("base_station_app"), *package_files("tablet_app")]
+    return [p for p in apps if p.name.startswith("qt_") or p.name == "main_window.py"]
+
+
+@pytest.mark.parametrize("path", widget_files(), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_no_widget_holds_robot_or_task_state(path: Path) -> None:
+    bad = imported_names(path) & STATE_OWNERS
+    assert not bad, (
+        f"{path.relative_to(REPO)} imports {sorted(bad)}: widgets draw and forward input; "
+        "robot, route, queue and teleop state live behind the controller"
+    )
+
+
+@pytest.mark.parametrize("name", STATION_QT_FREE)
+def test_station_state_owners_are_qt_free(name: str) -> None:
+    path = REPO / "base_station_app" / name
+    bad = imported_top_levels(path) & {"PySide6", "pyqtgraph", "zenoh"}
+    assert not bad, f"{path.relative_to(REPO)} imports {sorted(bad)}; it must stay plain Python"
+
+
+def test_state_rule_catches_a_widget_that_imports_a_supervisor(tmp_path: Path) -> None:
+    bad = tmp_path / "qt_bad.py"
+    bad.write_text("from interbot_core.supervisor import GoTo, Supervisor\n", encoding="utf-8")
+    assert imported_names(bad) & STATE_OWNERS == {"Supervisor"}
