@@ -9,8 +9,10 @@ Which robot a (re)started station commands is decided in one place, `choose`:
 
 * a preferred robot (``--robot ID``, else the operator's saved choice) is selected when it
   appears, and waited for until then (other robots are watched meanwhile);
-* with no preference, after ``grace_s`` of discovery: one robot present is selected; several
-  make the station **ask** the operator (never "the first seen"), once, until one is chosen.
+* with no preference, ``grace_s`` after the first robot was seen (robots already running are
+  all discovered within milliseconds; robots started together appear over a second or two):
+  one robot present is selected; several make the station **ask** the operator (never "the
+  first seen"), once per set of robots, until one is chosen.
 
 Before any robot is selected, a placeholder mirror (``robot_id`` None) takes the operator's
 orders; the first robot selected adopts it, so nothing queued before is lost. Plain Python.
@@ -48,7 +50,7 @@ class Fleet:
         self,
         make_mirror: Callable[[str | None], RobotMirror],
         preferred: str | None = None,
-        grace_s: float = 0.5,
+        grace_s: float = 2.0,
     ) -> None:
         self._make = make_mirror
         self.preferred = preferred
@@ -56,7 +58,7 @@ class Fleet:
         self.mirrors: dict[str, RobotMirror] = {}
         self._unselected = make_mirror(None)
         self.selected_id: str | None = None
-        self._started_at: float | None = None
+        self._first_seen_at: float | None = None  # [s] when the first robot was online
         self._asked: tuple[str, ...] | None = None
 
     @property
@@ -102,6 +104,7 @@ class Fleet:
         idle = not new.supervisor.queue and new.supervisor.current_task is None
         if old is self._unselected and idle:
             new.supervisor = old.supervisor
+        new.commanded = True
         self.selected_id = robot_id
         self._asked = None
         return old, new
@@ -110,12 +113,14 @@ class Fleet:
         """The start-up choice at ``now`` [s]: select, ask (once per set of robots), or wait."""
         if self.selected_id is not None:
             return None
-        if self._started_at is None:
-            self._started_at = now
         online = tuple(self.online)
         if self.preferred is not None:
             return Select(self.preferred) if self.preferred in online else None
-        if not online or now - self._started_at < self.grace_s:
+        if not online:
+            return None
+        if self._first_seen_at is None:
+            self._first_seen_at = now
+        if now - self._first_seen_at < self.grace_s:
             return None
         if len(online) == 1:
             return Select(online[0])

@@ -60,6 +60,9 @@ class RobotMirror:
     ) -> None:
         self.robot_id = robot_id  # None: the mirror of "no robot selected yet"
         self.online = False
+        # The operator has commanded this robot (selected it) from this station: only then does
+        # the station release its start latch; the stop goes to every robot regardless.
+        self.commanded = False
         self.state = RobotState()
         self.supervisor = Supervisor(topo, planner, supervisor_config)
         self.route_mirror = RouteMirror()

@@ -35,9 +35,10 @@ Safety (issue 11, shared/DESIGN.md "State has one owner"):
 
 * **The stop is a state owned on both ends.** The operator's stop is kept here whether or not a
   robot heard it, and applies to EVERY robot of the fleet: re-asserted on every (re)connection
-  (a robot starts latched after a restart; if the operator's stop is released, the station
-  releases the robot's), and re-sent while a robot reports no stop; no motion is forwarded while
-  it is engaged, the tablet's included.
+  and re-sent while a robot reports no stop; no motion is forwarded while it is engaged, the
+  tablet's included. A robot starts latched after a restart; while the operator's stop is
+  released the station releases that latch only on robots the operator has commanded (selected)
+  from this station: a robot merely seen stays latched (drawn "stopped") until chosen.
 * **The robot owns its route.** Route ids are random 63-bit numbers (unique across station
   restarts). A route is sent once, to the robot whose supervisor planned it; one that no robot
   received ends its task. After a reconnection the station asks the robot (`RouteMirror`) and
@@ -155,7 +156,7 @@ class Timing:
     clock_ms: int = 100  # thesis §6.4: commands every 100 ms
     frame_ms: int = 25  # view refresh (40 Hz, the laser's rate)
     ping_ms: int = 1000  # tablet latency probe
-    choice_grace_ms: int = 500  # robot discovery before the station picks the only one or asks
+    choice_grace_ms: int = 2000  # after the first robot: discovery before picking it or asking
 
 
 class StationController(QObject):
@@ -504,6 +505,10 @@ class StationController(QObject):
         """Tell a robot the operator's stop: engaged (re-sent) or released (its start latch)."""
         mirror = mirror if mirror is not None else self.fleet.selected
         now = self.clock()
+        if not self.estop_latched and not mirror.commanded and mirror.robot_id is not None:
+            # Never commanded from here: its start latch stays until the operator selects it.
+            mirror.stop_assert_pending = False
+            return
         if self.estop_latched:
             delivered = self._send_to(mirror, Topic.STOP, Lock(True, stamp=now))
         else:

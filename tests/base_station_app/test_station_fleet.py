@@ -6,7 +6,8 @@ station asks which robot to command (a dialog, answered by a click); the map sho
 (name label, state colour, footprint); the operator commands another robot with clicks on the
 robot list and on the map; each robot gets its own queue and only its own routes; a robot that
 is not selected finishes its task and its next queued task starts (per-robot supervision); the
-emergency stop reaches all five; a restarted station commands the saved choice without asking.
+emergency stop reaches all five (while only robots the operator commanded have their start latch
+released); a restarted station commands the saved choice without asking.
 """
 
 from __future__ import annotations
@@ -97,6 +98,8 @@ def routes_of(link: RobotLink, seen: dict[str, list[RouteMsg]], robot_id: str) -
             seen.setdefault(robot_id, []).append(c.message)
         if c.topic is Topic.STOP and isinstance(c.message, Lock):
             seen.setdefault(f"{robot_id}/stop", []).append(c.message)  # type: ignore[arg-type]
+        if c.topic is Topic.STOP_RELEASE:
+            seen.setdefault(f"{robot_id}/release", []).append(c.message)  # type: ignore[arg-type]
     return seen.get(robot_id, [])
 
 
@@ -201,6 +204,12 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         qtbot.waitUntil(next_started, timeout=5000)
         assert routes("bot1")[1].route_id != first
         assert len(routes("bot4")) == 1 and bot4.supervisor.current_task == GoTo(20)
+
+        # Start latches are released only on the robots the operator commanded from here.
+        for r in ROBOTS:
+            routes(r)
+        released = {r for r in ROBOTS if seen.get(f"{r}/release")}
+        assert released == {"bot1", "bot3", "bot4"}
 
         # 5. The emergency stop reaches every robot, selected or not.
         QTest.mouseClick(window.estop_button, Qt.MouseButton.LeftButton)

@@ -28,6 +28,7 @@ def online(fleet: Fleet, *robots: str) -> None:
 
 
 def test_one_robot_is_selected_after_the_grace_several_are_asked_for_once(fleet: Fleet) -> None:
+    assert fleet.choose(5.0) is None  # no robot yet: the grace has not begun
     online(fleet, "b")
     assert fleet.choose(10.0) is None  # discovery still running
     online(fleet, "a")
