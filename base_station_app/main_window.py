@@ -293,6 +293,9 @@ class MainWindow(QMainWindow):
         self.controller.log("info", f"commanding robot {saved} when it appears (saved choice)")
 
     def _save_robot(self, robot_id: str) -> None:
+        """A robot was chosen (dialog, list, selector or map): save it; the question is over."""
+        if robot_id and self.robot_choice is not None:
+            self.robot_choice.close()
         if robot_id and not self._reading:
             self.settings.setValue(ROBOT_KEY, robot_id)
 
