@@ -48,11 +48,16 @@ class QtFleetLayer:
         self.views: list[RobotView] = []
 
     def add_legend(self, legend: pg.LegendItem) -> None:
-        for health in (Health.DEGRADED, Health.STOPPED, Health.OFFLINE):
-            pen = pg.mkPen(HEALTH_COLOURS[health], width=3)
-            if health is Health.OFFLINE:
-                pen.setStyle(Qt.PenStyle.DashLine)
-            legend.addItem(pg.PlotDataItem(pen=pen), f"robot ({health})")
+        """One legend row: "robot" and its state colours, each word in its colour."""
+        words = " ".join(
+            f'<span style="color: rgb{HEALTH_COLOURS[h]}; font-weight: bold">{h}</span>'
+            for h in (Health.DEGRADED, Health.LOST, Health.STOPPED, Health.OFFLINE)
+        )
+        ok = HEALTH_COLOURS[Health.OK]
+        legend.addItem(
+            pg.PlotDataItem(pen=pg.mkPen(ok, width=3)),
+            f'robot <span style="color: rgb{ok}; font-weight: bold">ok</span> {words}',
+        )
 
     def _items_for(self, robot_id: str) -> tuple[pg.PlotCurveItem, pg.PlotCurveItem, pg.TextItem]:
         items = self._items.get(robot_id)

@@ -153,7 +153,6 @@ class QtMapView(pg.PlotWidget):
         plot.addItem(self.pick_item)
         self.fleet_layer = QtFleetLayer(plot, footprint_xy, ROBOT_RADIUS)  # every robot (#14)
         self._create_legend(plot)
-        self.fleet_layer.add_legend(self.legend)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
         self._label_font.setPointSize(LABEL_POINT_SIZE)
@@ -163,8 +162,7 @@ class QtMapView(pg.PlotWidget):
     def _create_legend(self, plot: pg.PlotItem) -> None:
         """What each mark means, in the corner: robot, scan, planned path, goals, tour."""
         legend = plot.addLegend(offset=(-8, -8), labelTextSize="9pt", brush=(255, 255, 255, 210))
-        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((0, 140, 0), width=3)), "robot (localised)")
-        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((200, 120, 0), width=3)), "robot (lost)")
+        self.fleet_layer.add_legend(legend)  # robot: its state colours (issue 14)
         legend.addItem(
             pg.ScatterPlotItem(size=6, pen=None, brush=pg.mkBrush(220, 30, 30)), "laser scan"
         )

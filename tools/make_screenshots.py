@@ -320,7 +320,7 @@ def fleet_screenshots(out: Path, speed: float) -> None:
         wait(planned, 60, "every robot's planned path")
         procs[-1].send_signal(signal.SIGTERM)  # fleet4 stops: drawn offline at its last pose
         wait(lambda: not station.robots.get("fleet4", True), 30, "fleet4 offline")
-        QTest.qWait(int(3000 / max(speed, 0.5)))  # let the robots drive a little
+        QTest.qWait(int(20000 / max(speed, 0.5)))  # let the robots drive a while
         window.tabs.setCurrentWidget(window.robots_panel)
         save(grab_window_with(window, None), out, "station_fleet")
     finally:
