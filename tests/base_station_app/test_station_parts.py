@@ -75,6 +75,8 @@ def test_health_names_the_state_colour(topo: TopologicalMap) -> None:
     assert m.health is Health.LOST  # no pose yet
     m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok"))
     assert m.health is Health.OK
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="degraded"))
+    assert m.health is Health.DEGRADED
     m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="searching"))
     assert m.health is Health.LOST
     m.state.apply(Topic.MUX, MuxMsg(None, active_locks=("Emergency Stop",)))
