@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from base_station_app.robot_state import RobotState
 from base_station_app.tablet_session import describe_task
 from interbot_core.geometry import Pose2D
-from interbot_core.route_mirror import RouteMirror
+from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.supervisor import RequestShown, Supervisor, SupervisorConfig
-from interbot_core.topics import RouteMsg
+from interbot_core.supervisor import RequestShown, RouteStarted, Supervisor, SupervisorConfig
+from interbot_core.topics import RouteMsg, RouteProgress
 from interbot_core.topological_map import TopologicalMap
 
 
@@ -88,6 +88,81 @@ class RobotMirror:
         self.stop_assert_pending = True
         self.route_mirror.reconnected(now)
 
+    # ------------------------------------------------------------------ its route (robot-owned)
+    def new_route(
+        self,
+        route_id: int,
+        route: RouteStarted,
+        *,
+        approach_tolerance: float,
+        goal_tolerance: float,
+        yaw_tolerance: float,
+    ) -> RouteMsg:
+        """The route message for the supervisor's new route; it becomes this robot's route."""
+        ids = route.node_ids
+        node_ids = tuple(n for n in ids if n is not None) if None not in ids else ()
+        msg = RouteMsg(
+            route_id,
+            tuple((w.x, w.y, w.yaw) for w in route.waypoints),
+            node_ids,
+            approach_tolerance=approach_tolerance,
+            goal_tolerance=goal_tolerance,
+            yaw_tolerance=yaw_tolerance,
+        )
+        self.route = msg
+        self.route_index = 0
+        self.goal_reached = False
+        return msg
+
+    def route_sent(self, delivered: bool) -> None:
+        """The route was sent once: mirrored if a robot received it, else lost at the next clock
+        (never delivered later, when nobody may expect it)."""
+        if self.route is None:
+            return
+        if delivered:
+            self.route_mirror.started(self.route.route_id)
+        else:
+            self.route_undelivered = self.route.route_id
+
+    def drop_route(self) -> int | None:
+        """The station cancels its route; returns its id (None: none) for ``route_cancel``."""
+        route_id = None if self.route is None else self.route.route_id
+        self.route = None
+        self.route_undelivered = None
+        self.route_mirror.ended()
+        return route_id
+
+    def lose_route(self, lost: RouteLost) -> bool:
+        """The robot no longer has our route; True when it was this station's current route."""
+        self.route_mirror.ended()
+        if self.route is None or self.route.route_id != lost.route_id:
+            return False
+        self.route = None
+        return True
+
+    def due_losses(self, now: float) -> list[RouteLost]:
+        """Routes lost by ``now``: one nobody received, one the robot did not confirm in time."""
+        losses = []
+        if self.route_undelivered is not None:
+            route_id, self.route_undelivered = self.route_undelivered, None
+            losses.append(RouteLost(route_id, f"no robot received route {route_id}"))
+        lost = self.route_mirror.check_timeout(now)
+        if lost is not None:
+            losses.append(lost)
+        return losses
+
+    def verdict(self) -> RouteProgress | None:
+        """The robot's word that it ended our route (succeeded / aborted), once per route."""
+        progress, route = self.state.progress, self.route
+        if progress is None or route is None or progress.route_id != route.route_id:
+            return None
+        self.route_index = progress.index
+        if progress.state not in ("succeeded", "aborted") or progress.route_id == self.verdict_of:
+            return None
+        self.verdict_of = progress.route_id
+        return progress
+
+    # ------------------------------------------------------------------ views
     @property
     def health(self) -> Health:
         state = self.state

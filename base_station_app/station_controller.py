@@ -75,6 +75,7 @@ from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.tablet_auth import TabletAuthServer
+from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_server import TabletServer
 from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
@@ -105,7 +106,6 @@ from interbot_core.supervisor import (
     RouteStarted,
     Supervisor,
     SupervisorError,
-    SupervisorState,
     Task,
     TaskFinished,
     TaskRejectedError,
@@ -225,10 +225,7 @@ class StationController(QObject):
         self._route_ids = route_ids
         self._permissions_sent: p.Permissions | None = None
         self._last_clock: float | None = None
-        self._tour_state_sent: p.TourState | None = None
-        self._status_sent: p.StatusInfo | None = None
-        self._localisation_sent: str | None = None
-        self._safety_sent: p.SafetyInfo | None = None
+        self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
         self.station_assist = False  # assisted teleoperation of station_vel (issue 17)
         self._closed = False
 
@@ -478,10 +475,7 @@ class StationController(QObject):
                 mirror.connected(now)  # new publishers / subscribers: re-assert, ask its route
                 if mirror is old and old.online:
                     self.link.request_state(old.robot_id)
-        self._localisation_sent = None
-        self._tour_state_sent = None
-        self._status_sent = None
-        self._safety_sent = None
+        self.tablet_feed.forget()
         self.log("info", f"commanding robot {robot_id}" if robot_id else "no robot selected")
         self.robot_selected.emit(robot_id or "")
         self.robots_changed.emit()
@@ -547,14 +541,9 @@ class StationController(QObject):
                 for msg in self.watch.poll():
                     self._on_state_message(msg)
             for mirror in self.fleet.all():
-                progress, route = mirror.state.progress, mirror.route
-                if (
-                    progress is not None
-                    and route is not None
-                    and progress.route_id == route.route_id
-                ):
-                    mirror.route_index = progress.index
-                    self._robot_verdict(progress, mirror)
+                verdict = mirror.verdict()
+                if verdict is not None:
+                    self._robot_verdict(verdict, mirror)
             self._choose_robot()
         self.frame_ready.emit()
 
@@ -588,19 +577,13 @@ class StationController(QObject):
     def _route_lost(self, lost: RouteLost, mirror: RobotMirror | None = None) -> None:
         """Our route is gone on the robot: the task ends; nothing is re-sent."""
         mirror = mirror if mirror is not None else self.fleet.selected
-        mirror.route_mirror.ended()
-        if mirror.route is None or mirror.route.route_id != lost.route_id:
-            return
-        self._log_for(mirror, "error", lost.reason)
-        mirror.route = None
-        self._handle(mirror.supervisor.robot_route_aborted(lost.reason), mirror)
-        self.tasks_changed.emit()
+        if mirror.lose_route(lost):
+            self._log_for(mirror, "error", lost.reason)
+            self._handle(mirror.supervisor.robot_route_aborted(lost.reason), mirror)
+            self.tasks_changed.emit()
 
     def _robot_verdict(self, progress: RouteProgress, mirror: RobotMirror) -> None:
         """The robot finished or gave up the current route: its word settles the task."""
-        if progress.state not in ("succeeded", "aborted") or progress.route_id == mirror.verdict_of:
-            return
-        mirror.verdict_of = progress.route_id
         if progress.state == "succeeded":
             self._handle(mirror.supervisor.robot_route_succeeded(self.clock()), mirror)
         else:
@@ -656,11 +639,7 @@ class StationController(QObject):
         for mirror in self.fleet.all():
             self._resend_pending(mirror)
             self._check_robot_stop(now, mirror)
-            if mirror.route_undelivered is not None:
-                route_id, mirror.route_undelivered = mirror.route_undelivered, None
-                self._route_lost(RouteLost(route_id, f"no robot received route {route_id}"), mirror)
-            lost = mirror.route_mirror.check_timeout(now)
-            if lost is not None:
+            for lost in mirror.due_losses(now):
                 self._route_lost(lost, mirror)
         self._speed_section(now)
         self._pose_section(now)
@@ -716,57 +695,13 @@ class StationController(QObject):
             self.arbiter.stop_told = False  # a refused speed is explained again
 
     def _communication_section(self, now: float) -> None:
+        """Tell the tablet about the commanded robot (tablet_feed.py), changes only."""
         if not self.tablet.is_connected:
             return
         self._send_permissions()
-        send = self.tablet.send
-        if not self.robot_online:
-            # No stale pose or goal: the status says "robot offline" (and why it cannot work).
-            status = p.StatusInfo(self.task_text(), self.status_text())
-            if status != self._status_sent:
-                send(status)
-                self._status_sent = status
-            self._localisation_sent = None
-            return
-        pose = self.state.localised_pose
-        loc = self.state.localisation
-        settling = loc in ("unset", "lost") and now < self.selected.pose_settling_until
-        if loc != self._localisation_sent and not settling:
-            send(p.Localisation(loc))
-            self._localisation_sent = loc
-        safety = self.state.safety
-        if safety is not None:  # the collision monitor, for the person at the joystick
-            info = p.SafetyInfo(
-                safety.zone, round(safety.distance, 2), "tablet_vel" in safety.assisted
-            )
-            if info != self._safety_sent:
-                send(info)
-                self._safety_sent = info
-        if self.state.pose is None or self.state.pose.state == "unset":
-            if not settling:
-                send(p.InitialPose(False))
-        elif pose is not None:
-            send(p.Pose(pose.x, pose.y, pose.yaw))
-        goal = self.supervisor.current_goal_node
-        at_stop = self.supervisor.state is SupervisorState.AT_TOUR_STOP
-        if goal is not None:
-            send(p.GoalStatus(goal, self.goal_reached, at_stop))
-        tour = self._tour_state()
-        if tour != self._tour_state_sent:  # an ended tour is said too: no stale highlight
-            send(tour if tour is not None else p.TourState((), (), None))
-        self._tour_state_sent = tour
         status = p.StatusInfo(self.task_text(), self.status_text())
-        if status != self._status_sent:
-            send(status)
-            self._status_sent = status
-
-    def _tour_state(self) -> p.TourState | None:
-        stops = self.supervisor.tour_stops
-        if not stops:
-            return None
-        return p.TourState(
-            stops, self.supervisor.visited_tour_stops, self.supervisor.next_tour_stop
-        )
+        for message in self.tablet_feed.messages(self.selected, now, self.robot_online, status):
+            self.tablet.send(message)
 
     def task_text(self) -> str:
         return self.selected.task_text(self.names)
@@ -853,36 +788,23 @@ class StationController(QObject):
             self._log_for(mirror, "info", f"request '{event.text}' {verb}")
 
     def _send_route(self, route: RouteStarted, mirror: RobotMirror) -> None:
-        ids = route.node_ids
-        node_ids = tuple(n for n in ids if n is not None) if None not in ids else ()
+        """Send the supervisor's new route once, to the robot it was planned for."""
         cfg = self.config
-        msg = RouteMsg(
+        msg = mirror.new_route(
             self._route_ids(),
-            tuple((w.x, w.y, w.yaw) for w in route.waypoints),
-            node_ids,
+            route,
             approach_tolerance=cfg.approach_tolerance,
             goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
             yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
         )
-        mirror.route = msg
-        mirror.route_index = 0
-        mirror.goal_reached = False
-        if self._send_to(mirror, Topic.ROUTE, msg):
-            mirror.route_mirror.started(msg.route_id)
-        else:
-            # Sent once: a route is never delivered later, when nobody may expect it. The task
-            # ends at the next clock() (not inside the supervisor's event handling).
-            mirror.route_undelivered = msg.route_id
-        self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(node_ids)}")
+        mirror.route_sent(self._send_to(mirror, Topic.ROUTE, msg))
+        self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
         self.route_sent.emit(msg)
 
     def _cancel_route(self, reason: str, mirror: RobotMirror) -> None:
         """Tell the robot to drop the route in progress (``route_cancel``)."""
         self._log_for(mirror, "info", f"route cancelled: {reason}")
-        route_id = None if mirror.route is None else mirror.route.route_id
-        mirror.route = None
-        mirror.route_undelivered = None
-        mirror.route_mirror.ended()
+        route_id = mirror.drop_route()
         self._send_to(mirror, Topic.ROUTE_CANCEL, RouteCancel(route_id, reason, stamp=self.clock()))
 
     # ================================================================== operator commands
@@ -1020,7 +942,7 @@ class StationController(QObject):
         # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
         # said afresh once the robot answers or the grace runs out).
         self.selected.pose_settling_until = now + INITIAL_POSE_SETTLE_S
-        self._localisation_sent = None
+        self.tablet_feed.localisation_sent = None
         self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
 
     def set_initial_pose_room(self, node_id: int) -> None:
@@ -1076,9 +998,7 @@ class StationController(QObject):
 
     # ================================================================== tablet
     def _on_tablet_connected(self, peer: str) -> None:
-        self._localisation_sent = None
-        self._tour_state_sent = None
-        self._status_sent = None
+        self.tablet_feed.forget()
         self.arbiter.tablet_connected()
         self._permissions_sent = None
         self._send_permissions()

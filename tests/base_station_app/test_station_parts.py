@@ -6,13 +6,16 @@ import pytest
 
 from base_station_app.fleet import Ask, Fleet, Select
 from base_station_app.robot_mirror import Health, RobotMirror
+from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
+from interbot_core.geometry import Pose2D
+from interbot_core.route_mirror import RouteLost
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.supervisor import GoTo, SupervisorConfig
-from interbot_core.topics import MuxMsg, PoseMsg, Topic
+from interbot_core.supervisor import GoTo, RouteStarted, SupervisorConfig
+from interbot_core.topics import MuxMsg, PoseMsg, RouteProgress, Topic
 from interbot_core.topological_map import TopologicalMap
 
 
@@ -123,3 +126,47 @@ def test_tablet_policy_refuses_with_the_reason_and_owns_by_identity() -> None:
     assert policy.owns(mine) and not policy.owns(equal)  # the object, not its value
     policy.forget(mine)
     assert not policy.owns(mine)
+
+
+def test_a_route_is_sent_once_mirrored_and_its_end_said_once(topo: TopologicalMap) -> None:
+    m = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    started = RouteStarted((Pose2D(0.0, 0.0, 0.0), Pose2D(1.0, 0.0, 0.0)), (None, 4), 4)
+    msg = m.new_route(7, started, approach_tolerance=1.0, goal_tolerance=0.2, yaw_tolerance=0.3)
+    assert m.route is msg and msg.node_ids == ()  # a pose goal: no node list
+    m.route_sent(False)
+    assert [lost.route_id for lost in m.due_losses(0.0)] == [7]  # nobody received it
+    assert m.due_losses(0.0) == []  # said once
+    assert m.lose_route(RouteLost(7, "gone")) and m.route is None
+    msg = m.new_route(8, started, approach_tolerance=1.0, goal_tolerance=0.2, yaw_tolerance=0.3)
+    m.route_sent(True)
+    assert m.route_mirror.route_id == 8
+    m.state.apply(Topic.ROUTE_PROGRESS, RouteProgress(8, 1, False, "active"))
+    assert m.verdict() is None and m.route_index == 1
+    m.state.apply(Topic.ROUTE_PROGRESS, RouteProgress(8, 1, True, "succeeded"))
+    verdict = m.verdict()
+    assert verdict is not None and verdict.state == "succeeded"
+    assert m.verdict() is None  # once per route
+    assert not m.lose_route(RouteLost(99, "another route"))
+    assert m.drop_route() == 8 and m.route is None
+
+
+def test_tablet_feed_says_changes_only_and_nothing_stale_while_offline(
+    topo: TopologicalMap,
+) -> None:
+    from interbot_core import protocol as p
+
+    m = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    feed = TabletFeed()
+    status = p.StatusInfo("idle", "robot offline")
+    assert feed.messages(m, 0.0, False, status) == [status]
+    assert feed.messages(m, 0.1, False, status) == []  # said once
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.5, state="ok"))
+    ready = p.StatusInfo("idle", "idle")
+    first = feed.messages(m, 0.2, True, ready)
+    assert p.Localisation("ok") in first and p.Pose(1.0, 2.0, 0.5) in first and ready in first
+    again = feed.messages(m, 0.3, True, ready)
+    assert again == [p.Pose(1.0, 2.0, 0.5)]  # the pose every clock, the rest on change
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.5, state="lost"))
+    m.pose_settling_until = 1.0  # an initial pose was just sent: "lost" is stale
+    assert p.Localisation("lost") not in feed.messages(m, 0.4, True, ready)
+    assert p.Localisation("lost") in feed.messages(m, 1.1, True, ready)
