@@ -769,6 +769,8 @@ class StationController(QObject):
             self._tablet_send(mirror, p.GoalStatus(event.node, True, True))
             if mirror is self.fleet.selected:
                 self.tour_stop_reached.emit(event)
+            else:
+                self._waiting(mirror, f"at tour stop {event.name}: command it to resume")
         elif isinstance(event, RequestShown):
             self.request_id += 1
             mirror.shown_request = (self.request_id, event)
@@ -780,12 +782,18 @@ class StationController(QObject):
             )
             if mirror is self.fleet.selected:
                 self.request_shown.emit(event)
+            else:
+                self._waiting(mirror, f"shows a request at {self.names[event.room]}: command it")
         elif isinstance(event, RequestAccepted | RequestDeclined | RequestTimedOut):
             verb = {RequestAccepted: "accepted", RequestDeclined: "declined"}.get(
                 type(event), "timed out"
             )
             mirror.shown_request = None
             self._log_for(mirror, "info", f"request '{event.text}' {verb}")
+
+    def _waiting(self, mirror: RobotMirror, text: str) -> None:
+        """A robot the operator does not command needs them: an alert names it."""
+        self.alerts.raise_alert("waiting", mirror.robot_id or "?", text, self.clock())
 
     def _send_route(self, route: RouteStarted, mirror: RobotMirror) -> None:
         """Send the supervisor's new route once, to the robot it was planned for."""

@@ -23,7 +23,7 @@ from PySide6.QtTest import QTest
 from base_station_app.main_window import ROBOT_KEY, MainWindow
 from base_station_app.robot_mirror import Health
 from base_station_app.station_controller import StationController, Timing
-from interbot_core.supervisor import GoTo
+from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
 from interbot_core.topics import Lock, MuxMsg, PoseMsg, RouteMsg, RouteProgress, Topic
 from interbot_core.topological_map import TopologicalMap
 from interbot_link import RobotLink, open_session
@@ -211,6 +211,30 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         released = {r for r in ROBOTS if seen.get(f"{r}/release")}
         assert released == {"bot1", "bot3", "bot4"}
 
+        # 4b. bot2 is chosen in the robot list (clicks) and starts a tour; the operator
+        # then commands bot0; bot2 reaches its tour stop unselected: it waits there, an alert
+        # names it (the operator must command it to resume).
+        click_row(qtbot, window, "bot2")
+        assert station.selected_robot == "bot2" and window.robot_selector.currentText() == "bot2"
+        assert station.submit(GuidedTour())
+        station.tick()
+        bot2 = station.fleet.mirror("bot2")
+        stop = bot2.supervisor.next_tour_stop
+        assert stop is not None
+        click_row(qtbot, window, "bot0")
+        assert station.selected_robot == "bot0"
+        at = topo.node(stop, "stop").pose
+        links["bot2"].publish_pose(PoseMsg(at.x, at.y, at.yaw, state="ok"))
+
+        def waiting() -> bool:
+            station.poll_link()
+            station.tick()
+            return any(a.kind == "waiting" and a.robot == "bot2" for a in station.alerts.alerts)
+
+        qtbot.waitUntil(waiting, timeout=5000)
+        assert bot2.supervisor.state is SupervisorState.AT_TOUR_STOP
+        assert station.supervisor.current_task is None  # bot0's queue is its own
+
         # 5. The emergency stop reaches every robot, selected or not.
         QTest.mouseClick(window.estop_button, Qt.MouseButton.LeftButton)
 
@@ -222,8 +246,8 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
 
         qtbot.waitUntil(all_stopped, timeout=5000)
 
-    # 6. A restarted station commands the saved choice (bot4, the last clicked) without asking.
-    assert settings.value(ROBOT_KEY) == "bot4"
+    # 6. A restarted station commands the saved choice (bot0, the last clicked) without asking.
+    assert settings.value(ROBOT_KEY) == "bot0"
     clock2 = FakeClock()
     station2, window2, stack2 = make_station(qtbot, router, topo, settings, clock2)
     with stack2:
@@ -232,7 +256,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
             station2.poll_link()
             clock2.now += 0.1
             station2.tick()
-            return station2.selected_robot == "bot4"
+            return station2.selected_robot == "bot0"
 
         qtbot.waitUntil(selected, timeout=10000)
         assert window2.robot_choice is None
