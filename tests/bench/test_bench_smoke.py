@@ -62,6 +62,11 @@ POSITIVE = {
     ],
     "replay": ["replay_speed_x", "replay_poses_received"],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
+    "station_fleet": [
+        "station_fleet_supervised",
+        "station_fleet_tick_ms_median",
+        "station_fleet_poll_ms_median",
+    ],
     "reallogs": [
         "reallog_intel_revisit_rms_m",
         "reallog_intel_whole_rms_m",
