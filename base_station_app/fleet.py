@@ -8,7 +8,8 @@ it; the others keep driving their own queues and are drawn on the map.
 Which robot a (re)started station commands is decided in one place, `choose`:
 
 * a preferred robot (``--robot ID``, else the operator's saved choice) is selected when it
-  appears, and waited for until then (other robots are watched meanwhile);
+  appears, and waited for until then (other robots are watched meanwhile; the station says it
+  waits, naming the robots present, so the operator can choose another);
 * with no preference, ``grace_s`` after the first robot was seen (robots already running are
   all discovered within milliseconds; robots started together appear over a second or two):
   one robot present is selected; several make the station **ask** the operator (never "the
@@ -40,7 +41,15 @@ class Ask:
     robot_ids: tuple[str, ...]
 
 
-Choice = Select | Ask | None
+@dataclass(frozen=True)
+class Waiting:
+    """The preferred robot is absent while others are online: say so (once per set)."""
+
+    preferred: str
+    robot_ids: tuple[str, ...]
+
+
+Choice = Select | Ask | Waiting | None
 
 
 class Fleet:
@@ -114,14 +123,19 @@ class Fleet:
         if self.selected_id is not None:
             return None
         online = tuple(self.online)
-        if self.preferred is not None:
-            return Select(self.preferred) if self.preferred in online else None
+        if self.preferred is not None and self.preferred in online:
+            return Select(self.preferred)
         if not online:
             return None
         if self._first_seen_at is None:
             self._first_seen_at = now
         if now - self._first_seen_at < self.grace_s:
             return None
+        if self.preferred is not None:
+            if self._asked == online:
+                return None
+            self._asked = online
+            return Waiting(self.preferred, online)
         if len(online) == 1:
             return Select(online[0])
         if self._asked == online:

@@ -69,7 +69,7 @@ import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
-from base_station_app.fleet import Ask, Fleet, Select
+from base_station_app.fleet import Ask, Fleet, Select, Waiting
 from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
@@ -555,6 +555,12 @@ class StationController(QObject):
         elif isinstance(choice, Ask):
             self.log("warning", f"{len(choice.robot_ids)} robots: choose the one to command")
             self.robot_choice_needed.emit(choice.robot_ids)
+        elif isinstance(choice, Waiting):
+            self.log(
+                "warning",
+                f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
+                f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
+            )
 
     def _check_alerts(self, mirror: RobotMirror, topic: Topic, message: object) -> None:
         """Each robot's state, through the alert rules (alerts.py)."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from base_station_app.fleet import Ask, Fleet, Select
+from base_station_app.fleet import Ask, Fleet, Select, Waiting
 from base_station_app.robot_mirror import Health, RobotMirror
 from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
@@ -51,7 +51,8 @@ def test_a_preferred_robot_is_waited_for_and_nothing_else_chosen(fleet: Fleet) -
     fleet.preferred = "c"
     online(fleet, "a", "b")
     assert fleet.choose(0.0) is None
-    assert fleet.choose(99.0) is None  # neither asked nor another picked
+    assert fleet.choose(99.0) == Waiting("c", ("a", "b"))  # said, neither asked nor picked
+    assert fleet.choose(99.05) is None  # once
     online(fleet, "c")
     assert fleet.choose(99.1) == Select("c")
     fleet.select("c")
