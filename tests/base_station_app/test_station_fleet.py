@@ -225,6 +225,12 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         assert station.selected_robot == "bot0"
         at = topo.node(stop, "stop").pose
         links["bot2"].publish_pose(PoseMsg(at.x, at.y, at.yaw, state="ok"))
+        qtbot.waitUntil(lambda: len(routes("bot2")) == 1, timeout=5000)
+        tour_route = routes("bot2")[0]  # the robot says it arrived (it judges arrival)
+        last = len(tour_route.waypoints) - 1
+        links["bot2"].publish_route_progress(
+            RouteProgress(tour_route.route_id, last, True, "succeeded")
+        )
 
         def waiting() -> bool:
             station.poll_link()
