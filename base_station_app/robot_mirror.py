@@ -151,16 +151,20 @@ class RobotMirror:
             losses.append(lost)
         return losses
 
-    def verdict(self) -> RouteProgress | None:
-        """The robot's word that it ended our route (succeeded / aborted), once per route."""
+    def route_progress(self) -> RouteProgress | None:
+        """The robot's newest report on OUR route (None: none, or about another route)."""
         progress, route = self.state.progress, self.route
         if progress is None or route is None or progress.route_id != route.route_id:
             return None
         self.route_index = progress.index
-        if progress.state not in ("succeeded", "aborted") or progress.route_id == self.verdict_of:
-            return None
-        self.verdict_of = progress.route_id
         return progress
+
+    def verdict(self, progress: RouteProgress) -> bool:
+        """True once per route when ``progress`` says the robot ended it (succeeded/aborted)."""
+        if progress.state not in ("succeeded", "aborted") or progress.route_id == self.verdict_of:
+            return False
+        self.verdict_of = progress.route_id
+        return True
 
     # ------------------------------------------------------------------ views
     @property

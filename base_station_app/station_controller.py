@@ -541,9 +541,9 @@ class StationController(QObject):
                 for msg in self.watch.poll():
                     self._on_state_message(msg)
             for mirror in self.fleet.all():
-                verdict = mirror.verdict()
-                if verdict is not None:
-                    self._robot_verdict(verdict, mirror)
+                progress = mirror.route_progress()
+                if progress is not None and mirror.verdict(progress):
+                    self._robot_verdict(progress, mirror)
             self._choose_robot()
         self.frame_ready.emit()
 

@@ -142,11 +142,14 @@ def test_a_route_is_sent_once_mirrored_and_its_end_said_once(topo: TopologicalMa
     m.route_sent(True)
     assert m.route_mirror.route_id == 8
     m.state.apply(Topic.ROUTE_PROGRESS, RouteProgress(8, 1, False, "active"))
-    assert m.verdict() is None and m.route_index == 1
+    progress = m.route_progress()
+    assert progress is not None and not m.verdict(progress) and m.route_index == 1
     m.state.apply(Topic.ROUTE_PROGRESS, RouteProgress(8, 1, True, "succeeded"))
-    verdict = m.verdict()
-    assert verdict is not None and verdict.state == "succeeded"
-    assert m.verdict() is None  # once per route
+    progress = m.route_progress()
+    assert progress is not None and m.verdict(progress)
+    assert not m.verdict(progress)  # once per route
+    m.state.apply(Topic.ROUTE_PROGRESS, RouteProgress(9, 0, False, "active"))
+    assert m.route_progress() is None  # another route's report is not ours
     assert not m.lose_route(RouteLost(99, "another route"))
     assert m.drop_route() == 8 and m.route is None
 
