@@ -28,6 +28,7 @@ from interbot_core.topics import Lock, MuxMsg, PoseMsg, RouteMsg, RouteProgress,
 from interbot_core.topological_map import TopologicalMap
 from interbot_link import RobotLink, open_session
 from interbot_link.router import open_router
+from tests.base_station_app.conftest import TabletClient
 
 pytestmark = [pytest.mark.qt_log_ignore("propagateSizeHints"), pytest.mark.timeout(120)]
 
@@ -191,6 +192,14 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         qtbot.waitUntil(lambda: len(routes("bot1")) == 1 and len(routes("bot4")) == 1, timeout=5000)
         assert bot1.route is not None and routes("bot1")[0].route_id == bot1.route.route_id
         assert all(routes(r) == [] for r in ("bot0", "bot2", "bot3"))
+
+        # 3b. The tablet is bound to the commanded robot (bot4): its goal joins bot4's queue.
+        tablet = TabletClient(station.tablet.port)
+        stack.callback(tablet.close)
+        qtbot.waitUntil(lambda: station.tablet.is_connected, timeout=5000)
+        tablet.send({"goal": 16})
+        qtbot.waitUntil(lambda: GoTo(16) in bot4.supervisor.queue, timeout=5000)
+        assert GoTo(16) not in bot1.supervisor.queue and station.tablet_policy.tasks
 
         # 4. bot1 (not selected) finishes: its next task starts and only bot1 gets the route.
         first = bot1.route.route_id
