@@ -209,6 +209,9 @@ class StationController(QObject):
         )
         self.static_map = self._load_static_map()
         self.estop_latched = False
+        # One status log for the station, whichever robot is selected: every mirror's
+        # `RobotState` shares it (the state panel and tests read ``state.log``).
+        self.status_log = RobotState().log
         self.fleet = Fleet(self._make_mirror, robot_id, timing.choice_grace_ms / 1000.0)
         self.alerts = AlertList()  # what the operator must see and acknowledge (alerts.py)
         self.alert_rules = AlertRules(self.alerts)
@@ -272,6 +275,7 @@ class StationController(QObject):
             self.planner,
             self.config.supervisor_config(self._request_timeout),
         )
+        mirror.state.log = self.status_log
         if self.estop_latched:
             mirror.supervisor.hold_queue()  # nothing queued there yet: no events to act on
         return mirror

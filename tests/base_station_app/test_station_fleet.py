@@ -144,6 +144,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         QTest.mouseClick(dialog.buttons["bot3"], Qt.MouseButton.LeftButton)
         assert station.selected_robot == "bot3" and not dialog.isVisible()
         assert settings.value(ROBOT_KEY) == "bot3"
+        assert any("choose the one to command" in e.text for e in station.state.log)  # one log
         assert window.robot_selector.currentText() == "bot3"
 
         # 2. Every robot on the map: label with its name and state colour, footprint.
