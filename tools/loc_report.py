@@ -169,7 +169,11 @@ def build_report(label: str, sources: Iterable[tuple[str, str]]) -> Report:
     return report
 
 
-SECTIONS = (("product", "Product packages"), ("support", "Benchmarks and tools"), ("tests", "Tests"))
+SECTIONS = (
+    ("product", "Product packages"),
+    ("support", "Benchmarks and tools"),
+    ("tests", "Tests"),
+)
 
 
 def render(reports: list[Report]) -> str:
