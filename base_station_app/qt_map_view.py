@@ -27,7 +27,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import MapLabel, map_labels, room_at
+from base_station_app.map_labels import SNAP_RADIUS, MapLabel, map_labels
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -179,7 +179,8 @@ class QtMapView(pg.PlotWidget):
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
         self._place_labels(c.grid)
-        polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
+        outlines = [r.area for r in c.rooms.rooms if r.explicit]
+        polys = [[*area, area[0], (math.nan, math.nan)] for area in outlines]
         if polys:
             pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
             self.rooms_item.setData(pts[:, 0], pts[:, 1])
@@ -191,7 +192,8 @@ class QtMapView(pg.PlotWidget):
             self.removeItem(label)
         self.labels.clear()
         c = self._controller
-        self._label_specs = map_labels(c.topo, c.rooms, grid=grid)
+        rooms = c.rooms if grid is None else c.rooms.with_labels(grid)
+        self._label_specs = map_labels(rooms)
         for spec in self._label_specs:
             label = pg.TextItem(
                 spec.text,
@@ -384,9 +386,9 @@ class QtMapView(pg.PlotWidget):
         super().mouseReleaseEvent(event)
         if press is not None and (event.position() - press).manhattanLength() <= CLICK_SLOP_PX:
             x, y = self.map_point(event.position())
-            node = room_at(x, y, self._controller.topo, self._controller.rooms)
-            if node is not None:
-                self.room_clicked.emit(node)
+            room = self._controller.rooms.room_at(x, y, SNAP_RADIUS)
+            if room is not None:
+                self.room_clicked.emit(room.id)
 
     # ------------------------------------------------------------------ keys
     def keyPressEvent(self, event: QKeyEvent) -> None:

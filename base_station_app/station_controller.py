@@ -53,7 +53,6 @@ import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
-from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.tablet_auth import TabletAuthServer
@@ -63,6 +62,7 @@ from base_station_app.teleop import Direction, TeleopInput
 from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
+from interbot_core.rooms import load_room_map, room_map
 from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
 from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
@@ -181,9 +181,7 @@ class StationController(QObject):
         self.planner = RoutePlanner(topo)  # Floyd-Warshall: every route precomputed (§5.3.3)
         self.config = config if config is not None else StationConfig()
         self.supervisor = Supervisor(topo, self.planner, self.config.supervisor_config())
-        self.rooms: list[RoomArea] = (
-            load_room_areas(topo_path, topo) if topo_path is not None else []
-        )
+        self.rooms = load_room_map(topo_path, topo) if topo_path is not None else room_map(topo)
         self.static_map = self._load_static_map()
         self.state = RobotState()
         self.alerts = AlertList()  # what the operator must see and acknowledge (alerts.py)

@@ -31,7 +31,7 @@ from PySide6.QtWidgets import QPushButton, QSizePolicy, QWidget
 
 from interbot_core.map_view_transform import MapViewTransform
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
-from tablet_app.floor_plan import FloorPlan
+from interbot_core.rooms import RoomMap
 
 logger = logging.getLogger(__name__)
 
@@ -64,7 +64,7 @@ class QtMapView(QWidget):
     room_clicked = Signal(int)
 
     def __init__(
-        self, plan: FloorPlan, grid: OccupancyGrid | None = None, parent: QWidget | None = None
+        self, plan: RoomMap, grid: OccupancyGrid | None = None, parent: QWidget | None = None
     ) -> None:
         super().__init__(parent)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
@@ -92,7 +92,7 @@ class QtMapView(QWidget):
         self._mapper = QSignalMapper(self)
         self._mapper.mappedInt.connect(self.room_clicked)
         self._buttons: dict[int, QPushButton] = {}
-        for room in plan.touch_rooms():
+        for room in plan.rooms:
             button = QPushButton(self)
             button.setObjectName(f"room_{room.id}")
             button.setAccessibleName(room.name)
@@ -147,12 +147,12 @@ class QtMapView(QWidget):
         self._highlight = on
         self.update()
 
-    def set_plan(self, plan: FloorPlan) -> None:
+    def set_plan(self, plan: RoomMap) -> None:
         """The same rooms with other texts (the UI language changed)."""
-        if [r.id for r in plan.touch_rooms()] != list(self._buttons):
+        if [r.id for r in plan.rooms] != list(self._buttons):
             raise ValueError("set_plan takes the same rooms in other words, not another plan")
         self._plan = plan
-        for room in plan.touch_rooms():
+        for room in plan.rooms:
             self._buttons[room.id].setAccessibleName(room.name)
         self.update()
 
@@ -199,7 +199,7 @@ class QtMapView(QWidget):
         else:
             painter.fillRect(map_rect, QColor(235, 235, 235))
         base_px = max(10, round(self._min_touch * 0.26))
-        for room in self._plan.touch_rooms():
+        for room in self._plan.rooms:
             fill, outline = _ROOM_COLOURS[self.room_state(room.id)]
             rect = self.room_rect(room.id)
             painter.setPen(QPen(outline, 2.0))

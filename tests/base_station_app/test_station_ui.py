@@ -13,7 +13,6 @@ from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QApplication, QWidget
 
 from base_station_app.main_window import TAB_NAMES, MainWindow
-from base_station_app.map_rooms import room_at
 from base_station_app.station_config import StationConfig
 from base_station_app.station_controller import StationController
 from interbot_core.geometry import Pose2D
@@ -139,10 +138,9 @@ def test_estop_buttons_latch_and_release(qtbot, linked, window, robot, clock):
 
 
 def test_click_room_on_map_then_move_there(qtbot, window, station, topo):
-    area = next(a for a in station.rooms if a.node_id == 5)
-    cx = sum(p[0] for p in area.polygon) / len(area.polygon)
-    cy = sum(p[1] for p in area.polygon) / len(area.polygon)
-    assert room_at(cx, cy, topo, station.rooms) == 5
+    room = station.rooms.room(5)
+    cx, cy = room.label
+    assert station.rooms.room_at(cx, cy).id == 5
     with qtbot.waitSignal(window.map_view.room_clicked) as blocker:
         QTest.mouseClick(
             window.map_view.viewport(), Qt.MouseButton.LeftButton, pos=view_pos(window, cx, cy)
