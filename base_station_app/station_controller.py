@@ -63,7 +63,6 @@ from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
-from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
 from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.speed_freshness import SpeedFreshness
@@ -402,6 +401,7 @@ class StationController(QObject):
             progress, route = self.state.progress, self.route
             if progress is not None and route is not None and progress.route_id == route.route_id:
                 self.route_index = progress.index
+                self._handle(self.supervisor.robot_progress(progress.index))  # the robot judges
                 self._robot_verdict(progress)
         self.frame_ready.emit()
 
@@ -689,8 +689,8 @@ class StationController(QObject):
             tuple((w.x, w.y, w.yaw) for w in route.waypoints),
             node_ids,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
-            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
+            goal_tolerance=cfg.goal_tolerance,
+            yaw_tolerance=cfg.yaw_tolerance,
         )
         self.route = msg
         self.route_index = 0

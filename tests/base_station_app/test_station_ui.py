@@ -18,6 +18,7 @@ from base_station_app.station_controller import StationController
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoTo, GoToPose
 from interbot_core.topics import InitialPose, Lock, StopRelease
+from tests.base_station_app.conftest import robot_arrives
 
 TOPO_PATH = Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml"
 
@@ -242,14 +243,14 @@ def test_close_shuts_the_controller_down(qtbot, window, station):
     assert not station.clock_timer.isActive()
 
 
-def test_tour_stops_coloured_on_map(qtbot, window, station, localise, topo):
+def test_tour_stops_coloured_on_map(qtbot, window, station, robot, localise, topo):
     from interbot_core.supervisor import GuidedTour
 
     first = topo.tour_nodes()[0]
     localise(first.pose)
     station.submit(GuidedTour())
     station.tick()
-    station.poll_link()
+    robot_arrives(qtbot, station, robot)  # at the first stop already
     spots = window.map_view.tour_item.data
     brushes = {
         (round(float(s["x"]), 3), round(float(s["y"]), 3)): s["brush"].color().getRgb()[:3]
