@@ -32,6 +32,7 @@ from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT
+from interbot_core.map_image import grey_image
 from interbot_core.occupancy_grid import OccupancyGrid
 
 logger = logging.getLogger(__name__)
@@ -50,14 +51,6 @@ TELEOP_KEYS = {
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
 LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
-
-
-def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
-    """Cells (-1 unknown, 0..100 occupancy) to grey levels: free white, occupied black."""
-    cells = grid.cells.astype(np.int16)
-    image = (255 - cells * 255 // 100).astype(np.uint8)
-    image[cells < 0] = 200
-    return image
 
 
 def footprint_xy(
@@ -237,7 +230,7 @@ class QtMapView(pg.PlotWidget):
         if grid is not None and (grid is not self._grid):
             first = self._grid is None or self._grid.size_m != grid.size_m
             self._grid = grid
-            self.map_item.setImage(grid_to_image(grid), levels=(0, 255), autoLevels=False)
+            self.map_item.setImage(grey_image(grid), levels=(0, 255), autoLevels=False)
             w, h = grid.size_m
             self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
             if first:

@@ -29,8 +29,9 @@ from PySide6.QtGui import (
 )
 from PySide6.QtWidgets import QPushButton, QSizePolicy, QWidget
 
+from interbot_core.map_image import grey_image
 from interbot_core.map_view_transform import MapViewTransform
-from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
+from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.rooms import RoomMap
 
 logger = logging.getLogger(__name__)
@@ -48,11 +49,8 @@ _ROOM_COLOURS = {
 def grid_to_qimage(grid: OccupancyGrid) -> QImage:
     """Occupancy grid to an 8-bit grey image, top row first: free white, occupied dark,
     unknown grey."""
-    cells = grid.cells[::-1]  # the grid's row 0 is the bottom (lowest y)
-    grey = np.full(cells.shape, 205, dtype=np.uint8)
-    grey[cells == FREE] = 250
-    grey[cells == OCCUPIED] = 40
-    grey = np.ascontiguousarray(grey)
+    # The grid's row 0 is the bottom (lowest y); softer greys than the station's.
+    grey = np.ascontiguousarray(grey_image(grid, free=250, occupied=40, unknown=205)[::-1])
     height, width = int(grey.shape[0]), int(grey.shape[-1])  # type: ignore[misc]
     image = QImage(grey.data, width, height, width, QImage.Format.Format_Grayscale8)
     return image.copy()  # own the pixels; ``grey`` goes away
