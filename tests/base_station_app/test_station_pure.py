@@ -1,5 +1,5 @@
 """Pure (Qt-free) parts of the Base Station: configuration, teleop merging, tablet policy,
-room picking and the robot state model."""
+room labels and the robot state model."""
 
 from __future__ import annotations
 
