@@ -209,6 +209,27 @@ def test_no_other_room_or_floor_plan_model_in_the_apps_or_the_core() -> None:
     assert offenders == []
 
 
+GOAL_CHECKER = REPO / "robot_daemon" / "planning" / "goal_checker.py"
+GOAL_LOGIC = {"RouteFollower", "next_goal_index", "final_goal_reached", "final_reached_at"}
+ROBOT_TOLERANCE_FUDGE = "ROBOT_TOLERANCE_SHARE"
+
+
+def test_one_intermediate_goal_logic_on_the_robot() -> None:
+    """Arrival is judged by the robot's goal checker alone; the station mirrors route_progress
+    (there used to be a station-side RouteFollower reconciled by a 0.8 tolerance share)."""
+    offenders = []
+    for path in product_files():
+        text = path.read_text(encoding="utf-8")
+        if ROBOT_TOLERANCE_FUDGE in text:
+            offenders.append(f"{_rel(path)}: {ROBOT_TOLERANCE_FUDGE}")
+        if path == GOAL_CHECKER:
+            continue
+        functions, classes = top_level_definitions(path)
+        offenders += [f"{_rel(path)}: {n}" for n in sorted((functions | classes) & GOAL_LOGIC)]
+    assert offenders == []
+    assert GOAL_LOGIC & top_level_definitions(GOAL_CHECKER)[0]
+
+
 def test_the_new_rules_catch_violations(tmp_path: Path) -> None:
     bad = tmp_path / "bad.py"
     bad.write_text(
