@@ -11,6 +11,7 @@ keys made in a temporary directory, issue 15), or ``python bench/bench_link.py [
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import socket
 import statistics
@@ -28,6 +29,10 @@ from interbot_link.security import LinkSecurity
 from interbot_link.session import open_session
 
 logger = logging.getLogger(__name__)
+
+_spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
+common = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
+_spec.loader.exec_module(common)  # type: ignore[union-attr]
 
 
 def free_loopback_port() -> int:
@@ -93,7 +98,8 @@ def _bench(
 
 def run(quick: bool = False, secure: bool = False) -> dict[str, float]:
     samples, warmup = (30, 5) if quick else (2000, 100)
-    result = bench_link(samples, warmup, secure=secure)
+    with common.quiet_logs():
+        result = bench_link(samples, warmup, secure=secure)
     return {
         "link_pose_samples": result["samples"],
         "link_pose_ms_median": result["median_ms"],
