@@ -27,12 +27,13 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import MapLabel, map_labels, room_at
+from base_station_app.map_labels import SNAP_RADIUS, MapLabel, map_labels
 from base_station_app.qt_fleet_layer import HEALTH_COLOURS, QtFleetLayer
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT
+from interbot_core.map_image import grey_image
 from interbot_core.occupancy_grid import OccupancyGrid
 
 logger = logging.getLogger(__name__)
@@ -51,14 +52,6 @@ TELEOP_KEYS = {
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
 LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
-
-
-def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
-    """Cells (-1 unknown, 0..100 occupancy) to grey levels: free white, occupied black."""
-    cells = grid.cells.astype(np.int16)
-    image = (255 - cells * 255 // 100).astype(np.uint8)
-    image[cells < 0] = 200
-    return image
 
 
 def footprint_xy(
@@ -180,7 +173,8 @@ class QtMapView(pg.PlotWidget):
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
         self._place_labels(c.grid)
-        polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
+        outlines = [r.area for r in c.rooms.rooms if r.explicit]
+        polys = [[*area, area[0], (math.nan, math.nan)] for area in outlines]
         if polys:
             pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
             self.rooms_item.setData(pts[:, 0], pts[:, 1])
@@ -192,7 +186,8 @@ class QtMapView(pg.PlotWidget):
             self.removeItem(label)
         self.labels.clear()
         c = self._controller
-        self._label_specs = map_labels(c.topo, c.rooms, grid=grid)
+        rooms = c.rooms if grid is None else c.rooms.with_labels(grid)
+        self._label_specs = map_labels(rooms)
         for spec in self._label_specs:
             label = pg.TextItem(
                 spec.text,
@@ -236,7 +231,7 @@ class QtMapView(pg.PlotWidget):
         if grid is not None and (grid is not self._grid):
             first = self._grid is None or self._grid.size_m != grid.size_m
             self._grid = grid
-            self.map_item.setImage(grid_to_image(grid), levels=(0, 255), autoLevels=False)
+            self.map_item.setImage(grey_image(grid), levels=(0, 255), autoLevels=False)
             w, h = grid.size_m
             self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
             if first:
@@ -391,9 +386,9 @@ class QtMapView(pg.PlotWidget):
             if robot is not None and robot != self._controller.selected_robot:
                 self._controller.select_robot(robot)
                 return
-            node = room_at(x, y, self._controller.topo, self._controller.rooms)
-            if node is not None:
-                self.room_clicked.emit(node)
+            room = self._controller.rooms.room_at(x, y, SNAP_RADIUS)
+            if room is not None:
+                self.room_clicked.emit(room.id)
 
     # ------------------------------------------------------------------ keys
     def keyPressEvent(self, event: QKeyEvent) -> None:

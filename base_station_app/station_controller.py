@@ -70,7 +70,6 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.fleet import Ask, Fleet, Select, Waiting
-from base_station_app.map_rooms import RoomArea, load_room_areas
 from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
@@ -84,7 +83,7 @@ from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
-from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
+from interbot_core.rooms import load_room_map, room_map
 from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.speed_freshness import SpeedFreshness
@@ -204,9 +203,7 @@ class StationController(QObject):
         self.planner = RoutePlanner(topo)  # Floyd-Warshall: every route precomputed (§5.3.3)
         self.config = config if config is not None else StationConfig()
         self._request_timeout = self.config.supervisor_config().request_timeout
-        self.rooms: list[RoomArea] = (
-            load_room_areas(topo_path, topo) if topo_path is not None else []
-        )
+        self.rooms = load_room_map(topo_path, topo) if topo_path is not None else room_map(topo)
         self.static_map = self._load_static_map()
         self.estop_latched = False
         # One status log for the station, whichever robot is selected: every mirror's
@@ -546,7 +543,11 @@ class StationController(QObject):
                     self._on_state_message(msg)
             for mirror in self.fleet.all():
                 progress = mirror.route_progress()
-                if progress is not None and mirror.verdict(progress):
+                if progress is None:
+                    continue
+                # The robot judges arrival (issue 13): its progress drives the supervisor.
+                self._handle(mirror.supervisor.robot_progress(progress.index), mirror)
+                if mirror.verdict(progress):
                     self._robot_verdict(progress, mirror)
             self._choose_robot()
         self.frame_ready.emit()
@@ -812,8 +813,8 @@ class StationController(QObject):
             self._route_ids(),
             route,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
-            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
+            goal_tolerance=cfg.goal_tolerance,
+            yaw_tolerance=cfg.yaw_tolerance,
         )
         mirror.route_sent(self._send_to(mirror, Topic.ROUTE, msg))
         self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")

@@ -192,7 +192,7 @@ def tablet_screens(p: Programs, out: Path, suffix: str) -> None:
         QTest.mouseRelease(joystick, Qt.MouseButton.LeftButton, pos=at)
         t.show_map()
         save(grab_with_dialog(t), out, f"tablet_map_{size}")
-        request_room = next(r.id for r in t.shown_plan.touch_rooms() if r.requests)
+        request_room = next(r.id for r in t.shown_plan.rooms if r.requests)
         click(t.map_view.room_button(request_room))
         save(grab_with_dialog(t), out, f"tablet_room_dialog_{size}")
         click(t.dialog.request_button)  # type: ignore[union-attr]
