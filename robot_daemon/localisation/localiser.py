@@ -152,6 +152,12 @@ class LocaliserConfig:
     # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
     see_through_min_confidence: float = 0.9
     see_through_landing_m: float = 0.15
+    # ... and when all of them cross the map's walls within see_through_opening_m of one another
+    # (one door or pane), they may end up to see_through_moved_m from a mapped surface: the
+    # furniture behind a pane moves (issue 12: 0.3-0.6 m). Beams ending farther, or crossing
+    # walls in several places (a wrong pose), still count.
+    see_through_opening_m: float = 1.5
+    see_through_moved_m: float = 0.6
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -198,6 +204,8 @@ class LocaliserConfig:
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
             ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
             ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
+            ("see_through_opening_m", self.see_through_opening_m, 0.0, 10.0),
+            ("see_through_moved_m", self.see_through_moved_m, 0.0, 2.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -528,13 +536,22 @@ class Localiser:
         ``see_through``: beams that pass a wall and end on a mapped surface behind it (within
         ``see_through_landing_m``) saw through an unmapped opening and are not counted.
         """
-        mask = self.impossible_beams(points, pose)
+        cfg = self.config
+        mask, crossing = self._trace_impossible(points, pose)
         if mask.size == 0:
             return 0.0
         if see_through and mask.any():
-            pts = subsample_points(points, self.config.impossible_max_beams)
+            pts = subsample_points(points, cfg.impossible_max_beams)
             xs, ys = self._to_map(pts[mask], pose)
-            landed = self._distance_to_map(xs, ys) <= self.config.see_through_landing_m
+            landing = self._distance_to_map(xs, ys)
+            landed = landing <= cfg.see_through_landing_m
+            # Where they cross the map's walls: one opening (a door, a pane) or several places.
+            sel = pts[mask]
+            unit = sel / np.maximum(np.hypot(sel[:, 0], sel[:, 1]), 1e-9)[:, None]
+            cx, cy = self._to_map(unit * crossing[mask][:, None], pose)
+            extent = math.hypot(float(np.ptp(cx)), float(np.ptp(cy)))
+            if extent <= cfg.see_through_opening_m:
+                landed |= landing <= cfg.see_through_moved_m
             mask[np.flatnonzero(mask)[landed]] = False
         k = self.config.impossible_min_run
         if k > 1 and mask.any():
@@ -553,17 +570,25 @@ class Localiser:
         possible. The margin (6 cells at 0.05 m) covers both surface conventions (face or centre
         of a cell) and the estimate's few centimetres of error. Returns one flag per traced beam.
         """
+        return self._trace_impossible(points, pose)[0]
+
+    def _trace_impossible(
+        self, points: FloatArray, pose: Pose2D
+    ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+        """`impossible_beams` and, per traced beam, the range [m] at which an impossible one
+        enters the map's occupied cells (nan for the others)."""
         cfg = self.config
         pts = subsample_points(points, cfg.impossible_max_beams)
         out = np.zeros(pts.shape[0], dtype=bool)
+        crossing = np.full(pts.shape[0], np.nan)
         if pts.shape[0] == 0:
-            return out
+            return out, crossing
         sx, sy = pts[:, 0], pts[:, 1]
         r = np.hypot(sx, sy)
         limit = r - cfg.impossible_margin_m
         idx = np.flatnonzero(limit > 0.0)
         if idx.size == 0:
-            return out
+            return out, crossing
         g = self._grid
         inv = 1.0 / g.resolution
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)
@@ -609,6 +634,7 @@ class Localiser:
                     deep = lookup(t[hit] + frac * depth, dcol[hit], drow[hit]) < blocked_below
                     hit[hit] = deep
             out[idx[hit]] = True
+            crossing[idx[hit]] = t[hit]
             t += np.maximum(d - slack, min_step)
             # Done: impossible (hit), reached the limit, or left the map (d = inf).
             keep = ~hit & (t < limit)
@@ -616,7 +642,7 @@ class Localiser:
                 t, limit, dcol, drow, idx = t[keep], limit[keep], dcol[keep], drow[keep], idx[keep]
                 if t.size == 0:
                     break
-        return out
+        return out, crossing
 
     def _propagate(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:
         """Covariance of ``pose ⊕ step``: ``F P Fᵀ + G Q Gᵀ`` with the odometry noise ``Q``."""
