@@ -59,7 +59,7 @@ from scipy import ndimage
 
 from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
-from interbot_core.occupancy_grid import OCCUPIED, OccupancyGrid
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
 from robot_daemon.localisation.scan_matcher import (
     MatchResult,
@@ -147,8 +147,8 @@ class LocaliserConfig:
     impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
     impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
     impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
-    # A scan that fits the map this well (hit fraction) may see through an opening the map has
-    # closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
+    # A scan whose beams that do not cross walls fit the map this well (hit fraction over the
+    # share of such beams) may see through an opening the map has closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
     # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
     see_through_min_confidence: float = 0.9
     see_through_landing_m: float = 0.15
@@ -156,6 +156,10 @@ class LocaliserConfig:
     # (one door or pane), they may end up to see_through_moved_m from a mapped surface: the
     # furniture behind a pane moves (issue 12: 0.3-0.6 m). Beams ending farther, or crossing
     # walls in several places (a wrong pose), still count.
+    # Unknown cells next to free ones are surfaces too (the laser stops where the mapping
+    # laser's free space ended: Willow Garage's walls are mostly such edges, 52k cells against
+    # 13k occupied ones; the ISR map has none). Off, only occupied cells are surfaces.
+    unknown_edges_are_surfaces: bool = True
     see_through_opening_m: float = 1.5
     see_through_moved_m: float = 0.6
 
@@ -237,7 +241,10 @@ class Localiser:
 
     def __init__(self, grid: OccupancyGrid, config: LocaliserConfig | None = None) -> None:
         self.config = config or LocaliserConfig()
-        self._grid = grid
+        self._map_grid = grid  # the a-priori map as given (`updated_grid`)
+        if self.config.unknown_edges_are_surfaces:
+            grid = surfaces_with_unknown_edges(grid)
+        self._grid = grid  # what the laser is matched against
         self.matcher = ScanMatcher(grid, self.config.matcher)
         self.dynamic = DynamicEvidenceGrid(grid, self.config.dynamic_map)
         occ = grid.occupied()
@@ -383,8 +390,13 @@ class Localiser:
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
-            see_through = confidence >= cfg.see_through_min_confidence
-            impossible = self.impossible_fraction(points, pose, see_through)
+            impossible = self.impossible_fraction(points, pose)
+            # See-through: the beams that do not cross a wall fit the map this well (beams
+            # through a pane onto moved furniture are not hits: they must not disable the test).
+            if impossible > 0.0 and confidence >= cfg.see_through_min_confidence * (
+                1.0 - impossible
+            ):
+                impossible = self.impossible_fraction(points, pose, see_through=True)
             if not reason and confidence < cfg.lost_confidence:
                 reason = f"scan does not fit the map (hit fraction {confidence:.2f})"
             if not reason and impossible > cfg.lost_impossible:
@@ -478,9 +490,9 @@ class Localiser:
 
     def updated_grid(self) -> OccupancyGrid:
         """The a-priori map with the promoted static obstacles marked OCCUPIED."""
-        cells = self._grid.cells.copy()
+        cells = self._map_grid.cells.copy()
         cells[self.dynamic.promoted] = OCCUPIED
-        return self._grid.with_cells(cells)
+        return self._map_grid.with_cells(cells)
 
     # -------------------------------------------------------------- internals
 
@@ -837,6 +849,24 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+
+
+def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
+    """``grid`` with every unknown cell that touches a free cell (8-neighbourhood) occupied.
+
+    A map_server map marks as unknown whatever its mapping laser never saw as free; where free
+    space ends at unknown rather than at an occupied cell (the real maps' grey walls, the edge
+    of what the laser reached), that edge is where a laser in the same place stops too.
+    """
+    free = grid.cells == FREE
+    edge = (grid.cells == UNKNOWN) & ndimage.binary_dilation(
+        free, structure=np.ones((3, 3), dtype=bool)
+    )
+    if not edge.any():
+        return grid
+    cells = grid.cells.copy()
+    cells[edge] = OCCUPIED
+    return grid.with_cells(cells)
 
 
 def _max_eig_2x2(cov: FloatArray) -> float:
