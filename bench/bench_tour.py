@@ -5,7 +5,8 @@ planner, multiplexer and the station's supervisor in one process) and reports it
 the simulator's ground truth: localisation error (RMS / max, heading RMS), silent localisation
 failures (10 Hz samples reported ok while > 0.3 m or 10 degrees off), completion, collisions,
 localisation losses, duration and the real-time factor (simulated seconds per wall second,
-excluding start-up).
+excluding start-up; ``tour_cpu_realtime_factor`` per CPU second of the process, which other
+processes on a shared machine do not inflate).
 
 The tour runs in the REALISTIC world (`robot_daemon.sim.realistic_world`: the simulator's own
 building, not the map; UTM-30LX errors; odometry slip; hand-set initial pose). A full run also
@@ -48,6 +49,7 @@ _KEYS = {
     "localisation_losses": "tour_localisation_losses",
     "duration_s": "tour_duration_s",
     "realtime_factor": "tour_realtime_factor",
+    "cpu_realtime_factor": "tour_cpu_realtime_factor",
     "stops_visited": "tour_stops_visited",
     "stops_total": "tour_stops_total",
     "distance_m": "tour_distance_m",

@@ -62,7 +62,7 @@ from scipy import ndimage
 
 from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
-from interbot_core.occupancy_grid import OCCUPIED, OccupancyGrid
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
 from robot_daemon.localisation.scan_matcher import (
     MatchResult,
@@ -153,11 +153,22 @@ class LocaliserConfig:
     impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
     impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
     impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
-    # A scan that fits the map this well (hit fraction) may see through an opening the map has
-    # closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
+    # A scan whose beams that do not cross walls fit the map this well (hit fraction over the
+    # share of such beams) may see through an opening the map has closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
     # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
     see_through_min_confidence: float = 0.9
     see_through_landing_m: float = 0.15
+    # ... and when all of them cross the map's walls within see_through_opening_m of one another
+    # (one door or pane), they may end up to see_through_moved_m from a mapped surface: the
+    # furniture behind a pane moves (issue 12: 0.3-0.6 m). Beams ending farther, or crossing
+    # walls in several places (a wrong pose), still count.
+    # Unknown cells next to free ones are surfaces too (the laser stops where the mapping
+    # laser's free space ended: Willow Garage's walls are mostly such edges, 52k cells against
+    # 13k occupied ones; the ISR map has none). Off, only occupied cells are surfaces.
+    unknown_edges_are_surfaces: bool = True
+    initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
+    see_through_opening_m: float = 1.5
+    see_through_moved_m: float = 0.6
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -207,6 +218,8 @@ class LocaliserConfig:
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
             ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
             ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
+            ("see_through_opening_m", self.see_through_opening_m, 0.0, 10.0),
+            ("see_through_moved_m", self.see_through_moved_m, 0.0, 2.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -238,7 +251,10 @@ class Localiser:
 
     def __init__(self, grid: OccupancyGrid, config: LocaliserConfig | None = None) -> None:
         self.config = config or LocaliserConfig()
-        self._grid = grid
+        self._map_grid = grid  # the a-priori map as given (`updated_grid`)
+        if self.config.unknown_edges_are_surfaces:
+            grid = surfaces_with_unknown_edges(grid)
+        self._grid = grid  # what the laser is matched against
         self.matcher = ScanMatcher(grid, self.config.matcher)
         self.dynamic = DynamicEvidenceGrid(grid, self.config.dynamic_map)
         occ = grid.occupied()
@@ -267,6 +283,7 @@ class Localiser:
         self._good_since: float | None = None
         self._good_scans = 0  # good, certain scans in a row while degraded
         self._full_search = True
+        self._first_match = True
         self._cov = np.zeros((3, 3))
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
@@ -337,6 +354,7 @@ class Localiser:
         self._bad_scans = 0
         self._good_since = None
         self._full_search = True  # first match after an initial pose uses every level
+        self._first_match = True  # ... from several starts (`_match_from_starts`)
         self._odom_at_scan = self._odom
         self.dynamic.reset_streaks()
 
@@ -373,7 +391,11 @@ class Localiser:
             sxy = math.sqrt(max(cov_pred[0, 0], cov_pred[1, 1]))
             syaw = math.sqrt(cov_pred[2, 2])
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
-            result = self.matcher.match(points, predicted, start)
+            if self._first_match and cfg.initial_starts:
+                result = self._match_from_starts(points, predicted, cov_pred)
+            else:
+                result = self.matcher.match(points, predicted, start)
+            self._first_match = False
             info, better = self._slide_test(points, result, cov_pred)
             if better is not None:
                 # The profile along the weak direction found a clearly better fit: the match
@@ -393,8 +415,13 @@ class Localiser:
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
-            see_through = confidence >= cfg.see_through_min_confidence
-            impossible = self.impossible_fraction(points, pose, see_through)
+            impossible = self.impossible_fraction(points, pose)
+            # See-through: the beams that do not cross a wall fit the map this well (beams
+            # through a pane onto moved furniture are not hits: they must not disable the test).
+            if impossible > 0.0 and confidence >= cfg.see_through_min_confidence * (
+                1.0 - impossible
+            ):
+                impossible = self.impossible_fraction(points, pose, see_through=True)
             if not reason and confidence < cfg.lost_confidence:
                 reason = f"scan does not fit the map (hit fraction {confidence:.2f})"
             if not reason and impossible > cfg.lost_impossible:
@@ -491,9 +518,9 @@ class Localiser:
 
     def updated_grid(self) -> OccupancyGrid:
         """The a-priori map with the promoted static obstacles marked OCCUPIED."""
-        cells = self._grid.cells.copy()
+        cells = self._map_grid.cells.copy()
         cells[self.dynamic.promoted] = OCCUPIED
-        return self._grid.with_cells(cells)
+        return self._map_grid.with_cells(cells)
 
     # -------------------------------------------------------------- internals
 
@@ -549,13 +576,22 @@ class Localiser:
         ``see_through``: beams that pass a wall and end on a mapped surface behind it (within
         ``see_through_landing_m``) saw through an unmapped opening and are not counted.
         """
-        mask = self.impossible_beams(points, pose)
+        cfg = self.config
+        mask, crossing = self._trace_impossible(points, pose)
         if mask.size == 0:
             return 0.0
         if see_through and mask.any():
-            pts = subsample_points(points, self.config.impossible_max_beams)
+            pts = subsample_points(points, cfg.impossible_max_beams)
             xs, ys = self._to_map(pts[mask], pose)
-            landed = self._distance_to_map(xs, ys) <= self.config.see_through_landing_m
+            landing = self._distance_to_map(xs, ys)
+            landed = landing <= cfg.see_through_landing_m
+            # Where they cross the map's walls: one opening (a door, a pane) or several places.
+            sel = pts[mask]
+            unit = sel / np.maximum(np.hypot(sel[:, 0], sel[:, 1]), 1e-9)[:, None]
+            cx, cy = self._to_map(unit * crossing[mask][:, None], pose)
+            extent = math.hypot(float(np.ptp(cx)), float(np.ptp(cy)))
+            if extent <= cfg.see_through_opening_m:
+                landed |= landing <= cfg.see_through_moved_m
             mask[np.flatnonzero(mask)[landed]] = False
         k = self.config.impossible_min_run
         if k > 1 and mask.any():
@@ -574,17 +610,25 @@ class Localiser:
         possible. The margin (6 cells at 0.05 m) covers both surface conventions (face or centre
         of a cell) and the estimate's few centimetres of error. Returns one flag per traced beam.
         """
+        return self._trace_impossible(points, pose)[0]
+
+    def _trace_impossible(
+        self, points: FloatArray, pose: Pose2D
+    ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+        """`impossible_beams` and, per traced beam, the range [m] at which an impossible one
+        enters the map's occupied cells (nan for the others)."""
         cfg = self.config
         pts = subsample_points(points, cfg.impossible_max_beams)
         out = np.zeros(pts.shape[0], dtype=bool)
+        crossing = np.full(pts.shape[0], np.nan)
         if pts.shape[0] == 0:
-            return out
+            return out, crossing
         sx, sy = pts[:, 0], pts[:, 1]
         r = np.hypot(sx, sy)
         limit = r - cfg.impossible_margin_m
         idx = np.flatnonzero(limit > 0.0)
         if idx.size == 0:
-            return out
+            return out, crossing
         g = self._grid
         inv = 1.0 / g.resolution
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)
@@ -630,6 +674,7 @@ class Localiser:
                     deep = lookup(t[hit] + frac * depth, dcol[hit], drow[hit]) < blocked_below
                     hit[hit] = deep
             out[idx[hit]] = True
+            crossing[idx[hit]] = t[hit]
             t += np.maximum(d - slack, min_step)
             # Done: impossible (hit), reached the limit, or left the map (d = inf).
             keep = ~hit & (t < limit)
@@ -637,7 +682,26 @@ class Localiser:
                 t, limit, dcol, drow, idx = t[keep], limit[keep], dcol[keep], drow[keep], idx[keep]
                 if t.size == 0:
                     break
-        return out
+        return out, crossing
+
+    def _match_from_starts(self, points: FloatArray, prior: Pose2D, cov: FloatArray) -> MatchResult:
+        """The first match after a person set the pose: Gauss-Newton converges only within a
+        few degrees, and a pose set by hand is up to 10 degrees and 0.3 m off (issue 12; Fetch,
+        seed 1: from 7.6 degrees off it settled 5 degrees off, its beams through walls). The
+        scan is matched from the prior and from starts at ±0.5 and ±1 sigma in yaw, each also
+        ±0.5 sigma in x and y; the best score wins (the Kalman gate still applies)."""
+        sxy = 0.5 * math.sqrt(max(float(cov[0, 0]), float(cov[1, 1])))
+        syaw = math.sqrt(max(float(cov[2, 2]), 0.0))
+        best = self.matcher.match(points, prior)
+        for dyaw in (0.0, -0.5 * syaw, 0.5 * syaw, -syaw, syaw):
+            for dx, dy in ((0.0, 0.0), (sxy, 0.0), (-sxy, 0.0), (0.0, sxy), (0.0, -sxy)):
+                if dyaw == 0.0 and dx == 0.0 and dy == 0.0:
+                    continue
+                start = Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw)
+                result = self.matcher.match(points, start)
+                if result.score > best.score:
+                    best = result
+        return best
 
     def _propagate(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:
         """Covariance of ``pose ⊕ step``: ``F P Fᵀ + G Q Gᵀ`` with the odometry noise ``Q``."""
@@ -870,6 +934,24 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+
+
+def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
+    """``grid`` with every unknown cell that touches a free cell (8-neighbourhood) occupied.
+
+    A map_server map marks as unknown whatever its mapping laser never saw as free; where free
+    space ends at unknown rather than at an occupied cell (the real maps' grey walls, the edge
+    of what the laser reached), that edge is where a laser in the same place stops too.
+    """
+    free = grid.cells == FREE
+    edge = (grid.cells == UNKNOWN) & ndimage.binary_dilation(
+        free, structure=np.ones((3, 3), dtype=bool)
+    )
+    if not edge.any():
+        return grid
+    cells = grid.cells.copy()
+    cells[edge] = OCCUPIED
+    return grid.with_cells(cells)
 
 
 def _max_eig_2x2(cov: FloatArray) -> float:

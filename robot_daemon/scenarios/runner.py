@@ -285,6 +285,7 @@ class SimulatedSystem:
         self._next_clock = 0.0
         self._wall_clock = wall_clock
         self._wall_start = wall_clock()
+        self._cpu_start = time.process_time()
         self._robot_route_seen: tuple[int, str] | None = None
 
     # -- the station's side ------------------------------------------------------------------
@@ -369,6 +370,12 @@ class SimulatedSystem:
     def realtime_factor(self) -> float:
         wall = self._wall_clock() - self._wall_start
         return self.now / wall if wall > 0 else math.inf
+
+    def cpu_realtime_factor(self) -> float:
+        """Simulated seconds per CPU second of this process: the real-time factor a quiet
+        machine would show, whatever else shares the cores (measurement only)."""
+        cpu = time.process_time() - self._cpu_start
+        return self.now / cpu if cpu > 0 else math.inf
 
     def of(self, kind: type) -> list[tuple[float, Any]]:
         return [(t, e) for t, e in self.events if isinstance(e, kind)]

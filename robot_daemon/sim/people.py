@@ -12,7 +12,12 @@ Behaviour per step (a small finite-state machine, deterministic for a seeded Gen
 ``walking`` toward the next path point; ``paused`` for 1-4 s at a waypoint (with probability
 ``pause_probability``); ``yielding`` while the next position would come within
 ``robot_margin`` of the robot body or into a wall (e.g. a newly added obstacle), unless the move
-takes them away from the robot; ``blocking``: a person flagged ``blocker`` who finds themselves in
+takes them away from the robot; ``giving_way``: a person who has yielded for ``yield_patience``
+and cannot get round the robot by sidestepping (in a doorway, between the robot and a wall; the
+sidesteps shuffle in place for another ``yield_patience``) steps back, away from the robot,
+until ``give_way_clearance`` from its body, and lets it pass for ``give_way_s`` before walking on,
+as people do in a doorway (without it robot and person wait for each other for ever: issue 12);
+``blocking``: a person flagged ``blocker`` who finds themselves in
 front of the robot (within ``blocker_trigger`` m ahead, within the robot's width plus 0.5 m
 sideways) stops there for a few seconds with probability ``blocker_probability`` — the scripted
 "someone stands in the robot's way" case of the thesis's navigation tests. People do not avoid
@@ -50,6 +55,7 @@ class PersonState(Enum):
     WALKING = "walking"
     PAUSED = "paused"
     YIELDING = "yielding"
+    GIVING_WAY = "giving_way"  # stepping back out of the robot's way (a doorway stand-off)
     BLOCKING = "blocking"
 
 
@@ -66,6 +72,8 @@ class CrowdConfig:
     # on (otherwise a person yielding on the robot's goal and the robot waiting for them to
     # leave would wait for each other forever)
     yield_patience: float = 3.0
+    give_way_clearance: float = 1.2  # [m] from the robot body, stepping back in a stand-off
+    give_way_s: float = 8.0  # [s] the person lets the robot pass, then walks on
     blocker_probability: float = 0.5  # per encounter, for people flagged as blockers
     blocker_trigger: float = 2.5  # [m] ahead of the robot
     blocker_duration: tuple[float, float] = (3.0, 8.0)  # [s]
@@ -84,6 +92,10 @@ class CrowdConfig:
                 raise PeopleConfigError(f"CrowdConfig.{name} must be in [0, 1]")
         if not 0.0 <= self.yield_patience <= 600.0:
             raise PeopleConfigError("CrowdConfig.yield_patience must be in [0, 600] s")
+        if not 0.0 <= self.give_way_clearance <= 10.0:
+            raise PeopleConfigError("CrowdConfig.give_way_clearance must be in [0, 10] m")
+        if not 0.0 <= self.give_way_s <= 600.0:
+            raise PeopleConfigError("CrowdConfig.give_way_s must be in [0, 600] s")
         if not 0.05 <= self.lattice <= 1.0:
             raise PeopleConfigError("CrowdConfig.lattice must be in [0.05, 1] m")
 
@@ -325,6 +337,12 @@ class Crowd:
     ) -> None:
         cfg = self.config
         p.cooldown = max(0.0, p.cooldown - dt)
+        if p.state is PersonState.GIVING_WAY:
+            p.timer -= dt
+            if p.timer > 0:
+                self._step_back(p, p.speed * dt, robot_pose, footprint)
+                return
+            p.state = PersonState.WALKING
         if p.state in (PersonState.PAUSED, PersonState.BLOCKING):
             p.timer -= dt
             if p.timer > 0:
@@ -349,10 +367,17 @@ class Crowd:
             nx, ny = p.x + dx / dist * step, p.y + dy / dist * step
         if not self._move_allowed(p, nx, ny, robot_pose, footprint):
             p.yielded += dt
-            if p.yielded < cfg.yield_patience or not self._sidestep(
+            if p.yielded < cfg.yield_patience:
+                p.state = PersonState.YIELDING
+            elif p.yielded >= 2.0 * cfg.yield_patience or not self._sidestep(
                 p, dx, dy, dist, step, robot_pose, footprint
             ):
-                p.state = PersonState.YIELDING
+                # No way round the robot (a doorway: sidesteps that only shuffle in place for
+                # another yield_patience): step back and let it pass.
+                p.state = PersonState.GIVING_WAY
+                p.timer = cfg.give_way_s
+                p.yielded = 0.0
+                logger.debug("person %d gives way to the robot", p.person_id)
             return
         if footprint.distance_to_point(robot_pose, nx, ny) > p.radius + cfg.robot_margin + 0.25:
             p.yielded = 0.0  # clear of the robot: patience restored
@@ -396,6 +421,28 @@ class Crowd:
                 p.state = PersonState.WALKING
                 return True
         return False
+
+    def _step_back(
+        self, p: Person, step: float, robot_pose: Pose2D, footprint: RobotFootprint
+    ) -> None:
+        """One step away from the robot while nearer than ``give_way_clearance`` to its body:
+        straight away from it, else up to 90 degrees to either side (out of a doorway, along a
+        wall); stands still where no such step keeps clear of walls."""
+        cfg = self.config
+        here = footprint.distance_to_point(robot_pose, p.x, p.y)
+        if here >= p.radius + cfg.give_way_clearance:
+            return
+        away = math.atan2(p.y - robot_pose.y, p.x - robot_pose.x)
+        for turn in (0.0, 0.5, -0.5, 1.0, -1.0, 1.5, -1.5):
+            nx = p.x + step * math.cos(away + turn)
+            ny = p.y + step * math.sin(away + turn)
+            if self.world.clearance_at(nx, ny) < p.radius:
+                continue
+            if footprint.distance_to_point(robot_pose, nx, ny) <= here:
+                continue
+            p.x, p.y = nx, ny
+            p.heading = away + turn + math.pi  # walking backwards, facing the robot
+            return
 
     def _move_allowed(
         self, p: Person, nx: float, ny: float, robot_pose: Pose2D, footprint: RobotFootprint

@@ -212,3 +212,24 @@ def test_beams_through_an_unmapped_opening_onto_a_mapped_wall_are_not_impossible
     assert loc.impossible_fraction(through, pose) > 0.5
     assert loc.impossible_fraction(through, pose, see_through=True) == 0.0
     assert loc.impossible_fraction(nowhere, pose, see_through=True) > 0.5
+
+
+def test_beams_through_one_opening_onto_moved_furniture_are_not_impossible() -> None:
+    """Realistic tour, seed 3 (issue 12): beams through a pane in the corridor wall end on a
+    sideboard moved 0.25-0.4 m from where the map has it. One opening (the crossings lie within
+    ``see_through_opening_m``) may show furniture up to ``see_through_moved_m`` off the map;
+    the same end points seen through walls in two places 3 m apart (a wrong pose) still count,
+    and so do beams ending in the middle of the room."""
+    cells = np.full((120, 160), FREE, dtype=np.int8)
+    cells[40:44, :] = OCCUPIED  # the wall with the pane, y = 2.0..2.2 m
+    cells[100:102, :] = OCCUPIED  # the mapped wall (sideboard) behind it, y = 5.0..5.1 m
+    loc = Localiser(OccupancyGrid(cells, 0.05, 0.0, 0.0))
+    pose = Pose2D(3.0, 1.0, math.pi / 2)  # laser facing the pane (+y)
+    angles = np.linspace(-0.3, 0.3, 25)  # crossing the wall within 0.62 m
+    moved = _beams(3.6 / np.cos(angles), angles)  # end at y = 4.6: 0.4 m before the wall
+    assert loc.impossible_fraction(moved, pose, see_through=True) == 0.0
+    spread = np.concatenate((np.linspace(-1.0, -0.95, 12), np.linspace(0.95, 1.0, 13)))
+    two_places = _beams(3.6 / np.cos(spread), spread)  # crossings ~3 m apart
+    assert loc.impossible_fraction(two_places, pose, see_through=True) > 0.5
+    middle = _beams(2.5 / np.cos(angles), angles)  # end at y = 3.5, 1.5 m from any surface
+    assert loc.impossible_fraction(middle, pose, see_through=True) > 0.5

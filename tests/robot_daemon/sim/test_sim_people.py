@@ -104,6 +104,27 @@ def test_patient_person_goes_around_a_parked_robot() -> None:
     assert max(xs) > 3.5  # got past the robot, which never moved
 
 
+def test_person_in_a_doorway_steps_back_and_lets_the_robot_pass() -> None:
+    """A doorway stand-off (issue 12): the robot waits just before the door, a person comes
+    through it towards the robot and cannot get round it. Without giving way both would wait
+    for ever; the person steps back out of the doorway and leaves it free for a while."""
+    world = two_rooms()
+    crowd = Crowd(world, np.random.default_rng(0), CrowdConfig(pause_probability=0.0))
+    pid = crowd.add_person([(8.0, 2.0), (2.0, 2.0)], speed=1.0)
+    robot = Pose2D(4.3, 2.0, 0.0)  # facing the doorway (x 4.95-5.05, y 1.5-2.5)
+    states, door_free = [], []
+    for _ in range(400):
+        crowd.step(0.05, robot, FP)
+        p = crowd.get(pid)
+        assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
+        states.append(p.state)
+        door_free.append(np.hypot(p.x - 5.0, p.y - 2.0) > 0.9)
+    assert PersonState.GIVING_WAY in states
+    first = states.index(PersonState.GIVING_WAY)
+    assert first * 0.05 < 12.0  # after yield_patience (3 s) and a few shuffles
+    assert sum(door_free[first:]) * 0.05 >= 5.0  # the doorway stays free for the robot
+
+
 def test_blocker_stops_in_front_of_the_robot() -> None:
     world = two_rooms()
     cfg = CrowdConfig(pause_probability=0.0, blocker_probability=1.0, blocker_duration=(4.0, 4.0))
