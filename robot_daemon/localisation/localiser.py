@@ -257,16 +257,16 @@ class Localiser:
         self._grid = grid  # what the laser is matched against
         self.matcher = ScanMatcher(grid, self.config.matcher)
         self.dynamic = DynamicEvidenceGrid(grid, self.config.dynamic_map)
-        occ = grid.occupied()
-        if occ.any():
-            dist = ndimage.distance_transform_edt(~occ) * grid.resolution
-        else:
-            dist = np.full(occ.shape, np.inf)
-        # Distance field [m] with a border of inf cells, flat (row-major, width + 2 columns):
-        # ray samples clipped to the border read inf, i.e. "off the map".
-        padded = np.full((grid.height + 2, grid.width + 2), np.inf)
-        padded[1:-1, 1:-1] = dist
-        self._dist_padded = padded.reshape(-1)
+        # Distance fields [m] with a border of inf cells, flat (row-major, width + 2 columns):
+        # ray samples clipped to the border read inf, i.e. "off the map". `_dist_padded` is to
+        # the surfaces a beam may end on (unknown edges included); `_wall_dist_padded`, for the
+        # beams-through-walls test, to the map's occupied cells only: a beam may pass into space
+        # the map never saw (a map built from half a log ends in unknown where the rest of the
+        # building begins; counting those edges as walls made a revisit of the Intel lab lost).
+        self._dist_padded = _padded_distance(grid)
+        self._wall_dist_padded = (
+            self._dist_padded if self._map_grid is grid else _padded_distance(self._map_grid)
+        )
         self._dist_radius = math.ceil(max(self.config.unexplained_m, 0.5) / grid.resolution)
         k = np.arange(-self._dist_radius, self._dist_radius + 1) * grid.resolution
         self._dist_kernel = np.hypot(k[None, :], k[:, None])
@@ -640,7 +640,7 @@ class Localiser:
         col0 = (pose.x - g.origin_x) * inv + 1.0
         row0 = (pose.y - g.origin_y) * inv + 1.0
         limit = limit[idx]
-        dist = self._dist_padded
+        dist = self._wall_dist_padded
         wp = g.width + 2
         cmax, rmax = g.width + 1, g.height + 1
         slack = math.sqrt(2.0) * g.resolution
@@ -924,8 +924,13 @@ class Localiser:
             self._add_distance_obstacles(px, py)
 
     def _add_distance_obstacles(self, xs: FloatArray, ys: FloatArray) -> None:
+        self._lower_distances(self._dist_padded, xs, ys)
+        if self._wall_dist_padded is not self._dist_padded:
+            self._lower_distances(self._wall_dist_padded, xs, ys)
+
+    def _lower_distances(self, field: FloatArray, xs: FloatArray, ys: FloatArray) -> None:
         g = self._grid
-        dist = self._dist_padded.reshape(g.height + 2, g.width + 2)[1:-1, 1:-1]  # a view
+        dist = field.reshape(g.height + 2, g.width + 2)[1:-1, 1:-1]  # a view
         k = self._dist_radius
         for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
             col = math.floor((x - g.origin_x) / g.resolution)
@@ -934,6 +939,17 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+
+
+def _padded_distance(grid: OccupancyGrid) -> FloatArray:
+    """Distance [m] of every cell to the nearest occupied cell, with a border of inf cells,
+    flattened row-major (width + 2 columns)."""
+    occ = grid.occupied()
+    padded = np.full((grid.height + 2, grid.width + 2), np.inf)
+    if occ.any():
+        padded[1:-1, 1:-1] = ndimage.distance_transform_edt(~occ) * grid.resolution
+    out: FloatArray = padded.reshape(-1)
+    return out
 
 
 def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
