@@ -6,8 +6,9 @@ the laser scan as points in the map frame placed from the pose at the scan's own
 polyline's chords would cut through walls, and the newest pose would smear it while turning),
 the robot a footprint polygon with a heading line, the path the robot's navigator planned (as it
 published it) with the route's intermediate goals as markers and the current one highlighted,
-the topological nodes with room labels, the tour stops (visited green, next red), and a legend. Items are created once and updated with ``setData`` from the controller's 25 ms
-``frame_ready``, only when something changed.
+the topological nodes with room labels, the tour stops (visited green, next red), and a legend. Items are created once and updated with ``setData`` from the controller's
+``frame_ready`` (15 Hz, coalesced: issue 14), only when something changed; the scan is a
+`ScanPointsItem` (one ``drawPoints``), not a scatter of ~1000 spots.
 
 Input: a click inside a room emits ``room_clicked(node)``; in a pick mode (``goal`` or
 ``initial``) a press sets a point and dragging sets the heading, drawn as an arrow, and the
@@ -28,6 +29,7 @@ from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
 from base_station_app.map_rooms import MapLabel, map_labels, room_at
+from base_station_app.qt_scan_points import ScanPointsItem
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
@@ -142,9 +144,7 @@ class QtMapView(pg.PlotWidget):
             size=18, symbol="star", brush=pg.mkBrush(255, 140, 0), pen=pg.mkPen("k")
         )
         plot.addItem(self.goal_item)
-        self.scan_item = pg.ScatterPlotItem(
-            size=3, pen=None, brush=pg.mkBrush(220, 30, 30), pxMode=True, antialias=False
-        )
+        self.scan_item = ScanPointsItem((220, 30, 30), size=3.0)  # cheap: one drawPoints
         plot.addItem(self.scan_item)
         self.robot_item = pg.PlotCurveItem(pen=pg.mkPen((0, 140, 0), width=3), connect="finite")
         plot.addItem(self.robot_item)
