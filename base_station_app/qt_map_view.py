@@ -26,7 +26,7 @@ import numpy.typing as npt
 import pyqtgraph as pg
 from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
-from PySide6.QtWidgets import QWidget
+from PySide6.QtWidgets import QGraphicsItem, QWidget
 
 from base_station_app.map_rooms import MapLabel, map_labels, room_at
 from base_station_app.qt_scan_points import ScanPointsItem
@@ -49,6 +49,7 @@ TELEOP_KEYS = {
     Qt.Key.Key_D: Direction.RIGHT,
 }
 
+_STATIC = QGraphicsItem.CacheMode.DeviceCoordinateCache
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
 LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
@@ -151,6 +152,10 @@ class QtMapView(pg.PlotWidget):
         self.pick_item = pg.PlotCurveItem(pen=pg.mkPen((200, 0, 200), width=3), connect="finite")
         plot.addItem(self.pick_item)
         self._create_legend(plot)
+        # What rarely changes is painted from a pixmap cache (re-rendered on zoom, pan or a
+        # change): less drawing on the Qt thread that also forwards the tablet's commands.
+        for item in (self.map_item, self.rooms_item, self.nodes_item, self.legend):
+            item.setCacheMode(_STATIC)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
         self._label_font.setPointSize(LABEL_POINT_SIZE)
@@ -202,6 +207,7 @@ class QtMapView(pg.PlotWidget):
             label.setFont(self._label_font)
             label.setPos(spec.x, spec.y)
             label.setZValue(5)
+            label.setCacheMode(_STATIC)
             self.addItem(label)
             self.labels.append(label)
         self._label_widths = [label.textItem.boundingRect().width() for label in self.labels]
