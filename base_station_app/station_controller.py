@@ -402,12 +402,16 @@ class StationController(QObject):
         self.poll_link(display=self.display_rate.due(self.clock()))
 
     def poll_link(self, display: bool = True) -> None:
-        """Pull link events and the newest state, then (``display``) ``frame_ready``."""
+        """Pull link events and (``display``) the newest state, then ``frame_ready``.
+
+        Between frames only the events are taken: the state topics wait in their rings of one,
+        so only the newest scan / pose is decoded, once per frame (issue 14).
+        """
         link = self.link
         if link is not None:
             for event in link.poll_events():
                 self._on_link_event(event)
-            for topic, message in link.poll_state().items():
+            for topic, message in (link.poll_state() if display else {}).items():
                 self.state.apply(topic, message)
                 self._check_alerts(topic, message)
             progress, route = self.state.progress, self.route
