@@ -32,6 +32,17 @@ subclassed to timestamp the message's arrival, which splits each sample into ``t
 
     .venv/bin/interbot bench --only teleop --json
     .venv/bin/interbot bench --only teleop --secure --json   # issue 15: TLS everywhere
+    .venv/bin/interbot bench --only teleop --busy-core --json  # issue 14: one core kept busy
+
+With ``--busy-core`` (figures ``teleop_busy_*``) another process spins on one core for the whole
+measurement (``python -c "while True: pass"``), as on an operator's laptop running something
+else. ``TELEOP_SAMPLES=N`` changes the number of samples (300; ``--quick`` 20).
+
+The simulated world has no people (``people: 0``): the command turns the robot on the spot, and
+a person walking by put the collision monitor's slowdown on the mux output, which then never
+carried the exact speed (259 of 300 samples "missed" in one run): that measured the monitor,
+not the command path. A missed sample is reported with what the mux said instead
+(``teleop_miss_reasons``), never silently.
 
 With ``--secure`` (figures named ``teleop_tls_*``) every link is the secured one of issue 15:
 zenoh over mutual TLS with access control (keys made in a temporary directory), and the tablet

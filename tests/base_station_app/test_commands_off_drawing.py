@@ -121,3 +121,26 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
     assert station.display_rate.coalesced == polls - station.display_rate.frames
     assert any(scan is not None for scan in frames)  # the scans were drawn, the newest ones
     assert len(window.map_view.scan_item) > 0
+
+
+def test_between_frames_only_events_are_taken_and_the_state_waits_in_its_ring(
+    qtbot, station, robot, clock
+) -> None:
+    """Polls between two frames leave the scan / pose rings alone; the next frame takes the newest."""
+    frames: list[int] = []
+    station.frame_ready.connect(lambda: frames.append(station.state.version))
+    station.display_rate = DisplayRate(10.0)
+    station._on_frame_timer()  # the first poll draws
+    assert len(frames) == 1
+    for x in (1.0, 2.0, 3.0):
+        robot.publish_pose(x, 0.0, 0.0)
+        qtbot.wait(30)  # delivered to the station's ring
+        clock.advance(0.025)
+        station._on_frame_timer()  # within 100 ms of the frame: no state taken, no frame
+    assert len(frames) == 1
+    assert station.state.pose is None or station.state.pose.x not in (1.0, 2.0, 3.0)
+    qtbot.wait(200)  # the last pose is surely in the ring
+    clock.advance(0.03)  # 105 ms after the first frame
+    station._on_frame_timer()
+    assert len(frames) == 2
+    assert station.state.pose is not None and station.state.pose.x == 3.0  # only the newest
