@@ -991,7 +991,7 @@ class Permissions(Message):
         return cls(t, g, o, r)
 
 
-LOCALISATION_STATES: Final = ("unset", "ok", "lost", "searching")
+LOCALISATION_STATES: Final = ("unset", "ok", "degraded", "lost", "searching")
 
 
 @dataclass(frozen=True)
