@@ -119,18 +119,18 @@ def run(quick: bool = False, secure: bool = False, busy_core: bool = False) -> d
 
 
 @contextlib.contextmanager
-def busy_process(enabled: bool) -> Iterator[None]:
+def busy_process(enabled: bool) -> Iterator[subprocess.Popen[bytes] | None]:
     """With ``enabled``: one other process spinning on a core for the whole measurement.
 
     (``--busy-core``: the station and the daemon share the remaining CPU with it, as on an
     operator's laptop running something else.)
     """
     if not enabled:
-        yield
+        yield None
         return
     spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
-        yield
+        yield spin
     finally:
         spin.kill()
         spin.wait()
