@@ -14,8 +14,9 @@ robot link open, the topological map loaded and every route precomputed) a `QTim
   state, requests to show and status text (§5.3.2, §5.3.6).
 
 A second, 25 ms frame timer pulls the newest robot state from the zenoh link (a ring of one per
-topic) into each robot's `RobotState` and emits ``frame_ready``; views redraw from it, never per
-message. Time comes from an injectable ``clock`` (``time.monotonic`` by default) so tests control
+topic) into each robot's `RobotState` and emits ``frame_ready`` at the display rate
+(`DisplayRate`, 15 Hz: what arrived in between is coalesced, issue 14); views redraw from it,
+never per message. Time comes from an injectable ``clock`` (``time.monotonic`` by default) so tests control
 it. This object holds no widgets; the main window wires widgets to its signals and slots.
 
 The parts it composes (issue 13: each named after what it owns, Qt-free and unit tested):
@@ -81,6 +82,7 @@ from base_station_app.tablet_session import TabletPermissions, describe_task, pe
 from base_station_app.teleop import Direction, TeleopInput
 from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
+from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
@@ -153,8 +155,9 @@ class Timing:
     """Timer intervals [ms]; tests shorten them."""
 
     clock_ms: int = 100  # thesis §6.4: commands every 100 ms
-    frame_ms: int = 25  # view refresh (40 Hz, the laser's rate)
+    frame_ms: int = 25  # link poll (40 Hz, the laser's rate): state for the logic, no drawing
     ping_ms: int = 1000  # tablet latency probe
+    display_hz: float = DEFAULT_DISPLAY_HZ  # frame_ready (drawing), coalesced (issue 14)
     choice_grace_ms: int = 2000  # after the first robot: discovery before picking it or asking
 
 
@@ -256,7 +259,8 @@ class StationController(QObject):
         self.clock_timer.timeout.connect(self.tick)
         self.frame_timer = QTimer(self)
         self.frame_timer.setInterval(timing.frame_ms)
-        self.frame_timer.timeout.connect(self.poll_link)
+        self.frame_timer.timeout.connect(self._on_frame_timer)
+        self.display_rate = DisplayRate(timing.display_hz)  # draw at most this often
         # Thesis Fig. 5.10: a single-shot timer restarted by every tablet speed command; its
         # timeout means the tablet went silent for the latency ceiling: one explicit zero.
         self.tablet_watchdog = QTimer(self)
@@ -528,14 +532,23 @@ class StationController(QObject):
     def selected_robot(self) -> str | None:
         return None if self.link is None else self.link.selected
 
-    def poll_link(self) -> None:
-        """Frame timer (25 ms): pull link events and the newest state, then ``frame_ready``."""
+    def _on_frame_timer(self) -> None:
+        """Poll the link every frame tick; draw (``frame_ready``) only at the display rate, so
+        the Qt thread that forwards the tablet's commands spends little time drawing."""
+        self.poll_link(display=self.display_rate.due(self.clock()))
+
+    def poll_link(self, display: bool = True) -> None:
+        """Pull link events and (``display``) the newest state, then ``frame_ready``.
+
+        Between frames only the events are taken: the state topics wait in their rings of one,
+        so only the newest scan / pose is decoded, once per frame (issue 14).
+        """
         link = self.link
         if link is not None:
             for event in link.poll_events():
                 self._on_link_event(event)
             selected = self.fleet.selected
-            for topic, message in link.poll_state().items():
+            for topic, message in (link.poll_state() if display else {}).items():
                 selected.state.apply(topic, message)
                 self._check_alerts(selected, topic, message)
             if self.watch is not None:
@@ -550,7 +563,8 @@ class StationController(QObject):
                 if mirror.verdict(progress):
                     self._robot_verdict(progress, mirror)
             self._choose_robot()
-        self.frame_ready.emit()
+        if display:
+            self.frame_ready.emit()
 
     def _choose_robot(self) -> None:
         """The start-up choice (fleet.py): select the preferred or only robot, or ask."""

@@ -35,6 +35,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="links with mutual TLS, access control and a paired TLS tablet (benchmarks that "
         "support it, e.g. teleop)",
     )
+    parser.add_argument(
+        "--busy-core",
+        action="store_true",
+        help="keep one core busy in another process while measuring (benchmarks that support "
+        "it, e.g. teleop)",
+    )
 
 
 def discover(only: list[str]) -> list[Path]:
@@ -61,13 +67,16 @@ def load(path: Path) -> ModuleType:
     return module
 
 
-def call_run(module: ModuleType, quick: bool, secure: bool = False) -> dict[str, Any]:
+def call_run(
+    module: ModuleType, quick: bool, secure: bool = False, busy_core: bool = False
+) -> dict[str, Any]:
     params = inspect.signature(module.run).parameters
     kwargs: dict[str, bool] = {"quick": quick} if "quick" in params else {}
-    if secure:
-        if "secure" not in params:
-            raise BenchError(f"{module.__name__} has no secure variant (--secure)")
-        kwargs["secure"] = True
+    for name, wanted, flag in (("secure", secure, "--secure"), ("busy_core", busy_core, "--busy-core")):  # fmt: skip
+        if wanted:
+            if name not in params:
+                raise BenchError(f"{module.__name__} has no {name} variant ({flag})")
+            kwargs[name] = True
     result = module.run(**kwargs)
     if not isinstance(result, dict):
         raise BenchError(f"{module.__name__}.run() returned {type(result).__name__}, not dict")
@@ -87,7 +96,12 @@ def run(args: argparse.Namespace) -> int:
         raise BenchError(f"no bench_*.py modules in {BENCH_DIR}")
     for path in paths:
         started = time.perf_counter()
-        result = call_run(load(path), args.quick, getattr(args, "secure", False))
+        result = call_run(
+            load(path),
+            args.quick,
+            getattr(args, "secure", False),
+            getattr(args, "busy_core", False),
+        )
         elapsed = time.perf_counter() - started
         print(f"== {path.name} ({elapsed:.1f} s)")
         for key, value in result.items():

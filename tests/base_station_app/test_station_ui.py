@@ -338,7 +338,7 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
     def drawn() -> bool:
         station.poll_link()
         window.map_view.redraw()
-        return len(window.map_view.scan_item.data) == 2
+        return len(window.map_view.scan_item) == 2
 
     qtbot.waitUntil(drawn, timeout=3000)
     xs, ys = window.map_view.scan_item.getData()

@@ -85,6 +85,12 @@ POSITIVE = {
         "teleop_samples",
         "station_scan_view_hz",
     ],
+    "station_frame": [
+        "station_frame_cpu_ms_median",
+        "station_frame_cpu_ms_p99",
+        "station_frame_wall_ms_median",
+        "station_frame_scan_points",
+    ],
     "tablet_tls": [
         "tablet_rtt_plain_ms_p50",
         "tablet_rtt_tls_ms_p50",
