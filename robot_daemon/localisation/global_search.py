@@ -257,6 +257,7 @@ class GlobalSearch:
             * grid.resolution
         )
         self.fine_distance = fine_dist  # [m] map cell -> nearest occupied cell (verification)
+        self.fine_blocked_distance = fine_clear  # [m] ... -> nearest occupied or unknown cell
         # Coarse cells: the nearest wall from anywhere in the block (min distance), and whether
         # the laser can stand somewhere in the block (max clearance).
         dist = _block_reduce(fine_dist, factor, np.min, np.inf)

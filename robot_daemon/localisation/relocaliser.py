@@ -6,18 +6,27 @@ never trusted on its correlative score alone. The decision follows multi-hypothe
 every mode alive until the data removes all but one):
 
 1. **Verify.** Each hypothesis (laser pose) is refined by the localiser's own Hector matcher and
-   checked with the whole scan: the fraction of end points on the map (``confidence``) and the
-   fraction of beams that pass *through* walls (the localiser's see-through test). A place
-   whose walls the laser sees through is not where the robot is, however well the end points
-   fit; this is what tells look-alike rooms and corridor doors apart.
+   checked with the whole scan: the fraction of end points on the map (``confidence``; an end
+   point on the edge of unknown space counts ``unknown_hit_weight`` of a hit: what the mapping
+   run never saw through is a surface too) and the fraction of beams that pass *through* walls
+   (the localiser's see-through test, with its allowance for glass when the scan fits very
+   well). A place whose walls the laser sees through is not where the robot is, however well
+   the end points fit; this is what tells look-alike rooms and corridor doors apart. A
+   hypothesis with ``exclude_impossible`` of its beams through walls is *set aside*: the next
+   search, on the next scan, returns the best places besides it (for ``exclude_s``), so a
+   truth ranked below many see-through places is still reached within a few scans.
 2. **Track.** Verified hypotheses become *candidates*, moved by odometry between scans and
    re-verified on every scan. A candidate that fails ``drop_after`` scans in a row, or whose
    match jumps away from its odometry prediction, is dropped. Fresh global searches run every
    ``search_every_s`` and add new candidates (near-duplicates of a candidate merge into it).
 3. **Accept** the best candidate only when it has been verified on ``accept_scans`` scans over
-   at least ``accept_s`` seconds, **and** no other candidate (not a near-duplicate) is within
-   ``margin`` of its quality, **and** the last search was exhaustive (the node budget did not
-   cut it and it returned fewer than ``max_hypotheses``), or ``agree_searches`` searches each
+   at least ``accept_s`` seconds, **and** the last search ranked it first (a place that fits
+   better but fails verification without seeing through walls may be the truth with people in
+   front of it: then nothing is accepted), **and** no other candidate (not a near-duplicate) is
+   within ``margin`` of its quality, **and** the last search was exhaustive (the node budget
+   did not cut it and it returned fewer than ``max_hypotheses``; when a candidate waits only
+   on this, one search with the larger ``proof_max_nodes`` budget settles it, at most every
+   ``proof_every_s``), or ``agree_searches`` searches each
    found it the best verified place and it fits clearly (``agree_min_quality``; a budget-cut
    search drops the *lowest* bounds first, and a look-alike of the best place bounds as high as
    it does, so it is kept with it), or the robot has since moved ``motion_to_trust_m`` (motion
@@ -95,6 +104,7 @@ class RelocaliserConfig:
     # A hypothesis whose beams go through walls this much (fraction) is set aside: the next
     # search, on the next scan, looks for the best places *besides* it, for exclude_s.
     exclude_impossible: float = 0.2
+    unknown_hit_weight: float = 1.0  # an end point on the edge of unknown space: a hit
     exclude_s: float = 5.0
     max_exclusions: int = 400
     # A candidate ready but for an inexhaustive search gets one search with this node budget
@@ -128,6 +138,7 @@ class RelocaliserConfig:
             ("kidnap_min_distance_m", self.kidnap_min_distance_m, 0.0, 100.0),
             ("max_range_m", self.max_range_m, 0.5, 200.0),
             ("exclude_impossible", self.exclude_impossible, 0.0, 1.0),
+            ("unknown_hit_weight", self.unknown_hit_weight, 0.0, 1.0),
             ("exclude_s", self.exclude_s, 0.0, 600.0),
             ("max_exclusions", self.max_exclusions, 0, 100_000),
             ("proof_max_nodes", self.proof_max_nodes, 1, 10**8),
@@ -193,6 +204,7 @@ class Relocaliser:
         self.search_engine = search or GlobalSearch(grid, cfg.search)
         self._grid = grid
         self._dist = self.search_engine.fine_distance
+        self._blocked_dist = self.search_engine.fine_blocked_distance
         self._candidates: list[Candidate] = []
         self._active = False
         self._reason = ""
@@ -409,7 +421,15 @@ class Relocaliser:
         inside = (row >= 0) & (row < g.height) & (col >= 0) & (col < g.width)
         d = np.full(xs.shape, np.inf)
         d[inside] = self._dist[row[inside], col[inside]]
-        confidence = float(np.mean(d <= self.config.hit_tolerance_m)) if d.size else 0.0
+        tol = self.config.hit_tolerance_m
+        hits = (d <= tol).astype(np.float64)
+        if self.config.unknown_hit_weight > 0.0:
+            # An end point on the edge of unknown space (what the mapping run never saw
+            # through: glass, clutter, a room behind) counts this much of a hit.
+            edge = np.full(xs.shape, np.inf)
+            edge[inside] = self._blocked_dist[row[inside], col[inside]]
+            hits[(hits == 0.0) & (edge <= tol)] = self.config.unknown_hit_weight
+        confidence = float(np.mean(hits)) if hits.size else 0.0
         # The localiser's own rule: a scan that fits this well may see through an opening
         # the map has closed (glass, a door now open); such beams are not held against it.
         see_through = confidence >= self.localiser.config.see_through_min_confidence

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from interbot_core.geometry import Pose2D
-from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.occupancy_grid import UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.global_search import (
     GlobalSearch,
     GlobalSearchConfig,
@@ -240,3 +240,23 @@ def test_an_inexhaustive_search_is_settled_by_one_with_a_larger_node_budget() ->
             assert accepted.distance_to(laser) < 0.05
         else:
             assert reloc.last_failure == "look-alike places (search not exhaustive)"
+
+
+def test_end_points_on_the_edge_of_unknown_space_count_as_hits() -> None:
+    """A map whose mapping run never saw into the cupboard (unknown, not occupied): the scan's
+    end points on it are hits with ``unknown_hit_weight`` 1, misses with 0."""
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    cells = grid.cells.copy()
+    x0, y0, x1, y1 = ROOM[5]  # the cupboard in the south-east corner
+    r = grid.resolution
+    cells[round(y0 / r) + 1 : round(y1 / r), round(x0 / r) : round(x1 / r) - 1] = UNKNOWN
+    unseen = OccupancyGrid(cells, r, 0.0, 0.0, 0.0, "cupboard unknown")
+    laser = Pose2D(2.0, 1.5, -0.2)
+    points = utm_scan(ROOM, laser, 0.0, np.random.default_rng(1)).points()
+    conf = {}
+    for weight in (0.0, 1.0):
+        cfg = replace(CONFIG, unknown_hit_weight=weight)
+        conf[weight] = Relocaliser(unseen, Localiser(unseen), cfg).verify(points, laser).confidence
+    full = Relocaliser(grid, Localiser(grid), CONFIG).verify(points, laser).confidence
+    assert conf[0.0] < full - 0.03
+    assert conf[1.0] == pytest.approx(full, abs=0.02)
