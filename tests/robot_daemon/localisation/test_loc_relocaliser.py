@@ -25,7 +25,7 @@ from robot_daemon.localisation.global_search import (
 )
 from robot_daemon.localisation.localiser import Localiser
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
-from robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
+from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
 
 ROOM = np.vstack(
     [
