@@ -32,6 +32,8 @@ FIGURES = (
     "detect_s_max",
     "relocalise_s_median",
     "relocalise_s_max",
+    "relocalised_within_5s",
+    "relocalised_within_10s",
     "help_requests",
 )
 

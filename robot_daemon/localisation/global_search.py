@@ -32,6 +32,15 @@ How the search runs here (vectorised with numpy; one node is one row of a batch)
    within ``cluster_xy_m`` and ``cluster_yaw_rad`` of a better one is a near-duplicate of it)
    and returned best first with their scores.
 
+*Free-space points.* End points alone reward a pose whose walls the laser would see through
+(a wrong room that happens to have walls where the scan ends, and a corridor wall across the
+beams). So the score also reads, for up to ``max_free_points`` beams, the beam's mid point
+``p_i / 2`` on a *freeness* field ``F(c) = 1 - exp(-d(c)² / (2 σ_f²))`` (``unknown_free`` on
+unknown cells): a mid point must lie in free space. Both kinds of point read max-grids of their
+own field, so the bound stays a true upper bound and the leaf score is
+
+    score(ξ) = (Σ_i L(T_ξ p_i) + Σ_j F(T_ξ p_j / 2)) / (n + m).
+
 Only translations where the laser can be are searched: known-free cells at least
 ``min_clearance_m`` from any occupied or unknown cell. The search grid is coarser than the map
 (``resolution_m``, 0.1 m by default); the pose is refined afterwards by the local matcher.
@@ -42,6 +51,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,7 +65,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
 _LEVELS = 255  # likelihood quantised to uint8: 0..255
-_CHUNK = 1 << 21  # gathered values per batch (bounds memory to a few tens of MB)
+_CHUNK = 1 << 18  # gathered values per batch (a few MB: the temporaries stay in cache)
 
 
 class GlobalSearchConfigError(ValueError):
@@ -78,7 +88,9 @@ class GlobalSearchConfig:
     # angle_groups[h] neighbouring headings as well as its 2^h x 2^h translations.
     angle_groups: tuple[int, ...] = (1, 1, 2, 4, 4, 8, 8)
     min_score: float = 0.35  # leaves below this are never hypotheses
-    keep_margin: float = 0.05  # hypotheses scoring at least best - keep_margin are all kept
+    # Hypotheses scoring at least best - keep_margin are all kept. (0.035 with mid points: they
+    # score about 1 at every pose a scan fits, so differences shrink to 2/3 of the end points'.)
+    keep_margin: float = 0.035
     beam_width: int = 2000  # nodes per level in the greedy first descent
     redive_above: int = 20000  # a level with more nodes than this gets a fresh dive ...
     redive_width: int = 200  # ... from this many of its best bounds
@@ -90,6 +102,14 @@ class GlobalSearchConfig:
     # End points on unknown cells next to free space (glass, clutter the mapping run did not
     # resolve: Willow Garage) count this much of a hit; 0 = only occupied cells are walls.
     unknown_weight: float = 0.5
+    max_free_points: int = 40  # beam mid points that must lie in free space (0: end points only)
+    free_min_range_m: float = 1.0  # beams shorter than this give no free-space point
+    free_sigma_m: float = 0.05  # σ_f of the freeness field F
+    unknown_free: float = 0.5  # F on unknown cells and beyond the map
+    # Nodes above this level count every mid point as 255 (F's largest value: still a bound)
+    # instead of reading F: a window that wide holds free space anyway, so reading it costs
+    # time and tightens nothing.
+    free_max_level: int = 2
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -112,6 +132,11 @@ class GlobalSearchConfig:
             ("cluster_yaw_rad", self.cluster_yaw_rad, 0.0, math.pi),
             ("min_clearance_m", self.min_clearance_m, 0.0, 2.0),
             ("unknown_weight", self.unknown_weight, 0.0, 1.0),
+            ("max_free_points", self.max_free_points, 0, 255),
+            ("free_min_range_m", self.free_min_range_m, 0.0, 100.0),
+            ("free_sigma_m", self.free_sigma_m, 0.005, 2.0),
+            ("unknown_free", self.unknown_free, 0.0, 1.0),
+            ("free_max_level", self.free_max_level, 0, 10),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -132,6 +157,11 @@ class GlobalSearchConfig:
                 )
         if self.min_points > self.max_points:
             raise GlobalSearchConfigError("GlobalSearchConfig.min_points must be <= max_points")
+        if self.max_points + self.max_free_points > 257:
+            # A node's bound is a sum of at most 257 values of at most 255: it fits 16 bits.
+            raise GlobalSearchConfigError(
+                "GlobalSearchConfig.max_points + max_free_points must be <= 257"
+            )
 
 
 @dataclass(frozen=True)
@@ -195,6 +225,18 @@ def select_points(points: FloatArray, max_range_m: float, spacing_m: float, cap:
     return out
 
 
+def select_free_points(
+    points: FloatArray, max_range_m: float, min_range_m: float, spacing_m: float, cap: int
+) -> FloatArray:
+    """Mid points of the beams between ``min_range_m`` and ``max_range_m`` long (sensor frame),
+    one per ``spacing_m`` voxel, at most ``cap``: where the beam passed, free space."""
+    if points.shape[0] == 0 or cap == 0:
+        return np.zeros((0, 2))
+    r2 = np.einsum("ij,ij->i", points, points)
+    keep = (r2 >= min_range_m**2) & (r2 <= max_range_m**2)
+    return select_points(0.5 * points[keep], math.inf, spacing_m, cap)
+
+
 class GlobalSearch:
     """Branch-and-bound correlative search of one scan over the whole map (precomputed once)."""
 
@@ -215,6 +257,7 @@ class GlobalSearch:
             * grid.resolution
         )
         self.fine_distance = fine_dist  # [m] map cell -> nearest occupied cell (verification)
+        self.fine_blocked_distance = fine_clear  # [m] ... -> nearest occupied or unknown cell
         # Coarse cells: the nearest wall from anywhere in the block (min distance), and whether
         # the laser can stand somewhere in the block (max clearance).
         dist = _block_reduce(fine_dist, factor, np.min, np.inf)
@@ -226,10 +269,20 @@ class GlobalSearch:
             unknown = np.exp(-0.5 * (blocked / cfg.likelihood_sigma_m) ** 2)
             likelihood = np.maximum(likelihood, cfg.unknown_weight * unknown)
         lik8 = np.rint(likelihood * _LEVELS).astype(np.uint8)
+        # Freeness F of the beams' mid points: 0 on walls, 1 well clear of them, unknown_free
+        # where the block holds an unknown cell (and beyond the map).
+        freeness = 1.0 - np.exp(-0.5 * (dist / cfg.free_sigma_m) ** 2)
+        unknown = grid.blocked() & ~occ
+        if unknown.any():
+            unknown_block = _block_reduce(unknown.astype(np.float64), factor, np.max, 1.0) > 0
+            freeness[unknown_block] = np.minimum(freeness[unknown_block], cfg.unknown_free)
+        free8 = np.rint(freeness * _LEVELS).astype(np.uint8)
+        free_fill = round(cfg.unknown_free * _LEVELS)
 
-        # Padded max-grids (zeros beyond the map), all levels in one flat array: level k at
-        # [k * level_size, (k + 1) * level_size). Any end point within max_range of any
-        # searched translation stays inside. The last level is all 255 (no bound at all) for
+        # Padded max-grids, all levels of both fields in one flat array: field f (0: L of the
+        # end points, 1: F of the mid points), level k at [(f * levels + k) * level_size, ...).
+        # L is 0 beyond the map, F unknown_free. Any point within max_range of any searched
+        # translation stays inside. Each field's last level is all 255 (no bound at all) for
         # windows wider than the widest max-grid.
         top = 1 << cfg.depth
         self.pad = pad = math.ceil(cfg.max_range_m / res) + 2
@@ -239,17 +292,23 @@ class GlobalSearch:
         rows = hp + 2 * pad
         self.level_size = rows * stride
         self.max_level = max_level = cfg.depth + 3
-        grids = np.zeros((max_level + 2, rows, stride), dtype=np.uint8)
-        grids[0, pad : pad + self.height, pad : pad + self.width] = lik8
-        for k in range(1, max_level + 1):
-            s = 1 << (k - 1)
-            prev, cur = grids[k - 1], grids[k]
-            cur[:] = prev
-            np.maximum(cur[:-s, :], prev[s:, :], out=cur[:-s, :])
-            tmp = cur.copy()
-            np.maximum(cur[:, :-s], tmp[:, s:], out=cur[:, :-s])
-        grids[max_level + 1] = _LEVELS
+        self.field_levels = levels = max_level + 2
+        grids = np.zeros((2 * levels, rows, stride), dtype=np.uint8)
+        for f, (field_u8, fill) in enumerate(((lik8, 0), (free8, free_fill))):
+            base = grids[f * levels]
+            base[:] = fill
+            base[pad : pad + self.height, pad : pad + self.width] = field_u8
+            for k in range(1, max_level + 1):
+                s = 1 << (k - 1)
+                prev, cur = grids[f * levels + k - 1], grids[f * levels + k]
+                cur[:] = prev
+                np.maximum(cur[:-s, :], prev[s:, :], out=cur[:-s, :])
+                tmp = cur.copy()
+                np.maximum(cur[:, :-s], tmp[:, s:], out=cur[:, :-s])
+            grids[f * levels + max_level + 1] = _LEVELS
         self._grids = grids.reshape(-1)
+        # Gathers are memory-bound: 32-bit indices halve the index traffic where they fit.
+        self._index_dtype = np.int32 if self._grids.size < 2**31 else np.intp
 
         # Where the laser may be, and per level which blocks hold any such cell.
         cand = np.zeros((hp, wp), dtype=bool)
@@ -268,30 +327,43 @@ class GlobalSearch:
 
     # ------------------------------------------------------------------ search
 
-    def search(self, points: FloatArray, region: SearchRegion | None = None) -> SearchResult:
+    def search(
+        self,
+        points: FloatArray,
+        region: SearchRegion | None = None,
+        exclude: Sequence[Pose2D] = (),
+        max_nodes: int | None = None,
+    ) -> SearchResult:
         """Every pose of the laser scoring within ``keep_margin`` of the best, ranked.
 
         ``points`` are the scan's end points in the laser frame (N, 2) [m]; ``region`` limits
         the laser's position (the "Help me!" room); headings are always all searched.
+        ``exclude``: laser poses already shown wrong (by verification); leaves within
+        ``cluster_xy_m`` and ``cluster_yaw_rad`` of one are not answers, so the search
+        returns the best places *besides* them. ``max_nodes`` overrides the node budget per
+        level (a larger one for a search that must be exhaustive).
         """
         cfg = self.config
-        pts = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
-        n = int(pts.shape[0])
-        if n < cfg.min_points:
+        budget = cfg.max_nodes if max_nodes is None else max_nodes
+        if budget < 1:
+            raise GlobalSearchConfigError(f"max_nodes must be >= 1, got {budget}")
+        excl = _pose_array(exclude)
+        offsets, n_end = self.search_offsets(points)
+        n = int(offsets[0].shape[1])
+        if n_end < cfg.min_points:
             return SearchResult((), n, 0, 0.0)
-        offsets = self._level_offsets(pts)
         evaluated = 0
         top = cfg.depth
         grp, ii, jj = self._top_nodes(region)
         if grp.size == 0:
             return SearchResult((), n, 0, 0.0)
-        sums = self._bounds(offsets[top], grp, ii, jj)
+        sums = self._bounds(offsets[top], grp, ii, jj, n)
         evaluated += grp.size
         to_int = _LEVELS * n
 
         # 1. Greedy best-bound-first descent for an incumbent (a real leaf score).
-        order = np.argsort(sums)[::-1][: cfg.beam_width]
-        incumbent, cost = self._dive(top, offsets, grp[order], ii[order], jj[order], region)
+        order = _best(sums, cfg.beam_width)
+        incumbent, cost = self._dive(top, offsets, grp[order], ii[order], jj[order], region, excl)
         evaluated += cost
         tau = max(cfg.min_score, incumbent - cfg.keep_margin)
         tau_int = math.ceil(tau * to_int - 1e-6)
@@ -299,33 +371,41 @@ class GlobalSearch:
         # 2. Exact pruning level by level: every leaf with score >= tau survives.
         keep_mask = sums >= tau_int
         grp, ii, jj = grp[keep_mask], ii[keep_mask], jj[keep_mask]
-        complete = True
+        dropped = -1  # the best bound the node budget cut (quantised; -1: none)
         for h in range(top, 0, -1):
             grp, ii, jj = self._children(h, grp, ii, jj, region)
             if grp.size == 0:
                 break
-            sums = self._bounds(offsets[h - 1], grp, ii, jj)
+            sums = self._bounds(offsets[h - 1], grp, ii, jj, n)
             evaluated += grp.size
             if h - 1 >= 2 and sums.size > cfg.redive_above:
                 # Many nodes left: dive again from this level's best bounds; a better
                 # incumbent raises tau before the (larger) finer levels are expanded.
-                order = np.argsort(sums)[::-1][: cfg.redive_width]
-                leaf, cost = self._dive(h - 1, offsets, grp[order], ii[order], jj[order], region)
+                order = _best(sums, cfg.redive_width)
+                leaf, cost = self._dive(
+                    h - 1, offsets, grp[order], ii[order], jj[order], region, excl
+                )
                 evaluated += cost
                 tau = max(tau, leaf - cfg.keep_margin)
                 tau_int = math.ceil(tau * to_int - 1e-6)
+            if h == 1 and excl.size:
+                sums[self._excluded(excl, grp, ii, jj)] = 0
             if h == 1 and sums.size:
                 tau = max(tau, float(sums.max()) / to_int - cfg.keep_margin)
                 tau_int = math.ceil(tau * to_int - 1e-6)
             keep_mask = sums >= tau_int
             grp, ii, jj, sums = grp[keep_mask], ii[keep_mask], jj[keep_mask], sums[keep_mask]
-            if grp.size > cfg.max_nodes:
-                # Too many look-alike places to search exhaustively in time: keep the best
-                # bounds and say the answer may be incomplete (the decision treats that as
-                # ambiguous unless verification settles it).
-                best = np.argpartition(sums, sums.size - cfg.max_nodes)[-cfg.max_nodes :]
+            if grp.size > budget:
+                # Too many nodes to expand in time: keep the best bounds. No leaf under a
+                # dropped node scores above its bound, so the answer stays complete as long
+                # as the final threshold ends above every dropped bound (checked below);
+                # otherwise it may miss places (the decision treats that as ambiguous
+                # unless verification settles it).
+                part = np.argpartition(sums, sums.size - budget)
+                dropped = max(dropped, int(sums[part[: sums.size - budget]].max()))
+                best = part[-budget:]
                 grp, ii, jj, sums = grp[best], ii[best], jj[best], sums[best]
-                complete = False
+        complete = dropped < tau_int
         if grp.size == 0:
             return SearchResult((), n, evaluated, tau, complete)
         hyps = self._rank(grp, ii, jj, sums.astype(np.float64) / to_int)
@@ -339,6 +419,7 @@ class GlobalSearch:
         ii: IntArray,
         jj: IntArray,
         region: SearchRegion | None,
+        excl: FloatArray,
     ) -> tuple[float, int]:
         """Best leaf score found by descending from level-``h`` nodes keeping, per level, the
         nodes with the best bounds (a batched depth-first, best-bound-first search; Hess et al.
@@ -350,9 +431,11 @@ class GlobalSearch:
             grp, ii, jj = self._children(level, grp, ii, jj, region)
             if grp.size == 0:
                 return 0.0, cost
-            sums = self._bounds(offsets[level - 1], grp, ii, jj)
+            sums = self._bounds(offsets[level - 1], grp, ii, jj, n)
             cost += grp.size
-            keep = np.argsort(sums)[::-1][:width]
+            if level == 1 and excl.size:
+                sums[self._excluded(excl, grp, ii, jj)] = 0
+            keep = _best(sums, width)
             grp, ii, jj = grp[keep], ii[keep], jj[keep]
             if level == 1:
                 return float(sums[keep[0]]) / (_LEVELS * n), cost
@@ -360,8 +443,7 @@ class GlobalSearch:
 
     def score(self, points: FloatArray, pose: Pose2D) -> float:
         """The correlative score of one laser pose (same points and field as the search)."""
-        cfg = self.config
-        pts = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
+        pts, fields = self._points(points)
         if pts.shape[0] == 0:
             return 0.0
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)
@@ -371,13 +453,36 @@ class GlobalSearch:
         row = np.floor((y - self.grid.origin_y) / self.resolution).astype(np.intp)
         col = np.clip(col + self.pad, 0, self.stride - 1)
         row = np.clip(row + self.pad, 0, self.level_size // self.stride - 1)
-        vals = self._grids[row * self.stride + col]
+        vals = self._grids[row * self.stride + col + fields * (self.field_levels * self.level_size)]
         return float(vals.mean()) / _LEVELS
+
+    def search_offsets(self, points: FloatArray) -> tuple[list[IntArray], int]:
+        """The search's point windows per level (see `_level_offsets`) and the number of end
+        points among them (the rest are free-space mid points, read only up to level
+        ``free_max_level``: above it `_bounds` counts each as 255)."""
+        pts, fields = self._points(points)
+        n_end = int(np.count_nonzero(fields == 0))
+        offsets = self._level_offsets(pts, fields)
+        for h in range(self.config.free_max_level + 1, len(offsets)):
+            offsets[h] = offsets[h][:, :n_end]
+        return offsets, n_end
 
     # -------------------------------------------------------------- internals
 
-    def _level_offsets(self, pts: FloatArray) -> list[IntArray]:
-        """Per level h, flat offsets (n_groups_h, n) of each end point's bounding window.
+    def _points(self, points: FloatArray) -> tuple[FloatArray, IntArray]:
+        """The end points and the free-space mid points the search uses, and each one's field
+        (0: likelihood L, 1: freeness F)."""
+        cfg = self.config
+        ends = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
+        mids = select_free_points(
+            points, cfg.max_range_m, cfg.free_min_range_m, cfg.point_spacing_m, cfg.max_free_points
+        )
+        fields = np.repeat(np.array([0, 1], dtype=np.intp), (ends.shape[0], mids.shape[0]))
+        return np.vstack((ends, mids)), fields
+
+    def _level_offsets(self, pts: FloatArray, fields: IntArray) -> list[IntArray]:
+        """Per level h, flat offsets (n_groups_h, n) of each point's bounding window (in its
+        field's max-grids: ``fields`` 0 for end points, 1 for free-space mid points).
 
         For a node of level h (angle group ``g``, block ``[i, i + 2^h)²``) end point ``p``
         lands, over the group's headings and the block's translations, inside the rectangle
@@ -396,6 +501,7 @@ class GlobalSearch:
         # a far wall still counts at the heading nearest the truth (Olson's blurred cost).
         reach = np.hypot(pts[:, 0], pts[:, 1]) * (math.pi / n_ang) / self.resolution
         e = np.floor(reach + 0.5).astype(np.intp)[None, :]
+        field_base = (fields * self.field_levels)[None, :]
         out: list[IntArray] = []
         for h in range(cfg.depth + 1):
             g = cfg.angle_groups[h]
@@ -405,7 +511,8 @@ class GlobalSearch:
             span = np.maximum(r.max(axis=1) + e - lo_r, q.max(axis=1) + e - lo_c) + (1 << h)
             level = np.ceil(np.log2(span)).astype(np.intp)
             np.minimum(level, self.max_level + 1, out=level)
-            out.append(lo_r * self.stride + lo_c + level * self.level_size)
+            flat = lo_r * self.stride + lo_c + (level + field_base) * self.level_size
+            out.append(flat.astype(self._index_dtype))
         return out
 
     def _top_nodes(self, region: SearchRegion | None) -> tuple[IntArray, IntArray, IntArray]:
@@ -453,7 +560,7 @@ class GlobalSearch:
         return c_grp[ok], c_i[ok], c_j[ok]
 
     def _bounds(
-        self, offsets: IntArray, grp: IntArray, ii: IntArray, jj: IntArray
+        self, offsets: IntArray, grp: IntArray, ii: IntArray, jj: IntArray, n_points: int
     ) -> npt.NDArray[np.int64]:
         """Σ_p M(window_p + (i, j)) per node, in quantised units (exact scores at h = 0).
 
@@ -461,9 +568,9 @@ class GlobalSearch:
         offsets to a column of block bases (a broadcast, not a gather of offsets). With at
         most 255 points of at most 255 each, a sum fits in 16 bits.
         """
-        base = (ii + self.pad) * self.stride + jj + self.pad
+        base = ((ii + self.pad) * self.stride + jj + self.pad).astype(self._index_dtype)
         n = offsets.shape[1]
-        order = np.argsort(grp, kind="stable")
+        order = np.argsort(grp.astype(np.int16), kind="stable")  # a radix sort: < 2^15 groups
         g_sorted, b_sorted = grp[order], base[order]
         cuts = np.flatnonzero(np.diff(g_sorted)) + 1
         starts = np.concatenate(([0], cuts)).tolist()
@@ -479,6 +586,27 @@ class GlobalSearch:
                 np.sum(grids.take(idx), axis=1, dtype=np.uint16, out=sums[s:e])
         out = np.empty(grp.size, dtype=np.int64)
         out[order] = sums
+        if n < n_points:
+            out += _LEVELS * (n_points - n)  # mid points not read: their largest value
+        return out
+
+    def _excluded(
+        self, excl: FloatArray, grp: IntArray, ii: IntArray, jj: IntArray
+    ) -> npt.NDArray[np.bool_]:
+        """Which leaves (heading ``grp``, cell ``(ii, jj)``) are near-duplicates of an
+        excluded laser pose (rows of ``excl``: x, y, yaw)."""
+        cfg = self.config
+        g, r = self.grid, self.resolution
+        out = np.zeros(grp.size, dtype=bool)
+        xs = g.origin_x + (jj + 0.5) * r
+        ys = g.origin_y + (ii + 0.5) * r
+        yaws = self.angles[grp]
+        for x, y, yaw in excl:
+            near = np.hypot(xs - x, ys - y) <= cfg.cluster_xy_m
+            near &= np.abs((yaws - yaw + math.pi) % (2.0 * math.pi) - math.pi) <= (
+                cfg.cluster_yaw_rad
+            )
+            out |= near
         return out
 
     def _rank(
@@ -507,6 +635,21 @@ class GlobalSearch:
             alive &= ~near
             k += 1
         return tuple(out)
+
+
+def _pose_array(poses: Sequence[Pose2D]) -> FloatArray:
+    """(N, 3) rows of x, y, yaw."""
+    return np.array([(p.x, p.y, p.yaw) for p in poses], dtype=np.float64).reshape(-1, 3)
+
+
+def _best(values: npt.NDArray[np.int64], k: int) -> IntArray:
+    """Indices of the ``k`` largest ``values``, largest first."""
+    if values.size > k:
+        top = np.argpartition(values, values.size - k)[values.size - k :]
+        out: IntArray = top[np.argsort(values[top])[::-1]]
+        return out
+    order: IntArray = np.argsort(values)[::-1]
+    return order
 
 
 def _block_reduce(a: FloatArray, factor: int, reduce: np.ufunc | object, fill: float) -> FloatArray:

@@ -156,7 +156,7 @@ class Relocalisation:
                 events.append(RelocalisationEvent("info", "pose unset: finding my position…"))
             elif loc_state is LocaliserState.LOST and cfg.on_lost:
                 self.relocaliser.start(now, "lost")
-                events.append(RelocalisationEvent("warning", "lost: finding my position…"))
+                events.append(RelocalisationEvent("error", "lost: finding my position…"))
             elif loc_state is LocaliserState.OK and cfg.background:
                 pose = self._localiser.pose
                 if pose is not None:

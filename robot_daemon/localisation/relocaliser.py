@@ -6,18 +6,27 @@ never trusted on its correlative score alone. The decision follows multi-hypothe
 every mode alive until the data removes all but one):
 
 1. **Verify.** Each hypothesis (laser pose) is refined by the localiser's own Hector matcher and
-   checked with the whole scan: the fraction of end points on the map (``confidence``) and the
-   fraction of beams that pass *through* walls (the localiser's see-through test). A place
-   whose walls the laser sees through is not where the robot is, however well the end points
-   fit; this is what tells look-alike rooms and corridor doors apart.
+   checked with the whole scan: the fraction of end points on the map (``confidence``; an end
+   point on the edge of unknown space counts ``unknown_hit_weight`` of a hit: what the mapping
+   run never saw through is a surface too) and the fraction of beams that pass *through* walls
+   (the localiser's see-through test, with its allowance for glass when the scan fits very
+   well). A place whose walls the laser sees through is not where the robot is, however well
+   the end points fit; this is what tells look-alike rooms and corridor doors apart. A
+   hypothesis with ``exclude_impossible`` of its beams through walls is *set aside*: the next
+   search, on the next scan, returns the best places besides it (for ``exclude_s``), so a
+   truth ranked below many see-through places is still reached within a few scans.
 2. **Track.** Verified hypotheses become *candidates*, moved by odometry between scans and
    re-verified on every scan. A candidate that fails ``drop_after`` scans in a row, or whose
    match jumps away from its odometry prediction, is dropped. Fresh global searches run every
    ``search_every_s`` and add new candidates (near-duplicates of a candidate merge into it).
 3. **Accept** the best candidate only when it has been verified on ``accept_scans`` scans over
-   at least ``accept_s`` seconds, **and** no other candidate (not a near-duplicate) is within
-   ``margin`` of its quality, **and** the last search was exhaustive (the node budget did not
-   cut it and it returned fewer than ``max_hypotheses``), or ``agree_searches`` searches each
+   at least ``accept_s`` seconds, **and** the last search ranked it first (a place that fits
+   better but fails verification without seeing through walls may be the truth with people in
+   front of it: then nothing is accepted), **and** no other candidate (not a near-duplicate) is
+   within ``margin`` of its quality, **and** the last search was exhaustive (the node budget
+   did not cut it and it returned fewer than ``max_hypotheses``; when a candidate waits only
+   on this, one search with the larger ``proof_max_nodes`` budget settles it, at most every
+   ``proof_every_s``), or ``agree_searches`` searches each
    found it the best verified place and it fits clearly (``agree_min_quality``; a budget-cut
    search drops the *lowest* bounds first, and a look-alike of the best place bounds as high as
    it does, so it is kept with it), or the robot has since moved ``motion_to_trust_m`` (motion
@@ -96,6 +105,16 @@ class RelocaliserConfig:
     # realistic ISR tour, seed 1, a person beside the robot at a door the map has open).
     kidnap_min_range_m: float = 1.5
     max_range_m: float = 30.0  # end points used for verification
+    # A hypothesis whose beams go through walls this much (fraction) is set aside: the next
+    # search, on the next scan, looks for the best places *besides* it, for exclude_s.
+    exclude_impossible: float = 0.2
+    unknown_hit_weight: float = 1.0  # an end point on the edge of unknown space: a hit
+    exclude_s: float = 5.0
+    max_exclusions: int = 400
+    # A candidate ready but for an inexhaustive search gets one search with this node budget
+    # per level (exhaustive where the usual budget is not), at most every proof_every_s.
+    proof_max_nodes: int = 600_000
+    proof_every_s: float = 2.0
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -123,6 +142,12 @@ class RelocaliserConfig:
             ("kidnap_min_range_m", self.kidnap_min_range_m, 0.0, 30.0),
             ("kidnap_min_distance_m", self.kidnap_min_distance_m, 0.0, 100.0),
             ("max_range_m", self.max_range_m, 0.5, 200.0),
+            ("exclude_impossible", self.exclude_impossible, 0.0, 1.0),
+            ("unknown_hit_weight", self.unknown_hit_weight, 0.0, 1.0),
+            ("exclude_s", self.exclude_s, 0.0, 600.0),
+            ("max_exclusions", self.max_exclusions, 0, 100_000),
+            ("proof_max_nodes", self.proof_max_nodes, 1, 10**8),
+            ("proof_every_s", self.proof_every_s, 0.0, 600.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -184,6 +209,7 @@ class Relocaliser:
         self.search_engine = search or GlobalSearch(grid, cfg.search)
         self._grid = grid
         self._dist = self.search_engine.fine_distance
+        self._blocked_dist = self.search_engine.fine_blocked_distance
         self._candidates: list[Candidate] = []
         self._active = False
         self._reason = ""
@@ -195,6 +221,13 @@ class Relocaliser:
         self._odom: Pose2D | None = None
         self._travel_m = 0.0  # since the last search that was not exhaustive
         self._last_background = -math.inf
+        self._exclusions: list[tuple[Pose2D, float]] = []  # (laser pose shown wrong, until)
+        self._retry = False  # a search set places aside: search again on the next scan
+        self._want_proof = False  # a candidate waits for an exhaustive search
+        # The candidate the last search ranked first (verified), else None: only it may be
+        # accepted (a place that fails verification but fits better may be the truth).
+        self._search_best: Candidate | None = None
+        self._last_proof = -math.inf
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -227,12 +260,18 @@ class Relocaliser:
         self._travel_m = 0.0
         self.last_failure = ""
         self._pending = None
+        self._exclusions = []
+        self._retry = False
+        self._want_proof = False
+        self._last_proof = -math.inf
+        self._search_best = None
 
     def stop(self) -> None:
         self._active = False
         self._candidates = []
         self._region = None
         self._pending = None
+        self._exclusions = []
 
     def status(self, now: float) -> RelocaliserStatus:
         cfg = self.config
@@ -257,6 +296,7 @@ class Relocaliser:
             self._travel_m += math.hypot(step.x, step.y)
             for cand in self._candidates:
                 cand.pose = cand.pose.compose(step)
+            self._exclusions = [(pose.compose(step), until) for pose, until in self._exclusions]
         self._odom = odom_laser
 
     def on_scan(self, scan: LaserScan, now: float) -> Pose2D | None:
@@ -272,21 +312,44 @@ class Relocaliser:
         done = self._collect("search")
         if done is not None:
             self._use_search(done[0], done[1], points, now)
-        elif self._pending is None and now - self._last_search >= cfg.search_every_s - 1e-9:
+        elif self._pending is None and self._search_due(now):
             self._last_search = now
-            result = self._run_search(points, self._region, "search")
+            self._exclusions = [e for e in self._exclusions if e[1] > now]
+            exclude = [pose for pose, _ in self._exclusions]
+            budget = None
+            if self._want_proof and now - self._last_proof >= cfg.proof_every_s - 1e-9:
+                budget = cfg.proof_max_nodes
+                self._last_proof = now
+            self._retry = self._want_proof = False
+            result = self._run_search(points, self._region, "search", exclude, budget)
             if result is not None:
                 self._use_search(result, Pose2D(0.0, 0.0, 0.0), points, now)
         return self._decide(now)
 
+    def _search_due(self, now: float) -> bool:
+        """A fresh search every ``search_every_s``; at once after one that set places aside
+        (the next best places may hold the robot) or when a candidate waits for a proof."""
+        cfg = self.config
+        if now - self._last_search >= cfg.search_every_s - 1e-9:
+            return True
+        proof_due = self._want_proof and now - self._last_proof >= cfg.proof_every_s - 1e-9
+        return self._retry or proof_due
+
     def _run_search(
-        self, points: FloatArray, region: SearchRegion | None, kind: str
+        self,
+        points: FloatArray,
+        region: SearchRegion | None,
+        kind: str,
+        exclude: list[Pose2D] | None = None,
+        max_nodes: int | None = None,
     ) -> SearchResult | None:
         """The search's result now, or None when it was handed to the executor."""
         self.searches += 1
+        engine = self.search_engine
+        excl = exclude or []
         if self.executor is None:
-            return self.search_engine.search(points, region)
-        future = self.executor.submit(self.search_engine.search, points, region)
+            return engine.search(points, region, excl, max_nodes)
+        future = self.executor.submit(engine.search, points, region, excl, max_nodes)
         self._pending = (future, self._odom, kind)
         return None
 
@@ -366,8 +429,19 @@ class Relocaliser:
         inside = (row >= 0) & (row < g.height) & (col >= 0) & (col < g.width)
         d = np.full(xs.shape, np.inf)
         d[inside] = self._dist[row[inside], col[inside]]
-        confidence = float(np.mean(d <= self.config.hit_tolerance_m)) if d.size else 0.0
-        impossible = self.localiser.impossible_fraction(points, pose)
+        tol = self.config.hit_tolerance_m
+        hits = (d <= tol).astype(np.float64)
+        if self.config.unknown_hit_weight > 0.0:
+            # An end point on the edge of unknown space (what the mapping run never saw
+            # through: glass, clutter, a room behind) counts this much of a hit.
+            edge = np.full(xs.shape, np.inf)
+            edge[inside] = self._blocked_dist[row[inside], col[inside]]
+            hits[(hits == 0.0) & (edge <= tol)] = self.config.unknown_hit_weight
+        confidence = float(np.mean(hits)) if hits.size else 0.0
+        # The localiser's own rule: a scan that fits this well may see through an opening
+        # the map has closed (glass, a door now open); such beams are not held against it.
+        see_through = confidence >= self.localiser.config.see_through_min_confidence
+        impossible = self.localiser.impossible_fraction(points, pose, see_through)
         return Verification(pose, confidence, impossible)
 
     def _verified(self, v: Verification) -> bool:
@@ -409,9 +483,12 @@ class Relocaliser:
         if not exhaustive:
             self._travel_m = 0.0
         self._exhaustive = exhaustive
+        self._search_best = None
         for rank, hyp in enumerate(result.hypotheses[: cfg.verify_hypotheses]):
             v = self.verify(points, hyp.pose.compose(moved))
             if not self._verified(v):
+                if v.impossible >= cfg.exclude_impossible:
+                    self._exclude(hyp.pose.compose(moved), now)
                 continue
             # A win: the search's own best place, verified. When the search's best fails the
             # check (people in front of it, say) nobody wins: it may still be the truth.
@@ -420,7 +497,10 @@ class Relocaliser:
             if dup is not None:
                 dup.wins += win  # already tracked (its re-verification keeps it current)
             else:
-                self._candidates.append(Candidate(v.pose, v.quality, now, wins=win))
+                dup = Candidate(v.pose, v.quality, now, wins=win)
+                self._candidates.append(dup)
+            if win:
+                self._search_best = dup
         self._candidates.sort(key=lambda c: -c.quality)
         del self._candidates[cfg.max_candidates :]
         if not self._candidates:
@@ -429,6 +509,13 @@ class Relocaliser:
                 if result.hypotheses
                 else "the global search found nothing"
             )
+
+    def _exclude(self, pose: Pose2D, now: float) -> None:
+        """Set a place the laser sees through walls at aside for the next searches."""
+        cfg = self.config
+        if len(self._exclusions) < cfg.max_exclusions:
+            self._exclusions.append((pose, now + cfg.exclude_s))
+            self._retry = True
 
     def _duplicate_of(self, pose: Pose2D) -> Candidate | None:
         cfg = self.config
@@ -455,6 +542,11 @@ class Relocaliser:
             if other is not best and other.quality >= best.quality - cfg.margin:
                 self.last_failure = "look-alike places"
                 return None
+        if best is not self._search_best:
+            # The last search ranked another place first, which failed verification (people
+            # in front of it, clutter): it may be the truth, so nothing is accepted now.
+            self.last_failure = "a better-fitting place does not verify"
+            return None
         trusted = (
             self._exhaustive
             or self._travel_m >= cfg.motion_to_trust_m
@@ -462,6 +554,7 @@ class Relocaliser:
         )
         if not trusted:
             self.last_failure = "look-alike places (search not exhaustive)"
+            self._want_proof = True
             return None
         logger.info(
             "relocalised at (%.2f, %.2f, %.2f) after %.2f s (%s; quality %.2f, %d candidate(s))",

@@ -11,6 +11,7 @@ simulator's ground truth (metrics only; nothing of it reaches the robot):
   searching); ``detect_s``: from the teleport to that moment;
 * ``relocalised``: it was ``ok`` again within ``WINDOW_S`` with its estimate within
   ``CORRECT_M`` of the truth, without a person; ``relocalise_s``: from the teleport;
+* ``relocalised_within_5s`` / ``_10s``: of those, how many within 5 s / 10 s of the teleport;
 * ``wrong_relocalisations``: it reported ``ok`` after the kidnap with the estimate more than
   ``WRONG_M`` from the truth (the failure that must never happen);
 * ``help_requests``: the robot asked for a person ("Help me!").
@@ -81,6 +82,9 @@ class _Tally:
             "detect_s_max": stat(det, np.max),
             "relocalise_s_median": stat(rel, np.median),
             "relocalise_s_max": stat(rel, np.max),
+            # The targets: kidnaps relocalised within 10 s, cold starts within 5 s.
+            "relocalised_within_5s": sum(t <= 5.0 for t in rel),
+            "relocalised_within_10s": sum(t <= 10.0 for t in rel),
             "help_requests": sum(r.help for r in recs),
         }
 

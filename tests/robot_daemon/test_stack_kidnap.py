@@ -24,8 +24,10 @@ LOST_WITHIN = 2.0  # [s] of simulated time
 
 
 def test_kidnapped_robot_is_lost_within_2s_stops_and_recovers_after_a_new_initial_pose() -> None:
-    # World = map: the detection and search mechanics; the realistic world (issue 12) is not
-    # yet found within 10 s by the global search (reported to the integrator).
+    # World = map: the detection and search mechanics. In the realistic world (issue 12) this
+    # spot has a mirror image: the corridor 63 m east fits its scan as well (quality 0.98 vs
+    # 0.94 at the truth), so the robot rightly stays undecided there and asks for help; the
+    # realistic world is relocalised in `interbot scenario kidnap` and the start-up test.
     system = SimulatedSystem(
         ScenarioOptions(seed=5, people=0, odometry="calibrated", ideal_world=True)
     )
@@ -47,12 +49,13 @@ def test_kidnapped_robot_is_lost_within_2s_stops_and_recovers_after_a_new_initia
 
     sim.teleport(KIDNAP_POSE)
     kidnapped_at = system.now
-    assert system.run_until(lambda: stack.localisation_state != LocaliserState.OK, 5.0)
+    # Degraded at once (a bad scan), then lost: the global search starts (issue 16).
+    stopped = (LocaliserState.LOST, LocaliserState.SEARCHING)
+    assert system.run_until(lambda: stack.localisation_state in stopped, 5.0)
     lost_at = system.now
     assert lost_at - kidnapped_at <= LOST_WITHIN
-    assert stack.localisation_state in (LocaliserState.LOST, LocaliserState.SEARCHING)
     events = stack.drain_events()
-    assert any(e.level == "error" for e in events)
+    assert any(e.level == "error" for e in events), events
 
     # From the step that reports not-ok on, the motors get zero until the robot has found
     # itself again (issue 16: it searches the map by itself; no person needed here).
@@ -92,8 +95,10 @@ def test_kidnapped_robot_is_lost_within_2s_stops_and_recovers_after_a_new_initia
 
 def test_help_me_pose_far_from_the_truth_is_rejected() -> None:
     """A "Help me!" pose in the wrong room is checked by the search around it and refused."""
-    # World = map: the detection and search mechanics; the realistic world (issue 12) is not
-    # yet found within 10 s by the global search (reported to the integrator).
+    # World = map: the detection and search mechanics. In the realistic world (issue 12) this
+    # spot has a mirror image: the corridor 63 m east fits its scan as well (quality 0.98 vs
+    # 0.94 at the truth), so the robot rightly stays undecided there and asks for help; the
+    # realistic world is relocalised in `interbot scenario kidnap` and the start-up test.
     system = SimulatedSystem(
         ScenarioOptions(seed=5, people=0, odometry="calibrated", ideal_world=True)
     )

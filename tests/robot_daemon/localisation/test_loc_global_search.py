@@ -21,7 +21,6 @@ from robot_daemon.localisation.global_search import (
     GlobalSearchConfig,
     GlobalSearchConfigError,
     SearchRegion,
-    select_points,
 )
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
@@ -47,9 +46,7 @@ def _close(a: Pose2D, b: Pose2D, xy: float = 0.3, yaw: float = 0.1) -> bool:
 
 def _brute_force(gs: GlobalSearch, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Leaf score [quantised sum] of every heading x candidate cell, and the cells (row, col)."""
-    cfg = gs.config
-    pts = select_points(points, cfg.max_range_m, cfg.point_spacing_m, cfg.max_points)
-    leaf = gs._level_offsets(pts)[0]  # (headings, n): the leaf windows, as the search uses
+    leaf = gs.search_offsets(points)[0][0]  # (headings, n): the leaf windows, as searched
     rows, cols = np.nonzero(gs.candidates[: gs.height, : gs.width])
     base = (rows + gs.pad) * gs.stride + cols + gs.pad
     scores = gs._grids.take(leaf[:, None, :] + base[None, :, None]).sum(axis=2)
@@ -153,3 +150,62 @@ def test_willow_crop_truth_ranked_first() -> None:
         result = gs.search(sim.scan().points())
         assert result.best is not None
         assert _close(result.best.pose, base.compose(MOUNT)), (base, result.hypotheses[:3])
+
+
+# The same room twice, 8 m apart: every scan fits both equally well.
+TWINS = np.vstack([ROOM, ROOM + np.array([8.0, 0.0, 8.0, 0.0])])
+
+
+def test_excluded_places_are_skipped_and_the_best_besides_them_returned() -> None:
+    grid = rasterise(TWINS, size=(14.0, 5.0))
+    gs = GlobalSearch(grid, GlobalSearchConfig(angular_step_rad=math.radians(5.0)))
+    laser = Pose2D(2.0, 1.5, 0.4)
+    twin = Pose2D(10.0, 1.5, 0.4)
+    points = utm_scan(TWINS, laser, 0.0, np.random.default_rng(2)).points()
+    both = gs.search(points)
+    assert both.complete
+    assert any(_close(h.pose, laser) for h in both.hypotheses[:2])
+    assert any(_close(h.pose, twin) for h in both.hypotheses[:2])
+    # One twin shown wrong (by verification): the search returns the other one first, and
+    # nothing near the excluded pose.
+    without = gs.search(points, exclude=[laser])
+    assert without.best is not None and _close(without.best.pose, twin)
+    assert not any(_close(h.pose, laser, 0.5, 0.3) for h in without.hypotheses)
+    assert without.best.score == pytest.approx(both.best.score if both.best else 0, abs=0.02)
+
+
+def test_a_node_budget_that_cuts_makes_the_search_say_it_is_incomplete() -> None:
+    """A budget cut keeps the best bounds and says the answer may be incomplete; a budget
+    that cuts nothing gives the same answer as the default one."""
+    grid = rasterise(TWINS, size=(14.0, 5.0))
+    gs = GlobalSearch(grid, GlobalSearchConfig(angular_step_rad=math.radians(5.0)))
+    laser = Pose2D(4.6, 3.9, -2.5)
+    points = utm_scan(TWINS, laser, 0.0, np.random.default_rng(3)).points()
+    full = gs.search(points)
+    tiny = gs.search(points, max_nodes=1)
+    assert full.complete and not tiny.complete  # one node per level: it says so
+    assert full.best is not None
+    assert all(h.score <= full.best.score + 1e-12 for h in tiny.hypotheses)
+    roomy = gs.search(points, max_nodes=10**6)
+    assert roomy.complete and roomy.hypotheses == full.hypotheses
+    with pytest.raises(GlobalSearchConfigError, match="max_nodes"):
+        gs.search(points, max_nodes=0)
+
+
+def test_mid_points_inside_walls_lower_the_score() -> None:
+    """The same scan at the same pose scores lower on a map with a wall across its beams
+    (their mid points in it) than on one without, although its end points fit both alike."""
+    walls = np.array([[0, 0, 6, 0.1], [0, 4.9, 6, 5], [0, 0, 0.1, 5], [5.9, 0, 6, 5]])
+    block = np.array([[3.4, 2.0, 4.0, 3.0]])  # where the eastward beams' mid points fall
+    laser = Pose2D(1.5, 2.5, 0.0)
+    points = utm_scan(walls, laser, 0.0, np.random.default_rng(6)).points()
+    scores = {}
+    for name, boxes in (("open", walls), ("crossed", np.vstack([walls, block]))):
+        grid = rasterise(boxes, size=(6.0, 5.0))
+        scores[name] = GlobalSearch(grid).score(points, laser)
+        scores[name + "_ends"] = GlobalSearch(grid, GlobalSearchConfig(max_free_points=0)).score(
+            points, laser
+        )
+    assert scores["open"] > 0.9
+    assert scores["crossed_ends"] == pytest.approx(scores["open_ends"], abs=1e-9)
+    assert scores["crossed"] < scores["open"] - 0.03

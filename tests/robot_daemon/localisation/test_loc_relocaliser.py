@@ -7,13 +7,22 @@ twice (identical to the cell), where no scan from inside can say which one the r
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
+from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from interbot_core.geometry import Pose2D
-from robot_daemon.localisation.global_search import GlobalSearchConfig
+from interbot_core.occupancy_grid import UNKNOWN, OccupancyGrid
+from robot_daemon.localisation.global_search import (
+    GlobalSearch,
+    GlobalSearchConfig,
+    Hypothesis,
+    SearchRegion,
+    SearchResult,
+)
 from robot_daemon.localisation.localiser import Localiser
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
@@ -139,3 +148,115 @@ def test_a_search_finishing_later_is_moved_by_the_odometry_since_its_scan() -> N
     assert accepted is not None, reloc.last_failure
     assert accepted.distance_to(moved) < 0.05
     assert abs(math.remainder(accepted.yaw - moved.yaw, math.tau)) < 0.02
+
+
+class ScriptedSearch(GlobalSearch):
+    """The real engine (grids, scores), with scripted answers; records every call."""
+
+    def __init__(self, grid: OccupancyGrid, config: GlobalSearchConfig, script: Callable) -> None:
+        super().__init__(grid, config)
+        self.script = script
+        self.calls: list[tuple[float, tuple[Pose2D, ...], int | None]] = []
+        self.now = 0.0
+
+    def search(  # type: ignore[override]
+        self,
+        points: np.ndarray,
+        region: SearchRegion | None = None,
+        exclude: Sequence[Pose2D] = (),
+        max_nodes: int | None = None,
+    ) -> SearchResult:
+        self.calls.append((self.now, tuple(exclude), max_nodes))
+        if self.script is None:
+            return super().search(points, region, exclude, max_nodes)
+        hyps = tuple(Hypothesis(p, 0.9 - 0.01 * k) for k, p in enumerate(self.script(exclude)))
+        return SearchResult(hyps, 100, 1, 0.8, complete=True)
+
+
+def _drive(reloc: Relocaliser, engine: ScriptedSearch, laser: Pose2D, scans: int) -> Pose2D | None:
+    rng = np.random.default_rng(11)
+    reloc.start(0.0, "test")
+    for k in range(scans):
+        now = engine.now = 0.1 * (k + 1)
+        reloc.on_odometry(Pose2D(0.0, 0.0, 0.0))
+        pose = reloc.on_scan(utm_scan(ROOM, laser, now, rng), now)
+        if pose is not None:
+            return pose
+    return None
+
+
+def test_a_better_fitting_place_that_fails_verification_blocks_acceptance() -> None:
+    """The search's best place fails verification without seeing through walls (people in
+    front of it, clutter): it may be the truth, so the verified runner-up is not accepted."""
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    laser = Pose2D(2.0, 1.5, 0.4)
+    outside = Pose2D(-20.0, -20.0, 0.0)  # no map there: nothing fits, nothing impossible
+    engine = ScriptedSearch(grid, CONFIG.search, lambda _: [outside, laser])
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG, search=engine)
+    assert reloc.verify(np.zeros((0, 2)) + 1.0, outside).impossible == 0.0
+    assert _drive(reloc, engine, laser, 30) is None
+    assert reloc.last_failure == "a better-fitting place does not verify"
+    assert reloc.candidates and reloc.candidates[0].pose.distance_to(laser) < 0.05
+    # The same runner-up, ranked first, is accepted.
+    engine.script = lambda _: [laser, outside]
+    accepted = _drive(reloc, engine, laser, 30)
+    assert accepted is not None and accepted.distance_to(laser) < 0.05
+
+
+def test_a_place_seen_through_walls_is_set_aside_and_the_next_search_comes_at_once() -> None:
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    laser = Pose2D(2.0, 1.5, 0.4)
+    wrong = Pose2D(1.0, 4.0, 0.4)  # by the north wall: most beams go through it
+
+    def script(exclude: Sequence[Pose2D]) -> list[Pose2D]:
+        if any(p.distance_to(wrong) < 0.3 for p in exclude):
+            return [laser]
+        return [wrong, laser]
+
+    engine = ScriptedSearch(grid, CONFIG.search, script)
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG, search=engine)
+    accepted = _drive(reloc, engine, laser, 30)
+    assert accepted is not None and accepted.distance_to(laser) < 0.05
+    (t0, ex0, _), (t1, ex1, _) = engine.calls[:2]
+    assert ex0 == () and any(p.distance_to(wrong) < 0.3 for p in ex1)
+    assert t1 - t0 == pytest.approx(0.1)  # on the next scan, not search_every_s later
+
+
+def test_an_inexhaustive_search_is_settled_by_one_with_a_larger_node_budget() -> None:
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    laser = Pose2D(2.0, 1.5, 0.4)
+    search = replace(CONFIG.search, max_nodes=100, keep_margin=0.1)  # 100 nodes cut it
+    # Agreement and motion disabled: only an exhaustive search may settle it.
+    base = replace(CONFIG, search=search, agree_searches=100, motion_to_trust_m=100.0)
+    for proof_nodes, settles in ((100, False), (10**6, True)):
+        engine = ScriptedSearch(grid, search, None)
+        cfg = replace(base, proof_max_nodes=proof_nodes)
+        reloc = Relocaliser(grid, Localiser(grid), cfg, search=engine)
+        accepted = _drive(reloc, engine, laser, 30)
+        assert (accepted is not None) == settles, reloc.last_failure
+        assert not engine.calls[0][2]  # the usual budget first, which does not settle it
+        assert any(call[2] == proof_nodes for call in engine.calls)
+        if accepted is not None:
+            assert accepted.distance_to(laser) < 0.05
+        else:
+            assert reloc.last_failure == "look-alike places (search not exhaustive)"
+
+
+def test_end_points_on_the_edge_of_unknown_space_count_as_hits() -> None:
+    """A map whose mapping run never saw into the cupboard (unknown, not occupied): the scan's
+    end points on it are hits with ``unknown_hit_weight`` 1, misses with 0."""
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    cells = grid.cells.copy()
+    x0, y0, x1, y1 = ROOM[5]  # the cupboard in the south-east corner
+    r = grid.resolution
+    cells[round(y0 / r) + 1 : round(y1 / r), round(x0 / r) : round(x1 / r) - 1] = UNKNOWN
+    unseen = OccupancyGrid(cells, r, 0.0, 0.0, 0.0, "cupboard unknown")
+    laser = Pose2D(2.0, 1.5, -0.2)
+    points = utm_scan(ROOM, laser, 0.0, np.random.default_rng(1)).points()
+    conf = {}
+    for weight in (0.0, 1.0):
+        cfg = replace(CONFIG, unknown_hit_weight=weight)
+        conf[weight] = Relocaliser(unseen, Localiser(unseen), cfg).verify(points, laser).confidence
+    full = Relocaliser(grid, Localiser(grid), CONFIG).verify(points, laser).confidence
+    assert conf[0.0] < full - 0.03
+    assert conf[1.0] == pytest.approx(full, abs=0.02)
