@@ -26,6 +26,29 @@ def orientation_text(pose: PoseMsg | None) -> str:
     return f"{math.degrees(pose.yaw):.1f}° ({pose.yaw:.3f} rad)"
 
 
+#: What the station shows for each localisation state (interbot_core.topics.POSE_STATES).
+LOCALISATION_TEXT = {
+    "ok": "localised",
+    "degraded": "DEGRADED (uncertain: driving slowly)",
+    "lost": "LOST",
+    "searching": "searching (global localisation)",
+    "unset": "initial pose not set",
+}
+
+
+def localisation_text(state: str, pose: PoseMsg | None) -> str:
+    """The localisation line: the state, the confidence and the pose's sigmas when reported
+    (the largest position sigma in cm, the heading's in degrees)."""
+    text = LOCALISATION_TEXT.get(state, state)
+    if pose is None:
+        return text
+    text += f" (confidence {pose.confidence:.2f})"
+    sigmas = pose.sigmas
+    if sigmas is not None:
+        text += f", ±{max(sigmas[0], sigmas[1]) * 100:.0f} cm, ±{math.degrees(sigmas[2]):.1f}°"
+    return text
+
+
 def age_text(seconds: float) -> str:
     """A duration for a person: "0.35 s", "12 s", "3 min 24 s", "2 h 5 min"; inf is "never"."""
     if not math.isfinite(seconds):

@@ -18,7 +18,13 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from base_station_app.display_text import UNSET, estop_text, orientation_text, position_text
+from base_station_app.display_text import (
+    UNSET,
+    estop_text,
+    localisation_text,
+    orientation_text,
+    position_text,
+)
 from base_station_app.qt_speedometer import QtSpeedometer
 from base_station_app.station_controller import StationController
 from interbot_core.safety_text import describe_safety
@@ -106,15 +112,7 @@ class QtStatePanel(QWidget):
         L["pose"].setText(position_text(s.pose))
         L["orientation"].setText(orientation_text(s.pose))
         loc = s.localisation
-        L["localisation"].setText(
-            {
-                "ok": "localised",
-                "lost": "LOST",
-                "unset": "initial pose not set",
-                "searching": "finding my position…",
-            }.get(loc, loc)
-            + ("" if s.pose is None else f" (confidence {s.pose.confidence:.2f})")
-        )
+        L["localisation"].setText(localisation_text(loc, s.pose))
         if s.battery is not None:
             b = s.battery
             L["battery"].setText(f"{b.voltage:.1f} V, {b.soc * 100:.0f} %, {b.current:.1f} A")

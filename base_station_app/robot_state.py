@@ -70,9 +70,10 @@ class RobotState:
 
     @property
     def localised_pose(self) -> Pose2D | None:
-        """The pose when the localiser reports ``ok``; None when unset or lost."""
+        """The pose when the localiser reports ``ok`` or ``degraded`` (tracking, uncertain);
+        None when unset, lost or searching."""
         p = self.pose
-        return None if p is None or p.state != "ok" else Pose2D(p.x, p.y, p.yaw)
+        return None if p is None or p.state not in ("ok", "degraded") else Pose2D(p.x, p.y, p.yaw)
 
     def scan_pose(self) -> Pose2D | None:
         """Where the robot was when the newest scan was taken (None: no scan or not localised)."""

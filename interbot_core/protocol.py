@@ -590,7 +590,7 @@ class Permissions(Message, frozen=True):
     requests: bool
 
 
-LocalisationState = Literal["unset", "ok", "lost", "searching"]
+LocalisationState = Literal["unset", "ok", "degraded", "lost", "searching"]
 LOCALISATION_STATES: Final = typing.get_args(LocalisationState)
 
 

@@ -268,13 +268,19 @@ class StopRelease(JsonMessage):
         _check_stamp(self)
 
 
-POSE_STATES: Final = ("unset", "ok", "lost", "searching")
+POSE_STATES: Final = ("unset", "ok", "degraded", "lost", "searching")
+MAX_POSE_VARIANCE: Final = 1.0e6  # [m², rad²] bound on a covariance entry
 
 
 @dataclass(frozen=True)
 class PoseMsg(JsonMessage):
-    """The localiser's pose in the ``map`` frame; ``state`` unset (no initial pose), ok, lost or
-    searching (a global search for the robot's pose is under way)."""
+    """The localiser's pose in the ``map`` frame.
+
+    ``state``: unset (no initial pose), ok, degraded (tracking, but uncertain or the last
+    scans disagree with the map: drive slowly), lost, searching (global localisation).
+    ``covariance``: 3x3 of (x [m], y [m], yaw [rad]), row-major (ROS's
+    ``PoseWithCovariance`` restricted to the plane), or empty when not reported.
+    """
 
     x: float
     y: float
@@ -282,12 +288,35 @@ class PoseMsg(JsonMessage):
     stamp: float = 0.0
     state: str = "ok"
     confidence: float = 1.0  # [0, 1]
+    covariance: tuple[float, ...] = ()
+
+    @classmethod
+    def _convert(cls, name: str, value: Any) -> Any:
+        return tuple(value) if name == "covariance" and isinstance(value, list) else value
 
     def __post_init__(self) -> None:
         _check_xy_yaw(self)
         _check_stamp(self)
         _check_text(self, "state", POSE_STATES)
         _check_float(self, "confidence", 0.0, 1.0)
+        cov = self.covariance
+        if not isinstance(cov, tuple) or len(cov) not in (0, 9):
+            raise _fail(type(self), "covariance", "must be a list of 0 or 9 numbers")
+        for i, v in enumerate(cov):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise _fail(type(self), "covariance", "must hold finite numbers")
+            if abs(v) > MAX_POSE_VARIANCE or (i in (0, 4, 8) and v < 0.0):
+                raise _fail(
+                    type(self), "covariance", "entries must be within ±1e6, the diagonal >= 0"
+                )
+
+    @property
+    def sigmas(self) -> tuple[float, float, float] | None:
+        """Standard deviations of x [m], y [m], yaw [rad]; None when no covariance."""
+        if not self.covariance:
+            return None
+        c = self.covariance
+        return (math.sqrt(c[0]), math.sqrt(c[4]), math.sqrt(c[8]))
 
 
 @dataclass(frozen=True)

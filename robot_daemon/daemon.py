@@ -19,10 +19,13 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topics import (
+    MAX_POSE_VARIANCE,
     MAX_SAFETY_DISTANCE,
     AssistMsg,
     Battery,
@@ -277,7 +280,18 @@ class Daemon:
             if pose is None:
                 link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, "unset", 0.0))
             else:
-                link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence))
+                cov = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
+                link.publish_pose(
+                    PoseMsg(
+                        pose.x,
+                        pose.y,
+                        pose.yaw,
+                        now,
+                        state,
+                        confidence,
+                        tuple(cov.ravel().tolist()),
+                    )
+                )
             odom = stack.last_odometry
             if odom is not None:
                 p = odom.pose

@@ -9,6 +9,12 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
 * **Route.** The station sends the whole route (``RouteMsg``); the navigator advances the
   intermediate goals itself, so the robot finishes the route if the station disappears (the
   thesis robot only reached its current intermediate goal).
+* **Degraded localisation.** While the localiser reports ``degraded`` (its covariance is large,
+  e.g. far along a featureless corridor, or the last scans disagree with the map) the route
+  goes on at ``degraded_speed_scale`` of the planner's linear speed. Stopping would not help:
+  only motion brings new structure into view to pin the pose again, and bad scans turn
+  ``degraded`` into ``lost`` (a stop) within ``LocaliserConfig.lost_after_s``. Slower, the robot
+  travels less on odometry alone between scans and people have more time to react.
 * **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
   ``lost`` or ``searching``: a global search is deciding where it is, `relocalisation`), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where
@@ -24,6 +30,9 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, fields
 from typing import Any
+
+import numpy as np
+import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT, LaserScan
@@ -66,6 +75,15 @@ class StackConfig:
     relocalisation: RelocalisationConfig = field(default_factory=RelocalisationConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
     motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
+    degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
+
+    def __post_init__(self) -> None:
+        if not (
+            math.isfinite(self.degraded_speed_scale) and 0.0 <= self.degraded_speed_scale <= 1.0
+        ):
+            raise StackError(
+                f"degraded_speed_scale must be in [0, 1], got {self.degraded_speed_scale}"
+            )
 
 
 @dataclass
@@ -284,6 +302,22 @@ class RobotStack:
         return self.relocalisation.state(self.localiser.state, self.last_scan_time)
 
     @property
+    def pose_covariance(self) -> npt.NDArray[np.float64]:
+        """3x3 covariance of `pose` (base_link x, y, yaw in ``map``), from the localiser's
+        laser-pose covariance through ``base = laser ⊕ mount⁻¹``; zeros while unset."""
+        laser = self.localiser.current_pose
+        cov = self.localiser.covariance
+        if laser is None:
+            return cov
+        c, s = math.cos(laser.yaw), math.sin(laser.yaw)
+        m = self._mount_inv
+        jac = np.array(
+            [[1.0, 0.0, -s * m.x - c * m.y], [0.0, 1.0, c * m.x - s * m.y], [0.0, 0.0, 1.0]]
+        )
+        out: npt.NDArray[np.float64] = jac @ cov @ jac.T
+        return out
+
+    @property
     def suspended_reason(self) -> str | None:
         return self._suspended_reason
 
@@ -343,8 +377,13 @@ class RobotStack:
     def _track_localisation(self, now: float) -> None:
         state = self.localisation_state
         if state != self._localisation_state:
-            level = "error" if state == LocaliserState.LOST else "info"
-            self._event(now, level, f"localisation {state.value}")
+            level = {LocaliserState.LOST: "error", LocaliserState.DEGRADED: "warning"}.get(
+                state, "info"
+            )
+            text = f"localisation {state.value}"
+            if state is LocaliserState.DEGRADED and self.last_estimate is not None:
+                text += f": {self.last_estimate.reason}"
+            self._event(now, level, text)
             self._localisation_state = state
             if state in (LocaliserState.LOST, LocaliserState.SEARCHING):
                 # Stop now: do not drive blind on the planner's last command until it times out.
@@ -353,7 +392,7 @@ class RobotStack:
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
         state = self.localisation_state
-        if state != LocaliserState.OK:
+        if state not in (LocaliserState.OK, LocaliserState.DEGRADED):
             return f"localisation {state.value}"
         locks = {lock.topic for lock in self.mux.active_locks(now)}
         if STOP_TOPIC in locks:
@@ -401,4 +440,7 @@ class RobotStack:
         elif command.state == NavState.BLOCKED:
             route.state, route.reason = "aborted", command.reason or "blocked"
             self._event(now, "error", f"route {route.route_id} blocked: {route.reason}")
-        self.mux.on_twist(PLANNER_TOPIC, command.linear, command.angular, now)
+        linear = command.linear
+        if self.localiser.state is LocaliserState.DEGRADED:
+            linear *= self.config.degraded_speed_scale
+        self.mux.on_twist(PLANNER_TOPIC, linear, command.angular, now)

@@ -4,19 +4,33 @@ The thesis runs a modified Hector SLAM against an a-priori map, started from a p
 gives (station or tablet), without odometry. This localiser keeps Hector's matcher
 (`scan_matcher.ScanMatcher`) and adds, beyond the thesis:
 
-* **Odometry prior.** Each scan is matched starting from ``x_pred = x_prev ⊕ (o_prev⁻¹ ⊕ o_now)``,
-  the last estimate moved by the odometry increment since the previous scan. The match ``x_m``
-  is then fused with the prediction in information form,
-  ``x = x_pred + (Λ_p + H/s²)⁻¹ (H/s²) (x_m - x_pred)``, where ``H`` is Hector's Hessian and
-  ``Λ_p`` the inverse of a prediction covariance that grows with the odometry increment. Where the
-  scan constrains the pose (large ``H``) the match wins; along a featureless corridor the prior does.
+* **Odometry fusion with a covariance** (an extended Kalman filter, as Cartographer's and
+  Hector's pose-graph front ends and AMCL's odometry model do). The pose ``x`` carries a 3x3
+  covariance ``P`` (x, y, yaw). Each scan is matched starting from the prediction
+  ``x_pred = x ⊕ u`` with ``u`` the odometry increment since the previous scan, and
+  ``P_pred = F P Fᵀ + G Q(u) Gᵀ`` (``Q``: `LocaliserConfig.odom_*`, AMCL-like alphas plus
+  random walks per metre). The match ``x_m`` comes with an information matrix ``I_m``: the
+  point-to-surface information of its inliers (`scan_matcher.normal_information`, at most
+  ``match_effective_points`` counted as independent, over ``match_sigma_m²``), limited along
+  the weakest direction to what sliding the scan there shows (`_without_slide`). The update is
+  ``P = (P_pred⁻¹ + I_m)⁻¹``, ``x = x_pred + P I_m (x_m - x_pred)``: where the scan constrains
+  the pose the match wins, along a featureless corridor the prediction does and ``P`` grows.
+  A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
+  bound) is rejected. Calibration on the eight real logs: ``bench/bench_reallogs.py`` reports
+  the mean NEES (3 when calibrated) and the fraction of scans inside the 95 % ellipsoid.
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
-  occupied map cell, reported with Hector's score (mean ``M``).
-* **Loss detection.** A scan is *bad* if its confidence is below ``lost_confidence``, if more
-  than ``lost_impossible`` of its beams are *impossible* at the estimate (below), or if its
-  correction ``x_m ⊖ x_pred`` is implausibly large (it is then rejected). Bad scans for
-  ``lost_after_s`` seconds in a row make the state ``lost``. While lost the pose follows odometry
-  alone and the state stays ``lost`` until `set_initial_pose` is called.
+  occupied map cell, reported with Hector's score (mean ``M``); ``certainty`` is the
+  probability, under ``P``, of an error within ``tolerance_m`` and ``tolerance_rad``.
+* **States: never silently wrong.** ``ok``; ``degraded`` when the pose's largest sigma exceeds
+  ``degraded_sigma_m`` (or yaw ``degraded_sigma_rad``), when the scan fits the map poorly (hit
+  fraction below ``degraded_confidence``) or when the scan is bad (below), back to ``ok`` after
+  ``ok_after_s`` of good scans; ``lost`` after bad scans for ``lost_after_s`` seconds and
+  ``lost_after_scans`` scans in a row. A scan is *bad* if its hit fraction is below
+  ``lost_confidence``, if more than ``lost_impossible`` of its beams are *impossible* at the
+  estimate (below), or if its match was rejected. While lost the pose follows odometry alone
+  and the state stays ``lost`` until `set_initial_pose` is called. A *silent failure*, an
+  error above 0.3 m or 10 degrees reported ``ok``, is what the states exist to prevent;
+  `log_replay` counts them on real logs.
 * **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
   *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
   has only the small "random" likelihood). A beam is impossible when its measured range passes
@@ -68,6 +82,7 @@ class LocaliserState(StrEnum):
 
     UNSET = "unset"  # no initial pose yet
     OK = "ok"
+    DEGRADED = "degraded"  # tracking, but the pose is uncertain or the last scans disagree
     LOST = "lost"
     SEARCHING = "searching"  # a global search is under way (reported by the stack, issue 16)
 
@@ -81,15 +96,47 @@ class LocaliserConfig:
     max_range_m: float = 30.0  # beams beyond are ignored
     hit_tolerance_m: float = 0.10  # an end point this close to the map counts as a hit
     lost_confidence: float = 0.35  # a scan below this hit fraction is bad
+    degraded_confidence: float = 0.6  # below this hit fraction the state is degraded
     lost_after_s: float = 1.0  # bad scans for this long -> lost
+    lost_after_scans: int = 5  # ... and at least this many bad scans in a row
     max_jump_m: float = 0.3  # plausible correction: this + max_jump_gain * odometry step
     max_jump_rad: float = 0.2
     max_jump_gain: float = 0.5
-    odom_blend: bool = True  # fuse the match with the odometry prediction (Hessian weighting)
-    match_residual_var: float = 1.0  # s² scaling H into an information matrix
-    prior_sigma_m: float = 0.02  # prediction sigma: this + prior_sigma_gain * odometry step
-    prior_sigma_rad: float = 0.01
-    prior_sigma_gain: float = 0.2
+    odom_blend: bool = True  # fuse the match with the odometry prediction (else take the match)
+    # Odometry noise per scan step in the robot frame (AMCL's odom_alpha model, simplified):
+    # sigma along travel = odom_alpha_trans * d, across = odom_alpha_lat * d, yaw =
+    # odom_alpha_rot * |turn| + odom_alpha_rot_per_m * d, plus the random walks below and a
+    # floor added every scan.
+    odom_alpha_trans: float = 0.05
+    odom_alpha_lat: float = 0.02
+    odom_alpha_rot: float = 0.05
+    odom_alpha_rot_per_m: float = 0.05  # [rad/m]
+    odom_floor_m: float = 0.002
+    odom_floor_rad: float = 0.001
+    # Random-walk terms: variance grows by walk² per metre travelled, whatever the scan rate
+    # (the (alpha * d)² terms alone shrink with the step: at 40 Hz they would let a corridor
+    # drive of 10 m claim 4 cm). 0.05 m/sqrt(m) reaches sigma 0.1 m after 4 m of travel the
+    # scans do not constrain: before 5 % odometry error reaches 0.3 m.
+    odom_walk_m: float = 0.05  # [m / sqrt(m)] along travel
+    odom_walk_lat_m: float = 0.02  # [m / sqrt(m)] across travel
+    odom_walk_rad: float = 0.01  # [rad / sqrt(m)]
+    # Scan information: each inlier end point measures its distance to the map surface with
+    # sigma match_sigma_m; neighbouring beams are correlated (the same wall, the same map
+    # error), so at most match_effective_points of them count as independent.
+    match_sigma_m: float = 0.09
+    match_effective_points: float = 40.0
+    initial_sigma_m: float = 0.3  # a person's initial pose (issue 12: up to 0.3 m, 10 degrees)
+    initial_sigma_rad: float = 0.17
+    slide_test_m: float = 0.3  # shift testing the information along the weakest direction
+    slide_turn_rad: float = 0.025  # the slide test also tries the shifted pose turned by ±this
+    slide_max_m: float = 1.5  # the slide test's shift grows with the prior's sigma up to this
+    slide_points: int = 150  # end points the slide test uses
+    gate_chi2: float = 16.27  # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
+    degraded_sigma_m: float = 0.1  # largest position sigma above this -> degraded
+    degraded_sigma_rad: float = 0.05  # yaw sigma above this -> degraded
+    ok_after_s: float = 0.3  # good, certain scans for this long before degraded -> ok
+    tolerance_m: float = 0.3  # `certainty` is the probability of an error within these
+    tolerance_rad: float = math.radians(10.0)
     map_update: bool = True
     map_update_min_confidence: float = 0.6  # only learn obstacles while well localised
     unexplained_m: float = 0.2  # end points farther than this from the map are "unexplained"
@@ -111,14 +158,34 @@ class LocaliserConfig:
             ("max_range_m", self.max_range_m, 0.5, 200.0),
             ("hit_tolerance_m", self.hit_tolerance_m, 0.01, 1.0),
             ("lost_confidence", self.lost_confidence, 0.0, 1.0),
+            ("degraded_confidence", self.degraded_confidence, 0.0, 1.0),
             ("lost_after_s", self.lost_after_s, 0.05, 60.0),
             ("max_jump_m", self.max_jump_m, 0.01, 10.0),
             ("max_jump_rad", self.max_jump_rad, 0.01, math.pi),
             ("max_jump_gain", self.max_jump_gain, 0.0, 10.0),
-            ("match_residual_var", self.match_residual_var, 1e-6, 1e6),
-            ("prior_sigma_m", self.prior_sigma_m, 1e-4, 10.0),
-            ("prior_sigma_rad", self.prior_sigma_rad, 1e-5, 3.0),
-            ("prior_sigma_gain", self.prior_sigma_gain, 0.0, 10.0),
+            ("odom_alpha_trans", self.odom_alpha_trans, 0.0, 10.0),
+            ("odom_alpha_lat", self.odom_alpha_lat, 0.0, 10.0),
+            ("odom_alpha_rot", self.odom_alpha_rot, 0.0, 10.0),
+            ("odom_alpha_rot_per_m", self.odom_alpha_rot_per_m, 0.0, 10.0),
+            ("odom_floor_m", self.odom_floor_m, 1e-5, 1.0),
+            ("odom_floor_rad", self.odom_floor_rad, 1e-6, 1.0),
+            ("odom_walk_m", self.odom_walk_m, 0.0, 10.0),
+            ("odom_walk_lat_m", self.odom_walk_lat_m, 0.0, 10.0),
+            ("odom_walk_rad", self.odom_walk_rad, 0.0, 10.0),
+            ("match_sigma_m", self.match_sigma_m, 1e-3, 5.0),
+            ("match_effective_points", self.match_effective_points, 1.0, 1e5),
+            ("initial_sigma_m", self.initial_sigma_m, 1e-3, 100.0),
+            ("initial_sigma_rad", self.initial_sigma_rad, 1e-4, math.pi),
+            ("gate_chi2", self.gate_chi2, 1.0, 1e6),
+            ("slide_test_m", self.slide_test_m, 0.01, 10.0),
+            ("slide_turn_rad", self.slide_turn_rad, 0.0, 0.5),
+            ("slide_points", self.slide_points, 20, 5000),
+            ("slide_max_m", self.slide_max_m, 0.01, 10.0),
+            ("degraded_sigma_m", self.degraded_sigma_m, 1e-3, 100.0),
+            ("degraded_sigma_rad", self.degraded_sigma_rad, 1e-4, math.pi),
+            ("ok_after_s", self.ok_after_s, 0.0, 60.0),
+            ("tolerance_m", self.tolerance_m, 1e-3, 100.0),
+            ("tolerance_rad", self.tolerance_rad, 1e-3, math.pi),
             ("map_update_min_confidence", self.map_update_min_confidence, 0.0, 1.0),
             ("unexplained_m", self.unexplained_m, 0.01, 5.0),
             ("map_update_max_range_m", self.map_update_max_range_m, 0.5, 200.0),
@@ -127,6 +194,7 @@ class LocaliserConfig:
             ("impossible_max_beams", self.impossible_max_beams, 10, 5000),
             ("impossible_max_steps", self.impossible_max_steps, 1, 1000),
             ("impossible_min_run", self.impossible_min_run, 1, 100),
+            ("lost_after_scans", self.lost_after_scans, 1, 1000),
             ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
             ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
             ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
@@ -148,6 +216,12 @@ class LocaliserEstimate:
     score: float  # Hector match score (mean M), 0..1
     stamp: float  # [s]
     impossible: float = 0.0  # fraction of beams passing through the map, 0..1
+    # 3x3 covariance of (x [m], y [m], yaw [rad]) of ``pose``, row-major; zeros while unset.
+    covariance: FloatArray = field(default_factory=lambda: np.zeros((3, 3)), compare=False)
+    # Probability, under ``covariance``, that the pose is within tolerance_m and tolerance_rad
+    # of the truth (0.3 m, 10 degrees by default); 0 while unset or lost.
+    certainty: float = 0.0
+    reason: str = ""  # why the state is degraded or lost ("" when ok)
 
 
 class Localiser:
@@ -180,7 +254,10 @@ class Localiser:
         self._odom_at_scan: Pose2D | None = None  # odometry at the previous scan
         self._travel_m = 0.0  # odometer [m]
         self._bad_since: float | None = None
+        self._bad_scans = 0  # bad scans in a row
+        self._good_since: float | None = None
         self._full_search = True
+        self._cov = np.zeros((3, 3))
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
     # ------------------------------------------------------------------ inputs
@@ -194,6 +271,11 @@ class Localiser:
     def pose(self) -> Pose2D | None:
         """Latest pose estimate in the map frame (None while unset)."""
         return self._pose
+
+    @property
+    def covariance(self) -> FloatArray:
+        """3x3 covariance of the latest pose estimate (x, y, yaw); zeros while unset."""
+        return self._cov.copy()
 
     @property
     def current_pose(self) -> Pose2D | None:
@@ -211,14 +293,39 @@ class Localiser:
         """The estimate returned by the last `on_scan`."""
         return self._last
 
-    def set_initial_pose(self, pose: Pose2D, now: float) -> None:
-        """Start (or restart) tracking at ``pose`` (the station, or a room picked on the tablet)."""
+    def set_initial_pose(
+        self, pose: Pose2D, now: float, covariance: FloatArray | None = None
+    ) -> None:
+        """Start (or restart) tracking at ``pose`` (the station, or a room picked on the tablet).
+
+        ``covariance`` (3x3, x y yaw) defaults to ``initial_sigma_m`` / ``initial_sigma_rad``: a
+        pose a person sets. The state is ``ok`` until the first scan says otherwise.
+        """
         logger.info(
             "initial pose set to (%.2f, %.2f, %.2f) at t=%.2f", pose.x, pose.y, pose.yaw, now
         )
+        cfg = self.config
+        if covariance is None:
+            cov = np.diag(
+                [cfg.initial_sigma_m**2, cfg.initial_sigma_m**2, cfg.initial_sigma_rad**2]
+            )
+        else:
+            cov = np.array(covariance, dtype=np.float64)
+            if (
+                cov.shape != (3, 3)
+                or not np.all(np.isfinite(cov))
+                or not np.allclose(cov, cov.T)
+                or np.any(np.linalg.eigvalsh(cov) <= 0.0)
+            ):
+                raise LocaliserConfigError(
+                    "initial pose covariance must be a finite, symmetric, positive-definite 3x3"
+                )
+        self._cov = cov
         self._pose = pose
         self._state = LocaliserState.OK
         self._bad_since = None
+        self._bad_scans = 0
+        self._good_since = None
         self._full_search = True  # first match after an initial pose uses every level
         self._odom_at_scan = self._odom
         self.dynamic.reset_streaks()
@@ -231,69 +338,133 @@ class Localiser:
         self._odom = odom_pose
 
     def on_scan(self, scan: LaserScan, now: float) -> LocaliserEstimate:
-        """Match one scan and return the new estimate."""
+        """Match one scan, fuse it with the odometry prediction and return the new estimate."""
         if self._pose is None:
             self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, now)
             return self._last
         cfg = self.config
         step = self._odometry_step()
         predicted = self._pose.compose(step)
+        cov_pred = self._propagate(self._pose, step, self._cov)
         if self._state is LocaliserState.LOST:
-            self._pose = predicted
-            self._last = LocaliserEstimate(predicted, LocaliserState.LOST, 0.0, 0.0, now)
+            self._pose, self._cov = predicted, cov_pred
+            self._last = LocaliserEstimate(
+                predicted, LocaliserState.LOST, 0.0, 0.0, now, 0.0, cov_pred, 0.0, "lost"
+            )
             return self._last
 
         points = self._scan_points(scan)
         impossible = 0.0
+        reason = ""
         if points.shape[0] < 10:
-            pose, confidence, score, bad = predicted, 0.0, 0.0, True
+            pose, cov, confidence, score = predicted, cov_pred, 0.0, 0.0
+            reason = "too few beams"
         else:
-            sxy, syaw = self._prior_sigma(step)
+            sxy = math.sqrt(max(cov_pred[0, 0], cov_pred[1, 1]))
+            syaw = math.sqrt(cov_pred[2, 2])
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
             result = self.matcher.match(points, predicted, start)
-            correction = result.pose.relative_to(predicted)
-            step_len = math.hypot(step.x, step.y)
-            jump = math.hypot(correction.x, correction.y) > (
-                cfg.max_jump_m + cfg.max_jump_gain * step_len
-            ) or abs(correction.yaw) > cfg.max_jump_rad + cfg.max_jump_gain * abs(step.yaw)
-            if jump:
-                pose = predicted
-                bad = True
+            fused = self._fuse(predicted, cov_pred, result, step, points)
+            if fused is None:
+                pose, cov = predicted, cov_pred
+                reason = "match rejected (inconsistent with odometry)"
                 self._full_search = True
             else:
-                # After an initial pose or a rejected match the prior is not odometry-grade:
-                # take the match as it is.
-                blend = cfg.odom_blend and not self._full_search
-                pose = self._fuse(predicted, result, step) if blend else result.pose
+                pose, cov = fused
                 self._full_search = False
-                bad = False
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
             see_through = confidence >= cfg.see_through_min_confidence
             impossible = self.impossible_fraction(points, pose, see_through)
-            bad = bad or confidence < cfg.lost_confidence or impossible > cfg.lost_impossible
-            if not bad and cfg.map_update and confidence >= cfg.map_update_min_confidence:
+            if not reason and confidence < cfg.lost_confidence:
+                reason = f"scan does not fit the map (hit fraction {confidence:.2f})"
+            if not reason and impossible > cfg.lost_impossible:
+                reason = f"beams through walls ({impossible:.2f})"
+            if not reason and cfg.map_update and confidence >= cfg.map_update_min_confidence:
                 self._update_map(points, pose, now)
+        self._pose, self._cov = pose, cov
+        state = self._update_state(reason, cov, now, confidence, impossible)
+        certainty = 0.0 if state is LocaliserState.LOST else self._certainty(cov)
+        if not reason and state is LocaliserState.DEGRADED:
+            reason = self._weak_reason(cov, confidence) or "recovering"
+        self._last = LocaliserEstimate(
+            pose, state, confidence, score, now, impossible, cov, certainty, reason
+        )
+        return self._last
 
-        if bad:
+    def _update_state(
+        self, bad_reason: str, cov: FloatArray, now: float, confidence: float, impossible: float
+    ) -> LocaliserState:
+        """ok / degraded / lost from this scan's verdict and the covariance.
+
+        A bad scan makes the state degraded at once and lost after ``lost_after_s`` and
+        ``lost_after_scans`` of bad scans in a row (lost is kept until `set_initial_pose`). A
+        pose whose covariance exceeds ``degraded_sigma_m`` / ``degraded_sigma_rad``, or whose
+        scan fits the map poorly (hit fraction below ``degraded_confidence``), is degraded.
+        Back to ok after ``ok_after_s`` of good, certain scans.
+        """
+        cfg = self.config
+        if bad_reason:
+            self._good_since = None
             if self._bad_since is None:
                 self._bad_since = now
-            if now - self._bad_since >= cfg.lost_after_s:
+            self._bad_scans += 1
+            if (
+                now - self._bad_since >= cfg.lost_after_s
+                and self._bad_scans >= cfg.lost_after_scans
+            ):
                 logger.warning(
-                    "localisation lost at t=%.2f (bad scans for %.2f s; last: confidence %.2f, "
-                    "impossible beams %.2f)",
+                    "localisation lost at t=%.2f (bad scans for %.2f s; last: %s, confidence "
+                    "%.2f, impossible beams %.2f)",
                     now,
                     now - self._bad_since,
+                    bad_reason,
                     confidence,
                     impossible,
                 )
                 self._state = LocaliserState.LOST
-        else:
-            self._bad_since = None
-        self._pose = pose
-        self._last = LocaliserEstimate(pose, self._state, confidence, score, now, impossible)
-        return self._last
+            else:
+                self._state = LocaliserState.DEGRADED
+            return self._state
+        self._bad_since = None
+        self._bad_scans = 0
+        if self._weak_reason(cov, confidence):
+            self._good_since = None
+            self._state = LocaliserState.DEGRADED
+            return self._state
+        if self._state is LocaliserState.DEGRADED:
+            if self._good_since is None:
+                self._good_since = now
+            if now - self._good_since < cfg.ok_after_s:
+                return self._state
+        self._state = LocaliserState.OK
+        return self._state
+
+    def _weak_reason(self, cov: FloatArray, confidence: float) -> str:
+        """Why a good scan still leaves the pose degraded ("" if it does not)."""
+        if confidence < self.config.degraded_confidence:
+            return f"scan fits the map poorly (hit fraction {confidence:.2f})"
+        return self._uncertain_reason(cov)
+
+    def _uncertain_reason(self, cov: FloatArray) -> str:
+        cfg = self.config
+        sxy = math.sqrt(max(_max_eig_2x2(cov), 0.0))
+        syaw = math.sqrt(max(cov[2, 2], 0.0))
+        if sxy > cfg.degraded_sigma_m:
+            return f"position uncertain (sigma {sxy:.2f} m)"
+        if syaw > cfg.degraded_sigma_rad:
+            return f"heading uncertain (sigma {math.degrees(syaw):.1f} deg)"
+        return ""
+
+    def _certainty(self, cov: FloatArray) -> float:
+        """P(position error <= tolerance_m and yaw error <= tolerance_rad) under ``cov``,
+        taking the position as isotropic with its largest sigma (a lower bound)."""
+        cfg = self.config
+        var_xy = max(_max_eig_2x2(cov), 1e-12)
+        p_xy = 1.0 - math.exp(-(cfg.tolerance_m**2) / (2.0 * var_xy))
+        p_yaw = math.erf(cfg.tolerance_rad / math.sqrt(2.0 * max(cov[2, 2], 1e-12)))
+        return p_xy * p_yaw
 
     # --------------------------------------------------------------- outputs
 
@@ -447,32 +618,174 @@ class Localiser:
                     break
         return out
 
-    def _prior_sigma(self, step: Pose2D) -> tuple[float, float]:
-        """Standard deviations [m], [rad] of the odometry prediction over ``step``."""
+    def _propagate(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:
+        """Covariance of ``pose ⊕ step``: ``F P Fᵀ + G Q Gᵀ`` with the odometry noise ``Q``."""
         cfg = self.config
-        step_len = math.hypot(step.x, step.y) + 0.2 * abs(step.yaw)
-        sxy = cfg.prior_sigma_m + cfg.prior_sigma_gain * step_len
-        syaw = cfg.prior_sigma_rad + cfg.prior_sigma_gain * abs(step.yaw)
-        return sxy, syaw
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        d = math.hypot(step.x, step.y)
+        f = np.array(
+            [
+                [1.0, 0.0, -s * step.x - c * step.y],
+                [0.0, 1.0, c * step.x - s * step.y],
+                [0.0, 0.0, 1.0],
+            ]
+        )
+        q_along = (cfg.odom_alpha_trans * d) ** 2 + cfg.odom_walk_m**2 * d + cfg.odom_floor_m**2
+        q_across = (cfg.odom_alpha_lat * d) ** 2 + cfg.odom_walk_lat_m**2 * d + cfg.odom_floor_m**2
+        q_yaw = (
+            (cfg.odom_alpha_rot * abs(step.yaw) + cfg.odom_alpha_rot_per_m * d) ** 2
+            + cfg.odom_walk_rad**2 * d
+            + cfg.odom_floor_rad**2
+        )
+        # G Q Gᵀ: the robot-frame noise rotated into the map frame.
+        cc, ss, cs = c * c, s * s, c * s
+        gqg = np.array(
+            [
+                [cc * q_along + ss * q_across, cs * (q_along - q_across), 0.0],
+                [cs * (q_along - q_across), ss * q_along + cc * q_across, 0.0],
+                [0.0, 0.0, q_yaw],
+            ]
+        )
+        out: FloatArray = f @ cov @ f.T + gqg
+        return out
 
-    def _fuse(self, predicted: Pose2D, result: MatchResult, step: Pose2D) -> Pose2D:
-        """Information-form fusion of the match with the odometry prediction."""
+    def match_information(self, result: MatchResult) -> FloatArray:
+        """Information matrix (inverse covariance) of a match: the inliers' point-to-surface
+        information (`scan_matcher.normal_information`) over ``match_sigma_m²``, with at most
+        ``match_effective_points`` inliers counted as independent."""
         cfg = self.config
-        sxy, syaw = self._prior_sigma(step)
-        prior_info = np.diag([1.0 / sxy**2, 1.0 / sxy**2, 1.0 / syaw**2])
-        match_info = result.hessian / cfg.match_residual_var
-        diff = np.array(
+        n = result.n_inliers
+        if n == 0:
+            return np.zeros((3, 3))
+        scale = min(1.0, cfg.match_effective_points / n) / cfg.match_sigma_m**2
+        out: FloatArray = result.normal_info * scale
+        return out
+
+    def slide_ratio(self, points: FloatArray, pose: Pose2D, shift: FloatArray) -> float:
+        """Best score of the scan at ``pose ± shift`` (x [m], y [m], yaw [rad] added in the
+        map frame), each also turned by ``± slide_turn_rad``, over its score at ``pose``, on
+        the matcher's level 1 (10 cm cells). One batched interpolation for all the poses."""
+        cfg = self.config
+        level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
+        pts = subsample_points(points, cfg.slide_points)
+        # At each shifted position the heading may re-settle a little (a profile over yaw:
+        # a slide along a corridor seen at an angle comes with a degree or two of turn).
+        t = cfg.slide_turn_rad
+        signs = np.array([0.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
+        turns = np.array([0.0, 0.0, t, -t, 0.0, t, -t])
+        px = pose.x + signs * shift[0]
+        py = pose.y + signs * shift[1]
+        yaw = pose.yaw + signs * shift[2] + turns
+        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+        sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
+        xs = (px[:, None] + c * sx - s * sy).ravel()
+        ys = (py[:, None] + s * sx + c * sy).ravel()
+        scores = level.interpolate(xs, ys)[0].reshape(signs.size, -1).mean(axis=1)
+        base = float(scores[0])
+        if base <= 0.0:
+            return 1.0
+        return float(scores[1:].max()) / base
+
+    def _without_slide(
+        self,
+        points: FloatArray,
+        result: MatchResult,
+        info: FloatArray,
+        cov_pred: FloatArray | None = None,
+    ) -> FloatArray:
+        """``info`` with its information along the scan's weakest position direction ``d``
+        limited to what sliding the scan along ``d`` shows.
+
+        The point-to-surface information counts every end point with its local normal; in a
+        corridor of binned walls, door frames and jagged cells give it information along the
+        corridor that the match does not have at the scale of decimetres (the matcher slides:
+        Intel Research Lab, 0.3 m with a claimed sigma of 2 cm), and a long corridor seen at
+        an angle couples the slide with a degree or two of turn (`slide_ratio` lets the heading
+        re-settle). ``d`` is the weakest eigenvector of the position information; the scan is
+        moved by ``± slide_test_m`` along it (3 sigma of the matcher's 10 cm level), so the end
+        points
+        that constrain ``d`` leave their surfaces: the relative drop of the score, ``1 -
+        ratio``, is the fraction of end points that do, and the information along ``d`` is at
+        most ``(1 - ratio)`` times the inliers' (effective) count over ``match_sigma_m²``.
+        Where the scan fits as well after the shift it is zero, and the update along ``d`` is
+        left to the prediction (odometry), whose covariance keeps growing there
+        (degeneracy-aware fusion as in Zhang, Kaess and Singh, "On degeneracy of optimization-
+        based state estimation problems", ICRA 2016).
+        """
+        cfg = self.config
+        _, vecs = np.linalg.eigh(info[:2, :2])
+        v = np.array([vecs[0, 0], vecs[1, 0], 0.0])
+        # The shift covers the prediction's spread along v (3 sigma, up to slide_max_m): the
+        # information must hold over the poses the prior allows, not only locally (door
+        # frames every few metres of a long corridor make local minima a metre apart).
+        shift = cfg.slide_test_m
+        if cov_pred is not None:
+            spread = 3.0 * math.sqrt(max(float(v @ cov_pred @ v), 0.0))
+            shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
+        d = v * shift  # the shift [m]
+        idv = info @ d
+        dd = float(d @ idv)
+        if dd <= 0.0:
+            return info
+        ratio = self.slide_ratio(points, result.pose, d)
+        n_eff = min(float(result.n_inliers), cfg.match_effective_points)
+        supported = max(0.0, 1.0 - ratio) * n_eff * shift**2 / cfg.match_sigma_m**2
+        if supported >= dd:
+            return info
+        out: FloatArray = info - np.outer(idv, idv) / dd
+        out += (supported / float(d @ d) ** 2) * np.outer(d, d)
+        return out
+
+    def _fuse(
+        self,
+        predicted: Pose2D,
+        cov_pred: FloatArray,
+        result: MatchResult,
+        step: Pose2D,
+        points: FloatArray | None = None,
+    ) -> tuple[Pose2D, FloatArray] | None:
+        """Kalman update of the prediction with the match, in information form; None when the
+        match fails the gates (Mahalanobis ``gate_chi2``, and the plausible-jump bound).
+
+        ``P = (P_pred⁻¹ + I_m)⁻¹`` and ``x = x_pred + P I_m (x_m - x_pred)``: the match moves the
+        pose only along the directions the scan constrains (large ``I_m``); along a featureless
+        corridor the prediction stays, and its covariance keeps growing with the odometry. The
+        innovation's information ``S⁻¹ = I_m - I_m P I_m`` (Woodbury: ``(P_pred + I_m⁻¹)⁻¹``,
+        defined even where ``I_m`` is singular) gates the match.
+        """
+        cfg = self.config
+        info = self.match_information(result)
+        if points is not None:
+            info = self._without_slide(points, result, info, cov_pred)
+        try:
+            p_post = np.linalg.inv(np.linalg.inv(cov_pred) + info)
+        except np.linalg.LinAlgError:
+            return None
+        p_post = 0.5 * (p_post + p_post.T)
+        nu = np.array(
             [
                 result.pose.x - predicted.x,
                 result.pose.y - predicted.y,
                 wrap_angle(result.pose.yaw - predicted.yaw),
             ]
         )
-        try:
-            delta = np.linalg.solve(prior_info + match_info, match_info @ diff)
-        except np.linalg.LinAlgError:
-            return result.pose
-        return Pose2D(predicted.x + delta[0], predicted.y + delta[1], predicted.yaw + delta[2])
+        delta = p_post @ (info @ nu)
+        d2 = float(nu @ (info @ nu) - (info @ nu) @ delta)
+        # The plausible-jump bound of the old localiser, widened by the prediction's sigma.
+        step_len = math.hypot(step.x, step.y)
+        move = math.hypot(delta[0], delta[1])
+        max_move = max(
+            cfg.max_jump_m + cfg.max_jump_gain * step_len, 3.0 * math.sqrt(_max_eig_2x2(cov_pred))
+        )
+        max_turn = max(
+            cfg.max_jump_rad + cfg.max_jump_gain * abs(step.yaw), 3.0 * math.sqrt(cov_pred[2, 2])
+        )
+        if d2 > cfg.gate_chi2 or move > max_move or abs(delta[2]) > max_turn:
+            return None
+        if not cfg.odom_blend:
+            return result.pose, p_post
+        pose = Pose2D(predicted.x + delta[0], predicted.y + delta[1], predicted.yaw + delta[2])
+        return pose, p_post
 
     def _update_map(self, points: FloatArray, pose: Pose2D, now: float) -> None:
         cfg = self.config
@@ -498,6 +811,12 @@ class Localiser:
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
             patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
             np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+
+
+def _max_eig_2x2(cov: FloatArray) -> float:
+    """Largest eigenvalue of the position block of a 3x3 covariance."""
+    a, b, d = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
+    return 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
 
 
 def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:

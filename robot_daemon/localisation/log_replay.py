@@ -1,35 +1,199 @@
 """Localisation replayed on real laser logs (Radish / Freiburg CARMEN logs), for tests and benches.
 
-A map is built with `grid_from_scans` from the first part of a log and its logged (GMapping-
-corrected) poses. The scans of the later part that revisit the mapped area (logged pose within
-1 m of a mapping pose) are localised in runs, each run starting from its first logged pose, with
-odometry made from the logged pose increments with 5 % scale error, a yaw bias of 0.02 rad per
-metre and Gaussian noise (1 cm, 0.005 rad per step). Errors are against the logged poses, which
-are themselves SLAM estimates (a few centimetres), not ground truth.
+The logged poses are GMapping-corrected SLAM estimates (a few centimetres), not ground truth;
+errors are against them. Two methods, both as ``../shared/data/README.md`` suggests:
 
-Used by ``tests/robot_daemon/localisation/test_loc_realdata.py`` (assertions) and
-``bench/bench_reallogs.py`` (figures), so both report the same method.
+* **Revisits** (`localise_revisits`). A map is built with `grid_from_scans` from the first part
+  of a log and its logged poses. The scans of the later part that revisit the mapped area
+  (logged pose within 1 m of a mapping pose) are localised in runs. Only logs that come back to
+  where they have been can be evaluated this way (not ACES or CSAIL).
+* **Interleaved, whole log** (`localise_interleaved`). Every ``k``-th scan builds the map; the
+  scans half-way between them are localised *forward through the whole log in one run*, from
+  the first pose. The localised scans are not in the map, but scans taken a stride earlier and
+  later are: easier than a revisit, but it covers every corridor and hall of every log.
+
+In both, the localiser is started at the logged pose with the default initial covariance (a
+person's 0.3 m / 10 degrees), is given the logged pose again after each scan it reports
+``lost`` (the user's "Help me!"; ``lost_scans`` counts them), and gets odometry made from the logged pose increments with 5 %
+scale error, a yaw bias of 0.02 rad per metre and Gaussian noise (1 cm, 0.005 rad per step).
+
+Each localised scan is scored (`ScanOutcome`): position and heading error, the reported state,
+and the error's Mahalanobis distance under the reported covariance (NEES). A *silent failure*
+is a scan with error > 0.3 m or > 10 degrees reported ``ok`` (issue 12): the figure that must
+be 0. `summarise` turns the outcomes into the figures of the tests and of
+``bench/bench_reallogs.py``.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from interbot_core.carmen_log import LaserRecord, read_laser_records
 from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.mapping import grid_from_scans
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 
 REVISIT_RADIUS_M = 1.0  # [m] a scan revisits the map when its pose is this close to a mapping pose
+SILENT_ERROR_M = 0.3  # [m] an error above this (or SILENT_ERROR_RAD) reported ok is silent
+SILENT_ERROR_RAD = math.radians(10.0)
+MAP_RESOLUTION = 0.05  # [m]
 
 
 class LogReplayError(ValueError):
     """A log cannot be replayed as asked (the message names the log and what is missing)."""
+
+
+@dataclass(frozen=True)
+class ScanOutcome:
+    """One localised scan against the logged pose."""
+
+    error_m: float
+    yaw_error_rad: float
+    state: LocaliserState
+    nees: float  # eᵀ P⁻¹ e with e = (dx, dy, dyaw) (3 dof: mean 3 if P is calibrated)
+    seconds: float  # time in Localiser.on_scan by the injected clock (0 without one)
+    odometry_error_m: float  # dead reckoning alone from the run's start
+
+    @property
+    def silent(self) -> bool:
+        """Wrong (> 0.3 m or > 10 degrees) while reported ok."""
+        wrong = self.error_m > SILENT_ERROR_M or self.yaw_error_rad > SILENT_ERROR_RAD
+        return wrong and self.state is LocaliserState.OK
+
+
+def log_config() -> LocaliserConfig:
+    """The localiser's configuration for maps built from logged scans: a wall lies anywhere in
+    its (binned) cell, on average mid-cell."""
+    return LocaliserConfig(matcher=ScanMatcherConfig(surface="cell_centre"))
+
+
+def map_of(records: Sequence[LaserRecord]) -> OccupancyGrid:
+    """The 0.05 m map of ``records`` at their logged poses."""
+    if not records:
+        raise LogReplayError("no scans to build a map from")
+    return grid_from_scans([r.scan for r in records], [r.pose for r in records], MAP_RESOLUTION)
+
+
+def replay_run(
+    grid: OccupancyGrid,
+    run: Sequence[LaserRecord],
+    rng: np.random.Generator,
+    config: LocaliserConfig | None = None,
+    clock: Callable[[], float] | None = None,
+    reinit_lost: bool = True,
+) -> list[ScanOutcome]:
+    """Localise ``run`` in ``grid`` from its first logged pose with noisy, drifting odometry.
+
+    ``clock`` (e.g. ``time.perf_counter``, injected by a benchmark) times each `on_scan`.
+    ``reinit_lost``: after a scan reported ``lost`` the localiser is given the logged pose, as
+    the robot's user would give it a new initial pose (each is counted: ``lost_scans`` then
+    counts the losses; without it a loss lasts to the end of the run, on odometry alone).
+    """
+    if len(run) < 2:
+        return []
+    stamps = replay_stamps(run)
+    loc = Localiser(grid, config or log_config())
+    odom = Pose2D(0.0, 0.0, 0.0)
+    loc.on_odometry(odom, stamps[0])
+    loc.set_initial_pose(run[0].pose, stamps[0])
+    loc.on_scan(run[0].scan, stamps[0])
+    out: list[ScanOutcome] = []
+    for k, (prev, cur) in enumerate(itertools.pairwise(run), start=1):
+        now = stamps[k]
+        inc = cur.pose.relative_to(prev.pose)
+        dist = math.hypot(inc.x, inc.y)
+        noisy = Pose2D(
+            1.05 * inc.x + rng.normal(0.0, 0.01),
+            1.05 * inc.y + rng.normal(0.0, 0.01),
+            inc.yaw + 0.02 * dist + rng.normal(0.0, 0.005),
+        )
+        odom = odom.compose(noisy)
+        loc.on_odometry(odom, now)
+        t0 = clock() if clock is not None else 0.0
+        est = loc.on_scan(cur.scan, now)
+        seconds = clock() - t0 if clock is not None else 0.0
+        if est.pose is None:  # cannot happen after set_initial_pose; keeps the types honest
+            raise LogReplayError(f"the localiser has no pose at t={now}")
+        e = np.array(
+            [
+                est.pose.x - cur.pose.x,
+                est.pose.y - cur.pose.y,
+                math.remainder(est.pose.yaw - cur.pose.yaw, math.tau),
+            ]
+        )
+        try:
+            nees = float(e @ np.linalg.solve(est.covariance, e))
+        except np.linalg.LinAlgError:
+            nees = math.inf
+        out.append(
+            ScanOutcome(
+                float(math.hypot(e[0], e[1])),
+                abs(float(e[2])),
+                est.state,
+                nees,
+                seconds,
+                run[0].pose.compose(odom).distance_to(cur.pose),
+            )
+        )
+        if est.state is LocaliserState.LOST and reinit_lost:
+            # What the robot's user does ("Help me!"): a new initial pose, here the logged one.
+            loc.set_initial_pose(cur.pose, now)
+    return out
+
+
+def replay_stamps(run: Sequence[LaserRecord]) -> list[float]:
+    """Times [s] to replay ``run`` at: the logged timestamps, or, where a log has none (the
+    Freiburg campus, Infinite Corridor, CSAIL and Örebro logs hold 0), one second per scan
+    (their scans are about 1 m apart: a robot at 1 m/s)."""
+    logged = [r.timestamp for r in run]
+    if all(b > a for a, b in itertools.pairwise(logged)):
+        return logged
+    return [float(k) for k in range(len(run))]
+
+
+def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
+    """Figures over localised scans.
+
+    ``scans``, ``rms_m``, ``median_m``, ``max_m``, ``rms_yaw_rad``, ``max_yaw_rad`` (every
+    scan, whatever its state), ``ok_rms_m`` and ``ok_max_m`` (scans reported ok),
+    ``lost_scans``, ``degraded_scans``, ``silent_failures``, ``nees_mean`` and
+    ``nees_within_95`` (fraction of scans not lost whose error lies in the covariance's 95 %
+    ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99`` and ``odometry_only_rms_m``.
+    """
+    if not outcomes:
+        raise LogReplayError("no scans were localised")
+    err = np.array([o.error_m for o in outcomes])
+    yerr = np.array([o.yaw_error_rad for o in outcomes])
+    ok = np.array([o.state is LocaliserState.OK for o in outcomes])
+    tracked = [o for o in outcomes if o.state is not LocaliserState.LOST]
+    nees = np.array([o.nees for o in tracked]) if tracked else np.array([math.nan])
+    ms = np.array([o.seconds for o in outcomes]) * 1e3
+    return {
+        "scans": float(err.size),
+        "rms_m": float(np.sqrt(np.mean(err**2))),
+        "median_m": float(np.median(err)),
+        "max_m": float(err.max()),
+        "rms_yaw_rad": float(np.sqrt(np.mean(yerr**2))),
+        "max_yaw_rad": float(yerr.max()),
+        "ok_rms_m": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else math.nan,
+        "ok_max_m": float(err[ok].max()) if ok.any() else math.nan,
+        "lost_scans": float(sum(o.state is LocaliserState.LOST for o in outcomes)),
+        "degraded_scans": float(sum(o.state is LocaliserState.DEGRADED for o in outcomes)),
+        "silent_failures": float(sum(o.silent for o in outcomes)),
+        "nees_mean": float(np.mean(nees)),
+        "nees_within_95": float(np.mean(nees <= 7.815)),
+        "ms_median": float(np.median(ms)),
+        "ms_p99": float(np.percentile(ms, 99)),
+        "odometry_only_rms_m": float(np.sqrt(np.mean([o.odometry_error_m**2 for o in outcomes]))),
+    }
 
 
 def revisit_runs(records: list[LaserRecord], split: int, min_len: int) -> list[list[LaserRecord]]:
@@ -49,70 +213,76 @@ def revisit_runs(records: list[LaserRecord], split: int, min_len: int) -> list[l
     return runs
 
 
+def _records(path: Path, records: list[LaserRecord] | None) -> list[LaserRecord]:
+    return read_laser_records(path) if records is None else records
+
+
 def localise_revisits(
-    path: Path, split_fraction: float, map_stride: int, loc_stride: int, seed: int = 0
+    path: Path,
+    split_fraction: float,
+    map_stride: int,
+    loc_stride: int,
+    seed: int = 0,
+    *,
+    records: list[LaserRecord] | None = None,
+    clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """Map the first ``split_fraction`` of the log at ``path``, localise the revisits of the rest.
 
-    Every ``map_stride``-th scan builds the 0.05 m map; every ``loc_stride``-th scan of a revisit
-    run is localised. Returns ``runs``, ``scans``, ``rms_m``, ``median_m``, ``max_m``,
-    ``rms_yaw_rad``, ``max_yaw_rad``, ``lost_scans`` and ``odometry_only_rms_m`` (dead reckoning
-    alone, for comparison).
+    Every ``map_stride``-th scan builds the map; every ``loc_stride``-th scan of a revisit run
+    (>= 10 localised scans) is localised. ``records``: the log already read. Returns
+    `summarise`'s figures and ``runs``.
     """
     if not 0.0 < split_fraction < 1.0 or map_stride < 1 or loc_stride < 1:
         raise LogReplayError(
             f"{path}: need 0 < split_fraction < 1 and strides >= 1, got {split_fraction}, "
             f"{map_stride}, {loc_stride}"
         )
-    records = read_laser_records(path)
+    records = _records(path, records)
     split = int(split_fraction * len(records))
     mapping = records[:split:map_stride]
     if not mapping:
         raise LogReplayError(f"{path}: no scans to build a map from ({len(records)} records)")
-    grid = grid_from_scans([r.scan for r in mapping], [r.pose for r in mapping], 0.05)
-    # A map of binned end points: a wall lies anywhere in its cell, on average mid-cell.
-    config = LocaliserConfig(matcher=ScanMatcherConfig(surface="cell_centre"))
-    rng = np.random.default_rng(seed)
-    errors: list[float] = []
-    yaw_errors: list[float] = []
-    odom_errors: list[float] = []
-    lost = 0
     runs = revisit_runs(records, split, 10 * loc_stride)
-    for run in runs:
-        run = run[::loc_stride]
-        loc = Localiser(grid, config)
-        odom = Pose2D(0.0, 0.0, 0.0)
-        loc.on_odometry(odom, run[0].timestamp)
-        loc.set_initial_pose(run[0].pose, run[0].timestamp)
-        loc.on_scan(run[0].scan, run[0].timestamp)
-        for prev, cur in itertools.pairwise(run):
-            inc = cur.pose.relative_to(prev.pose)
-            dist = math.hypot(inc.x, inc.y)
-            noisy = Pose2D(
-                1.05 * inc.x + rng.normal(0.0, 0.01),
-                1.05 * inc.y + rng.normal(0.0, 0.01),
-                inc.yaw + 0.02 * dist + rng.normal(0.0, 0.005),
-            )
-            odom = odom.compose(noisy)
-            odom_errors.append(run[0].pose.compose(odom).distance_to(cur.pose))
-            loc.on_odometry(odom, cur.timestamp)
-            est = loc.on_scan(cur.scan, cur.timestamp)
-            if est.pose is None:  # cannot happen after set_initial_pose; keeps the types honest
-                raise LogReplayError(f"{path}: the localiser has no pose at t={cur.timestamp}")
-            lost += est.state is LocaliserState.LOST
-            errors.append(est.pose.distance_to(cur.pose))
-            yaw_errors.append(abs(math.remainder(est.pose.yaw - cur.pose.yaw, math.tau)))
-    if not errors:
+    if not runs:
         raise LogReplayError(f"{path}: no revisit run of >= {10 * loc_stride} scans to localise")
-    err, yerr = np.array(errors), np.array(yaw_errors)
-    return {
-        "runs": float(len(runs)),
-        "scans": float(err.size),
-        "rms_m": float(np.sqrt(np.mean(err**2))),
-        "median_m": float(np.median(err)),
-        "max_m": float(err.max()),
-        "rms_yaw_rad": float(np.sqrt(np.mean(yerr**2))),
-        "max_yaw_rad": float(yerr.max()),
-        "lost_scans": float(lost),
-        "odometry_only_rms_m": float(np.sqrt(np.mean(np.square(odom_errors)))),
-    }
+    grid = map_of(mapping)
+    rng = np.random.default_rng(seed)
+    outcomes: list[ScanOutcome] = []
+    for run in runs:
+        outcomes += replay_run(grid, run[::loc_stride], rng, clock=clock)
+    stats = summarise(outcomes)
+    stats["runs"] = float(len(runs))
+    return stats
+
+
+def localise_interleaved(
+    path: Path,
+    stride: int,
+    seed: int = 0,
+    *,
+    start: int = 0,
+    count: int | None = None,
+    records: list[LaserRecord] | None = None,
+    clock: Callable[[], float] | None = None,
+) -> dict[str, float]:
+    """Map every ``stride``-th scan of the log; localise the scans half-way between them
+    (index ``≡ stride // 2`` mod ``stride``) forward in one run from the first one's pose.
+
+    ``start`` and ``count`` restrict the method to a slice of the log (``count`` scans from
+    ``start``, mapped and localised: for fast tests).
+    """
+    if stride < 2:
+        raise LogReplayError(f"{path}: the interleaved method needs stride >= 2, got {stride}")
+    records = _records(path, records)
+    if len(records) < 2 * stride:
+        raise LogReplayError(f"{path}: {len(records)} scans are too few for stride {stride}")
+    end = len(records) if count is None else min(len(records), start + count)
+    grid = map_of(records[start - start % stride : end : stride])
+    run = [r for i, r in enumerate(records[start:end], start) if i % stride == stride // 2]
+    if len(run) < 10:
+        raise LogReplayError(f"{path}: fewer than 10 scans to localise in [{start}, {end})")
+    outcomes = replay_run(grid, run, np.random.default_rng(seed), clock=clock)
+    stats = summarise(outcomes)
+    stats["runs"] = 1.0
+    return stats

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -56,6 +56,7 @@ FloatArray = npt.NDArray[np.float64]
 
 MAX_ANGULAR_STEP = 0.2  # [rad] per Gauss-Newton iteration (hector_mapping)
 PAD = 2  # cells of M = 0 around each level: clipped points outside read M = 0, ∇M = 0
+INLIER_M = math.exp(-2.0)  # M above this (within 2 sigma of a surface): an inlier end point
 
 
 SURFACES = frozenset({"cell_face", "cell_centre"})
@@ -76,6 +77,9 @@ class ScanMatcherConfig:
     max_angular_step: float = MAX_ANGULAR_STEP  # [rad]
     damping: float = 1e-3  # Levenberg damping, relative to trace(H)/3
     surface: str = "cell_face"  # where a map's surface lies: "cell_face" or "cell_centre"
+    fine_max_iterations: int = 10  # finest level: iterate until converged, at most this
+    converged_m: float = 0.002  # a step below this [m] and converged_rad is converged
+    converged_rad: float = 0.001
 
     def __post_init__(self) -> None:
         if not 1 <= self.levels <= 5:
@@ -92,6 +96,12 @@ class ScanMatcherConfig:
             raise ScanMatcherConfigError(
                 f"max_angular_step must be 0.01..1 rad, got {self.max_angular_step}"
             )
+        if not 1 <= self.fine_max_iterations <= 100:
+            raise ScanMatcherConfigError(
+                f"fine_max_iterations must be 1..100, got {self.fine_max_iterations}"
+            )
+        if not (0.0 < self.converged_m <= 1.0 and 0.0 < self.converged_rad <= 1.0):
+            raise ScanMatcherConfigError("converged_m and converged_rad must be in (0, 1]")
         if not 0.0 <= self.damping <= 1.0:
             raise ScanMatcherConfigError(f"damping must be 0..1, got {self.damping}")
         if self.surface not in SURFACES:
@@ -108,6 +118,11 @@ class MatchResult:
     hessian: FloatArray  # 3x3 Σ JᵀJ at the solution (x, y, yaw); its inverse ~ covariance
     score: float  # mean M(S_i(ξ)) over the end points on the finest level
     n_points: int
+    # Σ J_nᵀ J_n over the inliers (M > INLIER_M) with J_n = (n_x, n_y, n · ∂S_i/∂ψ), n the unit
+    # surface normal (∇M / |∇M|): the point-to-surface information of the scan per 1 m² of
+    # per-point variance (`Localiser` scales it; see `normal_information`).
+    normal_info: FloatArray = field(default_factory=lambda: np.zeros((3, 3)))
+    n_inliers: int = 0
 
 
 class LikelihoodLevel:
@@ -365,6 +380,8 @@ class ScanMatcher:
         fine = subsample_points(points, cfg.max_points)
         px, py, yaw = initial.x, initial.y, initial.yaw
         hessian = np.zeros((3, 3))
+        normal_info = np.zeros((3, 3))
+        n_inliers = 0
         score = 0.0
         n_levels = len(self.levels)
         first = n_levels - 1 if start_level is None else min(max(start_level, 0), n_levels - 1)
@@ -374,16 +391,21 @@ class ScanMatcher:
             sx = np.ascontiguousarray(pts[:, 0])
             sy = np.ascontiguousarray(pts[:, 1])
             n_iter = cfg.iterations[n_levels - 1 - li]
-            for it in range(n_iter + (1 if li == 0 else 0)):
+            # The finest level goes on past its iterations while the steps are not converged
+            # (a few degrees of yaw take more than 4 steps at 5 cm), up to fine_max_iterations.
+            n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
+            converged = False
+            for it in range(n_max + (1 if li == 0 else 0)):
                 c, s = math.cos(yaw), math.sin(yaw)
                 rx = c * sx - s * sy  # R(ψ) s_i
                 ry = s * sx + c * sy
                 m, gx, gy = level.interpolate(rx + px, ry + py)
-                if li == 0 and it == n_iter:
+                if li == 0 and (it == n_max or (it >= n_iter and converged)):
                     # Final evaluation only: H and score at the solution.
                     jt = gy * rx - gx * ry
                     hessian = _hessian(gx, gy, jt)
                     score = float(m.mean()) if m.size else 0.0
+                    normal_info, n_inliers = normal_information(m, gx, gy, rx, ry)
                     break
                 r = 1.0 - m
                 jt = gy * rx - gx * ry  # ∇M · ∂S/∂ψ
@@ -395,10 +417,38 @@ class ScanMatcher:
                 h[2, 2] += lam
                 dx, dy, dth = _solve3(h, g)
                 dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
+                converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
                 px += dx
                 py += dy
                 yaw += dth
-        return MatchResult(Pose2D(px, py, yaw), hessian, score, int(fine.shape[0]))
+        return MatchResult(
+            Pose2D(px, py, yaw), hessian, score, int(fine.shape[0]), normal_info, n_inliers
+        )
+
+
+def normal_information(
+    m: FloatArray, gx: FloatArray, gy: FloatArray, rx: FloatArray, ry: FloatArray
+) -> tuple[FloatArray, int]:
+    """Point-to-surface information ``Σ J_nᵀ J_n`` of the inliers, and their number.
+
+    Hector's ``H`` is built from ``∇M``, which vanishes where an end point sits exactly on a
+    surface (the peak of M): at the solution it measures the residual noise as much as the
+    geometry. The covariance needs the geometry: for an end point at distance ``d`` from a
+    surface with unit normal ``n``, ``∂d/∂ξ = (n_x, n_y, n · R'(ψ) s_i)``, the Jacobian of
+    point-to-line ICP (Censi, "An accurate closed-form estimate of ICP's covariance", ICRA
+    2007). ``n`` is ``∇M / |∇M|``; only inliers (``M > INLIER_M``: within 2 sigma of a surface)
+    count, so beams into open space or onto people add nothing. Along a featureless corridor
+    every normal is across it, so the information along it is (near) zero.
+    """
+    g = np.hypot(gx, gy)
+    sel = (m > INLIER_M) & (g > 1e-9)
+    n = int(np.count_nonzero(sel))
+    if n == 0:
+        return np.zeros((3, 3)), 0
+    inv = 1.0 / g[sel]
+    nx, ny = gx[sel] * inv, gy[sel] * inv
+    jt = ny * rx[sel] - nx * ry[sel]
+    return _hessian(nx, ny, jt), n
 
 
 def _hessian(gx: FloatArray, gy: FloatArray, jt: FloatArray) -> FloatArray:

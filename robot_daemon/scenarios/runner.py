@@ -133,6 +133,7 @@ class Metrics:
     heading_errors: list[float] = field(default_factory=list)
     losses: int = 0
     silent_failures: int = 0  # samples reported ok while > 0.3 m or 10 degrees off the truth
+    degraded_s: float = 0.0  # simulated seconds spent in the degraded state
     worst: tuple[float, float, float] = (0.0, math.nan, math.nan)  # (error [m], true x, y)
     _last_pose: Pose2D | None = None
     _last_state: LocaliserState | None = None
@@ -156,7 +157,10 @@ class Metrics:
         state = stack.localisation_state
         if state != self._last_state and (
             state == LocaliserState.LOST
-            or (state == LocaliserState.SEARCHING and self._last_state == LocaliserState.OK)
+            or (
+                state == LocaliserState.SEARCHING
+                and self._last_state in (LocaliserState.OK, LocaliserState.DEGRADED)
+            )
         ):
             self.losses += 1  # lost, or a global search started while localised (issue 16)
         self._last_state = state
@@ -169,6 +173,7 @@ class Metrics:
                 self.silent_failures += 1
             if error > self.worst[0]:
                 self.worst = (error, truth.x, truth.y)
+        self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
 
     def figures(self) -> dict[str, Any]:
         loc = np.asarray(self.loc_errors) if self.loc_errors else np.zeros(1)
@@ -178,6 +183,8 @@ class Metrics:
         return {
             "distance_m": round(self.distance_m, 2),
             "localisation_losses": self.losses,
+            "localisation_silent_failures": self.silent_failures,
+            "localisation_degraded_s": round(self.degraded_s, 2),
             "mean_speed_mps": round(
                 self.moving_speed_sum / self.moving_time_s if self.moving_time_s else 0.0, 4
             ),

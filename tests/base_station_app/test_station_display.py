@@ -8,6 +8,7 @@ from base_station_app.display_text import (
     UNSET,
     age_text,
     estop_text,
+    localisation_text,
     orientation_text,
     position_text,
 )
@@ -39,3 +40,14 @@ def test_estop_line_never_pairs_latched_with_clear_silently() -> None:
     text, alarm = estop_text(False, True)
     assert alarm and "still stopped" in text
     assert "no answer" in estop_text(True, None)[0]
+
+
+def test_localisation_line_names_every_state_and_shows_the_sigmas() -> None:
+    cov = (0.0025, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, math.radians(2.0) ** 2)
+    pose = PoseMsg(1.0, 2.0, 0.0, state="degraded", confidence=0.8, covariance=cov)
+    assert localisation_text("degraded", pose) == (
+        "DEGRADED (uncertain: driving slowly) (confidence 0.80), ±10 cm, ±2.0°"
+    )
+    assert localisation_text("ok", PoseMsg(1.0, 2.0, 0.0)) == "localised (confidence 1.00)"
+    for state in ("unset", "ok", "degraded", "lost", "searching"):
+        assert localisation_text(state, None) != state  # every agreed state has words

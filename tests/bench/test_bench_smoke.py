@@ -63,10 +63,11 @@ POSITIVE = {
     "replay": ["replay_speed_x", "replay_poses_received"],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "reallogs": [
-        "reallog_intel_rms_m",
-        "reallog_intel_max_m",
-        "reallog_freiburg079_rms_m",
-        "reallog_freiburg079_max_m",
+        "reallog_intel_revisit_rms_m",
+        "reallog_intel_whole_rms_m",
+        "reallog_intel_whole_ms_median",
+        "reallog_freiburg079_revisit_rms_m",
+        "reallog_freiburg079_whole_max_m",
     ],
     "teleop": [
         "teleop_latency_ms_p50",
@@ -93,7 +94,13 @@ NON_NEGATIVE = {
         "tour_localisation_losses",
         "tour_loc_silent_failures",
     ],
-    "reallogs": ["reallog_intel_lost_scans", "reallog_freiburg079_lost_scans"],
+    "reallogs": [
+        "reallog_intel_whole_lost_scans",
+        "reallog_intel_whole_degraded_scans",
+        "reallog_intel_whole_silent_failures",
+        "reallog_freiburg079_revisit_silent_failures",
+        "reallog_all_silent_failures",
+    ],
     "kidnap": ["kidnap_false_losses"],
     "teleop_scenario": [
         "teleop_collisions",

@@ -259,7 +259,7 @@ STATION_REJECTS: list[tuple[object, type[ProtocolError], str]] = [
     ({"tour_state": {"stops": [1, 99], "visited": [], "next": 1}}, OutOfRange, "stops[1]"),
     ({"tour_state": {"stops": 1, "visited": [], "next": 1}}, InvalidField, "tour_state.stops"),
     ({"tour_state": {"stops": [], "visited": [], "next": "a"}}, InvalidField, "next"),
-    ({"localisation": "maybe"}, InvalidField, "unset, ok, lost"),
+    ({"localisation": "maybe"}, InvalidField, "unset, ok, degraded, lost, searching"),
     ({"permissions": {"teleop": True, "goals": True, "tours": True}}, MissingField, "requests"),
     ({"status": {"task": "t", "message": "m", "level": 1}}, UnknownField, "status.level"),
     ({"welcome": {"protocol": 1.5, "robot": "r"}}, InvalidField, "welcome.protocol"),
@@ -509,7 +509,7 @@ station_messages = st.one_of(
     st.builds(ShowRequest, st.integers(0, 99), _text, _node, _node),
     st.builds(Cancel, _text),
     st.builds(Permissions, st.booleans(), st.booleans(), st.booleans(), st.booleans()),
-    st.builds(Localisation, st.sampled_from(["unset", "ok", "lost"])),
+    st.builds(Localisation, st.sampled_from(["unset", "ok", "degraded", "lost", "searching"])),
     st.builds(StatusInfo, _text, _text),
 )
 

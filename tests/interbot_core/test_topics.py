@@ -369,3 +369,19 @@ def test_snapshot_carries_parts_and_rejects_corruption() -> None:
     renamed = payload.replace(b"\x04pose", b"\x04pise")
     with pytest.raises(TopicDecodeError, match="unknown topic"):
         decode_snapshot(renamed)
+
+
+def test_pose_covariance_and_degraded_state_round_trip_and_are_validated() -> None:
+    """The localiser's 3x3 covariance rides on the pose topic (row-major, 9 numbers)."""
+    cov = (0.01, 0.002, 0.0, 0.002, 0.09, 0.0, 0.0, 0.0, 0.0004)
+    msg = PoseMsg(1.0, 2.0, 0.3, 5.0, "degraded", 0.8, cov)
+    assert decode(Topic.POSE, encode(Topic.POSE, msg)) == msg
+    assert msg.sigmas == pytest.approx((0.1, 0.3, 0.02))
+    assert PoseMsg(0.0, 0.0, 0.0).sigmas is None  # older senders: no covariance
+    for state in ("unset", "ok", "degraded", "lost", "searching"):
+        assert PoseMsg(0.0, 0.0, 0.0, state=state).state == state
+    for bad in ((0.0,) * 4, (-1.0,) + (0.0,) * 8, (math.nan,) * 9, (2e6,) + (0.0,) * 8):
+        with pytest.raises(MessageValueError, match="covariance"):
+            PoseMsg(0.0, 0.0, 0.0, covariance=bad)
+    with pytest.raises(TopicDecodeError):
+        decode(Topic.POSE, b'{"x": 0, "y": 0, "yaw": 0, "covariance": [1, 2]}')

@@ -95,14 +95,22 @@ def test_teleport_is_reported_lost_within_2s_and_recovers(world) -> None:
 
 
 def test_single_implausible_scan_is_rejected_without_losing(world) -> None:
+    """One scan from elsewhere: rejected and reported degraded (not ok, not lost); ok again
+    after ``ok_after_s`` of good scans."""
     here = Pose2D(6.5, 1.5, 0.4)
     loc = Localiser(world.grid)
     loc.set_initial_pose(here, 0.0)
     loc.on_scan(world.scan(here, 0.0), 0.0)
     est = loc.on_scan(world.scan(Pose2D(16.0, 10.0, 2.0), 0.025), 0.025)
     assert est.pose is not None and est.pose.distance_to(here) < 0.02
-    est = loc.on_scan(world.scan(here, 0.05), 0.05)
-    assert est.state is LocaliserState.OK
+    assert est.state is LocaliserState.DEGRADED and est.reason
+    now = 0.05
+    est = loc.on_scan(world.scan(here, now), now)
+    assert est.state is LocaliserState.DEGRADED  # not yet ok_after_s of good scans
+    while now < 0.05 + loc.config.ok_after_s + 0.01:
+        now += 0.025
+        est = loc.on_scan(world.scan(here, now), now)
+    assert est.state is LocaliserState.OK and est.reason == ""
     assert est.pose is not None and est.pose.distance_to(here) < 0.01
 
 

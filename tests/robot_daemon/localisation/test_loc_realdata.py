@@ -21,7 +21,7 @@ from scipy import ndimage
 
 from interbot_core.carmen_log import LaserRecord, read_laser_records
 from robot_daemon.localisation import grid_from_scans
-from robot_daemon.localisation.log_replay import localise_revisits
+from robot_daemon.localisation.log_replay import localise_interleaved, localise_revisits
 from robot_daemon.localisation.mapping import scan_points_in_map
 
 LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "data" / "laser_logs"
@@ -42,6 +42,7 @@ def test_intel_lab_revisits(record_property) -> None:
         record_property(key, value)
     assert stats["scans"] >= 150
     assert stats["lost_scans"] == 0
+    assert stats["silent_failures"] == 0
     assert stats["median_m"] < 0.05
     assert stats["rms_m"] < 0.12
     assert stats["rms_yaw_rad"] < 0.02
@@ -53,11 +54,26 @@ def test_freiburg_079_revisits(record_property) -> None:
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 150
-    assert stats["lost_scans"] == 0
+    assert stats["silent_failures"] == 0
     assert stats["median_m"] < 0.05
     assert stats["rms_m"] < 0.08
     assert stats["rms_yaw_rad"] < 0.02
     assert stats["rms_m"] < stats["odometry_only_rms_m"] / 3
+
+
+@pytest.mark.parametrize(("name", "start"), [("intel", 0), ("csail", 100)])
+def test_whole_log_slice_has_no_silent_failure(name: str, start: int, record_property) -> None:
+    """Interleaved method (map: even scans; localised: odd ones, forward in one run) on 300
+    scans of the log: no scan more than 0.3 m or 10 degrees off while reported ok."""
+    stats = localise_interleaved(_log(name), 2, start=start, count=300)
+    for key, value in stats.items():
+        record_property(key, value)
+    assert stats["scans"] >= 140
+    assert stats["silent_failures"] == 0
+    assert stats["lost_scans"] == 0
+    assert stats["median_m"] < 0.03
+    assert stats["rms_m"] < 0.05
+    assert stats["rms_yaw_rad"] < 0.02
 
 
 def _cross_consistency(records: list[LaserRecord], increment_of: dict[int, float]) -> float:
