@@ -23,7 +23,6 @@ Nothing here does I/O or reads a clock; ping times are passed in by the caller.
 from __future__ import annotations
 
 import enum
-import json
 import logging
 import re
 import typing
@@ -279,7 +278,6 @@ def _check_bounds(msg: Message, limits: ProtocolLimits) -> None:
 
 JsonObject = dict[str, Any]
 _ENCODER: Final = msgspec.json.Encoder()
-_DECODER: Final = msgspec.json.Decoder()
 
 
 class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defaults=True):
@@ -308,7 +306,7 @@ class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defa
 
     def to_json(self) -> JsonObject:
         """The whole message as JSON values: ``{KEY: body}``."""
-        return {self.KEY: _DECODER.decode(_ENCODER.encode(self.body()))}
+        return {self.KEY: msgspec.json.decode(_ENCODER.encode(self.body()))}
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
@@ -755,56 +753,13 @@ def encode(msg: Message, max_frame_bytes: int = DEFAULT_MAX_FRAME_BYTES) -> byte
 # --------------------------------------------------------------------------------------------
 
 
-def _reject_constant(name: str) -> object:
-    raise ValueError(f"{name} is not valid JSON")
-
-
-def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    obj: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in obj:
-            raise ValueError(f"duplicate key {key!r}")
-        obj[key] = value
-    return obj
-
-
-def _count_keys(value: object) -> int:
-    if isinstance(value, dict):
-        return len(value) + sum(_count_keys(v) for v in value.values())
-    if isinstance(value, list):
-        return sum(_count_keys(v) for v in value)
-    return 0
-
-
-def _strict_loads(frame: bytes) -> object:
-    return json.loads(
-        frame.decode("utf-8"),
-        parse_constant=_reject_constant,
-        object_pairs_hook=_pairs_without_duplicates,
-    )
-
-
 def parse_frame(frame: bytes) -> dict[str, Any]:
-    """Parse one complete frame; raises InvalidJson (also for duplicate keys) or NotAnObject.
-
-    msgspec parses; it keeps the last of duplicate keys, so the keys it kept are counted
-    against the frame's colons: when they differ (a duplicate, or a colon inside a string) the
-    frame is parsed again by the standard library, told to refuse duplicates. The standard
-    library also words the error of a frame msgspec refuses ("NaN is not valid JSON").
-    """
+    """Parse one complete frame; raises InvalidJson (bad UTF-8, NaN, duplicate keys, too deep)
+    or NotAnObject (`schema.parse_json`)."""
     try:
-        try:
-            value = _DECODER.decode(frame)
-        except msgspec.DecodeError:
-            value = _strict_loads(frame)  # raises the error a person can act on
-        if _count_keys(value) != frame.count(b":"):
-            value = _strict_loads(frame)
-    except UnicodeDecodeError as exc:
-        raise InvalidJson(f"frame is not valid UTF-8 ({exc.reason} at byte {exc.start})") from None
-    except RecursionError:
-        raise InvalidJson("frame is nested too deeply") from None
-    except ValueError as exc:
-        raise InvalidJson(f"frame is not valid JSON: {exc}") from None
+        value = schema.parse_json(frame)
+    except schema.JsonSyntaxError as exc:
+        raise InvalidJson(f"frame is {exc}") from None
     if not isinstance(value, dict):
         raise NotAnObject(f"top-level JSON value must be an object, got {_type_name(value)}")
     return value

@@ -23,6 +23,7 @@ that makes a float field refuse NaN and ±inf (msgspec has no ``allow_inf_nan`` 
 from __future__ import annotations
 
 import contextvars
+import json
 import math
 import re
 import sys
@@ -41,6 +42,17 @@ FINITE: Final = sys.float_info.max
 
 Finite = typing.Annotated[float, msgspec.Meta(ge=-FINITE, le=FINITE)]
 """A finite float."""
+
+
+def one_of(*choices: str) -> msgspec.Meta:
+    """The constraint of a ``str`` field that takes one of ``choices``.
+
+    ``Annotated[str, one_of("a", "b")]`` is a str to the type checker (callers pass plain
+    strings) and refuses anything else at run time; errors list the choices in this order.
+    """
+    pattern = "^(?:" + "|".join(map(re.escape, choices)) + ")$"
+    return msgspec.Meta(pattern=pattern, extra={"one_of": choices})
+
 
 ProblemKind = Literal["type", "missing", "unknown", "range"]
 T = typing.TypeVar("T")
@@ -86,11 +98,75 @@ def decoding() -> bool:
 
 
 # --------------------------------------------------------------------------------------------
+# JSON text
+# --------------------------------------------------------------------------------------------
+
+_JSON: Final = msgspec.json.Decoder()
+
+
+class JsonSyntaxError(ValueError):
+    """Bytes that are not one JSON value: bad UTF-8, NaN, a duplicate key, too deep, ..."""
+
+
+def _reject_constant(name: str) -> object:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    obj: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in obj:
+            raise ValueError(f"duplicate key {key!r}")
+        obj[key] = value
+    return obj
+
+
+def _strict_loads(data: bytes) -> object:
+    return json.loads(
+        data.decode("utf-8"),
+        parse_constant=_reject_constant,
+        object_pairs_hook=_pairs_without_duplicates,
+    )
+
+
+def _count_keys(value: object) -> int:
+    if isinstance(value, dict):
+        return len(value) + sum(_count_keys(v) for v in value.values())
+    if isinstance(value, list):
+        return sum(_count_keys(v) for v in value)
+    return 0
+
+
+def parse_json(data: bytes) -> object:
+    """Parse one JSON value, refusing NaN/Infinity and duplicate keys; raise `JsonSyntaxError`.
+
+    msgspec parses; it keeps the last of duplicate keys, so the keys it kept are counted
+    against the text's colons: when they differ (a duplicate, or a colon inside a string) the
+    text is parsed again by the standard library, told to refuse duplicates. The standard
+    library also words the error for text msgspec refuses ("NaN is not valid JSON").
+    """
+    try:
+        try:
+            value = _JSON.decode(data)
+        except msgspec.DecodeError:
+            value = _strict_loads(data)  # raises the error a person can act on
+        if _count_keys(value) != data.count(b":"):
+            value = _strict_loads(data)
+    except UnicodeDecodeError as exc:
+        raise JsonSyntaxError(f"not valid UTF-8 ({exc.reason} at byte {exc.start})") from None
+    except RecursionError:
+        raise JsonSyntaxError("nested too deeply") from None
+    except ValueError as exc:
+        raise JsonSyntaxError(f"not valid JSON: {exc}") from None
+    return value
+
+
+# --------------------------------------------------------------------------------------------
 # Error messages
 # --------------------------------------------------------------------------------------------
 
-_ERROR = re.compile(r"^(?P<what>.*?)(?: - at `\$(?P<path>[^`]*)`)?$", re.DOTALL)
-_TOKEN = re.compile(r"\.([^.\[]+)|\[(\d+)\]")
+_ERROR = re.compile(r"^(?P<what>.*?)(?: - at (?P<key>`key` in )?`\$(?P<path>[^`]*)`)?$", re.DOTALL)
+_TOKEN = re.compile(r"\.([^.\[]+)|\[(\d+|\.\.\.)\]")
 _BOUND = re.compile(r"^Expected `(?P<type>\w+)`(?: of length)? (?P<op>[<>]=?) ")
 _FIELD = re.compile(r"field `(?P<name>[^`]+)`")
 _TYPE_WORDS: Final = {
@@ -109,9 +185,20 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
     match = _ERROR.match(str(exc))
     assert match is not None  # the pattern matches every string
     what, raw_path = match["what"], match["path"] or ""
-    tokens: list[str | int] = [
-        name if name else int(index) for name, index in _TOKEN.findall(raw_path)
-    ]
+    tokens: list[str | int] = []
+    for name, index in _TOKEN.findall(raw_path):
+        if index == "...":  # a value of a dict: find which
+            bad = _bad_entry(data, type_, tokens, key=False)
+            if bad is None:
+                break
+            tokens.append(bad)
+        else:
+            tokens.append(name if name else int(index))
+    if match["key"]:  # a key of a dict
+        bad = _bad_entry(data, type_, tokens, key=True)
+        where = root + "".join(f"[{t}]" if isinstance(t, int) else f".{t}" for t in tokens)
+        rule = what.removeprefix("Expected ").replace("`", "")
+        return SchemaError("type", where, f"{where} key {describe(bad)} must be a {rule}")
     path = root + "".join(f"[{t}]" if isinstance(t, int) else f".{t}" for t in tokens)
     value = _value_at(data, tokens)
     info = _unwrap(_type_at(_type_info(type_), tokens))
@@ -120,6 +207,10 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
     ):
         return _field_problem(what, value, info, path)
     unit = _unit(_type_at(_type_info(type_), tokens))
+    choices = _extra(_type_at(_type_info(type_), tokens), "one_of")
+    if choices and what.startswith("Expected `str` matching"):
+        allowed = ", ".join(choices)
+        return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
     if what.startswith("Invalid enum value") and isinstance(info, mi.LiteralType):
         allowed = ", ".join(map(str, _declared_literal(type_, tokens) or info.values))
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
@@ -176,7 +267,7 @@ def _bound_problem(value: object, info: mi.Type, path: str, unit: str) -> Schema
 
 def _length(low: int | None, high: int | None) -> str:
     if low is not None and high is not None:
-        return f"{low} to {high}"
+        return f"{low}..{high}"
     return f"at least {low}" if low is not None else f"at most {high}"
 
 
@@ -241,18 +332,23 @@ def _unwrap(info: mi.Type) -> mi.Type:
 
 
 def _unit(info: mi.Type) -> str:
+    return str(_extra(info, "unit") or "")
+
+
+def _extra(info: mi.Type, name: str) -> Any:
+    """Entry ``name`` of the ``Meta(extra=...)`` of a field type (looking inside ``X | None``)."""
     while True:
         if isinstance(info, mi.Metadata):
-            if info.extra and "unit" in info.extra:
-                return str(info.extra["unit"])
+            if info.extra and name in info.extra:
+                return info.extra[name]
             info = info.type
         elif isinstance(info, mi.UnionType):
             others = [t for t in info.types if not isinstance(t, mi.NoneType)]
             if len(others) != 1:
-                return ""
+                return None
             info = others[0]
         else:
-            return ""
+            return None
 
 
 def _type_at(info: mi.Type, tokens: Sequence[str | int]) -> mi.Type:
@@ -274,31 +370,61 @@ def _type_at(info: mi.Type, tokens: Sequence[str | int]) -> mi.Type:
     return info
 
 
-def _declared_literal(type_: Any, tokens: Sequence[str | int]) -> tuple[object, ...]:
-    """The values of the ``Literal`` at ``tokens`` in declaration order (msgspec sorts them)."""
+def _strip(hint: Any) -> Any:
+    """``X`` of ``Annotated[X, ...]`` and of ``X | None``."""
+    while True:
+        origin = typing.get_origin(hint)
+        if origin is typing.Annotated:
+            hint = typing.get_args(hint)[0]
+        elif origin in (typing.Union, types.UnionType):
+            others = [a for a in typing.get_args(hint) if a is not type(None)]
+            if len(others) != 1:
+                return hint
+            hint = others[0]
+        else:
+            return hint
+
+
+def _hint_at(type_: Any, tokens: Sequence[str | int]) -> Any:
+    """The declared Python type at ``tokens`` inside ``type_`` (None when it cannot be told)."""
     hint = type_
-    for token in [*tokens, None]:
-        while True:
-            origin = typing.get_origin(hint)
-            if origin is typing.Annotated:
-                hint = typing.get_args(hint)[0]
-            elif origin in (typing.Union, types.UnionType):
-                others = [a for a in typing.get_args(hint) if a is not type(None)]
-                if len(others) != 1:
-                    return ()
-                hint = others[0]
-            else:
-                break
-        if token is None:
-            break
+    for token in tokens:
+        hint = _strip(hint)
+        origin = typing.get_origin(hint)
         if isinstance(hint, type) and issubclass(hint, msgspec.Struct):
-            by_name = {f.encode_name: f.type_ for f in _fields(hint)}
-            hint = by_name.get(str(token))
-        elif typing.get_origin(hint) in (tuple, list, frozenset, set):
+            hint = {f.encode_name: f.type_ for f in _fields(hint)}.get(str(token))
+        elif origin is dict:
+            hint = typing.get_args(hint)[1]
+        elif origin is tuple and typing.get_args(hint)[-1:] != (Ellipsis,):
+            args = typing.get_args(hint)
+            hint = args[token] if isinstance(token, int) and token < len(args) else None
+        elif origin in (tuple, list, frozenset, set):
             hint = typing.get_args(hint)[0]
         else:
-            return ()
+            return None
+    return hint
+
+
+def _declared_literal(type_: Any, tokens: Sequence[str | int]) -> tuple[object, ...]:
+    """The values of the ``Literal`` at ``tokens`` in declaration order (msgspec sorts them)."""
+    hint = _strip(_hint_at(type_, tokens))
     return typing.get_args(hint) if typing.get_origin(hint) is Literal else ()
+
+
+def _bad_entry(data: object, type_: Any, tokens: list[str | int], key: bool) -> str | None:
+    """The first key (``key``) or the key of the first value of the dict at ``tokens`` that
+    does not convert to its declared type: msgspec's path says only ``[...]``."""
+    mapping = _value_at(data, tokens)
+    hint = _strip(_hint_at(type_, tokens))
+    if not isinstance(mapping, Mapping) or typing.get_origin(hint) is not dict:
+        return None
+    key_type, value_type = typing.get_args(hint)
+    for k, v in mapping.items():
+        try:
+            msgspec.convert(k if key else v, key_type if key else value_type, strict=True)
+        except msgspec.ValidationError:
+            return str(k)
+    return None
 
 
 def _value_at(data: object, tokens: Sequence[str | int]) -> object:
