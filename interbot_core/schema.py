@@ -102,6 +102,7 @@ def decoding() -> bool:
 # --------------------------------------------------------------------------------------------
 
 _JSON: Final = msgspec.json.Decoder()
+_JSON_OUT: Final = msgspec.json.Encoder()
 
 
 class JsonSyntaxError(ValueError):
@@ -129,28 +130,22 @@ def _strict_loads(data: bytes) -> object:
     )
 
 
-def _count_keys(value: object) -> int:
-    if isinstance(value, dict):
-        return len(value) + sum(_count_keys(v) for v in value.values())
-    if isinstance(value, list):
-        return sum(_count_keys(v) for v in value)
-    return 0
-
-
 def parse_json(data: bytes) -> object:
     """Parse one JSON value, refusing NaN/Infinity and duplicate keys; raise `JsonSyntaxError`.
 
-    msgspec parses; it keeps the last of duplicate keys, so the keys it kept are counted
-    against the text's colons: when they differ (a duplicate, or a colon inside a string) the
-    text is parsed again by the standard library, told to refuse duplicates. The standard
-    library also words the error for text msgspec refuses ("NaN is not valid JSON").
+    msgspec parses; it keeps the last of duplicate keys, so what it kept is encoded again and
+    the colons counted: outside strings each colon is one key, and colons inside strings are
+    kept as they are, so a duplicate shows as a missing colon. When the counts differ, or the
+    text has ``\\u`` escapes (an escaped colon would hide a dropped one), the text is parsed
+    again by the standard library, told to refuse duplicates. The standard library also
+    words the error for text msgspec refuses ("NaN is not valid JSON").
     """
     try:
         try:
             value = _JSON.decode(data)
         except msgspec.DecodeError:
             value = _strict_loads(data)  # raises the error a person can act on
-        if _count_keys(value) != data.count(b":"):
+        if b"\\u" in data or _JSON_OUT.encode(value).count(b":") != data.count(b":"):
             value = _strict_loads(data)
     except UnicodeDecodeError as exc:
         raise JsonSyntaxError(f"not valid UTF-8 ({exc.reason} at byte {exc.start})") from None
@@ -246,7 +241,10 @@ def _field_problem(what: str, value: object, info: mi.Type, path: str) -> Schema
 def _bound_problem(value: object, info: mi.Type, path: str, unit: str) -> SchemaError:
     units = f" {unit}" if unit else ""
     if isinstance(info, mi.FloatType) and isinstance(value, float) and not math.isfinite(value):
-        return SchemaError("type", path, f"{path} must be a finite number{units}, got {value!r}")
+        unit_text = f" [{unit}]" if unit else ""
+        return SchemaError(
+            "type", path, f"{path} must be a finite number{unit_text}, got {value!r}"
+        )
     if isinstance(info, mi.IntType | mi.FloatType):
         return SchemaError(
             "range",
