@@ -191,10 +191,10 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
             tokens.append(name if name else int(index))
     if match["key"]:  # a key of a dict
         bad = _bad_entry(data, type_, tokens, key=True)
-        where = root + "".join(f"[{t}]" if isinstance(t, int) else f".{t}" for t in tokens)
+        where = _join(root, tokens)
         rule = what.removeprefix("Expected ").replace("`", "")
         return SchemaError("type", where, f"{where} key {describe(bad)} must be a {rule}")
-    path = root + "".join(f"[{t}]" if isinstance(t, int) else f".{t}" for t in tokens)
+    path = _join(root, tokens)
     value = _value_at(data, tokens)
     info = _unwrap(_type_at(_type_info(type_), tokens))
     if what.startswith("Object missing required field") or what.startswith(
@@ -206,14 +206,23 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
     if choices and what.startswith("Expected `str` matching"):
         allowed = ", ".join(choices)
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
+    form = _extra(_type_at(_type_info(type_), tokens), "format")
+    if isinstance(info, mi.StrType) and what.startswith("Expected `str` matching"):
+        form = form or f"a string matching {info.pattern}"
+        return SchemaError("type", path, f"{path} must be {form}, got {describe(value)}")
     if what.startswith("Invalid enum value") and isinstance(info, mi.LiteralType):
         allowed = ", ".join(map(str, _declared_literal(type_, tokens) or info.values))
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
     bound = _BOUND.match(what)
     if bound is not None:
         return _bound_problem(value, info, path, unit)
-    expected = _expected(info, unit)
+    expected = form or _expected(info, unit)
     return SchemaError("type", path, f"{path} must be {expected}, got {describe(value)}")
+
+
+def _join(root: str, tokens: Sequence[str | int]) -> str:
+    path = root + "".join(f"[{t}]" if isinstance(t, int) else f".{t}" for t in tokens)
+    return path.removeprefix(".") if not root else path
 
 
 def _field_problem(what: str, value: object, info: mi.Type, path: str) -> SchemaError:
@@ -223,18 +232,18 @@ def _field_problem(what: str, value: object, info: mi.Type, path: str) -> Schema
     required = [f.encode_name for f in fields if f.required]
     present = value if isinstance(value, Mapping) else {}
     missing = [n for n in required if n not in present]
+    whole = path or "the document"
     if missing:
+        where = f"{path}.{missing[0]}" if path else missing[0]
         return SchemaError(
-            "missing",
-            f"{path}.{missing[0]}",
-            f"{path}.{missing[0]} is missing ({path} needs {', '.join(required)})",
+            "missing", where, f"{where} is missing ({whole} needs {', '.join(required)})"
         )
     found = _FIELD.search(what)
-    name = found["name"] if found else "?"
+    where = (
+        f"{path}.{found['name'] if found else '?'}" if path else (found["name"] if found else "?")
+    )
     return SchemaError(
-        "unknown",
-        f"{path}.{name}",
-        f"{path}.{name} is not a field of {path} (allowed: {', '.join(names)})",
+        "unknown", where, f"{where} is not a field of {whole} (allowed: {', '.join(names)})"
     )
 
 
@@ -499,6 +508,42 @@ def check_fields(obj: msgspec.Struct, root: str, *, bare: bool = False) -> None:
 @cache
 def _text_fields(cls: type[msgspec.Struct]) -> tuple[int, ...]:
     return tuple(i for i, f in enumerate(_fields(cls)) if f.text)
+
+
+class Declared(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """Base of a declared configuration section or message checked on construction.
+
+    Built in Python, its fields are checked (`check_fields`, naming ``ROOT.field``) and then
+    `check` runs (rules relating fields); a failure raises ``ERROR``. Converted by msgspec (in
+    `convert`), the fields are already checked: call `check_all` on the result for the rules.
+    """
+
+    ROOT: typing.ClassVar[str] = ""
+    ERROR: typing.ClassVar[type[Exception]] = SchemaError
+
+    def __post_init__(self) -> None:
+        if decoding():
+            return
+        try:
+            check_fields(self, self.ROOT)
+        except SchemaError as exc:
+            raise self.ERROR(exc.message) from None
+        self.check()
+
+    def check(self) -> None:
+        """Rules across fields; raise ``ERROR``."""
+
+
+def check_all(obj: object) -> None:
+    """Run `Declared.check` on ``obj`` and on every Declared inside it (after `convert`)."""
+    if isinstance(obj, msgspec.Struct):
+        for value in msgspec.structs.astuple(obj):
+            check_all(value)
+        if isinstance(obj, Declared):
+            obj.check()
+    elif isinstance(obj, tuple | list):
+        for value in obj:
+            check_all(value)
 
 
 def check_text(value: object, path: str) -> None:
