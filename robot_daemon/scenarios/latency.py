@@ -39,6 +39,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
@@ -178,7 +179,7 @@ def lay_out_run(
 
 def _mux_with_timeout(config: MuxConfig, timeout: float) -> MuxConfig:
     inputs = tuple(
-        dataclasses.replace(i, timeout=timeout) if i.topic in TOPIC.values() else i
+        msgspec.structs.replace(i, timeout=timeout) if i.topic in TOPIC.values() else i
         for i in config.inputs
     )
     return dataclasses.replace(config, inputs=inputs)
