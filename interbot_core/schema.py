@@ -215,7 +215,7 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
     bound = _BOUND.match(what)
     if bound is not None:
-        return _bound_problem(value, info, path, unit)
+        return _bound_problem(value, _member_for(info, value), path, unit)
     expected = form or _expected(info, unit)
     return SchemaError("type", path, f"{path} must be {expected}, got {describe(value)}")
 
@@ -270,6 +270,25 @@ def _bound_problem(value: object, info: mi.Type, path: str, unit: str) -> Schema
     return SchemaError(
         "range", path, f"{path} has {length} elements; {_length(low, high)} are allowed"
     )
+
+
+def _member_for(info: mi.Type, value: object) -> mi.Type:
+    """The member of a union that ``value``'s JSON kind belongs to (the one whose bound broke)."""
+    if not isinstance(info, mi.UnionType):
+        return info
+    kinds = {
+        bool: mi.BoolType,
+        int: mi.IntType,
+        float: mi.FloatType,
+        str: mi.StrType,
+        list: mi.ListType | mi.VarTupleType | mi.TupleType,
+        dict: mi.DictType | mi.StructType,
+    }
+    wanted = kinds.get(type(value))
+    for member in map(_unwrap, info.types):
+        if wanted is not None and isinstance(member, wanted):
+            return member
+    return info
 
 
 def _length(low: int | None, high: int | None) -> str:

@@ -31,6 +31,7 @@ class Leg(msgspec.Struct, frozen=True, forbid_unknown_fields=True, rename={"to_n
 class Trip(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     legs: Annotated[tuple[Leg, ...], Meta(min_length=1, max_length=3)]
     tags: dict[Annotated[str, Meta(pattern="^[a-z]+$")], Annotated[int, Meta(ge=0)]] = {}
+    limit: Annotated[float, Meta(gt=0.0)] | Annotated[str, Meta(max_length=3)] = 1.0
 
 
 def _error(data: object, type_: type = Trip) -> SchemaError:
@@ -55,9 +56,11 @@ LEG = {"toNode": 3, "speed": 0.5}
         ({"legs": [{**LEG, "x": 1}]}, "unknown", "trip.legs[0].x", "is not a field of trip.legs[0] (allowed: toNode, speed, mode, level, note)"),
         ({"legs": []}, "range", "trip.legs", "has 0 elements; 1..3 are allowed"),
         ({"legs": "no"}, "type", "trip.legs", "must be an array, got 'no'"),
-        ([1], "type", "trip", "must be an object with keys legs, tags"),
+        ([1], "type", "trip", "must be an object with keys legs, tags, limit"),
         ({"legs": [LEG], "tags": {"ok": 1, "Bad": 2}}, "type", "trip.tags", "key 'Bad' must be a str matching"),
         ({"legs": [LEG], "tags": {"ok": 1, "no": -2}}, "range", "trip.tags.no", "= -2 is outside"),
+        ({"legs": [LEG], "limit": -1.0}, "range", "trip.limit", "= -1.0 is outside the allowed range (0, inf)"),
+        ({"legs": [LEG], "limit": "none"}, "range", "trip.limit", "has 4 characters; at most 3 are allowed"),
     ],
 )  # fmt: skip
 def test_errors_name_the_field_the_value_and_the_range(
