@@ -312,13 +312,15 @@ class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defa
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
         """Validate the decoded JSON ``body`` of a ``{KEY: body}`` message against ``limits``."""
         try:
-            if cls.BARE:
-                field = schema.field_types(cls)[0]
-                value = schema.convert(body, field.type_, cls.KEY)
-                msg = schema.convert({field.encode_name: value}, cls, cls.KEY)
+            if cls.BARE:  # {"goal": 7} is checked as {"node": 7}, named as "goal"
+                name = cls.__struct_encode_fields__[0]
+                msg = schema.convert({name: body}, cls, cls.KEY)
             else:
                 msg = schema.convert(body, cls, cls.KEY)
         except SchemaError as exc:
+            if cls.BARE:
+                inner = f"{cls.KEY}.{name}"
+                exc = SchemaError(exc.kind, cls.KEY, exc.message.replace(inner, cls.KEY, 1))
             raise _protocol_error(exc) from None
         _check_bounds(msg, limits)
         return msg

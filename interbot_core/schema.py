@@ -488,11 +488,6 @@ def _fields(cls: type[msgspec.Struct]) -> tuple[_Field, ...]:
     )
 
 
-def field_types(cls: type[msgspec.Struct]) -> tuple[_Field, ...]:
-    """The fields of ``cls`` with their declared (``Annotated``) types, in order."""
-    return _fields(cls)
-
-
 @cache
 def _checker(cls: type[msgspec.Struct]) -> type[msgspec.Struct]:
     """A twin of ``cls`` without its ``__post_init__``, to check an instance in one C call."""
