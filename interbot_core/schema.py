@@ -14,7 +14,10 @@ what msgspec leaves to its users:
 * `check_fields` validates a Struct's fields when it is *constructed* in Python (msgspec checks
   only what it decodes), so an invalid message cannot even be built; ints given for float
   fields become floats and lists given for tuple fields become tuples.
-* `convert` is ``msgspec.convert`` raising `SchemaError`.
+* `convert` is ``msgspec.convert`` raising `SchemaError`; `Declared` is the base of a section or
+  message checked on construction, with a `Declared.check` hook for rules across fields.
+* `parse_json` parses JSON text refusing NaN, bad UTF-8 and duplicate keys (msgspec keeps the
+  last of duplicates); `one_of` declares a str field with fixed choices.
 
 Units go in ``Meta(extra={"unit": "m/s"})`` and appear in messages. ``FINITE`` is the bound
 that makes a float field refuse NaN and ±inf (msgspec has no ``allow_inf_nan`` switch).
