@@ -151,3 +151,16 @@ def test_parse_json_refuses_exactly_what_the_strict_reference_refuses(text: str)
             schema.parse_json(text.encode())
     else:
         assert schema.parse_json(text.encode()) == expected
+
+
+def test_every_wire_message_is_one_declaration() -> None:
+    """Issue 13: each tablet message and zenoh JSON topic is a msgspec Struct (its types are
+    its schema, also exported as JSON Schema for the recordings), not hand-written checks."""
+    from interbot_core import protocol, topics
+
+    classes = {*protocol.TABLET_MESSAGES.values(), *protocol.STATION_MESSAGES.values()}
+    classes |= {s.message_type for s in topics.TOPIC_SPECS.values() if not s.binary}
+    for cls in classes:
+        assert issubclass(cls, msgspec.Struct), cls
+        exported = msgspec.json.schema(cls)
+        assert exported["$defs"][cls.__name__]["type"] == "object"
