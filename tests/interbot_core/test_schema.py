@@ -164,3 +164,47 @@ def test_every_wire_message_is_one_declaration() -> None:
         assert issubclass(cls, msgspec.Struct), cls
         exported = msgspec.json.schema(cls)
         assert exported["$defs"][cls.__name__]["type"] == "object"
+
+
+_json_values = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**70), 2**70)
+    | st.floats(allow_nan=True, allow_infinity=True)
+    | st.text(max_size=8),
+    lambda inner: (
+        st.lists(inner, max_size=4)
+        | st.dictionaries(
+            st.sampled_from(["x", "id", "linear", "kind", "stops", "a"]), inner, max_size=4
+        )
+    ),
+    max_leaves=10,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(body=_json_values, which=st.integers(0, 10**6))
+def test_any_decoded_value_is_accepted_or_refused_with_a_protocol_or_topic_error(
+    body: object, which: int
+) -> None:
+    """Whatever a peer sends, decoding returns a message or raises the documented error type
+    with a message: the error wording code never crashes on odd paths or values."""
+    from interbot_core import protocol, topics
+
+    keys = sorted({*protocol.TABLET_MESSAGES, *protocol.STATION_MESSAGES})
+    key = keys[which % len(keys)]
+    for decode in (protocol.decode_tablet_message, protocol.decode_station_message):
+        try:
+            decode({key: body})
+        except protocol.ProtocolError as exc:
+            assert exc.message
+    specs = [s for s in topics.TOPIC_SPECS.values() if not s.binary]
+    spec = specs[which % len(specs)]
+    try:
+        payload = json.dumps(body).encode()
+    except ValueError:
+        return
+    try:
+        topics.decode(spec.topic, payload)
+    except topics.TopicDecodeError as exc:
+        assert str(exc)
