@@ -9,8 +9,9 @@ thesis describes in prose but does not list: the version handshake, latency ping
 tour control and state, "Help me!" initial pose by room, malfunction reports, requests shown at
 a room and their answer, cancellation, permissions, localisation state, status text and errors.
 
-Every message is a frozen dataclass with ``to_json()`` (the whole ``{key: body}`` object) and a
-``from_json(body, limits)`` class method that validates the body against `ProtocolLimits`.
+Every message is a frozen msgspec Struct whose field types declare its rules (types, ranges,
+choices; `interbot_core.schema`, issue 13), with ``to_json()`` (the whole ``{key: body}``
+object) and ``from_json(body, limits)``, which also applies the connection's `ProtocolLimits`.
 `decode_tablet_message` and `decode_station_message` pick the class by the top-level key, one
 per direction because ``goal`` means different things each way. `encode` produces one compact
 JSON object followed by ``\\n``. `JsonStreamDecoder` splits a TCP byte stream into JSON objects

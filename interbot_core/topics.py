@@ -9,8 +9,8 @@ station drops), ``route_progress``, ``battery``, ``status``, ``config`` (planner
 fly), ``mux`` (the active source), ``stop_release`` (the emergency stop latches on the robot),
 the liveliness token ``interbot/<robot_id>/alive`` and the query ``interbot/<robot_id>/state``.
 
-Control messages are compact JSON objects, one frozen dataclass each, validated on construction
-and on decoding. Scans, maps, images and the state snapshot are binary: a versioned header
+Control messages are compact JSON objects, one frozen msgspec Struct each whose field types
+declare the rules (`interbot_core.schema`), validated on construction and on decoding. Scans, maps, images and the state snapshot are binary: a versioned header
 (``struct``, little-endian) and a little-endian payload; layouts in docs/topics.md. Every decoder
 rejects truncated, oversized, wrong-version or out-of-range payloads with `TopicDecodeError`, and
 ``decode(encode(m)) == m`` exactly (except the optional millimetre scan encoding, which rounds).
