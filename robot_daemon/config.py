@@ -1,4 +1,4 @@
-"""The robot daemon's configuration: ``robot.yaml`` parsed into frozen, validated dataclasses.
+"""The robot daemon's configuration: ``robot.yaml`` declared as msgspec Structs (`RobotFile`).
 
 Every error names the file and the key and says what is allowed; nothing half-applies. The
 configuration is logged once at start-up. Example (all keys optional except where noted)::

@@ -1,4 +1,4 @@
-"""The ``hardware:`` section of robot.yaml, parsed into frozen, validated dataclasses.
+"""The ``hardware:`` section of robot.yaml, declared as msgspec Structs (types carry the ranges).
 
 Every error names the key (``hardware.motors.track``) and the allowed range. Example (see
 deploy/robot.yaml)::
