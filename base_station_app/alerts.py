@@ -41,6 +41,7 @@ KINDS = (
     "offline",
     "malfunction",
     "refused",
+    "waiting",  # a robot the operator does not command waits for them (request, tour stop)
 )
 SEVERE = frozenset({"collision", "fault", "blocked", "lost", "offline"})
 

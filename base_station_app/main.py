@@ -76,7 +76,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--tablet-host", default="127.0.0.1", help="address to listen on for the tablet"
     )
     parser.add_argument("--tablet-port", type=int, default=5555, help="TCP port for the tablet")
-    parser.add_argument("--robot", metavar="ID", help="robot to command (default: the first seen)")
+    parser.add_argument(
+        "--robot",
+        metavar="ID",
+        help="robot to command (default: the one commanded last; with several robots and no "
+        "choice the station asks)",
+    )
     parser.add_argument("--topo", type=Path, default=DEFAULT_TOPO, help="topological map YAML")
     parser.add_argument(
         "--security",

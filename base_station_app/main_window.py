@@ -1,8 +1,9 @@
 """The Base Station's main window: a composition root (STYLE.md; thesis §5.3, Appendix I Fig. 2).
 
 It creates the widgets around one `StationController`, the actions (emergency stop, pause,
-resume, pick modes, quit), wires signals, and reads/writes QSettings (window geometry and
-state, the station configuration, tablet permissions). It holds no protocol, planning or robot
+resume, pick modes, quit, the robot selector), wires signals, and reads/writes QSettings (window
+geometry and state, the station configuration, tablet permissions, the robot commanded last:
+``--robot`` wins over it; with neither and several robots the station asks). It holds no protocol, planning or robot
 logic. The map view with the camera under it fill the left, the control tabs the right. Teleoperation stops at once when the window loses activation.
 """
 
@@ -28,6 +29,8 @@ from base_station_app.qt_config_panel import QtConfigPanel
 from base_station_app.qt_diagnostics_panel import QtDiagnosticsPanel
 from base_station_app.qt_map_view import QtMapView
 from base_station_app.qt_replay_bar import QtReplayBar
+from base_station_app.qt_robot_choice_dialog import QtRobotChoiceDialog
+from base_station_app.qt_robot_selector import QtRobotSelector
 from base_station_app.qt_robots_panel import QtRobotsPanel
 from base_station_app.qt_state_panel import QtStatePanel
 from base_station_app.qt_tablet_panel import QtTabletPanel
@@ -38,10 +41,12 @@ from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import PERMISSION_KINDS
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoToPose
+from interbot_core.topics import TopicError, validate_robot_id
 from interbot_link.replay import ReplayControlClient
 
 logger = logging.getLogger(__name__)
 
+ROBOT_KEY = "fleet/robot"  # QSettings: the robot this station commanded last (one place)
 TAB_NAMES = ("state", "alerts", "teleop", "tasks", "tablet", "config", "diagnostics", "robots")
 
 
@@ -71,6 +76,7 @@ class MainWindow(QMainWindow):
         self.settings = settings if settings is not None else QSettings("Interbot", "BaseStation")
         self.setWindowTitle("Interbot Base Station")
         self._reading = False
+        self.robot_choice: QtRobotChoiceDialog | None = None
         self._create_widgets()
         self._create_actions()
         self._connect_signals()
@@ -188,6 +194,9 @@ class MainWindow(QMainWindow):
         self.estop_button.setToolTip("Emergency stop (F12): latches until released here")
         self.estop_button.setStyleSheet(ESTOP_STYLE)
         self.estop_button.setMinimumSize(ESTOP_MIN_W, ESTOP_MIN_H)
+        bar.addSeparator()  # the robot commanded, always in sight (issue 14)
+        self.robot_selector = QtRobotSelector(c)
+        bar.addWidget(self.robot_selector)
         self.alerts_badge = bar.widgetForAction(self.alerts_action)
         self.alerts_badge.setObjectName("alerts_badge")
         c.alert_raised.connect(lambda _alert: self.update_alert_badge())
@@ -221,6 +230,8 @@ class MainWindow(QMainWindow):
         c.log_added.connect(lambda level, text: self.statusBar().showMessage(text, 5000))
         c.estop_changed.connect(self.release_action.setEnabled)
         self.release_action.setEnabled(c.estop_latched)
+        c.robot_choice_needed.connect(self.ask_robot)
+        c.robot_selected.connect(self._save_robot)
 
     # ------------------------------------------------------------------ settings
     def _read_settings(self) -> None:
@@ -244,6 +255,7 @@ class MainWindow(QMainWindow):
             config = StationConfig.from_mapping(values)
             if config != self.controller.config:
                 self.controller.set_config(config)
+        self._restore_robot()
         for kind in PERMISSION_KINDS:
             v = s.value(f"tablet/{kind}")
             if v is not None:
@@ -267,6 +279,32 @@ class MainWindow(QMainWindow):
             return
         for kind in PERMISSION_KINDS:
             self.settings.setValue(f"tablet/{kind}", self.controller.permissions.allows(kind))
+
+    def _restore_robot(self) -> None:
+        """The saved choice decides which robot a restarted station commands, unless --robot."""
+        saved = self.settings.value(ROBOT_KEY)
+        if self.controller.preferred_robot is not None or not saved:
+            return
+        try:
+            self.controller.preferred_robot = validate_robot_id(str(saved))
+        except TopicError as exc:
+            logger.warning("ignored the saved robot choice: %s", exc)
+            return
+        self.controller.log("info", f"commanding robot {saved} when it appears (saved choice)")
+
+    def _save_robot(self, robot_id: str) -> None:
+        """A robot was chosen (dialog, list, selector or map): save it; the question is over."""
+        if robot_id and self.robot_choice is not None:
+            self.robot_choice.close()
+        if robot_id and not self._reading:
+            self.settings.setValue(ROBOT_KEY, robot_id)
+
+    def ask_robot(self, robot_ids: tuple[str, ...]) -> None:
+        """Several robots and no choice: ask (non-modal to the timers: the station keeps running)."""
+        if self.robot_choice is not None:
+            self.robot_choice.close()
+        self.robot_choice = QtRobotChoiceDialog(self.controller, robot_ids, self)
+        self.robot_choice.open()
 
     # ------------------------------------------------------------------ slots and events
     def _on_pose_picked(self, mode: str, pose: Pose2D) -> None:

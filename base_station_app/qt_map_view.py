@@ -27,11 +27,13 @@ from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QFocusEvent, QFont, QKeyEvent, QMouseEvent
 from PySide6.QtWidgets import QWidget
 
-from base_station_app.map_rooms import MapLabel, map_labels, room_at
+from base_station_app.map_labels import SNAP_RADIUS, MapLabel, map_labels
+from base_station_app.qt_fleet_layer import HEALTH_COLOURS, QtFleetLayer
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT
+from interbot_core.map_image import grey_image
 from interbot_core.occupancy_grid import OccupancyGrid
 
 logger = logging.getLogger(__name__)
@@ -50,14 +52,6 @@ TELEOP_KEYS = {
 ROBOT_RADIUS = 0.3  # [m] footprint drawn for Interbot (a round base)
 CLICK_SLOP_PX = 5.0
 LABEL_POINT_SIZE = 10  # readable at 1280 x 800 and 2560 x 1600 alike
-
-
-def grid_to_image(grid: OccupancyGrid) -> npt.NDArray[np.uint8]:
-    """Cells (-1 unknown, 0..100 occupancy) to grey levels: free white, occupied black."""
-    cells = grid.cells.astype(np.int16)
-    image = (255 - cells * 255 // 100).astype(np.uint8)
-    image[cells < 0] = 200
-    return image
 
 
 def footprint_xy(
@@ -150,6 +144,7 @@ class QtMapView(pg.PlotWidget):
         plot.addItem(self.robot_item)
         self.pick_item = pg.PlotCurveItem(pen=pg.mkPen((200, 0, 200), width=3), connect="finite")
         plot.addItem(self.pick_item)
+        self.fleet_layer = QtFleetLayer(plot, footprint_xy, ROBOT_RADIUS)  # every robot (#14)
         self._create_legend(plot)
         self.labels: list[pg.TextItem] = []
         self._label_font = QFont()
@@ -160,8 +155,7 @@ class QtMapView(pg.PlotWidget):
     def _create_legend(self, plot: pg.PlotItem) -> None:
         """What each mark means, in the corner: robot, scan, planned path, goals, tour."""
         legend = plot.addLegend(offset=(-8, -8), labelTextSize="9pt", brush=(255, 255, 255, 210))
-        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((0, 140, 0), width=3)), "robot (localised)")
-        legend.addItem(pg.PlotDataItem(pen=pg.mkPen((200, 120, 0), width=3)), "robot (lost)")
+        self.fleet_layer.add_legend(legend)  # robot: its state colours (issue 14)
         legend.addItem(
             pg.ScatterPlotItem(size=6, pen=None, brush=pg.mkBrush(220, 30, 30)), "laser scan"
         )
@@ -179,7 +173,8 @@ class QtMapView(pg.PlotWidget):
         xy = np.array([[n.pose.x, n.pose.y] for n in c.topo.nodes])
         self.nodes_item.setData(pos=xy)
         self._place_labels(c.grid)
-        polys = [[*a.polygon, a.polygon[0], (math.nan, math.nan)] for a in c.rooms if a.polygon]
+        outlines = [r.area for r in c.rooms.rooms if r.explicit]
+        polys = [[*area, area[0], (math.nan, math.nan)] for area in outlines]
         if polys:
             pts = np.array([pt for poly in polys for pt in poly], dtype=np.float64)
             self.rooms_item.setData(pts[:, 0], pts[:, 1])
@@ -191,7 +186,8 @@ class QtMapView(pg.PlotWidget):
             self.removeItem(label)
         self.labels.clear()
         c = self._controller
-        self._label_specs = map_labels(c.topo, c.rooms, grid=grid)
+        rooms = c.rooms if grid is None else c.rooms.with_labels(grid)
+        self._label_specs = map_labels(rooms)
         for spec in self._label_specs:
             label = pg.TextItem(
                 spec.text,
@@ -235,14 +231,16 @@ class QtMapView(pg.PlotWidget):
         if grid is not None and (grid is not self._grid):
             first = self._grid is None or self._grid.size_m != grid.size_m
             self._grid = grid
-            self.map_item.setImage(grid_to_image(grid), levels=(0, 255), autoLevels=False)
+            self.map_item.setImage(grey_image(grid), levels=(0, 255), autoLevels=False)
             w, h = grid.size_m
             self.map_item.setRect(QRectF(grid.origin_x, grid.origin_y, w, h))
             if first:
                 self._place_labels(grid)
                 self.fit_map()
+        self.fleet_layer.redraw(c.fleet.views(c.names))
         sup = c.supervisor
         key = (
+            c.selected.health,
             c.state.version,
             id(c.route),
             sup.route_index,
@@ -264,7 +262,7 @@ class QtMapView(pg.PlotWidget):
             self.scan_item.setData([], [])
             return
         pose = Pose2D(pose_msg.x, pose_msg.y, pose_msg.yaw)
-        pen = (0, 140, 0) if pose_msg.state == "ok" else (200, 120, 0)
+        pen = HEALTH_COLOURS[self._controller.selected.health]  # the fleet's colours (#14)
         self.robot_item.setPen(pg.mkPen(pen, width=3))
         xy = footprint_xy(pose)
         self.robot_item.setData(xy[:, 0], xy[:, 1])
@@ -384,9 +382,13 @@ class QtMapView(pg.PlotWidget):
         super().mouseReleaseEvent(event)
         if press is not None and (event.position() - press).manhattanLength() <= CLICK_SLOP_PX:
             x, y = self.map_point(event.position())
-            node = room_at(x, y, self._controller.topo, self._controller.rooms)
-            if node is not None:
-                self.room_clicked.emit(node)
+            robot = self.fleet_layer.robot_at(x, y)  # a click on a robot commands it (#14)
+            if robot is not None and robot != self._controller.selected_robot:
+                self._controller.select_robot(robot)
+                return
+            room = self._controller.rooms.room_at(x, y, SNAP_RADIUS)
+            if room is not None:
+                self.room_clicked.emit(room.id)
 
     # ------------------------------------------------------------------ keys
     def keyPressEvent(self, event: QKeyEvent) -> None:

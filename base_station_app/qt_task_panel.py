@@ -174,8 +174,7 @@ class QtTaskPanel(QWidget):
         self.refresh()
 
     def _is_room(self, node_id: int) -> bool:
-        kinds = {a.node_id: a.kind for a in self._controller.rooms}
-        return kinds.get(node_id, "entrance") != "waypoint"
+        return self._controller.rooms.in_a_room(node_id)
 
     def _room(self) -> int | None:
         item = self.room_list.currentItem()

@@ -1,4 +1,4 @@
-"""The Base Station's controller: ``clock()`` and everything the operator and the tablet command.
+"""The Base Station's controller: the composition root that wires the station's parts to Qt.
 
 Thesis §5.3 and §5.3.6 (Fig. 5.12): after start-up (TCP server listening, timers started, the
 robot link open, the topological map loaded and every route precomputed) a `QTimer` calls
@@ -7,29 +7,46 @@ robot link open, the topological map loaded and every route precomputed) a `QTim
 * **speed** - publish the station's teleoperation command on ``station_vel`` while a key, pad
   button or the mouse joystick is held (the tablet's commands are forwarded once, on arrival:
   see "Safety" below);
-* **pose** - feed the robot's pose to the `Supervisor` (Algorithm 5 routes, tour stops,
+* **pose** - feed EVERY robot's pose to its own `Supervisor` (Algorithm 5 routes, tour stops,
   requests) and act on its events: send the whole route, cancel it, pause at tour stops;
 * **communication** - send the tablet ``initial_pose: false`` until the robot is localised, then
   its ``pose``, the current ``goal`` with the ``reached`` / ``tourReached`` flags, the tour
   state, requests to show and status text (§5.3.2, §5.3.6).
 
 A second, 25 ms frame timer pulls the newest robot state from the zenoh link (a ring of one per
-topic) into `RobotState` and emits ``frame_ready``; views redraw from it, never per message.
-Time comes from an injectable ``clock`` (``time.monotonic`` by default) so tests control it.
-This object holds no widgets; the main window wires widgets to its signals and slots.
+topic) into each robot's `RobotState` and emits ``frame_ready``; views redraw from it, never per
+message. Time comes from an injectable ``clock`` (``time.monotonic`` by default) so tests control
+it. This object holds no widgets; the main window wires widgets to its signals and slots.
+
+The parts it composes (issue 13: each named after what it owns, Qt-free and unit tested):
+
+* `Fleet` (fleet.py) - a `RobotMirror` (robot_mirror.py) per robot: its state, supervisor (queue,
+  tour, pause, requests), route mirror and must-arrive state; which robot is commanded, and the
+  start-up choice (``--robot``, the saved choice, else ask when there are several: issue 14);
+* `TeleopArbiter` (teleop_arbiter.py) - the station's keys and the tablet's joystick, freshness;
+* `TabletPolicy` (tablet_policy.py) - what the tablet may do and which tasks it owns;
+* `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
+
+The selected robot is followed closely by `StationLink` (every topic); the others by a
+`FleetWatch` (pose, plan, battery, multiplexer, safety, route progress, status) that also carries
+their commands. The tablet and the operator's keys act on the selected robot only.
 
 Safety (issue 11, shared/DESIGN.md "State has one owner"):
 
 * **The stop is a state owned on both ends.** The operator's stop is kept here whether or not a
-  robot heard it, re-asserted on every (re)connection (a robot starts latched after a restart;
-  if the operator's stop is released, the station releases the robot's), and re-sent while the
-  robot reports no stop; no motion is forwarded while it is engaged, the tablet's included.
+  robot heard it, and applies to EVERY robot of the fleet: re-asserted on every (re)connection
+  and re-sent while a robot reports no stop; no motion is forwarded while it is engaged, the
+  tablet's included. A robot starts latched after a restart; while the operator's stop is
+  released the station releases that latch only on robots the operator has commanded (selected)
+  from this station: a robot merely seen stays latched (drawn "stopped") until chosen.
 * **The robot owns its route.** Route ids are random 63-bit numbers (unique across station
-  restarts). A route is sent once; one that no robot received ends its task. After a
-  reconnection the station asks the robot (`RouteMirror`) and never re-sends a route: a robot
-  that lost it (restart) or finished it says so, and the task ends with that reason. A route the
-  robot drives that this station did not start (station restart) is shown, and a stop from the
-  operator or the tablet cancels it. Selecting another robot cancels the route on the old one.
+  restarts). A route is sent once, to the robot whose supervisor planned it; one that no robot
+  received ends its task. After a reconnection the station asks the robot (`RouteMirror`) and
+  never re-sends a route: a robot that lost it (restart) or finished it says so, and the task
+  ends with that reason. A route the robot drives that this station did not start (station
+  restart) is shown, and a stop from the operator or the tablet cancels it. Selecting another
+  robot leaves each robot its own route and queue (per-robot supervision); the station's and the
+  tablet's hand driving get one explicit zero on the robot they were driving.
 * **Fresh commands only.** Each tablet speed command is checked (`SpeedFreshness`: out-of-order
   or late ones are dropped), forwarded once stamped with its arrival time, and restarts a
   single-shot `QTimer` (thesis Fig. 5.10) of the latency ceiling whose timeout sends one
@@ -41,7 +58,6 @@ Safety (issue 11, shared/DESIGN.md "State has one owner"):
 from __future__ import annotations
 
 import logging
-import math
 import secrets
 import time
 from collections import deque
@@ -53,17 +69,21 @@ import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
-from base_station_app.map_rooms import RoomArea, load_room_areas
+from base_station_app.fleet import Ask, Fleet, Select, Waiting
+from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.tablet_auth import TabletAuthServer
+from base_station_app.tablet_feed import TabletFeed
+from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_server import TabletServer
 from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
 from base_station_app.teleop import Direction, TeleopInput
+from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
-from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
+from interbot_core.rooms import load_room_map, room_map
 from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.speed_freshness import SpeedFreshness
@@ -85,7 +105,6 @@ from interbot_core.supervisor import (
     RouteStarted,
     Supervisor,
     SupervisorError,
-    SupervisorState,
     Task,
     TaskFinished,
     TaskRejectedError,
@@ -111,6 +130,7 @@ from interbot_core.topics import (
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import LatencyWatchdog, PeriodStats
 from interbot_link import LinkError, RobotAppeared, RobotLeft, StateMessage, StationLink
+from interbot_link.fleet_watch import FleetWatch
 
 logger = logging.getLogger(__name__)
 
@@ -119,7 +139,7 @@ Clock = Callable[[], float]
 #: [s] after an initial pose is sent, the robot's "unset"/"lost" is not passed on to the tablet
 #: (the localiser applies the pose at its next scan, well within this at 10-40 Hz).
 INITIAL_POSE_SETTLE_S = 2.0
-#: [s] while the operator's stop is engaged and the robot reports none, re-send it this often.
+#: [s] while the operator's stop is engaged and a robot reports none, re-send it this often.
 STOP_REASSERT_S = 0.5
 
 
@@ -135,6 +155,7 @@ class Timing:
     clock_ms: int = 100  # thesis §6.4: commands every 100 ms
     frame_ms: int = 25  # view refresh (40 Hz, the laser's rate)
     ping_ms: int = 1000  # tablet latency probe
+    choice_grace_ms: int = 2000  # after the first robot: discovery before picking it or asking
 
 
 class StationController(QObject):
@@ -145,6 +166,7 @@ class StationController(QObject):
     clocked = Signal()
     robots_changed = Signal()
     robot_selected = Signal(str)
+    robot_choice_needed = Signal(object)  # tuple[str, ...]: several robots, no choice: ask
     tasks_changed = Signal()
     log_added = Signal(str, str)  # level, text
     estop_changed = Signal(bool)
@@ -180,57 +202,35 @@ class StationController(QObject):
         self.names = {n.id: n.name for n in topo.nodes}
         self.planner = RoutePlanner(topo)  # Floyd-Warshall: every route precomputed (§5.3.3)
         self.config = config if config is not None else StationConfig()
-        self.supervisor = Supervisor(topo, self.planner, self.config.supervisor_config())
-        self.rooms: list[RoomArea] = (
-            load_room_areas(topo_path, topo) if topo_path is not None else []
-        )
+        self._request_timeout = self.config.supervisor_config().request_timeout
+        self.rooms = load_room_map(topo_path, topo) if topo_path is not None else room_map(topo)
         self.static_map = self._load_static_map()
-        self.state = RobotState()
+        self.estop_latched = False
+        # One status log for the station, whichever robot is selected: every mirror's
+        # `RobotState` shares it (the state panel and tests read ``state.log``).
+        self.status_log = RobotState().log
+        self.fleet = Fleet(self._make_mirror, robot_id, timing.choice_grace_ms / 1000.0)
         self.alerts = AlertList()  # what the operator must see and acknowledge (alerts.py)
         self.alert_rules = AlertRules(self.alerts)
         self.alerts.subscribe(self.alert_raised.emit)
-        self.teleop = TeleopInput(self.config.teleop_linear_max, self.config.teleop_angular_max)
-        self.watchdog = LatencyWatchdog(
-            self.config.latency_ceiling
-        )  # latency shown to the operator
-        self.freshness = SpeedFreshness(self.config.latency_ceiling)
-        self.route_mirror = RouteMirror()
+        self.arbiter = TeleopArbiter(
+            self.config.latency_ceiling,
+            self.config.teleop_linear_max,
+            self.config.teleop_angular_max,
+        )
+        self.tablet_policy = TabletPolicy()
         self.clock_periods = PeriodStats(5000)
-        self.tablet_periods = PeriodStats(5000)
         self.latencies: deque[float] = deque(maxlen=300)
-        self.permissions = TabletPermissions()
-        self.preferred_robot = robot_id
-        self.robots: dict[str, bool] = {}  # robot id -> present
-        self.estop_latched = False
-        self.route: RouteMsg | None = None
-        self.route_index = 0
-        self.tablet_speed: p.Speed | None = None
-        self.tablet_forwarding = False
-        self.tablet_discarded = 0
-        self.tablet_tasks: list[Task] = []  # tasks the tablet ordered (identity matters)
         self.request_id = 0
-        self.shown_request: tuple[int, RequestShown] | None = None
-        self.goal_reached = False
         self._route_ids = route_ids
-        self._route_undelivered: int | None = None  # route no robot received: end its task
-        self._stop_assert_pending = True  # (re)assert the operator's stop intent to the robot
-        self._stop_sent_at = -math.inf
-        self._tablet_stop_told = False  # the tablet was told why its speed is refused
         self._permissions_sent: p.Permissions | None = None
-        self._verdict_of: int | None = None  # route whose end the robot reported, if handled
         self._last_clock: float | None = None
-        self._tour_state_sent: p.TourState | None = None
-        self._status_sent: p.StatusInfo | None = None
-        self._localisation_sent: str | None = None
-        self._safety_sent: p.SafetyInfo | None = None
-        self._pose_settling_until = -math.inf  # see INITIAL_POSE_SETTLE_S
-        self._teleop_was_active = False
-        self._config_pending = True  # (re)send the planner config until a robot receives it
+        self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
         self.station_assist = False  # assisted teleoperation of station_vel (issue 17)
-        self._assist_pending = True  # (re)send it until a robot receives it
         self._closed = False
 
         self.link: StationLink | None = StationLink(session) if session is not None else None
+        self.watch: FleetWatch | None = FleetWatch(session) if session is not None else None
         self.tablet = TabletServer(
             clock,
             tablet_host,
@@ -265,6 +265,106 @@ class StationController(QObject):
         self.tablet_watchdog.setInterval(round(self.config.latency_ceiling * 1000))
         self.tablet_watchdog.timeout.connect(self._on_tablet_watchdog)
 
+    def _make_mirror(self, robot_id: str | None) -> RobotMirror:
+        mirror = RobotMirror(
+            robot_id,
+            self.topo,
+            self.planner,
+            self.config.supervisor_config(self._request_timeout),
+        )
+        mirror.state.log = self.status_log
+        if self.estop_latched:
+            mirror.supervisor.hold_queue()  # nothing queued there yet: no events to act on
+        return mirror
+
+    # ================================================================== the selected robot
+    # The operator, the panels and the tablet act on the selected robot: these name its parts.
+    @property
+    def selected(self) -> RobotMirror:
+        return self.fleet.selected
+
+    @property
+    def supervisor(self) -> Supervisor:
+        return self.fleet.selected.supervisor
+
+    @property
+    def state(self) -> RobotState:
+        return self.fleet.selected.state
+
+    @property
+    def route_mirror(self) -> RouteMirror:
+        return self.fleet.selected.route_mirror
+
+    @property
+    def route(self) -> RouteMsg | None:
+        return self.fleet.selected.route
+
+    @property
+    def route_index(self) -> int:
+        return self.fleet.selected.route_index
+
+    @property
+    def goal_reached(self) -> bool:
+        return self.fleet.selected.goal_reached
+
+    @property
+    def shown_request(self) -> tuple[int, RequestShown] | None:
+        return self.fleet.selected.shown_request
+
+    @property
+    def _stop_assert_pending(self) -> bool:
+        return self.fleet.selected.stop_assert_pending
+
+    @property
+    def preferred_robot(self) -> str | None:
+        return self.fleet.preferred
+
+    @preferred_robot.setter
+    def preferred_robot(self, robot_id: str | None) -> None:
+        self.fleet.preferred = robot_id
+
+    @property
+    def robots(self) -> dict[str, bool]:
+        """Robot id -> present, for every robot seen."""
+        return {r: m.online for r, m in sorted(self.fleet.mirrors.items())}
+
+    # The teleoperation and tablet parts, by the names panels and tests know them.
+    @property
+    def teleop(self) -> TeleopInput:
+        return self.arbiter.keys
+
+    @property
+    def watchdog(self) -> LatencyWatchdog:
+        return self.arbiter.watchdog
+
+    @property
+    def freshness(self) -> SpeedFreshness:
+        return self.arbiter.freshness
+
+    @property
+    def tablet_periods(self) -> PeriodStats:
+        return self.arbiter.tablet_periods
+
+    @property
+    def tablet_speed(self) -> p.Speed | None:
+        return self.arbiter.tablet_speed
+
+    @property
+    def tablet_forwarding(self) -> bool:
+        return self.arbiter.tablet_forwarding
+
+    @property
+    def tablet_discarded(self) -> int:
+        return self.arbiter.tablet_discarded
+
+    @property
+    def permissions(self) -> TabletPermissions:
+        return self.tablet_policy.permissions
+
+    @property
+    def tablet_tasks(self) -> list[Task]:
+        return self.tablet_policy.tasks
+
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
         """Listen for the tablet and start the timers; False if the tablet port is taken.
@@ -284,17 +384,18 @@ class StationController(QObject):
         """Stop timers, stop the robot if teleoperated, close the tablet and the link (idempotent)."""
         if self._closed:
             return
-        self._closed = True
         self.clock_timer.stop()
         self.frame_timer.stop()
         self.tablet_watchdog.stop()
-        if self.tablet_forwarding:
+        if self.arbiter.stop_tablet():
             self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-            self.tablet_forwarding = False
         if self.teleop.active:
             self.teleop.release_all()
             self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=self.clock()))
+        self._closed = True
         self.tablet.close()
+        if self.watch is not None:
+            self.watch.close()
         if self.link is not None:
             self.link.close()
         logger.info("station controller shut down")
@@ -317,8 +418,15 @@ class StationController(QObject):
         self.state.add_log(self.clock(), level, text)
         self.log_added.emit(level, text)
 
+    def _log_for(self, mirror: RobotMirror, level: str, text: str) -> None:
+        """Log about ``mirror``'s robot; another robot than the selected one is named."""
+        if mirror is not self.fleet.selected:
+            text = f"[{mirror.robot_id or 'no robot'}] {text}"
+        self.log(level, text)
+
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
+        """Send to the selected robot (False: nobody received it)."""
         if self.link is None or self.link.selected is None or self._closed:
             return False
         try:
@@ -327,64 +435,92 @@ class StationController(QObject):
             self.log("error", f"cannot send {topic}: {exc}")
             return False
 
+    def _send_to(self, mirror: RobotMirror, topic: Topic, message: object) -> bool:
+        """Send to ``mirror``'s robot: the selected one through the link, others watched."""
+        if mirror is self.fleet.selected:
+            return self._send(topic, message)
+        robot_id, watch = mirror.robot_id, self.watch
+        if robot_id is None or watch is None or self._closed or robot_id not in watch.watched:
+            return False
+        try:
+            return watch.send(robot_id, topic, message)
+        except LinkError as exc:
+            self._log_for(mirror, "error", f"cannot send {topic}: {exc}")
+            return False
+
+    def _sync_watch(self) -> None:
+        """Watch every robot seen except the selected one (followed by the link)."""
+        if self.watch is not None and not self._closed:
+            self.watch.set_watched(set(self.fleet.mirrors) - {self.selected_robot or ""})
+
     def select_robot(self, robot_id: str | None) -> None:
+        """Command ``robot_id`` from now on; every robot keeps its own queue and route.
+
+        Hand driving (the station's keys, the tablet's joystick) is zeroed on the robot it drove
+        before the switch; the tablet is bound to the new robot from now on.
+        """
         if self.link is None:
             return
         if robot_id == self.link.selected:
             return
-        if self.link.selected is not None and self.route is not None:
-            # The route belongs to the robot that drives it: stop it there (nobody would watch
-            # it any more) and end the task; it is never sent to the next robot.
-            old = self.link.selected
-            self._send(Topic.ROUTE_CANCEL, RouteCancel(self.route.route_id, "robot switched"))
-            self._route_lost(
-                RouteLost(self.route.route_id, f"robot switched from {old}; route cancelled there")
-            )
-        self.state.clear()
+        self.release_all()
+        self._stop_tablet_speed("robot switched")
+        old, new = self.fleet.select(robot_id)
         self.link.select_robot(robot_id)
+        self._sync_watch()
+        now = self.clock()
+        new.state.scan = None  # no stale laser drawn from a robot followed lightly until now
+        new.state.image = None
+        for mirror in (old, new):
+            if mirror.robot_id is not None:
+                mirror.connected(now)  # new publishers / subscribers: re-assert, ask its route
+                if mirror is old and old.online:
+                    self.link.request_state(old.robot_id)
+        self.tablet_feed.forget()
         self.log("info", f"commanding robot {robot_id}" if robot_id else "no robot selected")
         self.robot_selected.emit(robot_id or "")
-        self._on_robot_connected()
-        self._resend_pending()
+        self.robots_changed.emit()
+        self.tasks_changed.emit()
+        self._resend_pending(new)
 
-    def _on_robot_connected(self) -> None:
-        """A robot was selected or came back: assert the stop, send config, ask for the route."""
-        self._config_pending = True
-        self._assist_pending = True
-        self._stop_assert_pending = True
-        self.route_mirror.reconnected(self.clock())
-
-    def _resend_pending(self) -> None:
+    def _resend_pending(self, mirror: RobotMirror | None = None) -> None:
         """Must-arrive state that found no subscriber (robot not yet linked, or restarted)."""
-        if self._stop_assert_pending:
-            self._assert_stop_intent()
-        if self._config_pending:
-            self._config_pending = not self._send(
-                Topic.CONFIG, ConfigMsg(self.config.planner_params())
+        mirror = mirror if mirror is not None else self.fleet.selected
+        if mirror.stop_assert_pending:
+            self._assert_stop_intent(mirror)
+        if mirror.config_pending:
+            mirror.config_pending = not self._send_to(
+                mirror, Topic.CONFIG, ConfigMsg(self.config.planner_params())
             )
-        if self._assist_pending:
+        if mirror.assist_pending:
             msg = AssistMsg("station_vel", self.station_assist, stamp=self.clock())
-            self._assist_pending = not self._send(Topic.TELEOP_ASSIST, msg)
+            mirror.assist_pending = not self._send_to(mirror, Topic.TELEOP_ASSIST, msg)
 
-    def _assert_stop_intent(self) -> None:
-        """Tell the robot the operator's stop: engaged (re-sent) or released (its start latch)."""
+    def _assert_stop_intent(self, mirror: RobotMirror | None = None) -> None:
+        """Tell a robot the operator's stop: engaged (re-sent) or released (its start latch)."""
+        mirror = mirror if mirror is not None else self.fleet.selected
         now = self.clock()
+        if not self.estop_latched and not mirror.commanded and mirror.robot_id is not None:
+            # Never commanded from here: its start latch stays until the operator selects it.
+            mirror.stop_assert_pending = False
+            return
         if self.estop_latched:
-            delivered = self._send(Topic.STOP, Lock(True, stamp=now))
+            delivered = self._send_to(mirror, Topic.STOP, Lock(True, stamp=now))
         else:
-            delivered = self._send(Topic.STOP, Lock(False, stamp=now)) and self._send(
-                Topic.STOP_RELEASE, StopRelease("base station (on connection)", stamp=now)
+            delivered = self._send_to(mirror, Topic.STOP, Lock(False, stamp=now)) and self._send_to(
+                mirror, Topic.STOP_RELEASE, StopRelease("base station (on connection)", stamp=now)
             )
-        self._stop_sent_at = now
-        self._stop_assert_pending = not delivered
+        mirror.stop_sent_at = now
+        mirror.stop_assert_pending = not delivered
 
     def set_station_assist(self, enabled: bool) -> None:
         """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
         if enabled == self.station_assist:
             return
         self.station_assist = enabled
-        self._assist_pending = True
-        self._resend_pending()
+        for mirror in self.fleet.all():
+            mirror.assist_pending = True
+            self._resend_pending(mirror)
         self.log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
         self.assist_changed.emit(enabled)
 
@@ -398,18 +534,42 @@ class StationController(QObject):
         if link is not None:
             for event in link.poll_events():
                 self._on_link_event(event)
+            selected = self.fleet.selected
             for topic, message in link.poll_state().items():
-                self.state.apply(topic, message)
-                self._check_alerts(topic, message)
-            progress, route = self.state.progress, self.route
-            if progress is not None and route is not None and progress.route_id == route.route_id:
-                self.route_index = progress.index
-                self._robot_verdict(progress)
+                selected.state.apply(topic, message)
+                self._check_alerts(selected, topic, message)
+            if self.watch is not None:
+                for msg in self.watch.poll():
+                    self._on_state_message(msg)
+            for mirror in self.fleet.all():
+                progress = mirror.route_progress()
+                if progress is None:
+                    continue
+                # The robot judges arrival (issue 13): its progress drives the supervisor.
+                self._handle(mirror.supervisor.robot_progress(progress.index), mirror)
+                if mirror.verdict(progress):
+                    self._robot_verdict(progress, mirror)
+            self._choose_robot()
         self.frame_ready.emit()
 
-    def _check_alerts(self, topic: Topic, message: object) -> None:
-        """The selected robot's state, through the alert rules (alerts.py)."""
-        robot, now, rules = self.selected_robot or "?", self.clock(), self.alert_rules
+    def _choose_robot(self) -> None:
+        """The start-up choice (fleet.py): select the preferred or only robot, or ask."""
+        choice = self.fleet.choose(self.clock())
+        if isinstance(choice, Select):
+            self.select_robot(choice.robot_id)
+        elif isinstance(choice, Ask):
+            self.log("warning", f"{len(choice.robot_ids)} robots: choose the one to command")
+            self.robot_choice_needed.emit(choice.robot_ids)
+        elif isinstance(choice, Waiting):
+            self.log(
+                "warning",
+                f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
+                f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
+            )
+
+    def _check_alerts(self, mirror: RobotMirror, topic: Topic, message: object) -> None:
+        """Each robot's state, through the alert rules (alerts.py)."""
+        robot, now, rules = mirror.robot_id or "?", self.clock(), self.alert_rules
         if isinstance(message, PoseMsg):
             rules.on_pose(robot, message, now)
         elif isinstance(message, Battery):
@@ -419,90 +579,95 @@ class StationController(QObject):
         elif isinstance(message, Status):
             rules.on_status(robot, message, now)
 
-    def _on_route_progress(self, progress: RouteProgress) -> None:
+    def _on_route_progress(self, progress: RouteProgress, mirror: RobotMirror) -> None:
         """Mirror the robot's route (see `RouteMirror`)."""
-        lost = self.route_mirror.on_progress(progress)
+        lost = mirror.route_mirror.on_progress(progress)
         if lost is not None:
-            self._route_lost(lost)
+            self._route_lost(lost, mirror)
 
-    def _route_lost(self, lost: RouteLost) -> None:
+    def _route_lost(self, lost: RouteLost, mirror: RobotMirror | None = None) -> None:
         """Our route is gone on the robot: the task ends; nothing is re-sent."""
-        self.route_mirror.ended()
-        if self.route is None or self.route.route_id != lost.route_id:
-            return
-        self.log("error", lost.reason)
-        self.route = None
-        self._handle(self.supervisor.robot_route_aborted(lost.reason))
-        self.tasks_changed.emit()
+        mirror = mirror if mirror is not None else self.fleet.selected
+        if mirror.lose_route(lost):
+            self._log_for(mirror, "error", lost.reason)
+            self._handle(mirror.supervisor.robot_route_aborted(lost.reason), mirror)
+            self.tasks_changed.emit()
 
-    def _robot_verdict(self, progress: RouteProgress) -> None:
+    def _robot_verdict(self, progress: RouteProgress, mirror: RobotMirror) -> None:
         """The robot finished or gave up the current route: its word settles the task."""
-        if progress.state not in ("succeeded", "aborted") or progress.route_id == self._verdict_of:
-            return
-        self._verdict_of = progress.route_id
         if progress.state == "succeeded":
-            self._handle(self.supervisor.robot_route_succeeded(self.clock()))
+            self._handle(mirror.supervisor.robot_route_succeeded(self.clock()), mirror)
         else:
-            self.log("error", f"robot gave up route {progress.route_id}: {progress.reason}")
-            self._handle(self.supervisor.robot_route_aborted(progress.reason))
+            self._log_for(
+                mirror, "error", f"robot gave up route {progress.route_id}: {progress.reason}"
+            )
+            self._handle(mirror.supervisor.robot_route_aborted(progress.reason), mirror)
 
     def _on_link_event(self, event: object) -> None:
+        now = self.clock()
         if isinstance(event, RobotAppeared):
-            self.robots[event.robot_id] = True
+            mirror = self.fleet.mirror(event.robot_id)
+            mirror.online = True
             self.log("info", f"robot {event.robot_id} is online")
-            self.robots_changed.emit()
-            selected = self.selected_robot
-            if selected == event.robot_id and self.link is not None:
+            self._sync_watch()
+            if self.link is not None and event.robot_id != self.selected_robot:
+                self.link.request_state(event.robot_id)  # watched: ask its route, as below
+            if self.selected_robot == event.robot_id and self.link is not None:
                 self.link.request_state()  # it came back (restart?): ask, never assume
-                self._on_robot_connected()
-            elif selected is None and self.preferred_robot in (None, event.robot_id):
-                self.select_robot(event.robot_id)
+            mirror.connected(now)
+            self.robots_changed.emit()
         elif isinstance(event, RobotLeft):
-            self.robots[event.robot_id] = False
+            mirror = self.fleet.mirror(event.robot_id)
+            mirror.online = False
             self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
-            self.alert_rules.on_robot_left(event.robot_id, self.clock())
+            self.alert_rules.on_robot_left(event.robot_id, now)
             self.robots_changed.emit()
         elif isinstance(event, StateMessage):
-            if event.robot_id != self.selected_robot:
-                return  # a late message from the robot we no longer follow
-            self.state.apply(event.topic, event.message)
-            self._check_alerts(event.topic, event.message)
-            if event.topic is Topic.ROUTE_PROGRESS and isinstance(event.message, RouteProgress):
-                self._on_route_progress(event.message)
-            if event.topic is Topic.STATUS:
-                status = self.state.status
-                if status is not None and status.text:
-                    self.log(status.level, f"robot: {status.text}")
+            self._on_state_message(event)
+
+    def _on_state_message(self, event: StateMessage) -> None:
+        """A message from one robot (the link's or the watch's): into that robot's mirror."""
+        mirror = self.fleet.mirrors.get(event.robot_id)
+        if mirror is None:
+            return  # a robot never announced: nothing to mirror it into
+        mirror.state.apply(event.topic, event.message)
+        self._check_alerts(mirror, event.topic, event.message)
+        if event.topic is Topic.ROUTE_PROGRESS and isinstance(event.message, RouteProgress):
+            self._on_route_progress(event.message, mirror)
+        if event.topic is Topic.STATUS:
+            status = mirror.state.status
+            if status is not None and status.text:
+                self._log_for(mirror, status.level, f"robot: {status.text}")
 
     # ================================================================== clock()
     def tick(self) -> None:
-        """The control loop (thesis Fig. 5.12): speed, pose, communication."""
+        """The control loop (thesis Fig. 5.12): speed, pose (every robot), communication."""
         now = self.clock()
         if self._last_clock is not None:
             self.clock_periods.add_period(max(0.0, now - self._last_clock))
         self._last_clock = now
-        self._resend_pending()
-        self._check_robot_stop(now)
-        if self._route_undelivered is not None:
-            route_id, self._route_undelivered = self._route_undelivered, None
-            self._route_lost(RouteLost(route_id, f"no robot received route {route_id}"))
-        lost = self.route_mirror.check_timeout(now)
-        if lost is not None:
-            self._route_lost(lost)
+        self._choose_robot()
+        for mirror in self.fleet.all():
+            self._resend_pending(mirror)
+            self._check_robot_stop(now, mirror)
+            for lost in mirror.due_losses(now):
+                self._route_lost(lost, mirror)
         self._speed_section(now)
         self._pose_section(now)
         self._communication_section(now)
         self.clocked.emit()
 
-    def _check_robot_stop(self, now: float) -> None:
-        """The operator's stop is engaged but the robot reports none: say it again."""
+    def _check_robot_stop(self, now: float, mirror: RobotMirror) -> None:
+        """The operator's stop is engaged but a robot reports none: say it again."""
         if (
             self.estop_latched
-            and self.state.estop_engaged is False
-            and now - self._stop_sent_at >= STOP_REASSERT_S
+            and mirror.state.estop_engaged is False
+            and now - mirror.stop_sent_at >= STOP_REASSERT_S
         ):
-            self.log("warning", "the robot reports no emergency stop: sending it again")
-            self._assert_stop_intent()
+            self._log_for(
+                mirror, "warning", "the robot reports no emergency stop: sending it again"
+            )
+            self._assert_stop_intent(mirror)
 
     def _speed_section(self, now: float) -> None:
         """The station's own teleoperation, repeated while held (the operator is present).
@@ -510,18 +675,15 @@ class StationController(QObject):
         The tablet's commands are not repeated here: each is forwarded once, on arrival
         (`on_tablet_message`), and the single-shot watchdog sends the zero.
         """
-        if self.teleop.active and not self.estop_latched:
-            linear, angular = self.teleop.command()
-            self._send(Topic.STATION_VEL, Twist(linear, angular, stamp=now))
+        command = self.arbiter.keys_command(self.estop_latched)
+        if command is not None:
+            self._send(Topic.STATION_VEL, Twist(command[0], command[1], stamp=now))
 
     def _stop_tablet_speed(self, why: str) -> None:
         """Forget the tablet's command and send one explicit zero if one was forwarded."""
         self.tablet_watchdog.stop()
-        self.tablet_speed = None
-        if self.tablet_forwarding:
+        if self.arbiter.stop_tablet():
             self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-            self.tablet_forwarding = False
-            self.tablet_discarded += 1
             self.log("warning", f"tablet speed stopped ({why}): explicit zero sent")
 
     def _on_tablet_watchdog(self) -> None:
@@ -529,195 +691,144 @@ class StationController(QObject):
         self._stop_tablet_speed(f"no command for {self.config.latency_ceiling:g} s")
 
     def _pose_section(self, now: float) -> None:
-        events = self.supervisor.update(now, self.state.localised_pose)
-        self._handle(events)
+        """Every robot's supervisor sees its own robot's pose (per-robot supervision)."""
+        for mirror in self.fleet.all():
+            self._handle(mirror.supervisor.update(now, mirror.state.localised_pose), mirror)
 
     def tablet_permissions(self) -> TabletPermissions:
         """What the tablet may do now: the operator's choice, and only what can work."""
-        if not self.robot_online or self.estop_latched:
-            # During a stop nothing the tablet orders could start: refused, with the reason,
-            # rather than queued to start the moment the stop is released.
-            return TabletPermissions(False, False, False, False)
-        return self.permissions
+        return self.tablet_policy.effective(self.robot_online, self.estop_latched)
 
     def _send_permissions(self) -> None:
         msg = self.tablet_permissions().to_message()
         if msg != self._permissions_sent and self.tablet.send(msg):
             self._permissions_sent = msg
-            self._tablet_stop_told = False  # a refused speed is explained again
+            self.arbiter.stop_told = False  # a refused speed is explained again
 
     def _communication_section(self, now: float) -> None:
+        """Tell the tablet about the commanded robot (tablet_feed.py), changes only."""
         if not self.tablet.is_connected:
             return
         self._send_permissions()
-        send = self.tablet.send
-        if not self.robot_online:
-            # No stale pose or goal: the status says "robot offline" (and why it cannot work).
-            status = p.StatusInfo(self.task_text(), self.status_text())
-            if status != self._status_sent:
-                send(status)
-                self._status_sent = status
-            self._localisation_sent = None
-            return
-        pose = self.state.localised_pose
-        loc = self.state.localisation
-        settling = loc in ("unset", "lost") and now < self._pose_settling_until
-        if loc != self._localisation_sent and not settling:
-            send(p.Localisation(loc))
-            self._localisation_sent = loc
-        safety = self.state.safety
-        if safety is not None:  # the collision monitor, for the person at the joystick
-            info = p.SafetyInfo(
-                safety.zone, round(safety.distance, 2), "tablet_vel" in safety.assisted
-            )
-            if info != self._safety_sent:
-                send(info)
-                self._safety_sent = info
-        if self.state.pose is None or self.state.pose.state == "unset":
-            if not settling:
-                send(p.InitialPose(False))
-        elif pose is not None:
-            send(p.Pose(pose.x, pose.y, pose.yaw))
-        goal = self.supervisor.current_goal_node
-        at_stop = self.supervisor.state is SupervisorState.AT_TOUR_STOP
-        if goal is not None:
-            send(p.GoalStatus(goal, self.goal_reached, at_stop))
-        tour = self._tour_state()
-        if tour != self._tour_state_sent:  # an ended tour is said too: no stale highlight
-            send(tour if tour is not None else p.TourState((), (), None))
-        self._tour_state_sent = tour
         status = p.StatusInfo(self.task_text(), self.status_text())
-        if status != self._status_sent:
-            send(status)
-            self._status_sent = status
-
-    def _tour_state(self) -> p.TourState | None:
-        stops = self.supervisor.tour_stops
-        if not stops:
-            return None
-        return p.TourState(
-            stops, self.supervisor.visited_tour_stops, self.supervisor.next_tour_stop
-        )
+        for message in self.tablet_feed.messages(self.selected, now, self.robot_online, status):
+            self.tablet.send(message)
 
     def task_text(self) -> str:
-        task = self.supervisor.current_task
-        foreign = self.route_mirror.foreign
-        if task is None and foreign is not None:
-            return f"route {foreign.route_id} (started before this station)"
-        return "idle" if task is None else describe_task(task, self.names)
+        return self.selected.task_text(self.names)
 
     @property
     def robot_online(self) -> bool:
         robot = self.selected_robot
-        return robot is not None and self.robots.get(robot, False)
+        return robot is not None and self.selected.online
 
     def status_text(self) -> str:
-        sup = self.supervisor
-        if self.estop_latched:
-            return "emergency stop engaged"
-        if not self.robot_online:
-            return "robot offline"
-        foreign = self.route_mirror.foreign
-        if sup.current_task is None and foreign is not None:
-            return f"robot {foreign.state} on a route this station did not start; stop cancels it"
-        text = str(sup.state).replace("_", " ")
-        d = sup.distance_to_next_goal
-        if d is not None:
-            text += f", {d:.1f} m to the next goal"
-        return text
+        return self.selected.status_text(self.estop_latched)
 
     # ================================================================== supervisor events
-    def _handle(self, events: list[Event]) -> None:
+    def _handle(self, events: list[Event], mirror: RobotMirror | None = None) -> None:
+        mirror = mirror if mirror is not None else self.fleet.selected
         for event in events:
-            self._handle_one(event)
+            self._handle_one(event, mirror)
 
-    def _handle_one(self, event: Event) -> None:
+    def _tablet_send(self, mirror: RobotMirror, message: p.StationMessage) -> None:
+        """The tablet is bound to the selected robot: it hears of that robot only."""
+        if mirror is self.fleet.selected:
+            self.tablet.send(message)
+
+    def _handle_one(self, event: Event, mirror: RobotMirror) -> None:
         if isinstance(event, TaskStarted):
-            self.goal_reached = False
-            self.log("info", f"task started: {describe_task(event.task, self.names)}")
+            mirror.goal_reached = False
+            self._log_for(mirror, "info", f"task started: {describe_task(event.task, self.names)}")
             self.tasks_changed.emit()
         elif isinstance(event, TaskFinished):
             level = "info" if event.ok else "warning"
-            self.log(level, f"task {describe_task(event.task, self.names)}: {event.reason}")
-            if self._is_tablet_task(event.task):
-                self.tablet_tasks = [t for t in self.tablet_tasks if t is not event.task]
-            self.shown_request = None
+            self._log_for(
+                mirror, level, f"task {describe_task(event.task, self.names)}: {event.reason}"
+            )
+            if self.tablet_policy.owns(event.task):
+                self.tablet_policy.forget(event.task)
+            mirror.shown_request = None
             self.tasks_changed.emit()
         elif isinstance(event, QueueChanged):
             self.tasks_changed.emit()
         elif isinstance(event, RouteStarted):
-            self._send_route(event)
+            self._send_route(event, mirror)
         elif isinstance(event, RouteCancelled):
-            self._cancel_route(event.reason)
+            self._cancel_route(event.reason, mirror)
         elif isinstance(event, IntermediateGoalReached):
-            self.log("info", f"intermediate goal {event.node} reached")
+            self._log_for(mirror, "info", f"intermediate goal {event.node} reached")
         elif isinstance(event, GoalReached):
-            self.goal_reached = True
+            mirror.goal_reached = True
             where = self.names.get(event.node, "pose") if event.node is not None else "pose"
-            self.log("info", f"goal reached: {where}")
+            self._log_for(mirror, "info", f"goal reached: {where}")
             if event.node is not None:
-                self.tablet.send(p.GoalStatus(event.node, True, False))
+                self._tablet_send(mirror, p.GoalStatus(event.node, True, False))
         elif isinstance(event, PauseNavigation):
-            self._send(Topic.PAUSE_NAV, Lock(event.paused, stamp=self.clock()))
-            self.log("info", "navigation paused" if event.paused else "navigation resumed")
-            self.paused_changed.emit(event.paused)
+            self._send_to(mirror, Topic.PAUSE_NAV, Lock(event.paused, stamp=self.clock()))
+            self._log_for(
+                mirror, "info", "navigation paused" if event.paused else "navigation resumed"
+            )
+            if mirror is self.fleet.selected:
+                self.paused_changed.emit(event.paused)
         elif isinstance(event, TourStopReached):
-            self.goal_reached = True
-            self._handle(self.supervisor.pause())  # wait at the stop until resumed (§5.3.6)
-            self.log("info", f"tour stop {event.node} ({event.name}) reached; tour paused")
-            self.tablet.send(p.GoalStatus(event.node, True, True))
-            self.tour_stop_reached.emit(event)
+            mirror.goal_reached = True
+            self._handle(mirror.supervisor.pause(), mirror)  # wait at the stop (§5.3.6)
+            self._log_for(
+                mirror, "info", f"tour stop {event.node} ({event.name}) reached; tour paused"
+            )
+            self._tablet_send(mirror, p.GoalStatus(event.node, True, True))
+            if mirror is self.fleet.selected:
+                self.tour_stop_reached.emit(event)
+            else:
+                self._waiting(mirror, f"at tour stop {event.name}: command it to resume")
         elif isinstance(event, RequestShown):
             self.request_id += 1
-            self.shown_request = (self.request_id, event)
-            self.tablet.send(
-                p.ShowRequest(self.request_id, event.text, event.room, event.deliver_to)
+            mirror.shown_request = (self.request_id, event)
+            self._tablet_send(
+                mirror, p.ShowRequest(self.request_id, event.text, event.room, event.deliver_to)
             )
-            self.log("info", f"request shown at {self.names[event.room]}: {event.text}")
-            self.request_shown.emit(event)
+            self._log_for(
+                mirror, "info", f"request shown at {self.names[event.room]}: {event.text}"
+            )
+            if mirror is self.fleet.selected:
+                self.request_shown.emit(event)
+            else:
+                self._waiting(mirror, f"shows a request at {self.names[event.room]}: command it")
         elif isinstance(event, RequestAccepted | RequestDeclined | RequestTimedOut):
             verb = {RequestAccepted: "accepted", RequestDeclined: "declined"}.get(
                 type(event), "timed out"
             )
-            self.shown_request = None
-            self.log("info", f"request '{event.text}' {verb}")
+            mirror.shown_request = None
+            self._log_for(mirror, "info", f"request '{event.text}' {verb}")
 
-    def _send_route(self, route: RouteStarted) -> None:
-        ids = route.node_ids
-        node_ids = tuple(n for n in ids if n is not None) if None not in ids else ()
+    def _waiting(self, mirror: RobotMirror, text: str) -> None:
+        """A robot the operator does not command needs them: an alert names it."""
+        self.alerts.raise_alert("waiting", mirror.robot_id or "?", text, self.clock())
+
+    def _send_route(self, route: RouteStarted, mirror: RobotMirror) -> None:
+        """Send the supervisor's new route once, to the robot it was planned for."""
         cfg = self.config
-        msg = RouteMsg(
+        msg = mirror.new_route(
             self._route_ids(),
-            tuple((w.x, w.y, w.yaw) for w in route.waypoints),
-            node_ids,
+            route,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
-            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
+            goal_tolerance=cfg.goal_tolerance,
+            yaw_tolerance=cfg.yaw_tolerance,
         )
-        self.route = msg
-        self.route_index = 0
-        self.goal_reached = False
-        if self._send(Topic.ROUTE, msg):
-            self.route_mirror.started(msg.route_id)
-        else:
-            # Sent once: a route is never delivered later, when nobody may expect it. The task
-            # ends at the next clock() (not inside the supervisor's event handling).
-            self._route_undelivered = msg.route_id
-        self.log("info", f"route {msg.route_id}: nodes {list(node_ids)}")
+        mirror.route_sent(self._send_to(mirror, Topic.ROUTE, msg))
+        self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
         self.route_sent.emit(msg)
 
-    def _cancel_route(self, reason: str) -> None:
+    def _cancel_route(self, reason: str, mirror: RobotMirror) -> None:
         """Tell the robot to drop the route in progress (``route_cancel``)."""
-        self.log("info", f"route cancelled: {reason}")
-        route_id = None if self.route is None else self.route.route_id
-        self.route = None
-        self._route_undelivered = None
-        self.route_mirror.ended()
-        self._send(Topic.ROUTE_CANCEL, RouteCancel(route_id, reason, stamp=self.clock()))
+        self._log_for(mirror, "info", f"route cancelled: {reason}")
+        route_id = mirror.drop_route()
+        self._send_to(mirror, Topic.ROUTE_CANCEL, RouteCancel(route_id, reason, stamp=self.clock()))
 
     # ================================================================== operator commands
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:
-        """Queue a task; False (and a logged reason) if the map rejects it."""
+        """Queue a task for the selected robot; False (and a logged reason) if the map rejects it."""
         try:
             events = self.supervisor.submit(task)
         except TaskRejectedError as exc:
@@ -726,7 +837,7 @@ class StationController(QObject):
                 self.tablet.send(p.ErrorReport("task_rejected", str(exc)[:500]))
             return False
         if from_tablet:
-            self.tablet_tasks.append(task)
+            self.tablet_policy.adopt(task)
         self.log("info", f"queued: {describe_task(task, self.names)}")
         self._handle(events)
         self.tasks_changed.emit()
@@ -744,7 +855,7 @@ class StationController(QObject):
 
     def cancel_task(self, who: str = "the operator") -> bool:
         """Cancel the running task; a tablet's task cancelled by someone else tells the tablet."""
-        tablets = self._is_tablet_task(self.supervisor.current_task)
+        tablets = self.tablet_policy.owns(self.supervisor.current_task)
         cancelled = self._try(self.supervisor.cancel)
         if cancelled and tablets and who != "the tablet":
             self.tablet.send(p.Cancel(f"cancelled by {who}"))
@@ -785,7 +896,7 @@ class StationController(QObject):
         """Leave the tour stop: release the pause and drive to the next stop."""
         ok = self._try(self.supervisor.tour_resume)
         if ok:
-            self.goal_reached = False
+            self.selected.goal_reached = False
             self.resume()
         return ok
 
@@ -799,17 +910,19 @@ class StationController(QObject):
         return self._try(lambda: self.supervisor.request_response(accepted))
 
     def emergency_stop(self) -> None:
-        """Engage the stop lock; it latches (here and on the robot) until `release_stop`.
+        """Engage the stop lock on EVERY robot; it latches (here and on them) until released.
 
         The operator's stop is kept here even if no robot heard it, and delivered (and
         re-asserted) whenever a robot is connected.
         """
         self.teleop.release_all()
         self._stop_tablet_speed("emergency stop")
-        self._handle(self.supervisor.hold_queue())  # waiting tasks wait for "Resume queue"
         was = self.estop_latched
         self.estop_latched = True
-        self._assert_stop_intent()
+        for mirror in self.fleet.all():
+            # waiting tasks wait for "Resume queue"
+            self._handle(mirror.supervisor.hold_queue(), mirror)
+            self._assert_stop_intent(mirror)
         if self._stop_assert_pending:
             self.log("error", "robot unreachable: the stop is kept and sent when it reconnects")
         if not was:
@@ -817,7 +930,10 @@ class StationController(QObject):
             self.estop_changed.emit(True)
 
     def resume_queue(self) -> None:
-        """The operator's "Resume queue": waiting tasks may start again (not during a stop)."""
+        """The operator's "Resume queue": waiting tasks may start again (not during a stop).
+
+        It applies to the selected robot; another robot's queue is resumed when it is selected.
+        """
         if self.estop_latched:
             self.log("warning", "release the emergency stop before resuming the queue")
             return
@@ -829,8 +945,9 @@ class StationController(QObject):
         if not self.estop_latched:
             return
         self.estop_latched = False
-        self._tablet_stop_told = False
-        self._assert_stop_intent()
+        self.arbiter.stop_told = False
+        for mirror in self.fleet.all():
+            self._assert_stop_intent(mirror)
         self.log("info", "emergency stop released")
         self.estop_changed.emit(False)
 
@@ -843,8 +960,8 @@ class StationController(QObject):
         # Until the robot reports the pose applied, its last "unset"/"lost" is stale: holding
         # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
         # said afresh once the robot answers or the grace runs out).
-        self._pose_settling_until = now + INITIAL_POSE_SETTLE_S
-        self._localisation_sent = None
+        self.selected.pose_settling_until = now + INITIAL_POSE_SETTLE_S
+        self.tablet_feed.localisation_sent = None
         self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
 
     def set_initial_pose_room(self, node_id: int) -> None:
@@ -856,35 +973,34 @@ class StationController(QObject):
         self.log("info", "relocalisation requested")
 
     def set_config(self, config: StationConfig) -> None:
-        """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robot."""
+        """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robots."""
         self.config = config
-        self.supervisor.config = config.supervisor_config(self.supervisor.config.request_timeout)
-        self.teleop.set_limits(config.teleop_linear_max, config.teleop_angular_max)
-        self.watchdog.ceiling_s = config.latency_ceiling
-        self.freshness.ceiling_s = config.latency_ceiling
+        for mirror in self.fleet.all():
+            mirror.supervisor.config = config.supervisor_config(self._request_timeout)
+        self.arbiter.set_limits(
+            config.latency_ceiling, config.teleop_linear_max, config.teleop_angular_max
+        )
         self.tablet_watchdog.setInterval(round(config.latency_ceiling * 1000))
-        self._config_pending = not self._send(Topic.CONFIG, ConfigMsg(config.planner_params()))
+        for mirror in self.fleet.all():
+            mirror.config_pending = True
+            self._resend_pending(mirror)
         self.config_changed.emit(config)
 
     # ------------------------------------------------------------------ teleoperation
     def _teleop_changed(self) -> None:
         """Send at once on every change (the clock repeats it); a zero when all is released."""
-        now = self.clock()
-        if self.teleop.active and not self.estop_latched:
-            linear, angular = self.teleop.command()
-            self._send(Topic.STATION_VEL, Twist(linear, angular, stamp=now))
-        elif self._teleop_was_active:
-            self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=now))
-        self._teleop_was_active = self.teleop.active
+        command = self.arbiter.keys_changed(self.estop_latched)
+        if command is not None:
+            self._send(Topic.STATION_VEL, Twist(command[0], command[1], stamp=self.clock()))
 
     def press(self, direction: Direction) -> None:
         if self.estop_latched:
             return
-        self.teleop.press(direction)
+        self.arbiter.press(direction)
         self._teleop_changed()
 
     def release(self, direction: Direction) -> None:
-        self.teleop.release(direction)
+        self.arbiter.release(direction)
         self._teleop_changed()
 
     def set_joystick(self, linear: float, angular: float, pressed: bool) -> None:
@@ -901,12 +1017,8 @@ class StationController(QObject):
 
     # ================================================================== tablet
     def _on_tablet_connected(self, peer: str) -> None:
-        self._localisation_sent = None
-        self._tour_state_sent = None
-        self._status_sent = None
-        self.watchdog.reset()
-        self.freshness.reset()
-        self._tablet_stop_told = False
+        self.tablet_feed.forget()
+        self.arbiter.tablet_connected()
         self._permissions_sent = None
         self._send_permissions()
         self.log("info", f"tablet connected from {peer}")
@@ -924,27 +1036,25 @@ class StationController(QObject):
         self.tablet_changed.emit()
 
     def set_permission(self, kind: str, allowed: bool) -> None:
-        self.permissions = self.permissions.with_kind(kind, allowed)
-        if not self.permissions.teleop:
+        policy = self.tablet_policy
+        policy.permissions = policy.permissions.with_kind(kind, allowed)
+        if not policy.permissions.teleop:
             self._stop_tablet_speed("teleoperation not permitted")
         self._send_permissions()
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
         self.tablet_changed.emit()
 
-    def _is_tablet_task(self, task: Task | None) -> bool:
-        return task is not None and any(t is task for t in self.tablet_tasks)
-
     @property
     def tablet_task(self) -> Task | None:
-        """The running task if the tablet ordered it."""
+        """The selected robot's running task if the tablet ordered it."""
         task = self.supervisor.current_task
-        return task if self._is_tablet_task(task) else None
+        return task if self.tablet_policy.owns(task) else None
 
     def tablet_task_override(self) -> None:
         """The operator takes the tablet's task over: it continues as a station task."""
         task = self.tablet_task
         if task is not None:
-            self.tablet_tasks = [t for t in self.tablet_tasks if t is not task]
+            self.tablet_policy.forget(task)
             self.tablet.send(p.Cancel("task taken over by the operator"))
             self.log("info", f"operator took over: {describe_task(task, self.names)}")
             self.tablet_changed.emit()
@@ -959,20 +1069,18 @@ class StationController(QObject):
             self.cancel_task()  # tells the tablet: cancelled by the operator
 
     def on_tablet_message(self, msg: object) -> None:
-        """A validated tablet message: a Supervisor or robot action, subject to permissions."""
+        """A validated tablet message: a Supervisor or robot action, subject to permissions.
+
+        The tablet is bound to the selected robot: its tasks go to that robot's queue.
+        """
         now = self.clock()
         kind = permission_for(msg)  # type: ignore[arg-type]
-        if not self.tablet_permissions().allows(kind):
-            if not self.robot_online:
-                why = f"the robot is offline: {kind} cannot work"
-            elif self.permissions.allows(kind):
-                why = f"emergency stop engaged: {kind} ignored"
-            else:
-                why = f"the operator does not allow {kind} from the tablet"
-            if not (isinstance(msg, p.Speed) and self._tablet_stop_told):
+        why = self.tablet_policy.refusal(kind, self.robot_online, self.estop_latched)
+        if why is not None:
+            if not (isinstance(msg, p.Speed) and self.arbiter.stop_told):
                 self.tablet.send(p.ErrorReport("not_permitted", why))  # once per 10 Hz stream
             if isinstance(msg, p.Speed):
-                self._tablet_stop_told = True
+                self.arbiter.stop_told = True
             if not isinstance(msg, p.Speed):
                 self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
             self.alert_rules.on_refused(why, now)
@@ -1018,7 +1126,7 @@ class StationController(QObject):
         is stopped outright.
         """
         task = self.supervisor.current_task
-        if task is not None and not self._is_tablet_task(task):
+        if task is not None and not self.tablet_policy.owns(task):
             self.log("warning", "tablet: stop on the operator's task: paused")
             self.pause()
             self._stop_tablet_speed("stop from the tablet")
@@ -1033,21 +1141,9 @@ class StationController(QObject):
 
     def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:
         """Forward one fresh tablet command once, stamped with its arrival time ``now``."""
-        self.watchdog.feed(now)
-        self.tablet_periods.add_arrival(now)
-        if self.estop_latched:
-            if not self._tablet_stop_told:
-                self._tablet_stop_told = True
-                self.tablet.send(
-                    p.ErrorReport("not_permitted", "emergency stop engaged: speed ignored")
-                )
-            return
-        verdict = self.freshness.check(msg.seq, msg.t, now)
-        if not verdict.fresh:
-            self.tablet_discarded += 1
-            logger.info("tablet speed dropped: %s", verdict.reason)
-            return
-        self.tablet_speed = msg
-        self._send(Topic.TABLET_VEL, Twist(msg.linear, msg.angular, stamp=now))
-        self.tablet_forwarding = True
-        self.tablet_watchdog.start()  # restarted by every command (thesis Fig. 5.10)
+        verdict = self.arbiter.on_tablet_speed(msg, now, self.estop_latched)
+        if isinstance(verdict, Refuse):
+            self.tablet.send(p.ErrorReport("not_permitted", verdict.reason))
+        elif isinstance(verdict, Forward):
+            self._send(Topic.TABLET_VEL, verdict.twist)
+            self.tablet_watchdog.start()  # restarted by every command (thesis Fig. 5.10)

@@ -3,8 +3,9 @@
 Target (FIELD_NOTES, Hector SLAM in C++ ~2 ms a scan): <= 2 ms median, <= 5 ms p99 on one core.
 The robot drives an ellipse through the office at 0.6 m/s, 40 Hz, with 1 % odometry error;
 scans (1081 beams, 1 cm noise) come from the exact ray caster of
-`robot_daemon.localisation.synthetic_office` (shared with the localisation tests, so the
-benchmark does not depend on robot_daemon/sim). Scans are cast before timing;
+``tests/robot_daemon/localisation/synthetic_office.py`` (the localisation tests' world, loaded
+by its path: a test fixture, not part of the robot; the benchmark does not depend on
+robot_daemon/sim). Scans are cast before timing;
 only `Localiser.on_scan` is timed (the first match after the initial pose included), with the
 garbage collector off. Wall-clock (perf_counter) figures are the target's; on a shared machine
 their p99 includes preemption by other processes, so the thread's CPU time is reported too.
@@ -15,15 +16,22 @@ their p99 includes preemption by other processes, so the thread's CPU time is re
 from __future__ import annotations
 
 import gc
+import importlib.util
 import json
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 
 from interbot_core.geometry import Pose2D
 from robot_daemon.localisation import Localiser
-from robot_daemon.localisation.synthetic_office import OFFICE_BOXES, office_grid, utm_scan
+
+_OFFICE = Path(__file__).resolve().parent.parent / "tests" / "robot_daemon" / "localisation"
+_spec = importlib.util.spec_from_file_location("interbot_bench_synthetic_office", _OFFICE / "synthetic_office.py")  # fmt: skip
+office = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
+_spec.loader.exec_module(office)  # type: ignore[union-attr]
+OFFICE_BOXES, office_grid, utm_scan = office.OFFICE_BOXES, office.office_grid, office.utm_scan
 
 
 def loop_poses(n: int, rate_hz: float = 40.0, speed: float = 0.6) -> list[Pose2D]:

@@ -11,9 +11,13 @@ Rules
 -----
 * Tasks run one at a time in queue order. A task starts only while the robot is localised
   (``pose`` not ``None``; thesis §5.2.2.1: no autonomous motion before the initial pose is set).
-* Routes come from :class:`~interbot_core.route_planner.RoutePlanner` (Algorithms 2 and 5);
-  progress is judged by a :class:`~interbot_core.route_follower.RouteFollower`: intermediate goals
-  within ``approach_tolerance``, the final goal within ``goal_tolerance`` and ``yaw_tolerance``.
+* Routes come from :class:`~interbot_core.route_planner.RoutePlanner` (Algorithms 2 and 5) and
+  are sent whole to the robot with the tolerances of :class:`SupervisorConfig`. The robot judges
+  progress (``robot_daemon.planning.goal_checker``: intermediate goals within
+  ``approach_tolerance``, the final goal within ``goal_tolerance`` and ``yaw_tolerance``) and
+  reports it; the supervisor mirrors the report (:meth:`Supervisor.robot_progress`,
+  :meth:`Supervisor.robot_route_succeeded`, :meth:`Supervisor.robot_route_aborted`) and has no
+  goal logic of its own, so the station and the robot cannot disagree on an arrival.
 * Guided tour: the tour stops (ring buffer starting at the stop nearest the robot) are driven to
   one by one; at each the supervisor emits :class:`TourStopReached` and waits for
   :meth:`Supervisor.tour_resume` or :meth:`Supervisor.tour_end`.
@@ -22,8 +26,8 @@ Rules
   ``deliver_to``; on decline or time-out the task finishes unsuccessfully with the reason.
 * Commands (``submit``, ``pause``, ``cancel``, ...) validate at once, raise
   :class:`TaskRejectedError` / :class:`SupervisorError` with an actionable message, and return the
-  events that follow from them directly. Anything that needs a pose (planning a route, judging
-  progress) or the time (request time-out) happens in :meth:`Supervisor.update`.
+  events that follow from them directly. Anything that needs a pose (planning a route, the tour
+  order) or the time (request time-out) happens in :meth:`Supervisor.update`.
 * ``pause()`` is a navigation lock (the thesis's pause lock on the speed multiplexer): it persists
   across tasks until ``resume()``; routes and time-outs keep running while paused.
 """
@@ -36,16 +40,14 @@ import math
 from dataclasses import dataclass
 
 from interbot_core.geometry import Pose2D
-from interbot_core.route_follower import (
-    DEFAULT_APPROACH_TOLERANCE,
-    DEFAULT_GOAL_TOLERANCE,
-    DEFAULT_YAW_TOLERANCE,
-    RouteFollower,
-)
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topological_map import TopologicalMap, TopologicalMapError
 
 logger = logging.getLogger(__name__)
+
+DEFAULT_APPROACH_TOLERANCE = 1.0  # [m] intermediate goals
+DEFAULT_GOAL_TOLERANCE = 0.5  # [m] thesis Table 6.3
+DEFAULT_YAW_TOLERANCE = 0.1  # [rad] thesis Table 6.3
 
 
 class SupervisorError(RuntimeError):
@@ -209,7 +211,7 @@ Event = (
 
 @dataclass(frozen=True)
 class SupervisorConfig:
-    """Goal tolerances (thesis Table 6.3) and the request time-out."""
+    """Goal tolerances (thesis Table 6.3) sent with each route, and the request time-out."""
 
     approach_tolerance: float = DEFAULT_APPROACH_TOLERANCE  # [m] intermediate goals
     goal_tolerance: float = DEFAULT_GOAL_TOLERANCE  # [m] final goal position
@@ -276,7 +278,7 @@ class Supervisor:
         self._goal_node: int | None = None
         self._goal_pose: Pose2D | None = None
         self._route: RouteStarted | None = None
-        self._follower: RouteFollower | None = None
+        self._index = 0  # the waypoint the robot reports heading for
         self._tour_stops: tuple[int, ...] = ()
         self._visited: list[int] = []
         self._delivering = False  # Delivery: False on the way to the room, True after accept
@@ -335,8 +337,8 @@ class Supervisor:
 
     @property
     def route_index(self) -> int | None:
-        """Index into ``current_route.waypoints`` of the goal being driven to."""
-        return None if self._follower is None else self._follower.current_index
+        """Index into ``current_route.waypoints`` of the goal being driven to (the robot's word)."""
+        return None if self._route is None else self._index
 
     @property
     def current_goal_node(self) -> int | None:
@@ -366,9 +368,9 @@ class Supervisor:
     @property
     def distance_to_next_goal(self) -> float | None:
         """Straight-line distance from the last pose to the current target [m]."""
-        if self._follower is None or self._pose is None:
+        if self._route is None or self._pose is None or self._phase is not _Phase.FOLLOWING:
             return None
-        return self._follower.distance_to_target(self._pose)
+        return self._pose.distance_to(self._route.waypoints[self._index])
 
     # ------------------------------------------------------------------ commands
 
@@ -467,15 +469,28 @@ class Supervisor:
         events += self._finish(False, f"request declined at {self._name(task.room)}")
         return events
 
-    def robot_route_succeeded(self, now: float) -> list[Event]:
-        """The robot reports that it reached the final goal of the current route.
-
-        The robot judges arrival with its own (localiser) pose and tolerances; the station's
-        follower may not have seen the last pose yet, so the robot's word settles it.
-        """
-        if self._phase is not _Phase.FOLLOWING:
+    def robot_progress(self, index: int) -> list[Event]:
+        """The robot reports heading for waypoint ``index`` of the current route: every waypoint
+        before it was reached (one `IntermediateGoalReached` each, in order)."""
+        route = self._route
+        if self._phase is not _Phase.FOLLOWING or route is None:
             return []
-        events: list[Event] = []
+        if isinstance(index, bool) or not isinstance(index, int) or index < 0:
+            raise ValueError(f"route progress index must be an integer >= 0, got {index!r}")
+        last = len(route.waypoints) - 1
+        index = min(index, last)
+        events: list[Event] = [
+            IntermediateGoalReached(route.node_ids[i], i) for i in range(self._index, index)
+        ]
+        self._index = max(self._index, index)
+        return events
+
+    def robot_route_succeeded(self, now: float) -> list[Event]:
+        """The robot reports that it reached the final goal of the current route (judged on the
+        robot with its own pose and the route's tolerances): the goal is reached."""
+        if self._phase is not _Phase.FOLLOWING or self._route is None:
+            return []
+        events = self.robot_progress(len(self._route.waypoints) - 1)
         self._arrived(now, events)
         return events
 
@@ -488,7 +503,7 @@ class Supervisor:
     # ------------------------------------------------------------------ the clock
 
     def update(self, now: float, pose: Pose2D | None) -> list[Event]:
-        """One control-loop step (thesis ``clock()``): start tasks, plan, judge progress, time out.
+        """One control-loop step (thesis ``clock()``): start tasks, plan routes, time out.
 
         ``pose`` is the robot pose in the ``map`` frame, or ``None`` while it is not localised
         (tasks and route planning then wait; a running route keeps its state).
@@ -508,8 +523,6 @@ class Supervisor:
                 self._start_next(pose, events)
             if self._phase is _Phase.NEED_ROUTE and pose is not None:
                 self._start_route(pose, events)
-            if self._phase is _Phase.FOLLOWING and pose is not None:
-                self._follow(now, pose, events)
             if (
                 self._phase is _Phase.AWAITING_RESPONSE
                 and self._deadline is not None
@@ -598,24 +611,9 @@ class Supervisor:
                 return
             waypoints, node_ids = route.waypoints, route.node_ids
         self._route = RouteStarted(waypoints, node_ids, self._goal_node)
-        self._follower = RouteFollower(
-            waypoints,
-            approach_tolerance=self.config.approach_tolerance,
-            goal_tolerance=self.config.goal_tolerance,
-            yaw_tolerance=self.config.yaw_tolerance,
-        )
+        self._index = 0
         self._phase = _Phase.FOLLOWING
         events.append(self._route)
-
-    def _follow(self, now: float, pose: Pose2D, events: list[Event]) -> None:
-        follower, route = self._follower, self._route
-        if follower is None or route is None:  # pragma: no cover - FOLLOWING implies both
-            raise AssertionError("following without a route")
-        state = follower.update(pose)
-        last = len(route.waypoints) - 1
-        events += [IntermediateGoalReached(route.node_ids[i], i) for i in state.passed if i < last]
-        if state.reached_final:
-            self._arrived(now, events)
 
     def _arrived(self, now: float, events: list[Event]) -> None:
         task, node = self._task, self._goal_node
@@ -660,12 +658,7 @@ class Supervisor:
         if task is None:  # pragma: no cover - callers check
             return []
         events: list[Event] = []
-        driving = (
-            self._phase is _Phase.FOLLOWING
-            and self._follower is not None
-            and not self._follower.reached_final
-        )
-        if cancel_route and driving:
+        if cancel_route and self._phase is _Phase.FOLLOWING:
             events.append(RouteCancelled(reason))
         events.append(TaskFinished(task, ok, reason))
         logger.info("task finished: %s ok=%s (%s)", task, ok, reason)

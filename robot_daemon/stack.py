@@ -49,6 +49,7 @@ from robot_daemon.localisation.localiser import (
 )
 from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
+from robot_daemon.planning.goal_checker import final_goal_reached, next_goal_index
 from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
 from robot_daemon.safety.motion_guard import MotionGuard, MotionGuardConfig, default_guard_config
 
@@ -405,6 +406,24 @@ class RobotStack:
                 return f"manual control ({entry.name})"
         return None
 
+    def _judge_progress(self, route: RouteState, pose: Pose2D | None, now: float) -> None:
+        """While the route is suspended and someone else drives (an operator), judge its progress
+        all the same (`goal_checker`): the station mirrors what the robot reports and has no goal
+        logic of its own. Not on a pose the localiser does not vouch for."""
+        if pose is None or self.localisation_state not in (
+            LocaliserState.OK,
+            LocaliserState.DEGRADED,
+        ):
+            return
+        route.index = next_goal_index(route.goals, route.index, pose, route.approach_tolerance)
+        final = route.goals[-1]
+        if route.index == len(route.goals) - 1 and final_goal_reached(
+            pose, final, route.goal_tolerance, route.yaw_tolerance
+        ):
+            route.state, route.reason = "succeeded", "goal reached"
+            self._suspended_reason = None
+            self._event(now, "info", f"route {route.route_id} done: goal reached")
+
     def _control(self, now: float) -> None:
         route = self.route
         if route is None or route.finished:
@@ -417,6 +436,7 @@ class RobotStack:
                 self._event(now, "info", f"route {route.route_id} suspended: {blocker}")
             self._suspended_reason = blocker or "no pose"
             route.state = "paused"
+            self._judge_progress(route, pose, now)
             return
         if self._suspended_reason is not None:
             remaining = route.goals[route.index :]

@@ -27,10 +27,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
+from interbot_core.rooms import RoomMap, RoomMapError, load_room_map
 from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.tablet_pairing import PairingError, parse_pairing_uri
 from interbot_core.topological_map import TopologicalMapError
-from tablet_app.floor_plan import FloorPlan, FloorPlanError, load_floor_plan
 
 if TYPE_CHECKING:
     from PySide6.QtWidgets import QWidget
@@ -115,9 +115,9 @@ def show_kiosk(window: QWidget, screen_index: int = 0) -> None:
     window.showFullScreen()
 
 
-def load_plan(topo: Path) -> tuple[FloorPlan, OccupancyGrid | None]:
+def load_plan(topo: Path) -> tuple[RoomMap, OccupancyGrid | None]:
     """The rooms, and the occupancy grid under them when it can be read (else None)."""
-    plan = load_floor_plan(topo)
+    plan = load_room_map(topo)
     grid = None
     if plan.map_yaml is not None:
         try:
@@ -181,7 +181,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     try:
         plan, grid = load_plan(args.topo)
-    except (TopologicalMapError, FloorPlanError, OSError) as exc:
+    except (TopologicalMapError, RoomMapError, OSError) as exc:
         logger.error("cannot load the topological map: %s (use --topo FILE)", exc)
         return 2
 

@@ -47,7 +47,7 @@ from interbot_core.protocol import (
     Tour,
     TourControl,
 )
-from tablet_app.floor_plan import FloorPlan
+from interbot_core.rooms import RoomMap
 from tablet_app.kiosk import CORNER_PX, ExitGesture
 from tablet_app.qt_dialogs import (
     QtHelpConfirmDialog,
@@ -96,7 +96,7 @@ class TabletWindow(QMainWindow):
     def __init__(
         self,
         connection: TabletConnection,
-        plan: FloorPlan,
+        plan: RoomMap,
         grid: OccupancyGrid | None = None,
         languages: LanguageSwitcher | None = None,
         parent: QWidget | None = None,
@@ -110,8 +110,7 @@ class TabletWindow(QMainWindow):
         self.clock = clock
         self.languages = languages or LanguageSwitcher(parent=self)
         self.shown_plan = plan.in_language(self.languages.language)
-        home = next((r.id for r in plan.rooms if r.home), plan.rooms[0].id if plan.rooms else None)
-        self.session = TabletSession(room_xy=self._room_xy, home_room=home)
+        self.session = TabletSession(room_xy=plan.node_xy, home_room=plan.home_id)
         self._connection_detail = ""
         self._touch = 0
         self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture
@@ -209,13 +208,6 @@ class TabletWindow(QMainWindow):
     def room_name(self, room_id: int) -> str:
         """The room's name in the UI language (``name_pt`` in the topological map)."""
         return self.shown_plan.name(room_id)
-
-    def _room_xy(self, room_id: int) -> tuple[float, float] | None:
-        try:
-            room = self.plan.room(room_id)
-        except KeyError:
-            return None
-        return room.x, room.y
 
     # ---------------------------------------------------------------- navigation between screens
     def show_menu(self) -> None:
@@ -381,7 +373,9 @@ class TabletWindow(QMainWindow):
         s = self.session
         if s.tour_stop is None:
             self._close_dialog(QtTourStopDialog)
-        elif not (isinstance(self.dialog, QtTourStopDialog) and self.dialog.room.id == s.tour_stop):
+        elif not (
+            isinstance(self.dialog, QtTourStopDialog) and self.dialog.room.covers(s.tour_stop)
+        ):
             try:
                 room = self.shown_plan.room(s.tour_stop)
             except KeyError:

@@ -31,7 +31,7 @@ from PySide6.QtWidgets import (
 )
 
 from interbot_core.protocol import ShowRequest
-from tablet_app.floor_plan import FloorPlan, Room
+from interbot_core.rooms import Room, RoomMap
 from tablet_app.qt_keyboard import QtKeyboard
 
 
@@ -112,7 +112,7 @@ class QtRequestDialog(_TabletDialog):
 
     request_submitted = Signal(str, int, int)  # request, room, deliver_to
 
-    def __init__(self, room: Room, plan: FloorPlan, parent: QWidget | None = None) -> None:
+    def __init__(self, room: Room, plan: RoomMap, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.room = room
         self.title_label = QLabel()
@@ -124,7 +124,7 @@ class QtRequestDialog(_TabletDialog):
         self.deliver_label = QLabel()
         self.deliver_combo = QComboBox()
         self.deliver_combo.setView(QListView())  # its rows take the touch-sized style
-        for other in plan.touch_rooms():
+        for other in plan.rooms:
             self.deliver_combo.addItem(other.name, other.id)
         self.send_button = QPushButton()
         self.send_button.setEnabled(False)
@@ -208,7 +208,7 @@ class QtShowRequestDialog(_TabletDialog):
 
     answered = Signal(int, bool)  # request id, accepted
 
-    def __init__(self, request: ShowRequest, plan: FloorPlan, parent: QWidget | None = None):
+    def __init__(self, request: ShowRequest, plan: RoomMap, parent: QWidget | None = None):
         super().__init__(parent)
         self.request = request
         self._from = plan.name(request.room)

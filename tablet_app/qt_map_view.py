@@ -29,9 +29,10 @@ from PySide6.QtGui import (
 )
 from PySide6.QtWidgets import QPushButton, QSizePolicy, QWidget
 
+from interbot_core.map_image import grey_image
 from interbot_core.map_view_transform import MapViewTransform
-from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
-from tablet_app.floor_plan import FloorPlan
+from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.rooms import RoomMap
 
 logger = logging.getLogger(__name__)
 
@@ -48,11 +49,8 @@ _ROOM_COLOURS = {
 def grid_to_qimage(grid: OccupancyGrid) -> QImage:
     """Occupancy grid to an 8-bit grey image, top row first: free white, occupied dark,
     unknown grey."""
-    cells = grid.cells[::-1]  # the grid's row 0 is the bottom (lowest y)
-    grey = np.full(cells.shape, 205, dtype=np.uint8)
-    grey[cells == FREE] = 250
-    grey[cells == OCCUPIED] = 40
-    grey = np.ascontiguousarray(grey)
+    # The grid's row 0 is the bottom (lowest y); softer greys than the station's.
+    grey = np.ascontiguousarray(grey_image(grid, free=250, occupied=40, unknown=205)[::-1])
     height, width = int(grey.shape[0]), int(grey.shape[-1])  # type: ignore[misc]
     image = QImage(grey.data, width, height, width, QImage.Format.Format_Grayscale8)
     return image.copy()  # own the pixels; ``grey`` goes away
@@ -64,7 +62,7 @@ class QtMapView(QWidget):
     room_clicked = Signal(int)
 
     def __init__(
-        self, plan: FloorPlan, grid: OccupancyGrid | None = None, parent: QWidget | None = None
+        self, plan: RoomMap, grid: OccupancyGrid | None = None, parent: QWidget | None = None
     ) -> None:
         super().__init__(parent)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
@@ -92,7 +90,7 @@ class QtMapView(QWidget):
         self._mapper = QSignalMapper(self)
         self._mapper.mappedInt.connect(self.room_clicked)
         self._buttons: dict[int, QPushButton] = {}
-        for room in plan.touch_rooms():
+        for room in plan.rooms:
             button = QPushButton(self)
             button.setObjectName(f"room_{room.id}")
             button.setAccessibleName(room.name)
@@ -147,12 +145,12 @@ class QtMapView(QWidget):
         self._highlight = on
         self.update()
 
-    def set_plan(self, plan: FloorPlan) -> None:
+    def set_plan(self, plan: RoomMap) -> None:
         """The same rooms with other texts (the UI language changed)."""
-        if [r.id for r in plan.touch_rooms()] != list(self._buttons):
+        if [r.id for r in plan.rooms] != list(self._buttons):
             raise ValueError("set_plan takes the same rooms in other words, not another plan")
         self._plan = plan
-        for room in plan.touch_rooms():
+        for room in plan.rooms:
             self._buttons[room.id].setAccessibleName(room.name)
         self.update()
 
@@ -199,7 +197,7 @@ class QtMapView(QWidget):
         else:
             painter.fillRect(map_rect, QColor(235, 235, 235))
         base_px = max(10, round(self._min_touch * 0.26))
-        for room in self._plan.touch_rooms():
+        for room in self._plan.rooms:
             fill, outline = _ROOM_COLOURS[self.room_state(room.id)]
             rect = self.room_rect(room.id)
             painter.setPen(QPen(outline, 2.0))

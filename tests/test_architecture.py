@@ -101,3 +101,217 @@ def test_no_test_doubles_in_product_packages() -> None:
         if p.stem.startswith(("fake_", "stub_", "mock_")) or p.stem.endswith(("_fake", "_stub"))
     ]
     assert doubles == []
+
+
+# Issue 13/14: "no widget holds robot or task state". Widgets (qt_*.py, the main window) reach
+# the station's state only through the controller: they may import value types (tasks, views,
+# enums) but never a class that owns robot, route, queue, teleop or tablet state.
+STATE_OWNERS = {
+    "Supervisor",  # interbot_core.supervisor: queue, tour, requests
+    "RouteMirror",
+    "RobotMirror",
+    "Fleet",
+    "RobotState",
+    "TeleopArbiter",
+    "TeleopInput",
+    "TabletPolicy",
+    "TabletFeed",
+    "AlertList",
+    "AlertRules",
+    "SpeedFreshness",
+    "LatencyWatchdog",
+    "StationLink",
+    "FleetWatch",
+}
+STATION_QT_FREE = (
+    "fleet.py",
+    "robot_mirror.py",
+    "teleop_arbiter.py",
+    "tablet_policy.py",
+    "tablet_feed.py",
+    "robot_state.py",
+    "alerts.py",
+    "tablet_session.py",
+)
+
+
+def imported_names(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.Import):
+            names.update(alias.name.rsplit(".", 1)[-1] for alias in node.names)
+    return names
+
+
+def widget_files() -> list[Path]:
+    apps = [*package_files("base_station_app"), *package_files("tablet_app")]
+    return [p for p in apps if p.name.startswith("qt_") or p.name == "main_window.py"]
+
+
+@pytest.mark.parametrize("path", widget_files(), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_no_widget_holds_robot_or_task_state(path: Path) -> None:
+    bad = imported_names(path) & STATE_OWNERS
+    assert not bad, (
+        f"{path.relative_to(REPO)} imports {sorted(bad)}: widgets draw and forward input; "
+        "robot, route, queue and teleop state live behind the controller"
+    )
+
+
+@pytest.mark.parametrize("name", STATION_QT_FREE)
+def test_station_state_owners_are_qt_free(name: str) -> None:
+    path = REPO / "base_station_app" / name
+    bad = imported_top_levels(path) & {"PySide6", "pyqtgraph", "zenoh"}
+    assert not bad, f"{path.relative_to(REPO)} imports {sorted(bad)}; it must stay plain Python"
+
+
+def test_state_rule_catches_a_widget_that_imports_a_supervisor(tmp_path: Path) -> None:
+    bad = tmp_path / "qt_bad.py"
+    bad.write_text("from interbot_core.supervisor import GoTo, Supervisor\n", encoding="utf-8")
+    assert imported_names(bad) & STATE_OWNERS == {"Supervisor"}
+
+
+# ---------------------------------------------------------------------- one owner for each rule
+# Issue 13: test doubles, benchmarks and map-authoring code stay out of what ships; the rooms of
+# the floor have one model, `interbot_core/rooms.py`, which alone reads a node's ``area``.
+
+NOT_SHIPPED = {"tests", "bench", "tools"}
+ROOM_MODEL = REPO / "interbot_core" / "rooms.py"
+# The building plan the simulator draws its world from has rooms of its own (rectangles with doors
+# and furniture); they are the plan's, not the UI's.
+BUILDING_PLAN = REPO / "robot_daemon" / "sim" / "floor_plan.py"
+# What a second room model would define (the two old ones did: tablet_app/floor_plan.py and
+# base_station_app/map_rooms.py).
+ROOM_MODEL_NAMES = {"Room", "RoomArea", "RoomMap", "RoomMapError", "FloorPlan", "FloorPlanError"}
+ROOM_MODEL_FUNCTIONS = {"load_floor_plan", "load_room_areas", "load_room_map", "room_at"}
+# Functions that write maps from a plan: they belong to tools/generate_isr_map.py.
+AUTHORING_FUNCTIONS = {"topological_map_dict", "plan_nodes", "generate", "stale_files"}
+
+
+def product_files() -> list[Path]:
+    return [p for package in PRODUCT_PACKAGES for p in package_files(package)]
+
+
+def _rel(path: Path) -> str:
+    return str(path.relative_to(REPO))
+
+
+def top_level_definitions(path: Path) -> tuple[set[str], set[str]]:
+    """(function names, class names) defined anywhere in ``path``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    functions = {
+        n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)
+    }
+    classes = {n.name for n in ast.walk(tree) if isinstance(n, ast.ClassDef)}
+    return functions, classes
+
+
+def area_key_uses(path: Path) -> list[int]:
+    """Lines where ``"area"`` is used as a mapping key: ``x["area"]``, ``x.get("area")``,
+    ``{"area": ...}``."""
+
+    def is_area(node: ast.AST | None) -> bool:
+        return isinstance(node, ast.Constant) and node.value == "area"
+
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Subscript) and is_area(node.slice):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Call) and any(is_area(a) for a in node.args[:1]):
+            func = node.func
+            if isinstance(func, ast.Attribute) and func.attr in {"get", "pop", "setdefault"}:
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Dict) and any(is_area(k) for k in node.keys):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_product_packages_import_no_tests_benchmarks_or_tools() -> None:
+    offenders = {
+        _rel(p): sorted(imported_top_levels(p) & NOT_SHIPPED)
+        for p in product_files()
+        if imported_top_levels(p) & NOT_SHIPPED
+    }
+    assert offenders == {}
+
+
+def test_no_benchmark_or_synthetic_test_world_code_in_product_packages() -> None:
+    """Timing loops live in bench/, test worlds in tests/ (the ray-cast bench and the synthetic
+    office used to ship in robot_daemon)."""
+    offenders = []
+    for path in product_files():
+        functions, _ = top_level_definitions(path)
+        offenders += [f"{_rel(path)}: {f}()" for f in functions if f.startswith("bench_")]
+        if path.stem.startswith(("synthetic_", "bench_")):
+            offenders.append(_rel(path))
+    assert offenders == []
+
+
+def test_no_map_authoring_in_product_packages() -> None:
+    offenders = [
+        f"{_rel(path)}: {name}()"
+        for path in product_files()
+        for name in sorted(top_level_definitions(path)[0] & AUTHORING_FUNCTIONS)
+    ]
+    assert offenders == []
+
+
+def test_only_the_room_model_reads_area() -> None:
+    offenders = {
+        _rel(path): area_key_uses(path)
+        for path in product_files()
+        if path != ROOM_MODEL and area_key_uses(path)
+    }
+    assert offenders == {}
+    assert area_key_uses(ROOM_MODEL), "the rule no longer sees the room model read 'area'"
+
+
+def test_no_other_room_or_floor_plan_model_in_the_apps_or_the_core() -> None:
+    offenders = []
+    for path in product_files():
+        if path in (ROOM_MODEL, BUILDING_PLAN):
+            continue
+        functions, classes = top_level_definitions(path)
+        offenders += [f"{_rel(path)}: class {n}" for n in sorted(classes & ROOM_MODEL_NAMES)]
+        offenders += [f"{_rel(path)}: {n}()" for n in sorted(functions & ROOM_MODEL_FUNCTIONS)]
+    assert offenders == []
+
+
+GOAL_CHECKER = REPO / "robot_daemon" / "planning" / "goal_checker.py"
+GOAL_LOGIC = {"RouteFollower", "next_goal_index", "final_goal_reached", "final_reached_at"}
+ROBOT_TOLERANCE_FUDGE = "ROBOT_TOLERANCE_SHARE"
+
+
+def test_one_intermediate_goal_logic_on_the_robot() -> None:
+    """Arrival is judged by the robot's goal checker alone; the station mirrors route_progress
+    (there used to be a station-side RouteFollower reconciled by a 0.8 tolerance share)."""
+    offenders = []
+    for path in product_files():
+        text = path.read_text(encoding="utf-8")
+        if ROBOT_TOLERANCE_FUDGE in text:
+            offenders.append(f"{_rel(path)}: {ROBOT_TOLERANCE_FUDGE}")
+        if path == GOAL_CHECKER:
+            continue
+        functions, classes = top_level_definitions(path)
+        offenders += [f"{_rel(path)}: {n}" for n in sorted((functions | classes) & GOAL_LOGIC)]
+    assert offenders == []
+    assert GOAL_LOGIC & top_level_definitions(GOAL_CHECKER)[0]
+
+
+def test_the_new_rules_catch_violations(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.py"
+    bad.write_text(
+        "import tools.x\n"
+        "def bench_raycast(): pass\n"
+        "def topological_map_dict(): pass\n"
+        "class RoomArea: pass\n"
+        "a = raw['area']\nb = raw.get('area')\nc = {'area': []}\nd = 'area'\n",
+        encoding="utf-8",
+    )
+    functions, classes = top_level_definitions(bad)
+    assert "tools" in imported_top_levels(bad)
+    assert {"bench_raycast", "topological_map_dict"} <= functions and "RoomArea" in classes
+    assert area_key_uses(bad) == [5, 6, 7]

@@ -3,7 +3,11 @@
     python tools/generate_isr_map.py            # write maps/isr_floor0.{yaml,pgm}, *_topo.yaml
     python tools/generate_isr_map.py --check    # exit 1 if the committed files are stale
 
-The plan (``maps/isr_floor0_plan.yaml``) is the source; see :mod:`interbot_core.floor_plan`.
+The plan (``maps/isr_floor0_plan.yaml``) is the source; :mod:`robot_daemon.sim.floor_plan` reads
+and rasterises it (the simulator draws its building from it too). The topological map is derived
+here (:func:`topological_map_dict`): an entrance node beyond each room's first door, a node inside
+the rooms that take requests, the waypoints; every node keeps clearance and every arc is a
+straight segment clear of the inflated walls.
 The occupancy grid is written by :meth:`OccupancyGrid.save` (map_server YAML + PGM) and the
 topological map in the format of :mod:`interbot_core.topological_map`. Generation is
 deterministic, so ``--check`` compares bytes.
@@ -12,14 +16,29 @@ deterministic, so ``--check`` compares bytes.
 from __future__ import annotations
 
 import argparse
+import itertools
 import logging
+import math
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import numpy as np
+import numpy.typing as npt
 import yaml
+from scipy import ndimage
 
-from interbot_core.floor_plan import load_floor_plan, rasterise, topological_map_dict
+from interbot_core.geometry import wrap_angle
+from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.sim.floor_plan import (
+    FloorPlan,
+    FloorPlanError,
+    door_opening,
+    load_floor_plan,
+    rasterise,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -33,6 +52,224 @@ _TOPO_HEADER = (
     "# (entrance / inside / waypoint) and 'area' (the room's floor polygon, the tablet's touch\n"
     "# target; empty for waypoints) are extra fields the topological-map loader ignores.\n"
 )
+
+
+@dataclass(frozen=True)
+class PlanNode:
+    """A topological node derived from the plan (before ids are given)."""
+
+    name: str
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad] heading faced on arrival
+    kind: str  # "entrance", "inside" or "waypoint"
+    room: str | None
+    info: str = ""
+    tour: bool = False
+    requests: bool = False
+    home: bool = False
+    area: tuple[tuple[float, float], ...] = ()
+    name_pt: str = ""
+    info_pt: str = ""
+
+
+def clearance_map(grid: OccupancyGrid) -> npt.NDArray[np.float64]:
+    """Distance [m] from each cell centre to the nearest blocked (occupied or unknown) cell centre.
+
+    Euclidean distance transform; cells outside the grid count as blocked.
+    """
+    free = np.pad(~grid.blocked(), 1, constant_values=False)
+    distance = ndimage.distance_transform_edt(free) * grid.resolution
+    return np.asarray(distance[1:-1, 1:-1], dtype=np.float64)
+
+
+def point_clearance(
+    grid: OccupancyGrid, clearance: npt.NDArray[np.float64], x: float, y: float
+) -> float:
+    """Clearance [m] at the cell holding (x, y); 0 outside the grid."""
+    row, col = grid.world_to_cell(x, y)
+    if not bool(grid.in_bounds(row, col)):
+        return 0.0
+    return float(clearance[int(row), int(col)])
+
+
+def segment_clearance(
+    grid: OccupancyGrid,
+    clearance: npt.NDArray[np.float64],
+    a: tuple[float, float],
+    b: tuple[float, float],
+) -> float:
+    """Smallest clearance [m] along the segment a-b, sampled every half cell."""
+    length = math.hypot(b[0] - a[0], b[1] - a[1])
+    n = max(2, math.ceil(length / (grid.resolution / 2)) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+    inside = grid.in_bounds(rows, cols)
+    if not bool(np.all(inside)):
+        return 0.0
+    return float(np.min(clearance[rows, cols]))
+
+
+# ---------------------------------------------------------------------------- topology
+
+
+def _round(value: float) -> float:
+    return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
+    """The topological nodes in plan order (rooms, then waypoints), before ring ordering.
+
+    Entrance node: ``entrance_distance`` beyond the corridor face of the room's first door, yaw
+    facing the door. Inside node (rooms with ``inside``): at that point, yaw pointing away from
+    the door into the room; it carries the room's name and flags, the entrance node becomes
+    "<room> door" with tour, requests and home false.
+    """
+    nodes: list[PlanNode] = []
+    for room in plan.rooms:
+        opening = door_opening(plan, room, 0)
+        nx, ny = opening.normal
+        ex = opening.corridor_face[0] + nx * plan.entrance_distance
+        ey = opening.corridor_face[1] + ny * plan.entrance_distance
+        area = tuple((float(p[0]), float(p[1])) for p in room.rect.polygon())
+        facing_door = wrap_angle(math.atan2(-ny, -nx)) + 0.0  # no -0.0
+        if room.inside is None:
+            nodes.append(
+                PlanNode(
+                    room.name,
+                    _round(ex),
+                    _round(ey),
+                    facing_door,
+                    "entrance",
+                    room.name,
+                    room.info,
+                    room.tour,
+                    room.requests,
+                    room.home,
+                    area,
+                    room.name_pt,
+                    room.info_pt,
+                )
+            )
+            continue
+        nodes.append(
+            PlanNode(
+                f"{room.name} door",
+                _round(ex),
+                _round(ey),
+                facing_door,
+                "entrance",
+                room.name,
+                room.info,
+                area=area,
+                name_pt=f"{room.name_pt} (porta)" if room.name_pt else "",
+                info_pt=room.info_pt,
+            )
+        )
+        ix, iy = room.inside
+        fx, fy = opening.room_face
+        nodes.append(
+            PlanNode(
+                room.name,
+                _round(ix),
+                _round(iy),
+                wrap_angle(math.atan2(iy - fy, ix - fx)),
+                "inside",
+                room.name,
+                room.info,
+                room.tour,
+                room.requests,
+                room.home,
+                area,
+                room.name_pt,
+                room.info_pt,
+            )
+        )
+    for waypoint in plan.waypoints:
+        nodes.append(
+            PlanNode(waypoint.name, _round(waypoint.x), _round(waypoint.y), 0.0, "waypoint", None)
+        )
+    return nodes
+
+
+def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> dict[str, Any]:
+    """The topological map of ``plan`` as a dict in the ``topological_map`` YAML format.
+
+    Node ids follow ``plan.ring``. Checks against ``grid`` (rasterised if not given) that each
+    node has ``node_clearance`` and each arc keeps ``arc_clearance`` to blocked cells, and that
+    the graph is connected; raises :class:`FloorPlanError` naming the node or arc otherwise.
+    """
+    grid = rasterise(plan) if grid is None else grid
+    clearance = clearance_map(grid)
+    by_name = {node.name: node for node in plan_nodes(plan)}
+    ids = {name: i for i, name in enumerate(plan.ring)}
+    src = plan.source
+    nodes_out: list[dict[str, Any]] = []
+    for i, name in enumerate(plan.ring):
+        node = by_name[name]
+        free = point_clearance(grid, clearance, node.x, node.y)
+        if free < plan.node_clearance:
+            raise FloorPlanError(
+                f"{src}: node {i} ({name!r}) at ({node.x}, {node.y}) has {free:.2f} m clearance, "
+                f"needs {plan.node_clearance} m: move the door, waypoint or 'inside' point"
+            )
+        entry: dict[str, Any] = {
+            "id": i,
+            "name": name,
+            "x": node.x,
+            "y": node.y,
+            "yaw": node.yaw,
+            "info": node.info,
+            "tour": node.tour,
+            "requests": node.requests,
+            "home": node.home,
+            "room": node.room,
+            "kind": node.kind,
+            "area": [list(p) for p in node.area],
+        }
+        if node.name_pt:
+            entry["name_pt"] = node.name_pt
+        if node.info_pt:
+            entry["info_pt"] = node.info_pt
+        nodes_out.append(entry)
+    arcs: set[tuple[int, int]] = set()
+    for c, chain in enumerate(plan.arcs):
+        for a_name, b_name in itertools.pairwise(chain):
+            a, b = by_name[a_name], by_name[b_name]
+            if a_name == b_name:
+                raise FloorPlanError(f"{src}: arcs[{c}]: {a_name!r} is joined to itself")
+            free = segment_clearance(grid, clearance, (a.x, a.y), (b.x, b.y))
+            if free <= plan.arc_clearance:
+                raise FloorPlanError(
+                    f"{src}: arcs[{c}]: {a_name!r} -> {b_name!r} passes {free:.2f} m from a wall "
+                    f"or furniture (needs > {plan.arc_clearance} m): add a waypoint or move it"
+                )
+            u, v = ids[a_name], ids[b_name]
+            arcs.add((min(u, v), max(u, v)))
+    unreachable = _unreachable(len(plan.ring), arcs)
+    if unreachable:
+        names = [plan.ring[i] for i in unreachable]
+        raise FloorPlanError(f"{src}: arcs: nodes {names} cannot be reached from node 0")
+    return {
+        "map": plan.map_file,
+        "nodes": nodes_out,
+        "arcs": [list(arc) for arc in sorted(arcs)],
+    }
+
+
+def _unreachable(n: int, arcs: set[tuple[int, int]]) -> list[int]:
+    adjacency: dict[int, list[int]] = {i: [] for i in range(n)}
+    for u, v in arcs:
+        adjacency[u].append(v)
+        adjacency[v].append(u)
+    seen = {0}
+    stack = [0]
+    while stack:
+        for nxt in adjacency[stack.pop()]:
+            if nxt not in seen:
+                seen.add(nxt)
+                stack.append(nxt)
+    return [i for i in range(n) if i not in seen]
 
 
 def generate(plan_path: Path = DEFAULT_PLAN) -> dict[str, bytes]:

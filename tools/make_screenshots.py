@@ -15,9 +15,15 @@ would, by clicking their buttons, and grabs each state:
 4. "Take me there": the robot drives; the tablet's motion bar, the station's map with the scan,
    the planned path and the camera, and every station tab;
 5. a guided tour to its first stop: the tour dialog on the tablet;
-6. the same tablet screens in Portuguese.
+6. the same tablet screens in Portuguese;
+7. a fleet (issue 14): ``interbot router``, five simulated robot daemons as its clients and a
+   fresh station with no ``--robot`` and no saved choice: the station asks which robot to command
+   (``station_fleet_choice``); a click answers; three robots are given tasks by clicking their
+   rows in the robot list, one robot is left unlocalised and one is stopped (it goes offline):
+   the map shows every robot with its name, state colour and planned path (``station_fleet``).
 
-Writes ``docs/screenshots/station_<tab>.png`` and ``tablet_<screen>_<w>x<h>.png``.
+``--only fleet`` takes step 7 alone. Writes ``docs/screenshots/station_<tab>.png``,
+``station_fleet*.png`` and ``tablet_<screen>_<w>x<h>.png``.
 """
 
 from __future__ import annotations
@@ -44,8 +50,9 @@ from PySide6.QtWidgets import QApplication, QWidget
 
 from base_station_app.main_window import TAB_NAMES, MainWindow
 from base_station_app.station_controller import StationController
+from interbot_core.supervisor import GoTo
 from interbot_core.topological_map import load_topological_map
-from interbot_link import session_config
+from interbot_link import StationLink, session_config
 from tablet_app.main import load_plan
 from tablet_app.main_window import TabletWindow
 from tablet_app.tablet_connection import TabletConnection
@@ -185,7 +192,7 @@ def tablet_screens(p: Programs, out: Path, suffix: str) -> None:
         QTest.mouseRelease(joystick, Qt.MouseButton.LeftButton, pos=at)
         t.show_map()
         save(grab_with_dialog(t), out, f"tablet_map_{size}")
-        request_room = next(r.id for r in t.shown_plan.touch_rooms() if r.requests)
+        request_room = next(r.id for r in t.shown_plan.rooms if r.requests)
         click(t.map_view.room_button(request_room))
         save(grab_with_dialog(t), out, f"tablet_room_dialog_{size}")
         click(t.dialog.request_button)  # type: ignore[union-attr]
@@ -201,13 +208,146 @@ def tablet_screens(p: Programs, out: Path, suffix: str) -> None:
     t.resize(TABLETS[0][0], TABLETS[0][1])
 
 
+FLEET = {  # robot id: (start node, localised at start)
+    "fleet0": (0, True),
+    "fleet1": (6, True),
+    "fleet2": (12, True),
+    "fleet3": (17, False),  # nobody told it where it is: drawn "lost" at its last pose
+    "fleet4": (21, True),  # stopped (its process ends) after it was seen: "offline"
+}
+FLEET_GOALS = {"fleet0": 9, "fleet1": 14, "fleet2": 3}
+
+
+def grab_window_with(window: QWidget, dialog: QWidget | None) -> QPixmap:
+    """``window`` with ``dialog`` drawn centred over it, the window dimmed (as on screen)."""
+    QTest.qWait(150)
+    shot = window.grab()
+    if dialog is not None and dialog.isVisible():
+        painter = QPainter(shot)
+        painter.setOpacity(0.35)
+        painter.fillRect(shot.rect(), Qt.GlobalColor.black)
+        painter.setOpacity(1.0)
+        top_left = QPoint(
+            (shot.width() - dialog.width()) // 2, (shot.height() - dialog.height()) // 2
+        )
+        painter.drawPixmap(top_left, dialog.grab())
+        painter.end()
+    return shot
+
+
+def fleet_screenshots(out: Path, speed: float) -> None:
+    """Step 7 (module docstring): five robots through the router, one station."""
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    assert app is not None
+    router = f"tcp/127.0.0.1:{_free_port()}"
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "interbot_cli.main", "router", "--listen", router],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    for robot_id, (node, localised) in FLEET.items():
+        command = [
+            sys.executable, "-m", "robot_daemon.main", "--sim", "--robot-id", robot_id,
+            "--mode", "client", "--connect", router, "--seed", "1", "--people", "0",
+            "--speed", str(speed), "--start-node", str(node), "--no-relocalise",
+        ]  # fmt: skip
+        if localised:
+            command.append("--auto-localise")
+        procs.append(
+            subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        )
+    end = time.monotonic() + 30.0
+    while True:  # the router process takes a moment to listen
+        try:
+            session = zenoh.open(session_config([], [router], "client"))
+            break
+        except zenoh.ZError:
+            if time.monotonic() > end:
+                raise
+            time.sleep(0.3)
+    with StationLink(session) as probe:  # a station (re)started while five robots run
+        end = time.monotonic() + 90.0
+        while len(probe.refresh_robots(timeout=0.5)) < len(FLEET):
+            if time.monotonic() > end:
+                raise TimeoutError("the five robots did not reach the router")
+    settings_dir = tempfile.TemporaryDirectory()
+    settings = QSettings(str(Path(settings_dir.name) / "s.ini"), QSettings.Format.IniFormat)
+    station = StationController(load_topological_map(TOPO), session, topo_path=TOPO, tablet_port=0)
+    window = MainWindow(station, settings)
+    window.resize(1600, 1000)
+    window.show()
+
+    def wait(condition: Callable[[], bool], timeout: float, what: str) -> None:
+        end = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > end:
+                raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
+            QTest.qWait(20)
+
+    try:
+        assert station.start()
+        window.map_view.fit_map()
+        wait(
+            lambda: (
+                window.robot_choice is not None and len(window.robot_choice.buttons) == len(FLEET)
+            ),
+            90,
+            "the station to ask which of the five robots to command",
+        )
+        save(grab_window_with(window, window.robot_choice), out, "station_fleet_choice")
+        click(window.robot_choice.buttons["fleet0"])  # type: ignore[union-attr]
+        wait(lambda: station.selected_robot == "fleet0", 10, "fleet0 selected")
+        for robot_id, goal in FLEET_GOALS.items():
+            panel = window.robots_panel
+            window.tabs.setCurrentWidget(panel)
+            item = panel.row_of(robot_id)
+            assert item is not None
+            rect = panel.robot_list.visualItemRect(item)
+            QTest.mouseClick(
+                panel.robot_list.viewport(), Qt.MouseButton.LeftButton, pos=rect.center()
+            )
+            click(panel.select_button)
+            wait(lambda r=robot_id: station.selected_robot == r, 10, f"{robot_id} selected")  # type: ignore[misc]
+            wait(lambda: station.state.localisation == "ok", 60, f"{robot_id} localised")
+            station.submit(GoTo(goal))
+
+        def planned() -> bool:
+            views = {v.robot_id: v for v in station.fleet.views(station.names)}
+            return all(views[r].plan for r in FLEET_GOALS if r != station.selected_robot)
+
+        wait(planned, 60, "every robot's planned path")
+        procs[-1].send_signal(signal.SIGTERM)  # fleet4 stops: drawn offline at its last pose
+        wait(lambda: not station.robots.get("fleet4", True), 30, "fleet4 offline")
+        QTest.qWait(int(20000 / max(speed, 0.5)))  # let the robots drive a while
+        window.tabs.setCurrentWidget(window.robots_panel)
+        save(grab_window_with(window, None), out, "station_fleet")
+    finally:
+        window.close()
+        station.shutdown()
+        session.close()
+        for proc in reversed(procs):
+            proc.send_signal(signal.SIGTERM)
+        for proc in procs:
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        settings_dir.cleanup()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "screenshots")
     parser.add_argument("--speed", type=float, default=2.0, help="simulated seconds per second")
+    parser.add_argument("--only", choices=("fleet",), help="take only this step")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.only == "fleet":
+        fleet_screenshots(args.out, args.speed)
+        return 0
     p = Programs(args.speed)
     try:
         t, s, out = p.tablet, p.station, args.out
@@ -262,6 +402,7 @@ def main() -> int:
         save(p.station_window.grab(), out, "station_tour")
     finally:
         p.close()
+    fleet_screenshots(args.out, args.speed)
     return 0
 
 

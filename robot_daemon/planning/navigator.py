@@ -39,6 +39,7 @@ from robot_daemon.planning.global_planner import (
     GoalBlockedError,
     PlanningError,
 )
+from robot_daemon.planning.goal_checker import next_goal_index
 from robot_daemon.planning.local_planner import (
     DWAPlanner,
     ObstacleField,
@@ -216,14 +217,12 @@ class Navigator:
         if self._progress_pose is None:
             self._progress_pose, self._progress_time = pose, now
 
-        # Intermediate goals: advance within the approach tolerance.
+        # Intermediate goals: advance within the approach tolerance (`goal_checker`).
         last = len(self._goals) - 1
-        while (
-            self._index < last
-            and pose.distance_to(self._goals[self._index]) <= self._approach_tolerance
-        ):
-            logger.info("intermediate goal %d reached", self._index)
-            self._index += 1
+        index = next_goal_index(self._goals, self._index, pose, self._approach_tolerance)
+        if index != self._index:
+            logger.info("intermediate goal(s) %d..%d reached", self._index, index - 1)
+            self._index = index
             self._path = None
             self._progress_pose, self._progress_time = pose, now
         target = self._goals[self._index]

@@ -7,8 +7,8 @@ Delivery request is shown on the tablet and accepted by the person in the room
 is neither the start nor the room), the end of the mission. Modes:
 
 * ``autonomous``: the supervisor sends the routes and the robot's planner drives (thesis §6.3.1).
-* ``teleoperation``: the station does not send routes to the robot; a scripted operator
-  (`HumanDriver`) drives on ``station_vel`` every 100 ms. It sees what the station shows (the
+* ``teleoperation``: the robot gets the routes but its navigation stays paused (it only judges
+  progress, as it does whoever drives); a scripted operator (`HumanDriver`) drives on ``station_vel`` every 100 ms. It sees what the station shows (the
   robot's published pose and scan, the map, the supervisor's route) and never the truth, and
   sees it late: ``PERCEPTION_DELAY`` after the robot published it (video, pose and scan on the
   station's screen), and its joystick moves ``REACTION_TIME`` after it decides. It plans a path to
@@ -359,7 +359,7 @@ def run_mode(options: ScenarioOptions, mode: str) -> dict[str, Any]:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     base = mode.removesuffix("_assisted")
-    system = SimulatedSystem(options, start_node=0, send_routes=base != "teleoperation")
+    system = SimulatedSystem(options, start_node=0, autonomy=base != "teleoperation")
     system.stack.set_teleop_assist("station_vel", mode.endswith("_assisted"), system.now)
     system.hooks.append(auto_answer_requests(ACCEPT_AFTER_S))
     system.localise()

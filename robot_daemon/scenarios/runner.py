@@ -29,7 +29,6 @@ import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
-from interbot_core.route_follower import ROBOT_TOLERANCE_SHARE
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
     Event,
@@ -213,11 +212,12 @@ class SimulatedSystem:
         start_pose: Pose2D | None = None,
         supervisor_config: SupervisorConfig | None = None,
         stack_config: StackConfig | None = None,
-        send_routes: bool = True,
+        autonomy: bool = True,
         wall_clock: Callable[[], float] = time.perf_counter,
     ) -> None:
-        """``send_routes=False`` keeps the station's routes from the robot (pure teleoperation:
-        the operator drives and the supervisor only judges arrival)."""
+        """``autonomy=False``: pure teleoperation. The station's routes still go to the robot, which
+        judges progress on them as the operator drives (`goal_checker`), but its navigation
+        stays paused (the ``pause_nav`` lock), so only the operator moves it."""
         self.options = options
         self.grid: OccupancyGrid = load_map(options.map_yaml)
         self.topo: TopologicalMap = load_topological_map(options.topo_yaml)
@@ -273,7 +273,9 @@ class SimulatedSystem:
         self.stack = RobotStack(self.grid, self.backend, stack_config)
         self.supervisor = Supervisor(self.topo, self.route_planner, supervisor_config)
         self.metrics = Metrics(stack_config.planner.max_linear_speed)
-        self.send_routes = send_routes
+        self.autonomy = autonomy
+        if not autonomy:
+            self.stack.on_lock("pause_nav", True, 0.0)
         self.now = 0.0
         self.events: list[tuple[float, Event]] = []
         self.hooks: list[Callable[[SimulatedSystem, Event], None]] = []
@@ -305,19 +307,19 @@ class SimulatedSystem:
             waypoints,
             node_ids,
             approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance * ROBOT_TOLERANCE_SHARE,
-            yaw_tolerance=cfg.yaw_tolerance * ROBOT_TOLERANCE_SHARE,
+            goal_tolerance=cfg.goal_tolerance,
+            yaw_tolerance=cfg.yaw_tolerance,
         )
 
     def apply(self, events: list[Event]) -> None:
         """Carry supervisor events to the robot as the station does over the link."""
         for event in events:
             self.events.append((self.now, event))
-            if isinstance(event, RouteStarted) and self.send_routes:
+            if isinstance(event, RouteStarted):
                 self.stack.set_route(self._route_message(event), self.now)
-            elif isinstance(event, RouteCancelled) and self.send_routes:
+            elif isinstance(event, RouteCancelled):
                 self.stack.cancel_route(self.now, event.reason)
-            elif isinstance(event, PauseNavigation):
+            elif isinstance(event, PauseNavigation) and self.autonomy:
                 self.stack.on_lock("pause_nav", event.paused, self.now)
             for hook in self.hooks:
                 hook(self, event)
@@ -328,6 +330,9 @@ class SimulatedSystem:
             self.pending.remove(item)
             self.apply(item[1]())
         route = self.stack.route
+        if route is not None and route.route_id == self._route_ids:
+            # The station mirrors the robot's progress (route_progress): no goal logic of its own.
+            self.apply(self.supervisor.robot_progress(route.index))
         if route is not None and route.finished:
             key = (route.route_id, route.state)
             if key != self._robot_route_seen:

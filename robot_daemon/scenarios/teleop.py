@@ -314,7 +314,7 @@ def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:
             config,
             motion_guard=safety.replace(monitor=dataclasses.replace(safety.monitor, enabled=False)),
         )
-    system = SimulatedSystem(options, stack_config=config, send_routes=False)
+    system = SimulatedSystem(options, stack_config=config, autonomy=False)
     system.stack.set_teleop_assist("station_vel", setup == "assisted", system.now)
     return system
 

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +55,6 @@ from interbot_core.laser_scan import (
     UTM30LX_SCAN_TIME,
     LaserScan,
 )
-from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon.sim.world import RAY_FINE_STEP, World
 
 logger = logging.getLogger(__name__)
@@ -403,54 +401,3 @@ class LaserSim:
             range_max=c.range_max,
             ranges=ranges.astype(np.float32),
         )
-
-
-def bench_raycast(
-    grid: OccupancyGrid | None = None,
-    n_scans: int = 200,
-    seed: int = 0,
-) -> dict[str, float]:
-    """Time full 1081-beam scans (walls + 3 people) from random free poses.
-
-    Uses ``grid`` (e.g. ``load_map('willow.yaml')``) or a 40 x 20 m synthetic office. Returns
-    median, p99 and max per-scan wall time [ms] and the number of scans. This is the one place
-    in the simulator that reads a clock (``time.perf_counter``), for measurement only.
-    """
-    if grid is None:
-        grid = _synthetic_office()
-    world = World(grid)
-    rng = np.random.default_rng(seed)
-    laser = LaserSim(world, LaserConfig(), rng)
-    free = np.argwhere(world.edt_cells * world.resolution > 0.5)
-    picks = free[rng.integers(0, len(free), n_scans)]
-    times = np.empty(n_scans)
-    for i, (row, col) in enumerate(picks):
-        x, y = world.grid.cell_to_world(row - 2, col - 2)
-        pose = Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
-        circles = np.column_stack(
-            (pose.x + rng.uniform(-3, 3, 3), pose.y + rng.uniform(-3, 3, 3), np.full(3, 0.25))
-        )
-        start = time.perf_counter()
-        laser.scan(pose, 0.0, circles)
-        times[i] = (time.perf_counter() - start) * 1e3
-    return {
-        "median_ms": float(np.median(times)),
-        "p99_ms": float(np.percentile(times, 99)),
-        "max_ms": float(times.max()),
-        "n_scans": float(n_scans),
-    }
-
-
-def _synthetic_office() -> OccupancyGrid:
-    """A 40 x 20 m floor: outer walls, a 2 m corridor and rooms with 1 m doors (0.05 m cells)."""
-    cells = np.full((400, 800), FREE, dtype=np.int8)
-    cells[:2, :] = cells[-2:, :] = OCCUPIED
-    cells[:, :2] = cells[:, -2:] = OCCUPIED
-    cells[180:182, :] = cells[220:222, :] = OCCUPIED  # corridor walls, y = 9..11 m
-    for x in range(100, 800, 100):
-        cells[:180, x : x + 2] = OCCUPIED
-        cells[222:, x : x + 2] = OCCUPIED
-    for x in range(30, 800, 100):
-        cells[180:182, x : x + 20] = FREE
-        cells[220:222, x + 40 : x + 60] = FREE
-    return OccupancyGrid(cells, 0.05, 0.0, 0.0, source="<synthetic office>")

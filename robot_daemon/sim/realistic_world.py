@@ -41,7 +41,9 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from interbot_core.floor_plan import (
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from interbot_core.topological_map import TopologicalMap
+from robot_daemon.sim.floor_plan import (
     Door,
     FloorPlan,
     FloorPlanError,
@@ -53,8 +55,6 @@ from interbot_core.floor_plan import (
     load_floor_plan,
     rasterise,
 )
-from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from interbot_core.topological_map import TopologicalMap
 
 logger = logging.getLogger(__name__)
 

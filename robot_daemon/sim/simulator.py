@@ -281,39 +281,3 @@ class Simulator:
             logger.info("collision %d at %.2f s, pose %s", self._collisions, self.time, self._pose)
         self._in_contact = True
         return lo
-
-
-def bench_step(
-    grid: OccupancyGrid,
-    sim_seconds: float = 20.0,
-    n_people: int = 5,
-    scan_hz: float = 10.0,
-    camera_hz: float = 0.0,
-    rng_seed: int = 0,
-) -> dict[str, float]:
-    """Sim seconds per wall second when stepping at 100 Hz and scanning at ``scan_hz``.
-
-    The robot drives a slow weaving path. Measurement only: this is the one place in the
-    simulator that reads a clock (``time.perf_counter``).
-    """
-    import time
-
-    sim = Simulator(grid, SimConfig(n_people=n_people), rng_seed)
-    steps = round(sim_seconds / 0.01)
-    scan_every = max(1, round(100 / scan_hz)) if scan_hz > 0 else 0
-    frame_every = max(1, round(100 / camera_hz)) if camera_hz > 0 else 0
-    start = time.perf_counter()
-    for k in range(steps):
-        sim.set_cmd_vel(0.4, 0.5 * math.sin(k / 200))
-        sim.step(0.01)
-        if scan_every and k % scan_every == 0:
-            sim.scan()
-        if frame_every and k % frame_every == 0:
-            sim.camera_frame()
-    wall = time.perf_counter() - start
-    return {
-        "sim_seconds": sim.time,
-        "wall_seconds": wall,
-        "realtime_factor": sim.time / wall,
-        "collisions": float(sim.collisions),
-    }

@@ -17,7 +17,8 @@ import zenoh
 from base_station_app.station_controller import StationController, Timing
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
-from interbot_core.topics import ConfigMsg, PoseMsg, Topic
+from interbot_core.supervisor import SupervisorState
+from interbot_core.topics import ConfigMsg, PoseMsg, RouteMsg, RouteProgress, Topic
 from interbot_core.topological_map import TopologicalMap, load_topological_map
 from interbot_link import Command, RobotLink, session_config
 
@@ -67,6 +68,18 @@ class FakeRobot:
     def publish_pose(self, x: float, y: float, yaw: float, state: str = "ok") -> None:
         self.link.publish_pose(PoseMsg(x, y, yaw, state=state))
 
+    def report_arrival(self) -> bool:
+        """Say the last route received is done, as the daemon does on ``route_progress`` (the
+        station has no goal logic of its own); False before any route arrived."""
+        routes = [r for r in self.of("route") if isinstance(r, RouteMsg)]
+        if not routes:
+            return False
+        last = len(routes[-1].waypoints) - 1
+        self.link.publish_route_progress(
+            RouteProgress(routes[-1].route_id, last, True, "succeeded")
+        )
+        return True
+
     def publish_scan(self) -> None:
         n = 271
         ranges = np.full(n, 3.0, dtype=np.float32)
@@ -112,7 +125,7 @@ def station(
         topo_path=TOPO_PATH,
         clock=clock,
         tablet_port=0,
-        timing=Timing(clock_ms=100, frame_ms=10, ping_ms=100),
+        timing=Timing(clock_ms=100, frame_ms=10, ping_ms=100, choice_grace_ms=0),
     )
     assert controller.start(timers=False)
 
@@ -219,3 +232,18 @@ def tablet_factory(station: StationController) -> Iterator:
     yield make
     for c in clients:
         c.close()
+
+
+def robot_arrives(qtbot, station: StationController, robot: FakeRobot) -> None:
+    """The robot reports the route it got done; the station mirrors it, then runs its clock."""
+    qtbot.waitUntil(robot.report_arrival, timeout=3000)
+
+    def mirrored() -> bool:
+        station.poll_link()
+        return station.supervisor.state not in (
+            SupervisorState.NAVIGATING,
+            SupervisorState.PAUSED,
+        )
+
+    qtbot.waitUntil(mirrored, timeout=3000)
+    station.tick()

@@ -37,7 +37,7 @@ def test_station_drives_the_simulated_daemon(qtbot, repo_root, topo, tmp_path):
         session,
         topo_path=repo_root / "maps" / "isr_floor0_topo.yaml",
         tablet_port=0,
-        timing=Timing(clock_ms=100, frame_ms=25, ping_ms=1000),
+        timing=Timing(clock_ms=100, frame_ms=25, ping_ms=1000, choice_grace_ms=200),
     )
     try:
         c.start()

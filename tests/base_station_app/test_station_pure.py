@@ -1,5 +1,5 @@
 """Pure (Qt-free) parts of the Base Station: configuration, teleop merging, tablet policy,
-room picking and the robot state model."""
+room labels and the robot state model."""
 
 from __future__ import annotations
 
@@ -9,14 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from base_station_app.map_rooms import (
-    RoomArea,
-    load_room_areas,
-    map_labels,
-    point_in_polygon,
-    polygon_centroid,
-    room_at,
-)
+from base_station_app.map_labels import map_labels
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import RANGES, StationConfig, StationConfigError
 from base_station_app.tablet_session import (
@@ -140,84 +133,31 @@ def test_describe_task_names_rooms():
     assert describe_task(GoToPose(Pose2D(1, 2, 0))).startswith("go to pose (1.00, 2.00")
 
 
-# ------------------------------------------------------------------ rooms
-def test_point_in_polygon_square():
-    square = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)]
-    assert point_in_polygon(1.0, 1.0, square)
-    assert not point_in_polygon(3.0, 1.0, square)
-    assert not point_in_polygon(1.0, -0.1, square)
-
-
-@settings(max_examples=100)
-@given(x=st.floats(-5, 5), y=st.floats(-5, 5), dx=st.floats(-3, 3), dy=st.floats(-3, 3))
-def test_point_in_polygon_matches_rectangle_test(x, y, dx, dy):
-    rect = [(dx, dy), (dx + 2, dy), (dx + 2, dy + 1), (dx, dy + 1)]
-    inside = dx < x < dx + 2 and dy < y < dy + 1
-    on_edge = any(math.isclose(a, b) for a, b in ((x, dx), (x, dx + 2), (y, dy), (y, dy + 1)))
-    if not on_edge:
-        assert point_in_polygon(x, y, rect) == inside
-
-
-def test_room_at_prefers_inside_node_then_snaps(topo):
+# ------------------------------------------------------------------ room labels
+def test_map_labels_one_per_room_name_and_number_wrapped(topo):
+    """The rooms themselves are `interbot_core.rooms` (tests/interbot_core/test_rooms.py)."""
     from pathlib import Path
 
-    areas = load_room_areas(
-        Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml", topo
-    )
-    assert len(areas) == len(topo)
-    by_id = {a.node_id: a for a in areas}
-    assert by_id[1].kind == "waypoint" and by_id[7].kind == "inside"
-    door, inside = by_id[6], by_id[7]
-    assert door.room == inside.room and inside.polygon
-    cx = sum(q[0] for q in inside.polygon) / len(inside.polygon)
-    cy = sum(q[1] for q in inside.polygon) / len(inside.polygon)
-    assert room_at(cx, cy, topo, areas) == 7  # the room's own (inside) node
-    # a waypoint never snaps; far from everything is None
-    wp = topo.nodes[1].pose
-    assert room_at(wp.x, wp.y, topo, [RoomArea(a.node_id, a.room, a.kind, ()) for a in areas]) != 1
-    assert room_at(500.0, 500.0, topo, areas) is None
+    from interbot_core.rooms import load_room_map
 
-
-def test_polygon_centroid_of_an_l_shape_and_a_degenerate_polygon():
-    # L: a 2x1 bar plus a 1x1 square on top of its left end; area 3, centroid (5/6, 2/3)
-    ell = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)]
-    cx, cy = polygon_centroid(ell)
-    assert cx == pytest.approx(5 / 6) and cy == pytest.approx(5 / 6)
-    assert polygon_centroid(list(reversed(ell))) == pytest.approx((5 / 6, 5 / 6))
-    assert polygon_centroid([(0.0, 0.0), (1.0, 1.0), (2.0, 2.0)]) == pytest.approx((1.0, 1.0))
-
-
-def test_map_labels_one_per_room_inside_it_and_apart(topo):
-    from pathlib import Path
-
-    areas = load_room_areas(
-        Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml", topo
-    )
-    labels = map_labels(topo, areas, wrap=16)
-    rooms = {a.room for a in areas if a.kind != "waypoint" and a.polygon}
-    assert len(labels) == len(rooms)  # every ISR node with a room has its polygon
-    by_node = {a.node_id: a for a in areas}
-    for label in labels:
-        area = by_node[label.node_id]
-        assert point_in_polygon(label.x, label.y, area.polygon), label
-        assert room_at(label.x, label.y, topo, areas) == label.node_id  # the click target
+    rooms = load_room_map(Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml")
+    labels = map_labels(rooms, wrap=16)
+    assert [lab.node_id for lab in labels] == [room.id for room in rooms.rooms]
+    for label, room in zip(labels, rooms.rooms, strict=True):
+        assert (label.x, label.y) == room.label and label.short == str(room.id)
         assert all(len(line) <= 16 for line in label.text.split("\n")), label.text
-        assert f"({label.node_id})" in label.text
-    # the crowded corridor corner of the old per-node labels: room labels >= 1.5 m apart
-    xy = [(lab.x, lab.y) for lab in labels]
-    for i, (x1, y1) in enumerate(xy):
-        for x2, y2 in xy[i + 1 :]:
-            assert math.hypot(x1 - x2, y1 - y2) >= 1.5
+        assert f"({room.id})" in label.text and label.width == pytest.approx(room.width)
 
 
-def test_map_labels_falls_back_to_the_node_without_a_polygon(topo):
-    areas = [RoomArea(n.id, n.name, "entrance", ()) for n in topo.nodes]
-    areas[1] = RoomArea(areas[1].node_id, "", "waypoint", ())
-    labels = map_labels(topo, areas)
-    assert len(labels) == len(topo) - 1
+def test_map_labels_of_rooms_without_outlines_sit_at_their_nodes(topo):
+    from interbot_core.rooms import room_map
+
+    labels = map_labels(room_map(topo))
+    assert len(labels) == len(topo)
     node = topo.nodes[0]
     first = next(lab for lab in labels if lab.node_id == node.id)
-    assert (first.x, first.y) == (node.pose.x, node.pose.y)
+    assert (first.x, first.y) == pytest.approx((node.pose.x, node.pose.y))
+    assert first.width == math.inf
 
 
 # ------------------------------------------------------------------ RobotState
@@ -248,26 +188,3 @@ def test_safety_text_for_the_person_driving():
     assert describe_safety("none", 1000.0).text == "clear"
     assert describe_safety("slowdown", 0.3).level == "warning"
     assert describe_safety("no_data", 0.0).text == "STOPPED: no laser data"
-
-
-def test_labels_sit_on_clear_floor_not_on_furniture(topo):
-    """With the map, each room label goes where the floor is clearest inside the room."""
-    from pathlib import Path
-
-    from interbot_core.occupancy_grid import FREE, load_map
-
-    root = Path(__file__).resolve().parents[2]
-    areas = load_room_areas(root / "maps" / "isr_floor0_topo.yaml", topo)
-    grid = load_map(root / "maps" / "isr_floor0.yaml")
-    labels = map_labels(topo, areas, grid=grid)
-    by_node = {a.node_id: a for a in areas}
-    for label in labels:
-        area = by_node[label.node_id]
-        if not area.polygon:
-            continue
-        assert point_in_polygon(label.x, label.y, area.polygon), label
-        row, col = grid.world_to_cell(label.x, label.y)
-        r, c = int(row), int(col)
-        patch = grid.cells[r - 4 : r + 5, c - 4 : c + 5]  # 0.4 m around the label's centre
-        assert (patch == FREE).all(), f"{label.text!r} sits on something at {label.x, label.y}"
-        assert label.short == str(label.node_id)

@@ -8,6 +8,7 @@ import json
 from base_station_app.station_config import StationConfig
 from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
 from interbot_core.topics import RouteMsg, RouteProgress, Twist
+from tests.base_station_app.conftest import robot_arrives
 
 
 def handshake(qtbot, tablet_factory):
@@ -238,13 +239,16 @@ def test_tablet_tour_stop_pause_and_resume(
     t.send({"tour": True})
     qtbot.waitUntil(lambda: bool(station.supervisor.queue == (GuidedTour(),)), timeout=3000)
     station.tick()
+    robot_arrives(qtbot, station, robot)  # at the first stop already
     assert station.supervisor.state is SupervisorState.AT_TOUR_STOP
     qtbot.waitUntil(
         lambda: bool({"goal": first.id, "reached": True, "tourReached": True} in t.of("goal")),
         timeout=3000,
     )
-    qtbot.waitUntil(lambda: bool(t.of("tour_state")), timeout=3000)
-    assert t.of("tour_state")[-1]["visited"] == [first.id]
+    qtbot.waitUntil(
+        lambda: bool(t.of("tour_state") and t.of("tour_state")[-1]["visited"] == [first.id]),
+        timeout=3000,
+    )
     t.send({"tour_control": "resume"})
     qtbot.waitUntil(
         lambda: bool(station.supervisor.state is not SupervisorState.AT_TOUR_STOP), timeout=3000
@@ -301,6 +305,7 @@ def test_request_shown_at_room_and_answered_from_tablet(
     )
     qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
     station.tick()
+    robot_arrives(qtbot, station, robot)
     assert station.supervisor.state is SupervisorState.AWAITING_RESPONSE
     qtbot.waitUntil(lambda: bool(t.of("show_request")), timeout=3000)
     shown = t.of("show_request")[0]

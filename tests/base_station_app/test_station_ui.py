@@ -13,12 +13,12 @@ from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QApplication, QWidget
 
 from base_station_app.main_window import TAB_NAMES, MainWindow
-from base_station_app.map_rooms import room_at
 from base_station_app.station_config import StationConfig
 from base_station_app.station_controller import StationController
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoTo, GoToPose
 from interbot_core.topics import InitialPose, Lock, StopRelease
+from tests.base_station_app.conftest import robot_arrives
 
 TOPO_PATH = Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml"
 
@@ -139,10 +139,9 @@ def test_estop_buttons_latch_and_release(qtbot, linked, window, robot, clock):
 
 
 def test_click_room_on_map_then_move_there(qtbot, window, station, topo):
-    area = next(a for a in station.rooms if a.node_id == 5)
-    cx = sum(p[0] for p in area.polygon) / len(area.polygon)
-    cy = sum(p[1] for p in area.polygon) / len(area.polygon)
-    assert room_at(cx, cy, topo, station.rooms) == 5
+    room = station.rooms.room(5)
+    cx, cy = room.label
+    assert station.rooms.room_at(cx, cy).id == 5
     with qtbot.waitSignal(window.map_view.room_clicked) as blocker:
         QTest.mouseClick(
             window.map_view.viewport(), Qt.MouseButton.LeftButton, pos=view_pos(window, cx, cy)
@@ -244,14 +243,14 @@ def test_close_shuts_the_controller_down(qtbot, window, station):
     assert not station.clock_timer.isActive()
 
 
-def test_tour_stops_coloured_on_map(qtbot, window, station, localise, topo):
+def test_tour_stops_coloured_on_map(qtbot, window, station, robot, localise, topo):
     from interbot_core.supervisor import GuidedTour
 
     first = topo.tour_nodes()[0]
     localise(first.pose)
     station.submit(GuidedTour())
     station.tick()
-    station.poll_link()
+    robot_arrives(qtbot, station, robot)  # at the first stop already
     spots = window.map_view.tour_item.data
     brushes = {
         (round(float(s["x"]), 3), round(float(s["y"]), 3)): s["brush"].color().getRgb()[:3]

@@ -61,7 +61,13 @@ POSITIVE = {
         "record_mb_per_hour",
     ],
     "replay": ["replay_speed_x", "replay_poses_received"],
+    "link": ["link_pose_samples", "link_pose_ms_median", "link_pose_ms_p99"],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
+    "station_fleet": [
+        "station_fleet_supervised",
+        "station_fleet_tick_ms_median",
+        "station_fleet_poll_ms_median",
+    ],
     "reallogs": [
         "reallog_intel_revisit_rms_m",
         "reallog_intel_whole_rms_m",
@@ -207,6 +213,15 @@ def test_merged_figures_hold_the_required_keys() -> None:
         merged.update(quick_result(name))
     missing = [key for key in REQUIRED_UNION if key not in merged]
     assert not missing
+
+
+def test_link_latency_is_plausible_plain_and_secure() -> None:
+    """One-way pose latency on loopback (plain TCP, and mutual TLS + ACL, issue 15)."""
+    r = quick_result("link")
+    assert r["link_pose_samples"] == 30.0
+    assert 0.0 < r["link_pose_ms_median"] <= r["link_pose_ms_p99"] <= r["link_pose_ms_max"] < 1e3
+    secure = bench_cli.call_run(load_bench("link"), quick=True, secure=True)
+    assert secure["link_pose_samples"] == 30.0 and 0.0 < secure["link_pose_ms_median"] < 1e3
 
 
 def test_summary_ms_percentiles_and_empty() -> None:

@@ -1,4 +1,9 @@
-"""Tests for interbot_core.supervisor, driven by synthetic poses moving along the routes."""
+"""Tests for interbot_core.supervisor, driven by a synthetic robot moving along the routes.
+
+The supervisor has no goal logic of its own: the robot judges progress and reports it. The
+synthetic robot here judges with the robot's own rule (`robot_daemon.planning.goal_checker`,
+the route's tolerances) and reports as the daemon does (`robot_progress`, then
+`robot_route_succeeded`)."""
 
 from __future__ import annotations
 
@@ -36,6 +41,7 @@ from interbot_core.supervisor import (
     TourStopReached,
 )
 from interbot_core.topological_map import TopologicalMap, load_topological_map
+from robot_daemon.planning.goal_checker import final_goal_reached, next_goal_index
 
 FIXTURE = Path(__file__).parent / "data" / "tiny_topo.yaml"
 DT = 0.1  # [s] clock period of the synthetic control loop
@@ -44,7 +50,8 @@ TURN = 0.3  # [rad] rotation per tick
 
 
 class Sim:
-    """A robot that drives straight to each target the supervisor is following."""
+    """A robot that drives straight to each target of the route it was sent, judges its progress
+    with the robot's goal checker and reports it to the supervisor."""
 
     def __init__(self, sup: Supervisor, pose: Pose2D | None) -> None:
         self.sup = sup
@@ -52,12 +59,33 @@ class Sim:
         self.now = 0.0
         self.events: list[Event] = []
         self.times: list[float] = []  # [s] when each event was returned
+        self._route: RouteStarted | None = None
+        self._index = 0
 
     def tick(self, localized: bool = True) -> list[Event]:
         self.now += DT
         events = self.sup.update(self.now, self.pose if localized else None)
+        if localized:
+            events += self.robot_reports()
         self.events += events
         self.times += [self.now] * len(events)
+        return events
+
+    def robot_reports(self) -> list[Event]:
+        """What the robot says about the route it drives (nothing without a route)."""
+        route, pose, cfg = self.sup.current_route, self.pose, self.sup.config
+        if route is None or pose is None:
+            return []
+        if route is not self._route:
+            self._route, self._index = route, 0
+        goals = route.waypoints
+        self._index = next_goal_index(goals, self._index, pose, cfg.approach_tolerance)
+        events = self.sup.robot_progress(self._index)
+        last = len(goals) - 1
+        if self._index == last and final_goal_reached(
+            pose, goals[last], cfg.goal_tolerance, cfg.yaw_tolerance
+        ):
+            events += self.sup.robot_route_succeeded(self.now)
         return events
 
     def move_to(self, target: Pose2D, face_goal: bool) -> None:
@@ -352,22 +380,41 @@ def test_go_to_pose_is_a_single_free_waypoint(sup: Supervisor) -> None:
     assert sim.of(TaskFinished)[0].ok
 
 
-def test_goal_already_reached_finishes_and_next_task_starts_same_tick(sup: Supervisor) -> None:
+def test_goal_already_reached_finishes_when_the_robot_says_so(sup: Supervisor) -> None:
     sim = Sim(sup, Pose2D(0.1, 0.0, 0.0))
     sup.submit(GoHome())
     sup.submit(GoTo(1))
-    events = sim.tick()
+    events = sim.tick()  # the route is sent; the robot, already there, reports success
     kinds = [type(e) for e in events]
-    assert kinds == [
-        TaskStarted,
-        QueueChanged,
-        RouteStarted,
-        GoalReached,
-        TaskFinished,
-        TaskStarted,
-        QueueChanged,
-        RouteStarted,
-    ]
+    assert kinds == [TaskStarted, QueueChanged, RouteStarted, GoalReached, TaskFinished]
+    events = sim.tick()  # the next task starts at the next clock
+    assert [type(e) for e in events] == [TaskStarted, QueueChanged, RouteStarted]
+
+
+def test_poses_alone_never_finish_a_task_the_robot_judges(sup: Supervisor) -> None:
+    """The supervisor has no goal logic: a pose on the goal is not an arrival."""
+    goal = sup.topo.node(1).pose
+    sup.submit(GoTo(1))
+    sup.update(0.0, Pose2D(0.0, 0.0, 0.0))
+    for k in range(5):
+        assert sup.update(0.1 * (k + 1), goal) == []
+    assert sup.state is SupervisorState.NAVIGATING and sup.route_index == 0
+    assert sup.distance_to_next_goal == pytest.approx(0.0)
+
+
+def test_robot_progress_is_mirrored_in_order_never_backwards(
+    sup: Supervisor, topo: TopologicalMap
+) -> None:
+    sup.submit(GoTo(3))
+    sup.update(0.0, Pose2D(0.0, 0.0, 0.0))  # route 1, 2, 3
+    assert sup.robot_progress(2) == [IntermediateGoalReached(1, 0), IntermediateGoalReached(2, 1)]
+    assert sup.route_index == 2
+    assert sup.robot_progress(1) == [] and sup.route_index == 2  # a late, older report
+    assert sup.robot_progress(99) == [] and sup.route_index == 2  # clipped to the final goal
+    with pytest.raises(ValueError, match="integer >= 0"):
+        sup.robot_progress(-1)
+    assert [type(e) for e in sup.robot_route_succeeded(1.0)] == [GoalReached, TaskFinished]
+    assert sup.robot_progress(0) == []  # no route being followed
 
 
 def test_unreachable_goal_finishes_with_reason() -> None:
@@ -398,11 +445,13 @@ def test_config_and_planner_validation(topo: TopologicalMap) -> None:
 
 
 def test_robot_reported_success_settles_arrival(sup: Supervisor, topo: TopologicalMap) -> None:
-    """The robot stopped within its own tolerance; the station's follower had not seen it yet."""
+    """The robot's success settles the goal, the waypoints it did not report included."""
     sim = Sim(sup, Pose2D(0.0, 0.0, 0.0))
     sup.submit(GoTo(3))
     sim.tick()
     assert sup.robot_route_succeeded(sim.now) == [
+        IntermediateGoalReached(1, 0),
+        IntermediateGoalReached(2, 1),
         GoalReached(3, topo.node(3).pose),
         TaskFinished(GoTo(3), True, "reached node 3 (Bar)"),
     ]

@@ -75,7 +75,7 @@ def visible_texts(window: Any) -> dict[str, tuple[str, str]]:
             text = " | ".join(t for t in texts if t)
             if text:
                 found[_path(w, root)] = (type(w).__name__, text)
-    for room in window.shown_plan.touch_rooms():  # room names are painted, not widgets
+    for room in window.shown_plan.rooms:  # room names are painted, not widgets
         found[f"room {room.id}"] = ("room", room.name)
     return found
 

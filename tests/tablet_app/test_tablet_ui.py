@@ -401,7 +401,7 @@ def test_touch_targets_are_at_least_9_mm(qtbot: Any, station: Any, window: Any) 
     min_px = 9.0 / 25.4 * dpi
     for button in (window.menu.map_button, window.motion_bar.pause_button):
         assert button.minimumHeight() >= min_px
-    for room in window.plan.touch_rooms():
+    for room in window.plan.rooms:
         geometry = window.map_view.room_button(room.id).geometry()
         assert min(geometry.width(), geometry.height()) >= min_px
 

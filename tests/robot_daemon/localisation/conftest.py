@@ -1,6 +1,6 @@
 """Fixtures for the localisation tests: the synthetic office world and simulated odometry.
 
-The world (boxes, grid, exact ray caster) lives in `robot_daemon.localisation.synthetic_office`,
+The world (boxes, grid, exact ray caster) lives in ``synthetic_office.py`` beside this file,
 shared with bench/bench_localiser.py, so these tests depend only on the localisation package.
 """
 
@@ -14,7 +14,7 @@ import pytest
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
-from robot_daemon.localisation.synthetic_office import (
+from tests.robot_daemon.localisation.synthetic_office import (
     OFFICE_BOXES,
     Boxes,
     cast_ranges,

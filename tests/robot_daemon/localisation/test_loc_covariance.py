@@ -18,7 +18,7 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.localiser import LocaliserConfigError, LocaliserEstimate
-from robot_daemon.localisation.synthetic_office import Boxes, rasterise, utm_scan
+from tests.robot_daemon.localisation.synthetic_office import Boxes, rasterise, utm_scan
 
 CORRIDOR_LENGTH = 80.0  # [m]: the UTM-30LX (30 m) sees neither end from the middle
 RATE = 10.0  # [Hz]

@@ -23,8 +23,8 @@ from robot_daemon.localisation.global_search import (
     SearchRegion,
     select_points,
 )
-from robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
 from robot_daemon.sim.simulator import SimConfig, Simulator
+from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
 
 REPO = Path(__file__).resolve().parents[3]
 ISR_MAP = REPO / "maps" / "isr_floor0.yaml"

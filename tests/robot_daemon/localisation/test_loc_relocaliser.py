@@ -16,7 +16,7 @@ from interbot_core.geometry import Pose2D
 from robot_daemon.localisation.global_search import GlobalSearchConfig
 from robot_daemon.localisation.localiser import Localiser
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
-from robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
+from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
 
 ROOM = np.vstack(
     [

@@ -22,7 +22,7 @@ WALL_X = -33.8  # [m] west wall of the Main Entrance hall on ISR floor 0
 
 def test_station_keyboard_teleop_at_a_wall_stops_before_contact() -> None:
     system = SimulatedSystem(
-        ScenarioOptions(people=0), start_pose=Pose2D(-32.0, 3.7, math.pi), send_routes=False
+        ScenarioOptions(people=0), start_pose=Pose2D(-32.0, 3.7, math.pi), autonomy=False
     )
     system.localise()
     stack = system.stack

@@ -17,7 +17,6 @@ from robot_daemon.sim.laser_sim import (
     LaserConfigError,
     LaserSim,
     RayCaster,
-    bench_raycast,
 )
 from robot_daemon.sim.world import World
 
@@ -123,9 +122,3 @@ def test_laser_outside_map_sees_nothing_valid() -> None:
 def test_invalid_config() -> None:
     with pytest.raises(LaserConfigError, match="range_min"):
         LaserConfig(range_min=5.0, range_max=1.0)
-
-
-def test_bench_raycast_reports_timings() -> None:
-    result = bench_raycast(n_scans=5)
-    assert set(result) == {"median_ms", "p99_ms", "max_ms", "n_scans"}
-    assert result["n_scans"] == 5 and 0 < result["median_ms"] <= result["max_ms"]

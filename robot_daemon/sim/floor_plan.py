@@ -3,23 +3,22 @@
 The thesis's Tablet and Base Station work on an *a priori* map of ISR floor 0 (thesis §5.2.1.1,
 Algorithm 3: a 70 m x 35 m frame with x in [-35, 35], y in [-14.25, 20.75]) and on a topological
 map whose nodes stand at the entrance of every room, or inside the rooms that take requests
-(§5.2.2, §6.2). This module builds both from one floor plan (``maps/isr_floor0_plan.yaml``):
+(§5.2.2, §6.2). Both are drawn from one floor plan (``maps/isr_floor0_plan.yaml``), which is also
+the simulated building's source (`robot_daemon.sim.realistic_world` draws it again, perturbed):
 
 * :func:`parse_floor_plan` / :func:`load_floor_plan` validate the plan into frozen dataclasses;
   every error names the room (or corridor, door, node) and the field;
 * :func:`rasterise` draws it into an :class:`~interbot_core.occupancy_grid.OccupancyGrid`
   (building = occupied, floors of rooms/corridors and door openings = free, furniture = occupied,
-  outside and courtyards = unknown), so walls are the gaps between floor rectangles;
-* :func:`topological_map_dict` derives the topological map (format of
-  :mod:`interbot_core.topological_map`, plus ``room``, ``kind`` and ``area`` per node) and checks
-  that every node has clearance and every arc is a straight segment clear of the inflated walls.
+  outside and courtyards = unknown), so walls are the gaps between floor rectangles.
 
+The map files themselves (the grid and the topological map with its nodes, arcs and room
+outlines) are written by the authoring tool ``tools/generate_isr_map.py``, not by the robot.
 Pure: no I/O except :func:`load_floor_plan`.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -28,11 +27,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 import yaml
-from scipy import ndimage
 
-from interbot_core.geometry import wrap_angle
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 
 logger = logging.getLogger(__name__)
@@ -190,25 +186,6 @@ class DoorOpening:
     corridor_face: tuple[float, float]  # [m] centre of the door on the corridor's side
     normal: tuple[float, float]  # outward unit vector (room -> corridor)
     width: float  # [m]
-
-
-@dataclass(frozen=True)
-class PlanNode:
-    """A topological node derived from the plan (before ids are given)."""
-
-    name: str
-    x: float  # [m]
-    y: float  # [m]
-    yaw: float  # [rad] heading faced on arrival
-    kind: str  # "entrance", "inside" or "waypoint"
-    room: str | None
-    info: str = ""
-    tour: bool = False
-    requests: bool = False
-    home: bool = False
-    area: tuple[tuple[float, float], ...] = ()
-    name_pt: str = ""
-    info_pt: str = ""
 
 
 @dataclass(frozen=True)
@@ -590,7 +567,7 @@ def _validate_room(plan: FloorPlan, room: Room) -> None:
 
 def _validate_nodes(plan: FloorPlan) -> None:
     src = plan.source
-    known = [node.name for node in plan_nodes(plan)]
+    known = node_names(plan)
     for name in known:
         if known.count(name) > 1:
             raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
@@ -608,6 +585,15 @@ def _validate_nodes(plan: FloorPlan) -> None:
         for name in chain:
             if name not in known:
                 raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
+
+
+def node_names(plan: FloorPlan) -> list[str]:
+    """The names of the plan's topological nodes: a room's (with ``inside``, also "<room> door"
+    for the node at its door), then the waypoints'."""
+    names: list[str] = []
+    for room in plan.rooms:
+        names += [room.name] if room.inside is None else [f"{room.name} door", room.name]
+    return names + [waypoint.name for waypoint in plan.waypoints]
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -735,202 +721,3 @@ def rasterise(plan: FloorPlan) -> OccupancyGrid:
         for item in room.furniture:
             cells[_cell_slices(plan, item.rect)] = OCCUPIED
     return OccupancyGrid(cells, plan.resolution, plan.origin_x, plan.origin_y, source=plan.name)
-
-
-def clearance_map(grid: OccupancyGrid) -> npt.NDArray[np.float64]:
-    """Distance [m] from each cell centre to the nearest blocked (occupied or unknown) cell centre.
-
-    Euclidean distance transform; cells outside the grid count as blocked.
-    """
-    free = np.pad(~grid.blocked(), 1, constant_values=False)
-    distance = ndimage.distance_transform_edt(free) * grid.resolution
-    return np.asarray(distance[1:-1, 1:-1], dtype=np.float64)
-
-
-def point_clearance(
-    grid: OccupancyGrid, clearance: npt.NDArray[np.float64], x: float, y: float
-) -> float:
-    """Clearance [m] at the cell holding (x, y); 0 outside the grid."""
-    row, col = grid.world_to_cell(x, y)
-    if not bool(grid.in_bounds(row, col)):
-        return 0.0
-    return float(clearance[int(row), int(col)])
-
-
-def segment_clearance(
-    grid: OccupancyGrid,
-    clearance: npt.NDArray[np.float64],
-    a: tuple[float, float],
-    b: tuple[float, float],
-) -> float:
-    """Smallest clearance [m] along the segment a-b, sampled every half cell."""
-    length = math.hypot(b[0] - a[0], b[1] - a[1])
-    n = max(2, math.ceil(length / (grid.resolution / 2)) + 1)
-    t = np.linspace(0.0, 1.0, n)
-    rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
-    inside = grid.in_bounds(rows, cols)
-    if not bool(np.all(inside)):
-        return 0.0
-    return float(np.min(clearance[rows, cols]))
-
-
-# ---------------------------------------------------------------------------- topology
-
-
-def _round(value: float) -> float:
-    return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
-
-
-def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
-    """The topological nodes in plan order (rooms, then waypoints), before ring ordering.
-
-    Entrance node: ``entrance_distance`` beyond the corridor face of the room's first door, yaw
-    facing the door. Inside node (rooms with ``inside``): at that point, yaw pointing away from
-    the door into the room; it carries the room's name and flags, the entrance node becomes
-    "<room> door" with tour, requests and home false.
-    """
-    nodes: list[PlanNode] = []
-    for room in plan.rooms:
-        opening = door_opening(plan, room, 0)
-        nx, ny = opening.normal
-        ex = opening.corridor_face[0] + nx * plan.entrance_distance
-        ey = opening.corridor_face[1] + ny * plan.entrance_distance
-        area = tuple((float(p[0]), float(p[1])) for p in room.rect.polygon())
-        facing_door = wrap_angle(math.atan2(-ny, -nx)) + 0.0  # no -0.0
-        if room.inside is None:
-            nodes.append(
-                PlanNode(
-                    room.name,
-                    _round(ex),
-                    _round(ey),
-                    facing_door,
-                    "entrance",
-                    room.name,
-                    room.info,
-                    room.tour,
-                    room.requests,
-                    room.home,
-                    area,
-                    room.name_pt,
-                    room.info_pt,
-                )
-            )
-            continue
-        nodes.append(
-            PlanNode(
-                f"{room.name} door",
-                _round(ex),
-                _round(ey),
-                facing_door,
-                "entrance",
-                room.name,
-                room.info,
-                area=area,
-                name_pt=f"{room.name_pt} (porta)" if room.name_pt else "",
-                info_pt=room.info_pt,
-            )
-        )
-        ix, iy = room.inside
-        fx, fy = opening.room_face
-        nodes.append(
-            PlanNode(
-                room.name,
-                _round(ix),
-                _round(iy),
-                wrap_angle(math.atan2(iy - fy, ix - fx)),
-                "inside",
-                room.name,
-                room.info,
-                room.tour,
-                room.requests,
-                room.home,
-                area,
-                room.name_pt,
-                room.info_pt,
-            )
-        )
-    for waypoint in plan.waypoints:
-        nodes.append(
-            PlanNode(waypoint.name, _round(waypoint.x), _round(waypoint.y), 0.0, "waypoint", None)
-        )
-    return nodes
-
-
-def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> dict[str, Any]:
-    """The topological map of ``plan`` as a dict in the ``topological_map`` YAML format.
-
-    Node ids follow ``plan.ring``. Checks against ``grid`` (rasterised if not given) that each
-    node has ``node_clearance`` and each arc keeps ``arc_clearance`` to blocked cells, and that
-    the graph is connected; raises :class:`FloorPlanError` naming the node or arc otherwise.
-    """
-    grid = rasterise(plan) if grid is None else grid
-    clearance = clearance_map(grid)
-    by_name = {node.name: node for node in plan_nodes(plan)}
-    ids = {name: i for i, name in enumerate(plan.ring)}
-    src = plan.source
-    nodes_out: list[dict[str, Any]] = []
-    for i, name in enumerate(plan.ring):
-        node = by_name[name]
-        free = point_clearance(grid, clearance, node.x, node.y)
-        if free < plan.node_clearance:
-            raise FloorPlanError(
-                f"{src}: node {i} ({name!r}) at ({node.x}, {node.y}) has {free:.2f} m clearance, "
-                f"needs {plan.node_clearance} m: move the door, waypoint or 'inside' point"
-            )
-        entry: dict[str, Any] = {
-            "id": i,
-            "name": name,
-            "x": node.x,
-            "y": node.y,
-            "yaw": node.yaw,
-            "info": node.info,
-            "tour": node.tour,
-            "requests": node.requests,
-            "home": node.home,
-            "room": node.room,
-            "kind": node.kind,
-            "area": [list(p) for p in node.area],
-        }
-        if node.name_pt:
-            entry["name_pt"] = node.name_pt
-        if node.info_pt:
-            entry["info_pt"] = node.info_pt
-        nodes_out.append(entry)
-    arcs: set[tuple[int, int]] = set()
-    for c, chain in enumerate(plan.arcs):
-        for a_name, b_name in itertools.pairwise(chain):
-            a, b = by_name[a_name], by_name[b_name]
-            if a_name == b_name:
-                raise FloorPlanError(f"{src}: arcs[{c}]: {a_name!r} is joined to itself")
-            free = segment_clearance(grid, clearance, (a.x, a.y), (b.x, b.y))
-            if free <= plan.arc_clearance:
-                raise FloorPlanError(
-                    f"{src}: arcs[{c}]: {a_name!r} -> {b_name!r} passes {free:.2f} m from a wall "
-                    f"or furniture (needs > {plan.arc_clearance} m): add a waypoint or move it"
-                )
-            u, v = ids[a_name], ids[b_name]
-            arcs.add((min(u, v), max(u, v)))
-    unreachable = _unreachable(len(plan.ring), arcs)
-    if unreachable:
-        names = [plan.ring[i] for i in unreachable]
-        raise FloorPlanError(f"{src}: arcs: nodes {names} cannot be reached from node 0")
-    return {
-        "map": plan.map_file,
-        "nodes": nodes_out,
-        "arcs": [list(arc) for arc in sorted(arcs)],
-    }
-
-
-def _unreachable(n: int, arcs: set[tuple[int, int]]) -> list[int]:
-    adjacency: dict[int, list[int]] = {i: [] for i in range(n)}
-    for u, v in arcs:
-        adjacency[u].append(v)
-        adjacency[v].append(u)
-    seen = {0}
-    stack = [0]
-    while stack:
-        for nxt in adjacency[stack.pop()]:
-            if nxt not in seen:
-                seen.add(nxt)
-                stack.append(nxt)
-    return [i for i in range(n) if i not in seen]

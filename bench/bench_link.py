@@ -1,15 +1,17 @@
-"""One-way pose latency over the zenoh link on loopback: `RobotLink.publish_pose` to receipt.
+"""Benchmark: one-way pose latency over the zenoh link on loopback, `RobotLink.publish_pose` to
+receipt (``link_pose_ms_median`` / ``_p99`` / ``_max``).
 
 Two sessions in one process (robot listens on 127.0.0.1, station connects), the robot's
 `RobotLink` publishes a `PoseMsg` whose ``stamp`` is ``time.perf_counter()`` at send time and a
 station-side subscriber blocks in ``recv()`` on a FIFO channel and decodes it; one pose in
 flight at a time, so the figure is link latency, not queueing. Run:
-``.venv/bin/python -m interbot_link.bench`` (``--secure``: mutual TLS and access control with
-keys made in a temporary directory, issue 15).
+``.venv/bin/interbot bench --only link`` (``--secure``: mutual TLS and access control with
+keys made in a temporary directory, issue 15), or ``python bench/bench_link.py [--secure]``.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import socket
 import statistics
@@ -27,6 +29,10 @@ from interbot_link.security import LinkSecurity
 from interbot_link.session import open_session
 
 logger = logging.getLogger(__name__)
+
+_spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
+common = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
+_spec.loader.exec_module(common)  # type: ignore[union-attr]
 
 
 def free_loopback_port() -> int:
@@ -87,6 +93,18 @@ def _bench(
         "median_ms": statistics.median(latencies),
         "p99_ms": latencies[min(len(latencies) - 1, int(0.99 * len(latencies)))],
         "max_ms": latencies[-1],
+    }
+
+
+def run(quick: bool = False, secure: bool = False) -> dict[str, float]:
+    samples, warmup = (30, 5) if quick else (2000, 100)
+    with common.quiet_logs():
+        result = bench_link(samples, warmup, secure=secure)
+    return {
+        "link_pose_samples": result["samples"],
+        "link_pose_ms_median": result["median_ms"],
+        "link_pose_ms_p99": result["p99_ms"],
+        "link_pose_ms_max": result["max_ms"],
     }
 
 

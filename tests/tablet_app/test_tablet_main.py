@@ -1,4 +1,5 @@
-"""Rooms of the Tablet's map read from a topological-map YAML with ``area`` outlines."""
+"""The Tablet's start-up: its rooms from the topological map (`interbot_core.rooms`, the model
+the station uses too) and its command line."""
 
 from __future__ import annotations
 
@@ -6,20 +7,16 @@ from pathlib import Path
 
 import pytest
 
-from tablet_app.floor_plan import FloorPlanError, load_floor_plan
-from tablet_app.main import DEFAULT_TOPO, parse_args
+from interbot_core.rooms import RoomMapError
+from tablet_app.main import DEFAULT_TOPO, load_plan, parse_args
 
 
-def test_rooms_areas_waypoints_and_shared_areas(topo_path: Path) -> None:
-    plan = load_floor_plan(topo_path)
-    assert [room.id for room in plan.touch_rooms()] == [0, 3, 4]
-    lab = plan.room(3)
-    assert lab.node_ids == (3, 2) and lab.covers(2) and not lab.covers(4)
-    assert lab.bounds() == (7.0, 2.0, 10.0, 5.0)
-    assert not plan.room(1).touchable  # area: [] is a corridor waypoint
+def test_rooms_and_floor_image_of_the_fixture(topo_path: Path) -> None:
+    plan, grid = load_plan(topo_path)
+    assert [room.id for room in plan.rooms] == [0, 3, 4]
+    assert plan.room(2).id == 3  # the lab's door is drawn as the lab
     assert plan.map_yaml is not None and plan.map_yaml.name == "floor.yaml"
-    assert plan.bounds() == (0.0, 0.0, 10.0, 5.0)
-    assert plan.name(4) == "Office" and plan.name(42) == "#42"
+    assert grid is not None and plan.bounds() == (0.0, 0.0, 10.0, 5.0)
 
 
 def test_bad_area_names_the_file_and_node(topo_path: Path) -> None:
@@ -27,17 +24,16 @@ def test_bad_area_names_the_file_and_node(topo_path: Path) -> None:
         "area: [[2.0, 3.0], [5.0, 3.0], [5.0, 5.0], [2.0, 5.0]]", "area: [[2.0, 3.0], [5.0]]"
     )
     topo_path.write_text(text, encoding="utf-8")
-    with pytest.raises(FloorPlanError, match=r"topo.yaml: node 4: 'area'"):
-        load_floor_plan(topo_path)
+    with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: 'area'"):
+        load_plan(topo_path)
 
 
 def test_the_shipped_isr_map_loads_when_present() -> None:
     if not DEFAULT_TOPO.exists():
         pytest.skip(f"{DEFAULT_TOPO} not generated yet")
-    plan = load_floor_plan(DEFAULT_TOPO)
-    rooms = plan.touch_rooms()
-    assert len(rooms) >= 10
-    assert all(room.area for room in rooms)
+    plan, _ = load_plan(DEFAULT_TOPO)
+    assert len(plan.rooms) >= 10
+    assert all(room.explicit for room in plan.rooms)
 
 
 def test_command_line_defaults() -> None:

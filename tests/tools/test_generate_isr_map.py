@@ -6,6 +6,7 @@ import copy
 import importlib.util
 import itertools
 import math
+import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -18,17 +19,16 @@ from hypothesis import strategies as st
 from scipy import ndimage
 from scipy.sparse.csgraph import connected_components, shortest_path
 
-from interbot_core.floor_plan import (
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
+from interbot_core.topological_map import load_topological_map
+from robot_daemon.sim.floor_plan import (
     FloorPlan,
     FloorPlanError,
     door_openings,
     load_floor_plan,
     parse_floor_plan,
     rasterise,
-    topological_map_dict,
 )
-from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
-from interbot_core.topological_map import load_topological_map
 
 REPO = Path(__file__).resolve().parents[2]
 PLAN_PATH = REPO / "maps" / "isr_floor0_plan.yaml"
@@ -67,15 +67,25 @@ def topo(plan: FloorPlan, grid: OccupancyGrid) -> dict[str, Any]:
     return topological_map_dict(plan, grid)
 
 
-@pytest.fixture(scope="module")
-def generator() -> ModuleType:
+def load_generator() -> ModuleType:
+    """The authoring tool, loaded by its path (tools/ is not a package)."""
     spec = importlib.util.spec_from_file_location(
         "generate_isr_map", REPO / "tools" / "generate_isr_map.py"
     )
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up
     spec.loader.exec_module(module)
     return module
+
+
+GENERATOR = load_generator()
+topological_map_dict = GENERATOR.topological_map_dict
+
+
+@pytest.fixture(scope="module")
+def generator() -> ModuleType:
+    return GENERATOR
 
 
 def inflated_reference(grid: OccupancyGrid, radius: float) -> np.ndarray:
