@@ -9,8 +9,9 @@ thesis describes in prose but does not list: the version handshake, latency ping
 tour control and state, "Help me!" initial pose by room, malfunction reports, requests shown at
 a room and their answer, cancellation, permissions, localisation state, status text and errors.
 
-Every message is a frozen dataclass with ``to_json()`` (the whole ``{key: body}`` object) and a
-``from_json(body, limits)`` class method that validates the body against `ProtocolLimits`.
+Every message is a frozen msgspec Struct whose field types declare its rules (types, ranges,
+choices; `interbot_core.schema`, issue 13), with ``to_json()`` (the whole ``{key: body}``
+object) and ``from_json(body, limits)``, which also applies the connection's `ProtocolLimits`.
 `decode_tablet_message` and `decode_station_message` pick the class by the top-level key, one
 per direction because ``goal`` means different things each way. `encode` produces one compact
 JSON object followed by ``\\n``. `JsonStreamDecoder` splits a TCP byte stream into JSON objects
@@ -22,13 +23,20 @@ Nothing here does I/O or reads a clock; ping times are passed in by the caller.
 
 from __future__ import annotations
 
-import json
+import enum
 import logging
-import math
 import re
-from collections.abc import Callable, Mapping
+import typing
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Final, Self
+from functools import cache
+from typing import Annotated, Any, ClassVar, Final, Literal, Self
+
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
+from interbot_core.schema import FINITE, SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -132,17 +140,12 @@ class OutOfRange(InvalidField):
 
 
 # --------------------------------------------------------------------------------------------
-# Limits and field validation
+# Limits
 # --------------------------------------------------------------------------------------------
 
 
-def _is_int(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-@dataclass(frozen=True)
-class ProtocolLimits:
-    """Bounds applied when decoding messages.
+class ProtocolLimits(msgspec.Struct, frozen=True, kw_only=True):
+    """Bounds applied when decoding messages, set by the station's configuration.
 
     ``node_ids`` is the set of topological node ids accepted as goals and rooms, or None to
     accept any id in ``0..MAX_ID``. Speeds outside ``±max_linear`` / ``±max_angular`` are
@@ -150,190 +153,123 @@ class ProtocolLimits:
     asked for.
     """
 
-    max_linear: float = 1.0  # [m/s]
-    max_angular: float = 2.0  # [rad/s]
-    node_ids: frozenset[int] | None = None
-    max_string_length: int = 500  # [characters]
+    max_linear: Annotated[float, Meta(gt=0.0, le=FINITE)] = 1.0  # [m/s]
+    max_angular: Annotated[float, Meta(gt=0.0, le=FINITE)] = 2.0  # [rad/s]
+    node_ids: frozenset[Annotated[int, Meta(ge=0, le=MAX_ID)]] | None = None
+    max_string_length: Annotated[int, Meta(ge=1)] = 500  # [characters]
 
     def __post_init__(self) -> None:
-        for name in ("max_linear", "max_angular"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f"ProtocolLimits.{name} must be a number, got {value!r}")
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"ProtocolLimits.{name} must be finite and > 0, got {value!r}")
-        if self.node_ids is not None:
-            if not isinstance(self.node_ids, frozenset):
-                raise ValueError("ProtocolLimits.node_ids must be a frozenset of ints or None")
-            bad = [n for n in self.node_ids if not _is_int(n) or not 0 <= n <= MAX_ID]
-            if bad:
-                raise ValueError(
-                    f"ProtocolLimits.node_ids must be ints in 0..{MAX_ID}, got {sorted(bad)!r}"
-                )
-        if not _is_int(self.max_string_length) or self.max_string_length < 1:
-            raise ValueError(
-                f"ProtocolLimits.max_string_length must be an int >= 1, "
-                f"got {self.max_string_length!r}"
-            )
+        if self.node_ids is not None and not isinstance(self.node_ids, frozenset):
+            raise ValueError("ProtocolLimits.node_ids must be a frozenset of ints or None")
+        try:
+            schema.check_fields(self, "ProtocolLimits")
+        except SchemaError as exc:
+            raise ValueError(exc.message) from None
 
 
 DEFAULT_LIMITS: Final = ProtocolLimits()
 
 
-def _describe(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+class _Bound(enum.Enum):
+    """Markers in a field's ``Annotated`` type: the `ProtocolLimits` entry that bounds it."""
+
+    NODE = "node"
+    LINEAR = "linear"
+    ANGULAR = "angular"
+    TEXT = "text"
 
 
-def _type_name(value: object) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, int | float):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, list | tuple):
-        return "an array"
-    if isinstance(value, dict):
-        return "an object"
-    return type(value).__name__
+Node = Annotated[int, Meta(ge=0, le=MAX_ID), _Bound.NODE]
+"""A topological node id (checked against ``ProtocolLimits.node_ids`` on decoding)."""
+Nodes = Annotated[tuple[Node, ...], Meta(max_length=MAX_LIST_LENGTH)]
+Text = Annotated[str, _Bound.TEXT]
+"""Free text (at most ``ProtocolLimits.max_string_length`` characters on decoding)."""
+Id = Annotated[int, Meta(ge=0, le=MAX_ID)]
+Seq = Annotated[int, Meta(ge=0, le=MAX_SEQ)]
+Version = Annotated[int, Meta(ge=1, le=MAX_ID)]
+Seconds = Annotated[float, Meta(ge=-FINITE, le=FINITE, extra={"unit": "s"})]
+Metres = Annotated[float, Meta(ge=-FINITE, le=FINITE, extra={"unit": "m"})]
+Radians = Annotated[float, Meta(ge=-FINITE, le=FINITE, extra={"unit": "rad"})]
+LinearSpeed = Annotated[float, Meta(ge=-FINITE, le=FINITE, extra={"unit": "m/s"}), _Bound.LINEAR]
+AngularSpeed = Annotated[
+    float, Meta(ge=-FINITE, le=FINITE, extra={"unit": "rad/s"}), _Bound.ANGULAR
+]
+
+_ERRORS: Final[Mapping[str, type[InvalidField]]] = {
+    "type": InvalidField,
+    "missing": MissingField,
+    "unknown": UnknownField,
+    "range": OutOfRange,
+}
 
 
-def _object(body: object, path: str, keys: tuple[str, ...]) -> Mapping[str, object]:
-    """Check that ``body`` is an object with exactly ``keys``."""
-    if not isinstance(body, dict):
-        raise InvalidField(
-            f"{path} must be an object with keys {', '.join(keys)}; got {_type_name(body)}",
-            path,
-        )
-    missing = [k for k in keys if k not in body]
-    if missing:
-        raise MissingField(
-            f"{path}.{missing[0]} is missing ({path} needs {', '.join(keys)})",
-            f"{path}.{missing[0]}",
-        )
-    extra = sorted(str(k) for k in body if k not in keys)
-    if extra:
-        raise UnknownField(
-            f"{path}.{extra[0]} is not a field of {path} (allowed: {', '.join(keys)})",
-            f"{path}.{extra[0]}",
-        )
-    return body
+def _protocol_error(error: SchemaError) -> InvalidField:
+    return _ERRORS[error.kind](error.message, error.path)
 
 
-def _bool(value: object, path: str) -> bool:
-    if not isinstance(value, bool):
-        raise InvalidField(f"{path} must be true or false, got {_describe(value)}", path)
-    return value
+def _bounds(hint: Any) -> tuple[_Bound, ...]:
+    """The `_Bound` markers of a field's type, looking inside ``X | None`` and ``tuple[X, ...]``."""
+    found = [m for m in getattr(hint, "__metadata__", ()) if isinstance(m, _Bound)]
+    for arg in typing.get_args(hint):
+        found += _bounds(arg)
+    return tuple(found)
 
 
-def _true(value: object, path: str) -> bool:
-    if value is not True:
-        raise InvalidField(f"{path} must be true, got {_describe(value)}", path)
-    return True
+@cache
+def _bounded_fields(cls: type[Message]) -> tuple[tuple[str, str, _Bound], ...]:
+    """``(attribute, path, bound)`` for every field of ``cls`` that `ProtocolLimits` bounds."""
+    hints = typing.get_type_hints(cls, include_extras=True)
+    out = []
+    for f in msgspec.structs.fields(cls):
+        path = cls.KEY if cls.BARE else f"{cls.KEY}.{f.encode_name}"
+        out += [(f.name, path, bound) for bound in _bounds(hints[f.name])]
+    return tuple(out)
 
 
-def _float(value: object, path: str, unit: str = "") -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InvalidField(f"{path} must be a number{unit}, got {_describe(value)}", path)
-    number = float(value)
-    if not math.isfinite(number):
-        raise InvalidField(f"{path} must be a finite number{unit}, got {value!r}", path)
-    return number
+def _check_node(node: int, path: str, limits: ProtocolLimits) -> None:
+    if limits.node_ids is None or node in limits.node_ids:
+        return
+    ids = sorted(limits.node_ids)
+    if ids and ids == list(range(ids[0], ids[-1] + 1)):
+        allowed = f"nodes {ids[0]}..{ids[-1]}"
+    else:
+        allowed = "nodes " + ", ".join(map(str, ids[:20])) + (", ..." if len(ids) > 20 else "")
+    raise OutOfRange(f"{path} = {node} is not a node of the topological map ({allowed})", path)
 
 
-def _bounded_float(value: object, path: str, bound: float, unit: str) -> float:
-    number = _float(value, path, f" [{unit}]")
-    if not -bound <= number <= bound:
-        raise OutOfRange(
-            f"{path} = {number:g} {unit} is outside the allowed range "
-            f"[{-bound:g}, {bound:g}] {unit}",
-            path,
-        )
-    return number
-
-
-def _int(value: object, path: str, low: int, high: int) -> int:
-    if not _is_int(value):
-        raise InvalidField(
-            f"{path} must be an integer in {low}..{high}, got {_describe(value)}", path
-        )
-    assert isinstance(value, int)
-    if not low <= value <= high:
-        raise OutOfRange(f"{path} = {value} is outside the allowed range {low}..{high}", path)
-    return value
-
-
-def _node(value: object, path: str, limits: ProtocolLimits) -> int:
-    """A topological node id: an int in ``limits.node_ids`` (or 0..MAX_ID when that is None)."""
-    node = _int(value, path, 0, MAX_ID)
-    if limits.node_ids is not None and node not in limits.node_ids:
-        ids = sorted(limits.node_ids)
-        if ids and ids == list(range(ids[0], ids[-1] + 1)):
-            allowed = f"nodes {ids[0]}..{ids[-1]}"
+def _check_bounds(msg: Message, limits: ProtocolLimits) -> None:
+    """Apply ``limits`` to a decoded message (its types and fixed ranges are already checked)."""
+    for name, path, bound in _bounded_fields(type(msg)):
+        value = getattr(msg, name)
+        if bound is _Bound.NODE:
+            if isinstance(value, tuple):
+                for i, node in enumerate(value):
+                    _check_node(node, f"{path}[{i}]", limits)
+            elif value is not None:
+                _check_node(value, path, limits)
+        elif bound is _Bound.TEXT:
+            try:
+                schema.check_text(value, path)
+            except SchemaError as exc:
+                raise _protocol_error(exc) from None
+            if len(value) > limits.max_string_length:
+                raise OutOfRange(
+                    f"{path} has {len(value)} characters; "
+                    f"at most {limits.max_string_length} are allowed",
+                    path,
+                )
         else:
-            allowed = "nodes " + ", ".join(map(str, ids[:20])) + (", ..." if len(ids) > 20 else "")
-        raise OutOfRange(f"{path} = {node} is not a node of the topological map ({allowed})", path)
-    return node
-
-
-def _optional_node(value: object, path: str, limits: ProtocolLimits) -> int | None:
-    return None if value is None else _node(value, path, limits)
-
-
-def _nodes(value: object, path: str, limits: ProtocolLimits) -> tuple[int, ...]:
-    if not isinstance(value, list | tuple):
-        raise InvalidField(f"{path} must be an array of node ids, got {_describe(value)}", path)
-    if len(value) > MAX_LIST_LENGTH:
-        raise OutOfRange(
-            f"{path} has {len(value)} elements; at most {MAX_LIST_LENGTH} are allowed", path
-        )
-    return tuple(_node(v, f"{path}[{i}]", limits) for i, v in enumerate(value))
-
-
-def _str(value: object, path: str, limits: ProtocolLimits) -> str:
-    if not isinstance(value, str):
-        raise InvalidField(f"{path} must be a string, got {_describe(value)}", path)
-    _check_encodable(value, path)
-    if len(value) > limits.max_string_length:
-        raise OutOfRange(
-            f"{path} has {len(value)} characters; at most {limits.max_string_length} are allowed",
-            path,
-        )
-    return value
-
-
-def _choice(value: object, path: str, allowed: tuple[str, ...]) -> str:
-    if not isinstance(value, str) or value not in allowed:
-        raise InvalidField(
-            f"{path} must be one of {', '.join(allowed)}; got {_describe(value)}", path
-        )
-    return value
-
-
-def _check_plain(value: object, path: str, kind: type) -> None:
-    """Constructor-time check (limit independent) so a bad message cannot even be built."""
-    if kind is float:
-        _float(value, path)
-    elif kind is int:
-        if not _is_int(value):
-            raise InvalidField(f"{path} must be an integer, got {_describe(value)}", path)
-    elif kind is bool:
-        _bool(value, path)
-    elif kind is str:
-        if not isinstance(value, str):
-            raise InvalidField(f"{path} must be a string, got {_describe(value)}", path)
-        _check_encodable(value, path)
-
-
-def _check_encodable(value: str, path: str) -> None:
-    """Reject lone surrogates (legal in a JSON escape, not encodable as UTF-8)."""
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError:
-        raise InvalidField(f"{path} contains a lone UTF-16 surrogate", path) from None
+            limit, unit = (
+                (limits.max_linear, "m/s")
+                if bound is _Bound.LINEAR
+                else (limits.max_angular, "rad/s")
+            )
+            if value is not None and not -limit <= value <= limit:
+                raise OutOfRange(
+                    f"{path} = {value:g} {unit} is outside the allowed range "
+                    f"[{-limit:g}, {limit:g}] {unit}",
+                    path,
+                )
 
 
 # --------------------------------------------------------------------------------------------
@@ -342,27 +278,59 @@ def _check_encodable(value: str, path: str) -> None:
 
 
 JsonObject = dict[str, Any]
+_ENCODER: Final = msgspec.json.Encoder()
 
 
-@dataclass(frozen=True)
-class Message:
-    """Base of every message: ``KEY`` is its top-level JSON key."""
+class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defaults=True):
+    """Base of every message: ``KEY`` is its top-level JSON key.
+
+    A message is a typed declaration; msgspec checks types and fixed ranges, `_check_bounds`
+    the limits of the connection (`ProtocolLimits`). A ``BARE`` message has one field whose
+    value is the whole body (``{"goal": 7}``); the others' body is an object of their fields.
+    An invalid message cannot be built: the constructor raises InvalidField.
+    """
 
     KEY: ClassVar[str] = ""
+    BARE: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        if schema.decoding():
+            return
+        try:
+            schema.check_fields(self, self.KEY, bare=self.BARE)
+        except SchemaError as exc:
+            raise _protocol_error(exc) from None
+
+    def body(self) -> object:
+        """The value under ``KEY`` (a struct encodes as its fields, with their wire names)."""
+        return getattr(self, self.__struct_fields__[0]) if self.BARE else self
 
     def to_json(self) -> JsonObject:
-        raise NotImplementedError
+        """The whole message as JSON values: ``{KEY: body}``."""
+        return {self.KEY: msgspec.json.decode(_ENCODER.encode(self.body()))}
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        raise NotImplementedError
+        """Validate the decoded JSON ``body`` of a ``{KEY: body}`` message against ``limits``."""
+        try:
+            if cls.BARE:  # {"goal": 7} is checked as {"node": 7}, named as "goal"
+                name = cls.__struct_encode_fields__[0]
+                msg = schema.convert({name: body}, cls, cls.KEY)
+            else:
+                msg = schema.convert(body, cls, cls.KEY)
+        except SchemaError as exc:
+            if cls.BARE:
+                inner = f"{cls.KEY}.{name}"
+                exc = SchemaError(exc.kind, cls.KEY, exc.message.replace(inner, cls.KEY, 1))
+            raise _protocol_error(exc) from None
+        _check_bounds(msg, limits)
+        return msg
 
 
 # ---- Tablet -> Base Station (thesis Listing 5.1) -------------------------------------------
 
 
-@dataclass(frozen=True)
-class Speed(Message):
+class Speed(Message, frozen=True):
     """Joystick command: ``{"speed": {"linear": 0.3, "angular": -0.5}}`` [m/s], [rad/s].
 
     Optional (issue 11; a thesis-era tablet sends neither): ``seq``, a counter that grows with
@@ -371,132 +339,60 @@ class Speed(Message):
     """
 
     KEY: ClassVar[str] = "speed"
-    linear: float  # [m/s]
-    angular: float  # [rad/s]
-    seq: int | None = None
-    t: float | None = None  # [s] tablet clock
-
-    def __post_init__(self) -> None:
-        _check_plain(self.linear, "speed.linear", float)
-        _check_plain(self.angular, "speed.angular", float)
-        if self.seq is not None:
-            _check_plain(self.seq, "speed.seq", int)
-        if self.t is not None:
-            _check_plain(self.t, "speed.t", float)
-
-    def to_json(self) -> JsonObject:
-        body: dict[str, object] = {"linear": float(self.linear), "angular": float(self.angular)}
-        if self.seq is not None:
-            body["seq"] = self.seq
-        if self.t is not None:
-            body["t"] = float(self.t)
-        return {self.KEY: body}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        keys = (
-            "linear",
-            "angular",
-            *tuple(k for k in ("seq", "t") if isinstance(body, dict) and k in body),
-        )
-        obj = _object(body, "speed", keys)
-        return cls(
-            _bounded_float(obj["linear"], "speed.linear", limits.max_linear, "m/s"),
-            _bounded_float(obj["angular"], "speed.angular", limits.max_angular, "rad/s"),
-            _int(obj["seq"], "speed.seq", 0, MAX_SEQ) if "seq" in obj else None,
-            _float(obj["t"], "speed.t", " [s]") if "t" in obj else None,
-        )
+    linear: LinearSpeed
+    angular: AngularSpeed
+    seq: Seq | None = None
+    t: Seconds | None = None  # tablet clock
 
 
-@dataclass(frozen=True)
-class Goal(Message):
+class Goal(Message, frozen=True):
     """Go to a topological node: ``{"goal": 7}``."""
 
     KEY: ClassVar[str] = "goal"
-    node: int
-
-    def __post_init__(self) -> None:
-        _check_plain(self.node, "goal", int)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.node}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_node(body, "goal", limits))
+    BARE: ClassVar[bool] = True
+    node: Node
 
 
-@dataclass(frozen=True)
-class Pause(Message):
+class Pause(Message, frozen=True):
     """``{"pause": true}`` pauses autonomous navigation; ``false`` resumes it."""
 
     KEY: ClassVar[str] = "pause"
+    BARE: ClassVar[bool] = True
     paused: bool
 
-    def __post_init__(self) -> None:
-        _check_plain(self.paused, "pause", bool)
 
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.paused}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_bool(body, "pause"))
-
-
-@dataclass(frozen=True)
-class Stop(Message):
+class Stop(Message, frozen=True):
     """``{"stop": true}`` cancels the current motion and task (false is a no-op)."""
 
     KEY: ClassVar[str] = "stop"
+    BARE: ClassVar[bool] = True
     stop: bool
 
-    def __post_init__(self) -> None:
-        _check_plain(self.stop, "stop", bool)
 
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.stop}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_bool(body, "stop"))
-
-
-@dataclass(frozen=True)
-class Tour(Message):
+class Tour(Message, frozen=True):
     """``{"tour": true}`` starts a guided tour; ``false`` ends it (like tour_control "end")."""
 
     KEY: ClassVar[str] = "tour"
+    BARE: ClassVar[bool] = True
     start: bool
 
-    def __post_init__(self) -> None:
-        _check_plain(self.start, "tour", bool)
 
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.start}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_bool(body, "tour"))
-
-
-@dataclass(frozen=True)
-class Home(Message):
+class Home(Message, frozen=True):
     """``{"home": true}``: go back to the home node. The value must be ``true``."""
 
     KEY: ClassVar[str] = "home"
 
-    def to_json(self) -> JsonObject:
-        return {self.KEY: True}
+    def body(self) -> object:
+        return True
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        _true(body, "home")
+        if body is not True:
+            raise InvalidField(f"home must be true, got {schema.describe(body)}", "home")
         return cls()
 
 
-@dataclass(frozen=True)
-class RequestFrom(Message):
+class RequestFrom(Message, frozen=True, rename={"deliver_to": "deliverTo"}):
     """Fetch or deliver: ``{"requestFrom": {"request", "room", "deliverTo", "status"}}``.
 
     ``request`` is the user's text, ``room`` the node to fetch from, ``deliver_to`` the node to
@@ -504,188 +400,77 @@ class RequestFrom(Message):
     """
 
     KEY: ClassVar[str] = "requestFrom"
-    request: str
-    room: int
-    deliver_to: int
+    request: Text
+    room: Node
+    deliver_to: Node
     status: bool
-
-    def __post_init__(self) -> None:
-        _check_plain(self.request, "requestFrom.request", str)
-        _check_plain(self.room, "requestFrom.room", int)
-        _check_plain(self.deliver_to, "requestFrom.deliverTo", int)
-        _check_plain(self.status, "requestFrom.status", bool)
-
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {
-                "request": self.request,
-                "room": self.room,
-                "deliverTo": self.deliver_to,
-                "status": self.status,
-            }
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "requestFrom", ("request", "room", "deliverTo", "status"))
-        return cls(
-            _str(obj["request"], "requestFrom.request", limits),
-            _node(obj["room"], "requestFrom.room", limits),
-            _node(obj["deliverTo"], "requestFrom.deliverTo", limits),
-            _bool(obj["status"], "requestFrom.status"),
-        )
 
 
 # ---- Tablet -> Base Station (added) ---------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class Hello(Message):
+class Hello(Message, frozen=True):
     """First message of the tablet: ``{"hello": {"protocol": 1, "client": "tablet"}}``."""
 
     KEY: ClassVar[str] = "hello"
-    protocol: int
-    client: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.protocol, "hello.protocol", int)
-        _check_plain(self.client, "hello.client", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"protocol": self.protocol, "client": self.client}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "hello", ("protocol", "client"))
-        return cls(
-            _int(obj["protocol"], "hello.protocol", 1, MAX_ID),
-            _str(obj["client"], "hello.client", limits),
-        )
+    protocol: Version
+    client: Text
 
 
 TOUR_ACTIONS: Final = ("resume", "end")
 
 
-@dataclass(frozen=True)
-class TourControl(Message):
+class TourControl(Message, frozen=True):
     """At a tour stop: ``{"tour_control": "resume"}`` or ``{"tour_control": "end"}``."""
 
     KEY: ClassVar[str] = "tour_control"
-    action: str
-
-    def __post_init__(self) -> None:
-        _choice(self.action, "tour_control", TOUR_ACTIONS)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.action}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_choice(body, "tour_control", TOUR_ACTIONS))
+    BARE: ClassVar[bool] = True
+    action: Literal["resume", "end"]
 
 
-@dataclass(frozen=True)
-class InitialPoseRoom(Message):
+class InitialPoseRoom(Message, frozen=True):
     """ "Help me!": the robot stands at this room's node: ``{"initial_pose_room": 4}``."""
 
     KEY: ClassVar[str] = "initial_pose_room"
-    room: int
-
-    def __post_init__(self) -> None:
-        _check_plain(self.room, "initial_pose_room", int)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.room}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_node(body, "initial_pose_room", limits))
+    BARE: ClassVar[bool] = True
+    room: Node
 
 
 MALFUNCTION_KINDS: Final = ("collision", "wrong_position", "wrong_orientation", "other")
 
 
-@dataclass(frozen=True)
-class Malfunction(Message):
+class Malfunction(Message, frozen=True):
     """User report: ``{"malfunction": {"kind": "collision", "text": "hit a chair"}}``."""
 
     KEY: ClassVar[str] = "malfunction"
-    kind: str
-    text: str
-
-    def __post_init__(self) -> None:
-        _choice(self.kind, "malfunction.kind", MALFUNCTION_KINDS)
-        _check_plain(self.text, "malfunction.text", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"kind": self.kind, "text": self.text}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "malfunction", ("kind", "text"))
-        return cls(
-            _choice(obj["kind"], "malfunction.kind", MALFUNCTION_KINDS),
-            _str(obj["text"], "malfunction.text", limits),
-        )
+    kind: Literal["collision", "wrong_position", "wrong_orientation", "other"]
+    text: Text
 
 
-@dataclass(frozen=True)
-class RequestAnswer(Message):
+class RequestAnswer(Message, frozen=True):
     """Answer to `ShowRequest`: ``{"request_answer": {"id": 3, "accepted": true}}``."""
 
     KEY: ClassVar[str] = "request_answer"
-    id: int
+    id: Id
     accepted: bool
-
-    def __post_init__(self) -> None:
-        _check_plain(self.id, "request_answer.id", int)
-        _check_plain(self.accepted, "request_answer.accepted", bool)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"id": self.id, "accepted": self.accepted}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "request_answer", ("id", "accepted"))
-        return cls(
-            _int(obj["id"], "request_answer.id", 0, MAX_ID),
-            _bool(obj["accepted"], "request_answer.accepted"),
-        )
 
 
 # ---- Both directions --------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class Ping(Message):
+class Ping(Message, frozen=True):
     """Latency probe: ``{"ping": {"seq": 12, "t": 3.25}}``; ``t`` is the sender's clock [s]."""
 
     KEY: ClassVar[str] = "ping"
-    seq: int
-    t: float  # [s]
-
-    def __post_init__(self) -> None:
-        _check_plain(self.seq, f"{self.KEY}.seq", int)
-        _check_plain(self.t, f"{self.KEY}.t", float)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"seq": self.seq, "t": float(self.t)}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, cls.KEY, ("seq", "t"))
-        return cls(
-            _int(obj["seq"], f"{cls.KEY}.seq", 0, MAX_SEQ),
-            _float(obj["t"], f"{cls.KEY}.t", " [s]"),
-        )
+    seq: Seq
+    t: Seconds
 
     def pong(self) -> Pong:
         """The answer: the same ``seq`` and ``t``, so the sender computes ``now - t``."""
         return Pong(self.seq, self.t)
 
 
-@dataclass(frozen=True)
-class Pong(Ping):
+class Pong(Ping, frozen=True):
     """Answer to `Ping`, echoing its fields: ``{"pong": {"seq": 12, "t": 3.25}}``."""
 
     KEY: ClassVar[str] = "pong"
@@ -695,28 +480,12 @@ class Pong(Ping):
         return now - self.t
 
 
-@dataclass(frozen=True)
-class ErrorReport(Message):
+class ErrorReport(Message, frozen=True):
     """Rejection of a received frame: ``{"error": {"code": "out_of_range", "message": "..."}}``."""
 
     KEY: ClassVar[str] = "error"
-    code: str
-    message: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.code, "error.code", str)
-        _check_plain(self.message, "error.message", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"code": self.code, "message": self.message}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "error", ("code", "message"))
-        return cls(
-            _str(obj["code"], "error.code", limits),
-            _str(obj["message"], "error.message", limits),
-        )
+    code: Text
+    message: Text
 
     @classmethod
     def from_exception(
@@ -732,134 +501,51 @@ class ErrorReport(Message):
 # ---- Base Station -> Tablet (thesis Listing 5.2) ---------------------------------------------
 
 
-@dataclass(frozen=True)
-class InitialPose(Message):
+class InitialPose(Message, frozen=True):
     """``{"initial_pose": false}`` while the robot has no initial pose (thesis §5.3.6)."""
 
     KEY: ClassVar[str] = "initial_pose"
+    BARE: ClassVar[bool] = True
     is_set: bool
 
-    def __post_init__(self) -> None:
-        _check_plain(self.is_set, "initial_pose", bool)
 
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.is_set}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_bool(body, "initial_pose"))
-
-
-@dataclass(frozen=True)
-class Pose(Message):
+class Pose(Message, frozen=True, rename={"x": "x_pos", "y": "y_pos"}):
     """Robot pose in ``map``: ``{"pose": {"x_pos": 1.5, "y_pos": -2.0, "angle": 0.78}}``."""
 
     KEY: ClassVar[str] = "pose"
-    x: float  # [m]
-    y: float  # [m]
-    angle: float  # [rad], yaw counter-clockwise from map x
-
-    def __post_init__(self) -> None:
-        _check_plain(self.x, "pose.x_pos", float)
-        _check_plain(self.y, "pose.y_pos", float)
-        _check_plain(self.angle, "pose.angle", float)
-
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {"x_pos": float(self.x), "y_pos": float(self.y), "angle": float(self.angle)}
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "pose", ("x_pos", "y_pos", "angle"))
-        return cls(
-            _float(obj["x_pos"], "pose.x_pos", " [m]"),
-            _float(obj["y_pos"], "pose.y_pos", " [m]"),
-            _float(obj["angle"], "pose.angle", " [rad]"),
-        )
+    x: Metres
+    y: Metres
+    angle: Radians  # yaw counter-clockwise from map x
 
 
-@dataclass(frozen=True)
-class GoalStatus(Message):
+class GoalStatus(Message, frozen=True, rename={"tour_reached": "tourReached"}):
     """Current goal: ``{"goal": {"goal": 7, "reached": false, "tourReached": false}}``."""
 
     KEY: ClassVar[str] = "goal"
-    goal: int
+    goal: Node
     reached: bool
     tour_reached: bool
-
-    def __post_init__(self) -> None:
-        _check_plain(self.goal, "goal.goal", int)
-        _check_plain(self.reached, "goal.reached", bool)
-        _check_plain(self.tour_reached, "goal.tourReached", bool)
-
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {
-                "goal": self.goal,
-                "reached": self.reached,
-                "tourReached": self.tour_reached,
-            }
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "goal", ("goal", "reached", "tourReached"))
-        return cls(
-            _node(obj["goal"], "goal.goal", limits),
-            _bool(obj["reached"], "goal.reached"),
-            _bool(obj["tourReached"], "goal.tourReached"),
-        )
 
 
 # ---- Base Station -> Tablet (added) -----------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class Welcome(Message):
+class Welcome(Message, frozen=True):
     """Accepts a `Hello`: ``{"welcome": {"protocol": 1, "robot": "interbot1"}}``."""
 
     KEY: ClassVar[str] = "welcome"
-    protocol: int
-    robot: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.protocol, "welcome.protocol", int)
-        _check_plain(self.robot, "welcome.robot", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"protocol": self.protocol, "robot": self.robot}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "welcome", ("protocol", "robot"))
-        return cls(
-            _int(obj["protocol"], "welcome.protocol", 1, MAX_ID),
-            _str(obj["robot"], "welcome.robot", limits),
-        )
+    protocol: Version
+    robot: Text
 
 
-@dataclass(frozen=True)
-class Refused(Message):
+class Refused(Message, frozen=True):
     """Connection refused, then closed: ``{"refused": {"reason": "a tablet is connected"}}``."""
 
     KEY: ClassVar[str] = "refused"
-    reason: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.reason, "refused.reason", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"reason": self.reason}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "refused", ("reason",))
-        return cls(_str(obj["reason"], "refused.reason", limits))
+    reason: Text
 
 
-@dataclass(frozen=True)
-class TourState(Message):
+class TourState(Message, frozen=True):
     """Guided tour progress: ``{"tour_state": {"stops": [...], "visited": [...], "next": 5}}``.
 
     ``stops`` are the tour's nodes in order, ``visited`` those already reached, ``next`` the
@@ -867,97 +553,32 @@ class TourState(Message):
     """
 
     KEY: ClassVar[str] = "tour_state"
-    stops: tuple[int, ...]
-    visited: tuple[int, ...]
-    next: int | None
-
-    def __post_init__(self) -> None:
-        for name in ("stops", "visited"):
-            value = getattr(self, name)
-            if not isinstance(value, tuple) or not all(_is_int(v) for v in value):
-                raise InvalidField(
-                    f"tour_state.{name} must be a tuple of ints, got {_describe(value)}",
-                    f"tour_state.{name}",
-                )
-        if self.next is not None:
-            _check_plain(self.next, "tour_state.next", int)
-
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {"stops": list(self.stops), "visited": list(self.visited), "next": self.next}
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "tour_state", ("stops", "visited", "next"))
-        return cls(
-            _nodes(obj["stops"], "tour_state.stops", limits),
-            _nodes(obj["visited"], "tour_state.visited", limits),
-            _optional_node(obj["next"], "tour_state.next", limits),
-        )
+    stops: Nodes
+    visited: Nodes
+    next: Node | None
 
 
-@dataclass(frozen=True)
-class ShowRequest(Message):
+class ShowRequest(Message, frozen=True):
     """Show a request to the people at ``room``; answered by `RequestAnswer` with ``id``.
 
     ``{"show_request": {"id": 3, "request": "the blue folder", "room": 4, "deliver_to": 9}}``.
     """
 
     KEY: ClassVar[str] = "show_request"
-    id: int
-    request: str
-    room: int
-    deliver_to: int
-
-    def __post_init__(self) -> None:
-        _check_plain(self.id, "show_request.id", int)
-        _check_plain(self.request, "show_request.request", str)
-        _check_plain(self.room, "show_request.room", int)
-        _check_plain(self.deliver_to, "show_request.deliver_to", int)
-
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {
-                "id": self.id,
-                "request": self.request,
-                "room": self.room,
-                "deliver_to": self.deliver_to,
-            }
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "show_request", ("id", "request", "room", "deliver_to"))
-        return cls(
-            _int(obj["id"], "show_request.id", 0, MAX_ID),
-            _str(obj["request"], "show_request.request", limits),
-            _node(obj["room"], "show_request.room", limits),
-            _node(obj["deliver_to"], "show_request.deliver_to", limits),
-        )
+    id: Id
+    request: Text
+    room: Node
+    deliver_to: Node
 
 
-@dataclass(frozen=True)
-class Cancel(Message):
+class Cancel(Message, frozen=True):
     """The station cancelled the tablet's task: ``{"cancel": {"reason": "by the operator"}}``."""
 
     KEY: ClassVar[str] = "cancel"
-    reason: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.reason, "cancel.reason", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"reason": self.reason}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "cancel", ("reason",))
-        return cls(_str(obj["reason"], "cancel.reason", limits))
+    reason: Text
 
 
-@dataclass(frozen=True)
-class Permissions(Message):
+class Permissions(Message, frozen=True):
     """What the tablet may do (thesis §5.3 "Tablet Control").
 
     ``{"permissions": {"teleop": true, "goals": true, "tours": true, "requests": false}}``.
@@ -969,109 +590,42 @@ class Permissions(Message):
     tours: bool
     requests: bool
 
-    def __post_init__(self) -> None:
-        for name in ("teleop", "goals", "tours", "requests"):
-            _check_plain(getattr(self, name), f"permissions.{name}", bool)
 
-    def to_json(self) -> JsonObject:
-        return {
-            self.KEY: {
-                "teleop": self.teleop,
-                "goals": self.goals,
-                "tours": self.tours,
-                "requests": self.requests,
-            }
-        }
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        names = ("teleop", "goals", "tours", "requests")
-        obj = _object(body, "permissions", names)
-        t, g, o, r = (_bool(obj[n], f"permissions.{n}") for n in names)
-        return cls(t, g, o, r)
+LocalisationState = Literal["unset", "ok", "degraded", "lost", "searching"]
+LOCALISATION_STATES: Final = typing.get_args(LocalisationState)
 
 
-LOCALISATION_STATES: Final = ("unset", "ok", "degraded", "lost", "searching")
-
-
-@dataclass(frozen=True)
-class Localisation(Message):
+class Localisation(Message, frozen=True):
     """``{"localisation": "lost"}``: the tablet then offers "Help me!" (thesis §5.2.2.1)."""
 
     KEY: ClassVar[str] = "localisation"
-    state: str
-
-    def __post_init__(self) -> None:
-        _choice(self.state, "localisation", LOCALISATION_STATES)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: self.state}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        return cls(_choice(body, "localisation", LOCALISATION_STATES))
+    BARE: ClassVar[bool] = True
+    state: LocalisationState
 
 
-@dataclass(frozen=True)
-class StatusInfo(Message):
+class StatusInfo(Message, frozen=True):
     """Task and status text: ``{"status": {"task": "goal 7", "message": "on the way"}}``."""
 
     KEY: ClassVar[str] = "status"
-    task: str
-    message: str
-
-    def __post_init__(self) -> None:
-        _check_plain(self.task, "status.task", str)
-        _check_plain(self.message, "status.message", str)
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"task": self.task, "message": self.message}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "status", ("task", "message"))
-        return cls(
-            _str(obj["task"], "status.task", limits), _str(obj["message"], "status.message", limits)
-        )
+    task: Text
+    message: Text
 
 
-SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
+SafetyZone = Literal["none", "slowdown", "limit", "approach", "stop", "no_data"]
+SAFETY_ZONES: Final = typing.get_args(SafetyZone)
 MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near"
 
 
-@dataclass(frozen=True)
-class SafetyInfo(Message):
+class SafetyInfo(Message, frozen=True):
     """The robot's collision monitor for the person at the joystick (issue 17):
     ``{"safety": {"zone": "stop", "distance": 0.04, "assisted": true}}`` — the most restrictive
     active zone, the distance [m] from the robot's outline to the nearest laser return
     (1000 = nothing near) and whether the robot assists the tablet's driving."""
 
     KEY: ClassVar[str] = "safety"
-    zone: str
-    distance: float
+    zone: SafetyZone
+    distance: Annotated[float, Meta(ge=0.0, le=MAX_SAFETY_DISTANCE, extra={"unit": "m"})]
     assisted: bool
-
-    def __post_init__(self) -> None:
-        _choice(self.zone, "safety.zone", SAFETY_ZONES)
-        distance = _float(self.distance, "safety.distance", " [m]")
-        if not 0.0 <= distance <= MAX_SAFETY_DISTANCE:
-            raise OutOfRange(
-                f"safety.distance = {distance:g} m is outside [0, {MAX_SAFETY_DISTANCE:g}] m",
-                "safety.distance",
-            )
-        _bool(self.assisted, "safety.assisted")
-
-    def to_json(self) -> JsonObject:
-        return {self.KEY: {"zone": self.zone, "distance": self.distance, "assisted": self.assisted}}
-
-    @classmethod
-    def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:
-        obj = _object(body, "safety", ("zone", "distance", "assisted"))
-        return cls(
-            _choice(obj["zone"], "safety.zone", SAFETY_ZONES),
-            _float(obj["distance"], "safety.distance", " [m]"),
-            _bool(obj["assisted"], "safety.assisted"),
-        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -1116,41 +670,27 @@ StationMessage = (
 )
 """Messages the Tablet accepts from the Base Station."""
 
-TABLET_MESSAGES: Final[Mapping[str, Callable[[object, ProtocolLimits], TabletMessage]]] = {
-    Speed.KEY: Speed.from_json,
-    Goal.KEY: Goal.from_json,
-    Pause.KEY: Pause.from_json,
-    Stop.KEY: Stop.from_json,
-    Tour.KEY: Tour.from_json,
-    Home.KEY: Home.from_json,
-    RequestFrom.KEY: RequestFrom.from_json,
-    Hello.KEY: Hello.from_json,
-    TourControl.KEY: TourControl.from_json,
-    InitialPoseRoom.KEY: InitialPoseRoom.from_json,
-    Malfunction.KEY: Malfunction.from_json,
-    RequestAnswer.KEY: RequestAnswer.from_json,
-    Ping.KEY: Ping.from_json,
-    Pong.KEY: Pong.from_json,
-    ErrorReport.KEY: ErrorReport.from_json,
+TABLET_MESSAGES: Final[Mapping[str, type[TabletMessage]]] = {
+    cls.KEY: cls for cls in typing.get_args(TabletMessage)
+}
+STATION_MESSAGES: Final[Mapping[str, type[StationMessage]]] = {
+    cls.KEY: cls for cls in typing.get_args(StationMessage)
 }
 
-STATION_MESSAGES: Final[Mapping[str, Callable[[object, ProtocolLimits], StationMessage]]] = {
-    InitialPose.KEY: InitialPose.from_json,
-    Pose.KEY: Pose.from_json,
-    GoalStatus.KEY: GoalStatus.from_json,
-    Welcome.KEY: Welcome.from_json,
-    Refused.KEY: Refused.from_json,
-    TourState.KEY: TourState.from_json,
-    ShowRequest.KEY: ShowRequest.from_json,
-    Cancel.KEY: Cancel.from_json,
-    Permissions.KEY: Permissions.from_json,
-    Localisation.KEY: Localisation.from_json,
-    StatusInfo.KEY: StatusInfo.from_json,
-    SafetyInfo.KEY: SafetyInfo.from_json,
-    Ping.KEY: Ping.from_json,
-    Pong.KEY: Pong.from_json,
-    ErrorReport.KEY: ErrorReport.from_json,
-}
+
+def _type_name(value: object) -> str:
+    if value is None:
+        return "null"
+    for kinds, name in (
+        (bool, "a boolean"),
+        (int | float, "a number"),
+        (str, "a string"),
+        (list | tuple, "an array"),
+        (dict, "an object"),
+    ):
+        if isinstance(value, kinds):
+            return name
+    return type(value).__name__
 
 
 def _single_key(obj: object) -> tuple[str, object]:
@@ -1165,43 +705,44 @@ def _single_key(obj: object) -> tuple[str, object]:
     return str(key), body
 
 
-def decode_tablet_message(obj: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> TabletMessage:
-    """Validate one decoded JSON object received by the Base Station from the Tablet."""
+def _decode(
+    obj: object,
+    limits: ProtocolLimits,
+    known: Mapping[str, type[Message]],
+    other: Mapping[str, type[Message]],
+    names: tuple[str, str],
+) -> Message:
     key, body = _single_key(obj)
-    parser = TABLET_MESSAGES.get(key)
-    if parser is None:
-        where = " (it is a Base Station -> Tablet message)" if key in STATION_MESSAGES else ""
+    cls = known.get(key)
+    if cls is None:
+        where = f" (it is a {names[1]} message)" if key in other else ""
         raise UnknownMessage(
-            f"unknown tablet message {_describe(key)}{where}; "
-            f"known: {', '.join(sorted(TABLET_MESSAGES))}",
+            f"unknown {names[0]} message {schema.describe(key)}{where}; "
+            f"known: {', '.join(sorted(known))}",
             key,
         )
-    return parser(body, limits)
+    return cls.from_json(body, limits)
+
+
+def decode_tablet_message(obj: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> TabletMessage:
+    """Validate one decoded JSON object received by the Base Station from the Tablet."""
+    names = ("tablet", "Base Station -> Tablet")
+    return _decode(obj, limits, TABLET_MESSAGES, STATION_MESSAGES, names)  # type: ignore[return-value]
 
 
 def decode_station_message(obj: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> StationMessage:
     """Validate one decoded JSON object received by the Tablet from the Base Station."""
-    key, body = _single_key(obj)
-    parser = STATION_MESSAGES.get(key)
-    if parser is None:
-        where = " (it is a Tablet -> Base Station message)" if key in TABLET_MESSAGES else ""
-        raise UnknownMessage(
-            f"unknown station message {_describe(key)}{where}; "
-            f"known: {', '.join(sorted(STATION_MESSAGES))}",
-            key,
-        )
-    return parser(body, limits)
+    names = ("station", "Tablet -> Base Station")
+    return _decode(obj, limits, STATION_MESSAGES, TABLET_MESSAGES, names)  # type: ignore[return-value]
 
 
 def encode(msg: Message, max_frame_bytes: int = DEFAULT_MAX_FRAME_BYTES) -> bytes:
-    """One frame: compact UTF-8 JSON of ``msg.to_json()`` followed by ``b"\\n"``.
+    """One frame: compact UTF-8 JSON ``{KEY: body}`` followed by ``b"\\n"``.
 
     Write the result with a single socket write (see FIELD_NOTES: Nagle + delayed ACK).
     Raises FrameTooLarge if the object would exceed ``max_frame_bytes``.
     """
-    data = json.dumps(
-        msg.to_json(), separators=(",", ":"), ensure_ascii=False, allow_nan=False
-    ).encode("utf-8")
+    data = b'{"%s":%s}' % (msg.KEY.encode(), _ENCODER.encode(msg.body()))
     if len(data) > max_frame_bytes:
         raise FrameTooLarge(
             f"{msg.KEY} message is {len(data)} bytes; frames are limited to {max_frame_bytes}",
@@ -1211,40 +752,25 @@ def encode(msg: Message, max_frame_bytes: int = DEFAULT_MAX_FRAME_BYTES) -> byte
 
 
 # --------------------------------------------------------------------------------------------
-# Stream framing
+# Frames
 # --------------------------------------------------------------------------------------------
 
 
-def _reject_constant(name: str) -> object:
-    raise ValueError(f"{name} is not valid JSON")
-
-
-def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    obj: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in obj:
-            raise ValueError(f"duplicate key {key!r}")
-        obj[key] = value
-    return obj
-
-
 def parse_frame(frame: bytes) -> dict[str, Any]:
-    """Parse one complete frame; raises InvalidJson or NotAnObject."""
+    """Parse one complete frame; raises InvalidJson (bad UTF-8, NaN, duplicate keys, too deep)
+    or NotAnObject (`schema.parse_json`)."""
     try:
-        value = json.loads(
-            frame.decode("utf-8"),
-            parse_constant=_reject_constant,
-            object_pairs_hook=_pairs_without_duplicates,
-        )
-    except UnicodeDecodeError as exc:
-        raise InvalidJson(f"frame is not valid UTF-8 ({exc.reason} at byte {exc.start})") from None
-    except RecursionError:
-        raise InvalidJson("frame is nested too deeply") from None
-    except ValueError as exc:
-        raise InvalidJson(f"frame is not valid JSON: {exc}") from None
+        value = schema.parse_json(frame)
+    except schema.JsonSyntaxError as exc:
+        raise InvalidJson(f"frame is {exc}") from None
     if not isinstance(value, dict):
         raise NotAnObject(f"top-level JSON value must be an object, got {_type_name(value)}")
     return value
+
+
+# --------------------------------------------------------------------------------------------
+# Stream framing
+# --------------------------------------------------------------------------------------------
 
 
 _SEEK, _FRAME, _DISCARD, _JUNK = range(4)
@@ -1286,7 +812,7 @@ class JsonStreamDecoder:
     _skipped: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not _is_int(self.max_frame_bytes) or self.max_frame_bytes < 2:
+        if type(self.max_frame_bytes) is not int or self.max_frame_bytes < 2:
             raise ValueError(f"max_frame_bytes must be an int >= 2, got {self.max_frame_bytes!r}")
 
     @property

@@ -12,12 +12,16 @@ while playing, re-anchored at every play, pause, speed change and seek. Pure: ``
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import asdict, dataclass
-from typing import Any, Final
+from typing import Annotated, ClassVar, Final, TypeVar
 
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.topics import TopicDecodeError, validate_robot_id
+
+T = TypeVar("T", bound=msgspec.Struct)
 
 REPLAY_PREFIX: Final = "interbot-replay"
 SPEED_MIN: Final = 0.5
@@ -56,59 +60,52 @@ def _finite(name: str, value: object, lo: float, hi: float) -> float:
     return float(value)
 
 
-@dataclass(frozen=True)
-class ReplayCommand:
+Speed = Annotated[float, Meta(ge=SPEED_MIN, le=SPEED_MAX)]
+RecordingTime = Annotated[float, Meta(ge=0.0, le=1e9, extra={"unit": "s"})]
+
+
+class ReplayCommand(schema.Declared, frozen=True):
     """``play`` / ``pause``; ``speed`` with value ×0.5–×20; ``seek`` with value [s] from the start."""
 
-    action: str
-    value: float = 0.0
+    ROOT: ClassVar[str] = "ReplayCommand"
+    ERROR: ClassVar[type[Exception]] = ReplayError
+    action: Annotated[str, schema.one_of(*ACTIONS)]
+    value: RecordingTime = 0.0  # speed: a factor
 
-    def __post_init__(self) -> None:
-        if self.action not in ACTIONS:
-            raise ReplayError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
+    def check(self) -> None:
         if self.action == "speed":
             _finite("speed", self.value, SPEED_MIN, SPEED_MAX)
-        else:
-            _finite("value", self.value, 0.0, 1e9)
 
 
-@dataclass(frozen=True)
-class ReplayState:
+class ReplayState(schema.Declared, frozen=True):
     """What the replay is doing: position and duration [s] of recording time."""
 
+    ROOT: ClassVar[str] = "ReplayState"
+    ERROR: ClassVar[type[Exception]] = ReplayError
     playing: bool
-    speed: float
-    position: float  # [s] from the recording's start
-    duration: float  # [s]
-    source: str = ""  # the recording's file name
+    speed: Speed
+    position: RecordingTime  # from the recording's start
+    duration: RecordingTime
+    source: Annotated[str, Meta(max_length=256)] = ""  # the recording's file name
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.playing, bool):
-            raise ReplayError(f"playing must be true or false, got {self.playing!r}")
-        _finite("speed", self.speed, SPEED_MIN, SPEED_MAX)
-        _finite("duration", self.duration, 0.0, 1e9)
-        _finite("position", self.position, 0.0, self.duration)
-        if not isinstance(self.source, str) or len(self.source) > 256:
-            raise ReplayError("source must be a string of at most 256 characters")
+    def check(self) -> None:
+        if self.position > self.duration:
+            raise ReplayError(f"position {self.position} s is past the duration {self.duration} s")
 
 
 def encode(message: ReplayCommand | ReplayState) -> bytes:
-    return json.dumps(asdict(message), separators=(",", ":"), allow_nan=False).encode()
+    return msgspec.json.encode(message)
 
 
-def _decode(cls: type[Any], payload: bytes) -> Any:
+def _decode(cls: type[T], payload: bytes) -> T:
     if len(payload) > MAX_PAYLOAD:
         raise TopicDecodeError(f"replay {cls.__name__}: {len(payload)} bytes > {MAX_PAYLOAD}")
     try:
-        data = json.loads(bytes(payload).decode("utf-8"))
-        if not isinstance(data, dict):
-            raise ReplayError("expected a JSON object")
-        names = set(cls.__dataclass_fields__)
-        if set(data) - names:
-            raise ReplayError(f"unknown fields {sorted(set(data) - names)}")
-        return cls(**data)
-    except (UnicodeDecodeError, ValueError, TypeError) as exc:
-        raise TopicDecodeError(f"replay {cls.__name__}: {exc}") from exc
+        message = schema.convert(schema.parse_json(bytes(payload)), cls, cls.__name__)
+        schema.check_all(message)
+    except ValueError as exc:  # JsonSyntaxError, SchemaError, ReplayError
+        raise TopicDecodeError(f"replay {cls.__name__}: {exc}") from None
+    return message
 
 
 def decode_command(payload: bytes) -> ReplayCommand:

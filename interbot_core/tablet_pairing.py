@@ -29,8 +29,14 @@ import logging
 import re
 import urllib.parse
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, replace
-from typing import Any, Final
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar, Final, Literal
+
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
+from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -50,15 +56,23 @@ class PairingError(ValueError):
     """A pairing or authentication attempt is refused; the message is sent to the tablet."""
 
 
-@dataclass(frozen=True)
-class TabletRecord:
+class TabletRecord(schema.Declared, frozen=True):
     """A paired tablet as the station remembers it (the token only as its SHA-256)."""
 
-    tablet_id: str
-    name: str
-    token_sha256: str
-    paired_at: float  # [s] the caller's clock (wall time when persisted)
+    ROOT: ClassVar[str] = "tablet"
+    ERROR: ClassVar[type[Exception]] = PairingError
+    tablet_id: Annotated[str, Meta(pattern=r"^t\d{1,9}$")]
+    name: Annotated[str, Meta(pattern=r"^[\w .@-]{1,64}$")]
+    token_sha256: Annotated[str, Meta(pattern=r"^[0-9a-f]{64}$")]
+    paired_at: schema.Finite  # [s] the caller's clock (wall time when persisted)
     revoked: bool = False
+
+
+class RegistryFile(msgspec.Struct, frozen=True):
+    """The station's tablet registry file: ``{"version": 1, "tablets": [record, ...]}``."""
+
+    version: Literal[1]
+    tablets: list[TabletRecord] = []
 
 
 @dataclass(frozen=True)
@@ -243,7 +257,7 @@ class TabletRegistry:
         record = self._records.get(tablet_id)
         if record is None:
             raise PairingError(f"no tablet {tablet_id!r} (paired: {sorted(self._records)})")
-        record = replace(record, revoked=True)
+        record = msgspec.structs.replace(record, revoked=True)
         self._records[tablet_id] = record
         logger.warning("revoked tablet %s (%s)", tablet_id, record.name)
         return record
@@ -251,20 +265,14 @@ class TabletRegistry:
     # ------------------------------------------------------------------ persistence
 
     def to_json(self) -> dict[str, Any]:
-        return {"version": 1, "tablets": [asdict(r) for r in self._records.values()]}
+        tablets = [msgspec.structs.asdict(r) for r in self._records.values()]
+        return {"version": 1, "tablets": tablets}
 
     @classmethod
     def from_json(cls, data: object, random_bytes: Callable[[int], bytes]) -> TabletRegistry:
         """Rebuild from `to_json`; PairingError naming the bad entry otherwise."""
-        if not isinstance(data, Mapping) or data.get("version") != 1:
-            raise PairingError("tablet registry: expected {'version': 1, 'tablets': [...]}")
-        records = []
-        for index, entry in enumerate(data.get("tablets", [])):
-            try:
-                record = TabletRecord(**entry)
-            except TypeError as exc:
-                raise PairingError(f"tablet registry entry {index}: {exc}") from None
-            if _TOKEN.fullmatch(str(record.token_sha256)) is None:
-                raise PairingError(f"tablet registry entry {index}: bad token digest")
-            records.append(record)
-        return cls(random_bytes, tuple(records))
+        try:
+            registry = schema.convert(data, RegistryFile, "tablet registry")
+        except SchemaError as exc:
+            raise PairingError(exc.message) from None
+        return cls(random_bytes, tuple(registry.tablets))

@@ -9,8 +9,8 @@ station drops), ``route_progress``, ``battery``, ``status``, ``config`` (planner
 fly), ``mux`` (the active source), ``stop_release`` (the emergency stop latches on the robot),
 the liveliness token ``interbot/<robot_id>/alive`` and the query ``interbot/<robot_id>/state``.
 
-Control messages are compact JSON objects, one frozen dataclass each, validated on construction
-and on decoding. Scans, maps, images and the state snapshot are binary: a versioned header
+Control messages are compact JSON objects, one frozen msgspec Struct each whose field types
+declare the rules (`interbot_core.schema`), validated on construction and on decoding. Scans, maps, images and the state snapshot are binary: a versioned header
 (``struct``, little-endian) and a little-endian payload; layouts in docs/topics.md. Every decoder
 rejects truncated, oversized, wrong-version or out-of-range payloads with `TopicDecodeError`, and
 ``decode(encode(m)) == m`` exactly (except the optional millimetre scan encoding, which rounds).
@@ -21,20 +21,23 @@ This module is pure: no zenoh, no I/O, no clock. `interbot_link` maps `TopicSpec
 from __future__ import annotations
 
 import enum
-import json
 import logging
 import math
 import re
 import struct
 import zlib
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Final, Self, TypeVar
+from dataclasses import dataclass
+from typing import Annotated, Any, Final, TypeVar
 
+import msgspec
 import numpy as np
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -153,127 +156,83 @@ def parse_key(key_expr: str) -> tuple[str, str]:
     return validate_robot_id(parts[1]), parts[2]
 
 
-# --------------------------------------------------------------------------- field checks
+# --------------------------------------------------------------------------- field types
 
+MAX_POSE_VARIANCE: Final = 1.0e6  # [m², rad²] bound on a covariance entry
+MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near" is sent as this (JSON has no inf)
 
-def _fail(cls: type, name: str, why: str) -> MessageValueError:
-    return MessageValueError(f"{cls.__name__}.{name} {why}")
-
-
-def _check_float(obj: object, name: str, lo: float = -math.inf, hi: float = math.inf) -> None:
-    value = getattr(obj, name)
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _fail(type(obj), name, f"must be a number, got {value!r}")
-    if not (math.isfinite(value) and lo <= value <= hi):
-        raise _fail(type(obj), name, f"must be finite and in [{lo}, {hi}], got {value!r}")
-    object.__setattr__(obj, name, float(value))
-
-
-def _check_int(obj: object, name: str, lo: int, hi: int) -> None:
-    value = getattr(obj, name)
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise _fail(type(obj), name, f"must be an integer in [{lo}, {hi}], got {value!r}")
-
-
-def _check_bool(obj: object, name: str) -> None:
-    if not isinstance(getattr(obj, name), bool):
-        raise _fail(type(obj), name, f"must be true or false, got {getattr(obj, name)!r}")
-
-
-def _check_text(obj: object, name: str, choices: tuple[str, ...] | None = None) -> None:
-    value = getattr(obj, name)
-    if not isinstance(value, str) or len(value) > MAX_TEXT:
-        raise _fail(type(obj), name, f"must be a string of at most {MAX_TEXT} characters")
-    if choices is not None and value not in choices:
-        raise _fail(type(obj), name, f"must be one of {list(choices)}, got {value!r}")
-
-
-def _check_stamp(obj: object) -> None:
-    _check_float(obj, "stamp", 0.0, 1.0e12)
-
-
-def _check_xy_yaw(obj: object) -> None:
-    _check_float(obj, "x", -MAX_COORD, MAX_COORD)
-    _check_float(obj, "y", -MAX_COORD, MAX_COORD)
-    _check_float(obj, "yaw", -math.pi, math.pi)
+Coord = Annotated[float, Meta(ge=-MAX_COORD, le=MAX_COORD, extra={"unit": "m"})]
+Yaw = Annotated[float, Meta(ge=-math.pi, le=math.pi, extra={"unit": "rad"})]
+Linear = Annotated[float, Meta(ge=-MAX_LINEAR, le=MAX_LINEAR, extra={"unit": "m/s"})]
+Angular = Annotated[float, Meta(ge=-MAX_ANGULAR, le=MAX_ANGULAR, extra={"unit": "rad/s"})]
+Stamp = Annotated[float, Meta(ge=0.0, le=1.0e12, extra={"unit": "s"})]
+Share = Annotated[float, Meta(ge=0.0, le=1.0)]
+Text = Annotated[str, Meta(max_length=MAX_TEXT)]
+RouteId = Annotated[int, Meta(ge=0, le=ROUTE_ID_MAX)]
+NodeId = Annotated[int, Meta(ge=0, le=2**31 - 1)]
+Tolerance = Annotated[float, Meta(ge=1e-3, le=100.0, extra={"unit": "m"})]
+Variance = Annotated[float, Meta(ge=-MAX_POSE_VARIANCE, le=MAX_POSE_VARIANCE)]
+SafetyDistance = Annotated[float, Meta(ge=0.0, le=MAX_SAFETY_DISTANCE, extra={"unit": "m"})]
 
 
 # --------------------------------------------------------------------------- JSON messages
 
 
-@dataclass(frozen=True)
-class JsonMessage:
-    """Base of the JSON messages: ``to_dict`` / ``from_dict`` over the dataclass fields."""
+class Checked(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """Base of the messages: a typed declaration whose field types carry the constraints.
+
+    msgspec checks them on decoding, `schema.check_fields` on construction (MessageValueError
+    naming ``Class.field``); ``check`` holds the rules that relate fields to each other.
+    """
+
+    def __post_init__(self) -> None:
+        if schema.decoding():
+            return  # msgspec has checked every field; decode_json then calls check()
+        try:
+            schema.check_fields(self, type(self).__name__)
+        except SchemaError as exc:
+            raise MessageValueError(exc.message) from None
+        self.check()
+
+    def check(self) -> None:
+        """Rules across fields; raise MessageValueError."""
+
+
+class JsonMessage(Checked, frozen=True):
+    """A message sent as one JSON object of its fields."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object (tuples become lists)."""
-        return asdict(self)
-
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        """Turn a JSON value into the field's Python type (lists into tuples); checks come after."""
-        return value
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Self:
-        """Build and validate from a decoded JSON object; raise MessageValueError on any problem."""
-        if not isinstance(data, Mapping):
-            raise MessageValueError(f"{cls.__name__} must be a JSON object")
-        names = {f.name for f in fields(cls)}
-        unknown = set(data) - names
-        if unknown:
-            raise MessageValueError(f"{cls.__name__} has unknown fields {sorted(unknown)}")
-        kwargs = {name: cls._convert(name, value) for name, value in data.items()}
-        try:
-            return cls(**kwargs)
-        except TypeError as exc:  # a required field is missing
-            raise MessageValueError(f"{cls.__name__}: {exc}") from exc
+        return _JSON_DECODER.decode(encode_json(self))  # type: ignore[no-any-return]
 
 
-@dataclass(frozen=True)
-class Twist(JsonMessage):
+class Twist(JsonMessage, frozen=True):
     """A velocity command or report: ``linear`` [m/s] forward, ``angular`` [rad/s] CCW."""
 
-    linear: float
-    angular: float
-    stamp: float = 0.0  # [s] sender's clock
-
-    def __post_init__(self) -> None:
-        _check_float(self, "linear", -MAX_LINEAR, MAX_LINEAR)
-        _check_float(self, "angular", -MAX_ANGULAR, MAX_ANGULAR)
-        _check_stamp(self)
+    linear: Linear
+    angular: Angular
+    stamp: Stamp = 0.0  # sender's clock
 
 
-@dataclass(frozen=True)
-class Lock(JsonMessage):
+class Lock(JsonMessage, frozen=True):
     """A multiplexer lock value (``pause_nav``, ``stop``): engaged masks lower priorities."""
 
     engaged: bool
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_bool(self, "engaged")
-        _check_stamp(self)
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class StopRelease(JsonMessage):
+class StopRelease(JsonMessage, frozen=True):
     """Release the latched emergency stop; ``operator`` names who released it (for the log)."""
 
-    operator: str = ""
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_text(self, "operator")
-        _check_stamp(self)
+    operator: Text = ""
+    stamp: Stamp = 0.0
 
 
 POSE_STATES: Final = ("unset", "ok", "degraded", "lost", "searching")
-MAX_POSE_VARIANCE: Final = 1.0e6  # [m², rad²] bound on a covariance entry
+PoseState = Annotated[str, schema.one_of(*POSE_STATES)]
 
 
-@dataclass(frozen=True)
-class PoseMsg(JsonMessage):
+class PoseMsg(JsonMessage, frozen=True):
     """The localiser's pose in the ``map`` frame.
 
     ``state``: unset (no initial pose), ok, degraded (tracking, but uncertain or the last
@@ -282,33 +241,20 @@ class PoseMsg(JsonMessage):
     ``PoseWithCovariance`` restricted to the plane), or empty when not reported.
     """
 
-    x: float
-    y: float
-    yaw: float
-    stamp: float = 0.0
-    state: str = "ok"
-    confidence: float = 1.0  # [0, 1]
-    covariance: tuple[float, ...] = ()
+    x: Coord
+    y: Coord
+    yaw: Yaw
+    stamp: Stamp = 0.0
+    state: PoseState = "ok"
+    confidence: Share = 1.0
+    covariance: Annotated[tuple[Variance, ...], Meta(max_length=9)] = ()
 
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        return tuple(value) if name == "covariance" and isinstance(value, list) else value
-
-    def __post_init__(self) -> None:
-        _check_xy_yaw(self)
-        _check_stamp(self)
-        _check_text(self, "state", POSE_STATES)
-        _check_float(self, "confidence", 0.0, 1.0)
+    def check(self) -> None:
         cov = self.covariance
-        if not isinstance(cov, tuple) or len(cov) not in (0, 9):
-            raise _fail(type(self), "covariance", "must be a list of 0 or 9 numbers")
-        for i, v in enumerate(cov):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise _fail(type(self), "covariance", "must hold finite numbers")
-            if abs(v) > MAX_POSE_VARIANCE or (i in (0, 4, 8) and v < 0.0):
-                raise _fail(
-                    type(self), "covariance", "entries must be within ±1e6, the diagonal >= 0"
-                )
+        if len(cov) not in (0, 9):
+            raise MessageValueError("PoseMsg.covariance must be a list of 0 or 9 numbers")
+        if cov and min(cov[0], cov[4], cov[8]) < 0.0:
+            raise MessageValueError("PoseMsg.covariance: the diagonal must be >= 0")
 
     @property
     def sigmas(self) -> tuple[float, float, float] | None:
@@ -319,26 +265,18 @@ class PoseMsg(JsonMessage):
         return (math.sqrt(c[0]), math.sqrt(c[4]), math.sqrt(c[8]))
 
 
-@dataclass(frozen=True)
-class Odom(JsonMessage):
+class Odom(JsonMessage, frozen=True):
     """Wheel odometry in the ``odom`` frame and the measured velocities."""
 
-    x: float
-    y: float
-    yaw: float
-    linear: float = 0.0  # [m/s]
-    angular: float = 0.0  # [rad/s]
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_xy_yaw(self)
-        _check_float(self, "linear", -MAX_LINEAR, MAX_LINEAR)
-        _check_float(self, "angular", -MAX_ANGULAR, MAX_ANGULAR)
-        _check_stamp(self)
+    x: Coord
+    y: Coord
+    yaw: Yaw
+    linear: Linear = 0.0
+    angular: Angular = 0.0
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class RouteMsg(JsonMessage):
+class RouteMsg(JsonMessage, frozen=True):
     """A whole route: waypoints ``(x, y, yaw)`` in the ``map`` frame, the last one the goal.
 
     ``node_ids`` are the topological nodes of the waypoints (empty, or one per waypoint);
@@ -346,233 +284,120 @@ class RouteMsg(JsonMessage):
     ``goal_tolerance`` [m] and ``yaw_tolerance`` [rad] apply to the final one.
     """
 
-    route_id: int
-    waypoints: tuple[tuple[float, float, float], ...]
-    node_ids: tuple[int, ...] = ()
-    approach_tolerance: float = 0.7
-    goal_tolerance: float = 0.25
-    yaw_tolerance: float = 0.25
+    route_id: RouteId
+    waypoints: Annotated[
+        tuple[tuple[Coord, Coord, Yaw], ...], Meta(min_length=1, max_length=MAX_LIST_LENGTH)
+    ]
+    node_ids: Annotated[tuple[NodeId, ...], Meta(max_length=MAX_LIST_LENGTH)] = ()
+    approach_tolerance: Tolerance = 0.7
+    goal_tolerance: Tolerance = 0.25
+    yaw_tolerance: Annotated[float, Meta(ge=1e-3, le=math.pi, extra={"unit": "rad"})] = 0.25
 
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        if name == "waypoints" and isinstance(value, list):
-            return tuple(tuple(w) if isinstance(w, list) else w for w in value)
-        if name == "node_ids" and isinstance(value, list):
-            return tuple(value)
-        return value
-
-    def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
-        wps = self.waypoints
-        if not isinstance(wps, tuple) or not 1 <= len(wps) <= MAX_LIST_LENGTH:
-            raise _fail(type(self), "waypoints", f"must hold 1..{MAX_LIST_LENGTH} waypoints")
-        for i, w in enumerate(wps):
-            if not _is_waypoint(w):
-                raise _fail(
-                    type(self),
-                    f"waypoints[{i}]",
-                    f"must be [x, y, yaw] with |x|, |y| <= {MAX_COORD} m and |yaw| <= pi, got {w!r}",
-                )
-        object.__setattr__(self, "waypoints", tuple(tuple(float(v) for v in w) for w in wps))
-        ids = self.node_ids
-        if not isinstance(ids, tuple) or len(ids) not in (0, len(wps)):
-            raise _fail(type(self), "node_ids", "must be empty or hold one id per waypoint")
-        for i, n in enumerate(ids):
-            if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n < 2**31:
-                raise _fail(type(self), f"node_ids[{i}]", f"must be an integer >= 0, got {n!r}")
-        _check_float(self, "approach_tolerance", 1e-3, 100.0)
-        _check_float(self, "goal_tolerance", 1e-3, 100.0)
-        _check_float(self, "yaw_tolerance", 1e-3, math.pi)
+    def check(self) -> None:
+        if len(self.node_ids) not in (0, len(self.waypoints)):
+            raise MessageValueError(
+                f"RouteMsg.node_ids must be empty or hold one id per waypoint "
+                f"({len(self.waypoints)}), got {len(self.node_ids)}"
+            )
 
 
-def _is_waypoint(w: object) -> bool:
-    if not isinstance(w, tuple) or len(w) != 3:
-        return False
-    if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in w):
-        return False
-    x, y, yaw = (float(v) for v in w)
-    finite = all(math.isfinite(v) for v in (x, y, yaw))
-    return finite and abs(x) <= MAX_COORD and abs(y) <= MAX_COORD and abs(yaw) <= math.pi
-
-
-@dataclass(frozen=True)
-class RouteCancel(JsonMessage):
+class RouteCancel(JsonMessage, frozen=True):
     """Drop route ``route_id`` (or whatever route is in progress when it is None)."""
 
-    route_id: int | None = None
-    reason: str = ""
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.route_id is not None:
-            _check_int(self, "route_id", 0, ROUTE_ID_MAX)
-        _check_text(self, "reason")
-        _check_stamp(self)
+    route_id: RouteId | None = None
+    reason: Text = ""
+    stamp: Stamp = 0.0
 
 
 ROUTE_STATES: Final = ("idle", "active", "paused", "succeeded", "aborted", "canceled")
+RouteState = Annotated[str, schema.one_of(*ROUTE_STATES)]
 
 
-@dataclass(frozen=True)
-class RouteProgress(JsonMessage):
+class RouteProgress(JsonMessage, frozen=True):
     """Progress on route ``route_id``: heading for waypoint ``index``; why it ended, if it did."""
 
-    route_id: int
-    index: int
+    route_id: RouteId
+    index: Annotated[int, Meta(ge=0, le=MAX_LIST_LENGTH)]
     reached_final: bool = False
-    state: str = "active"
-    reason: str = ""
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, ROUTE_ID_MAX)
-        _check_int(self, "index", 0, MAX_LIST_LENGTH)
-        _check_bool(self, "reached_final")
-        _check_text(self, "state", ROUTE_STATES)
-        _check_text(self, "reason")
-        _check_stamp(self)
+    state: RouteState = "active"
+    reason: Text = ""
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class GoalMsg(JsonMessage):
+class GoalMsg(JsonMessage, frozen=True):
     """Go to a map point, or to topological node ``node_id`` (then x, y, yaw are its pose)."""
 
-    x: float
-    y: float
-    yaw: float
-    node_id: int | None = None
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_xy_yaw(self)
-        if self.node_id is not None:
-            _check_int(self, "node_id", 0, 2**31 - 1)
-        _check_stamp(self)
+    x: Coord
+    y: Coord
+    yaw: Yaw
+    node_id: NodeId | None = None
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class InitialPose(JsonMessage):
+class InitialPose(JsonMessage, frozen=True):
     """Set the localiser's pose (RViz's "2D Pose Estimate", the tablet's "Help me!").
 
     ``verify``: the pose is only a hint (a room picked by a person): the robot searches around
     it and applies it only if the laser confirms it."""
 
-    x: float
-    y: float
-    yaw: float
-    stamp: float = 0.0
+    x: Coord
+    y: Coord
+    yaw: Yaw
+    stamp: Stamp = 0.0
     verify: bool = False
 
-    def __post_init__(self) -> None:
-        _check_xy_yaw(self)
-        _check_stamp(self)
-        _check_bool(self, "verify")
 
-
-@dataclass(frozen=True)
-class Relocalise(JsonMessage):
+class Relocalise(JsonMessage, frozen=True):
     """Ask the robot to find itself on the whole map (global localisation, issue 16)."""
 
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_stamp(self)
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class Battery(JsonMessage):
+class Battery(JsonMessage, frozen=True):
     """BMS reading: ``voltage`` [V], ``current`` [A] (positive = discharging), ``soc`` [0, 1]."""
 
-    voltage: float
-    current: float = 0.0
-    soc: float = 1.0
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_float(self, "voltage", 0.0, 1000.0)
-        _check_float(self, "current", -1000.0, 1000.0)
-        _check_float(self, "soc", 0.0, 1.0)
-        _check_stamp(self)
+    voltage: Annotated[float, Meta(ge=0.0, le=1000.0, extra={"unit": "V"})]
+    current: Annotated[float, Meta(ge=-1000.0, le=1000.0, extra={"unit": "A"})] = 0.0
+    soc: Share = 1.0
+    stamp: Stamp = 0.0
 
 
 STATUS_LEVELS: Final = ("info", "warning", "error")
+StatusLevel = Annotated[str, schema.one_of(*STATUS_LEVELS)]
 
 
-@dataclass(frozen=True)
-class Status(JsonMessage):
+class Status(JsonMessage, frozen=True):
     """What the Base Station UI shows (thesis §5.2.1): the task, a message, distance to go."""
 
-    level: str
-    text: str
-    task: str = ""
-    distance_to_goal: float | None = None  # [m]
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_text(self, "level", STATUS_LEVELS)
-        _check_text(self, "text")
-        _check_text(self, "task")
-        if self.distance_to_goal is not None:
-            _check_float(self, "distance_to_goal", 0.0, 1.0e7)
-        _check_stamp(self)
+    level: StatusLevel
+    text: Text
+    task: Text = ""
+    distance_to_goal: Annotated[float, Meta(ge=0.0, le=1.0e7, extra={"unit": "m"})] | None = None
+    stamp: Stamp = 0.0
 
 
-_PARAM_NAME = re.compile(r"[a-z_][a-z0-9_.]{0,63}")
+ParamName = Annotated[str, Meta(pattern=r"^[a-z_][a-z0-9_.]{0,63}$")]
+ParamValue = bool | int | schema.Finite | Text
 
 
-@dataclass(frozen=True)
-class ConfigMsg(JsonMessage):
+class ConfigMsg(JsonMessage, frozen=True):
     """Planner parameters changed on the fly: ``{name: value}``, values bool, int, float or str."""
 
-    params: dict[str, bool | int | float | str]
-
-    def __post_init__(self) -> None:
-        params = self.params
-        if not isinstance(params, dict) or not 1 <= len(params) <= MAX_LIST_LENGTH:
-            raise _fail(type(self), "params", f"must be an object of 1..{MAX_LIST_LENGTH} entries")
-        for name, value in params.items():
-            if not isinstance(name, str) or _PARAM_NAME.fullmatch(name) is None:
-                raise _fail(type(self), "params", f"name {name!r} must match [a-z_][a-z0-9_.]*")
-            if isinstance(value, float) and not math.isfinite(value):
-                raise _fail(type(self), f"params[{name!r}]", "must be finite")
-            if not isinstance(value, bool | int | float | str) or (
-                isinstance(value, str) and len(value) > MAX_TEXT
-            ):
-                raise _fail(type(self), f"params[{name!r}]", f"has unsupported value {value!r}")
-        object.__setattr__(self, "params", dict(params))
+    params: Annotated[dict[ParamName, ParamValue], Meta(min_length=1, max_length=MAX_LIST_LENGTH)]
 
 
-@dataclass(frozen=True)
-class MuxMsg(JsonMessage):
+class MuxMsg(JsonMessage, frozen=True):
     """The velocity multiplexer's output: winning ``source`` (None: explicit zero) and why."""
 
-    source: str | None
-    reason: str = ""
-    active_locks: tuple[str, ...] = ()
-    linear: float = 0.0
-    angular: float = 0.0
-    stamp: float = 0.0
-
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        return tuple(value) if name == "active_locks" and isinstance(value, list) else value
-
-    def __post_init__(self) -> None:
-        if self.source is not None:
-            _check_text(self, "source")
-        _check_text(self, "reason")
-        locks = self.active_locks
-        if not isinstance(locks, tuple) or len(locks) > MAX_LIST_LENGTH:
-            raise _fail(type(self), "active_locks", "must be a list of lock names")
-        if not all(isinstance(n, str) and len(n) <= MAX_TEXT for n in locks):
-            raise _fail(type(self), "active_locks", "must hold strings")
-        _check_float(self, "linear", -MAX_LINEAR, MAX_LINEAR)
-        _check_float(self, "angular", -MAX_ANGULAR, MAX_ANGULAR)
-        _check_stamp(self)
+    source: Text | None
+    reason: Text = ""
+    active_locks: Annotated[tuple[Text, ...], Meta(max_length=MAX_LIST_LENGTH)] = ()
+    linear: Linear = 0.0
+    angular: Angular = 0.0
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class PlanMsg(JsonMessage):
+class PlanMsg(JsonMessage, frozen=True):
     """The navigator's global path in the ``map`` frame, as planned (empty: no path).
 
     ``route_id`` is the route it serves (0: none); ``points`` are ``(x, y)`` [m], thinned by the
@@ -580,127 +405,68 @@ class PlanMsg(JsonMessage):
     straight lines between the route's waypoints.
     """
 
-    route_id: int
-    points: tuple[tuple[float, float], ...]
-    stamp: float = 0.0
-
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        if name == "points" and isinstance(value, list):
-            return tuple(tuple(p) if isinstance(p, list) else p for p in value)
-        return value
-
-    def __post_init__(self) -> None:
-        _check_int(self, "route_id", 0, 2**63)
-        pts = self.points
-        if not isinstance(pts, tuple) or len(pts) > MAX_LIST_LENGTH:
-            raise _fail(type(self), "points", f"must hold at most {MAX_LIST_LENGTH} points")
-        for i, p in enumerate(pts):
-            if not (
-                isinstance(p, tuple)
-                and len(p) == 2
-                and all(
-                    not isinstance(v, bool)
-                    and isinstance(v, int | float)
-                    and math.isfinite(v)
-                    and abs(v) <= MAX_COORD
-                    for v in p
-                )
-            ):
-                raise _fail(type(self), f"points[{i}]", f"must be [x, y] in the map, got {p!r}")
-        object.__setattr__(self, "points", tuple((float(x), float(y)) for x, y in pts))
-        _check_stamp(self)
+    route_id: RouteId
+    points: Annotated[tuple[tuple[Coord, Coord], ...], Meta(max_length=MAX_LIST_LENGTH)]
+    stamp: Stamp = 0.0
 
 
 TELEOP_INPUT_TOPICS: Final = ("station_vel", "tablet_vel")
+TeleopInput = Annotated[str, schema.one_of(*TELEOP_INPUT_TOPICS)]
 SAFETY_ZONES: Final = ("none", "slowdown", "limit", "approach", "stop", "no_data")
-MAX_SAFETY_DISTANCE: Final = 1000.0  # [m] "nothing near" is sent as this (JSON has no inf)
+SafetyZone = Annotated[str, schema.one_of(*SAFETY_ZONES)]
 
 
-@dataclass(frozen=True)
-class AssistMsg(JsonMessage):
+class AssistMsg(JsonMessage, frozen=True):
     """Assisted teleoperation on/off for one joystick input (``station_vel`` / ``tablet_vel``)."""
 
-    input: str
+    input: TeleopInput
     enabled: bool
-    stamp: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_text(self, "input", TELEOP_INPUT_TOPICS)
-        _check_bool(self, "enabled")
-        _check_stamp(self)
+    stamp: Stamp = 0.0
 
 
-@dataclass(frozen=True)
-class SafetyMsg(JsonMessage):
+class SafetyMsg(JsonMessage, frozen=True):
     """The collision monitor's state for the person driving (issue 17; NOT a certified safety
     function): the most restrictive active ``zone`` and its name, the distance [m] from the
     footprint to the nearest laser return and the time to contact [s] along the commanded arc
     (``MAX_SAFETY_DISTANCE`` when none), the share of the commanded speed let through, the
     inputs with assisted teleoperation on, and what the assistance did last."""
 
-    zone: str
-    zone_name: str = ""
-    distance: float = MAX_SAFETY_DISTANCE
-    time_to_contact: float = MAX_SAFETY_DISTANCE
-    scale: float = 1.0
-    assisted: tuple[str, ...] = ()
-    assist_mode: str = "idle"
-    stamp: float = 0.0
+    zone: SafetyZone
+    zone_name: Text = ""
+    distance: SafetyDistance = MAX_SAFETY_DISTANCE
+    time_to_contact: Annotated[float, Meta(ge=0.0, le=MAX_SAFETY_DISTANCE)] = MAX_SAFETY_DISTANCE
+    scale: Share = 1.0
+    assisted: tuple[TeleopInput, ...] = ()
+    assist_mode: Annotated[str, schema.one_of("idle", "free", "scaled", "slid", "stopped")] = "idle"
+    stamp: Stamp = 0.0
 
-    @classmethod
-    def _convert(cls, name: str, value: Any) -> Any:
-        return tuple(value) if name == "assisted" and isinstance(value, list) else value
 
-    def __post_init__(self) -> None:
-        _check_text(self, "zone", SAFETY_ZONES)
-        _check_text(self, "zone_name")
-        _check_float(self, "distance", 0.0, MAX_SAFETY_DISTANCE)
-        _check_float(self, "time_to_contact", 0.0, MAX_SAFETY_DISTANCE)
-        _check_float(self, "scale", 0.0, 1.0)
-        assisted = self.assisted
-        if not isinstance(assisted, tuple) or not all(a in TELEOP_INPUT_TOPICS for a in assisted):
-            raise _fail(type(self), "assisted", f"must list some of {list(TELEOP_INPUT_TOPICS)}")
-        _check_text(self, "assist_mode", ("idle", "free", "scaled", "slid", "stopped"))
-        _check_stamp(self)
+_JSON_ENCODER: Final = msgspec.json.Encoder()
+_JSON_DECODER: Final = msgspec.json.Decoder()
 
 
 def encode_json(message: JsonMessage) -> bytes:
     """Compact UTF-8 JSON of a message (no NaN: fields are validated finite)."""
-    return json.dumps(message.to_dict(), separators=(",", ":"), allow_nan=False).encode()
-
-
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not allowed")
-
-
-def _pairs_without_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """An object whose keys are unique (``{"linear":0.1,"linear":4.9}`` is refused, as on TCP)."""
-    obj: dict[str, Any] = {}
-    for name, value in pairs:
-        if name in obj:
-            raise ValueError(f"duplicate key {name!r}")
-        obj[name] = value
-    return obj
+    return _JSON_ENCODER.encode(message)
 
 
 M = TypeVar("M", bound=JsonMessage)
 
 
 def decode_json(cls: type[M], payload: bytes, topic: str = "") -> M:
-    """Parse and validate ``payload`` as ``cls``; raise TopicDecodeError naming the topic."""
+    """Parse and validate ``payload`` as ``cls``; raise TopicDecodeError naming the topic.
+
+    Duplicate keys are refused (``{"linear":0.1,"linear":4.9}``), as on the tablet's TCP link.
+    """
     where = topic or cls.__name__
     if len(payload) > MAX_JSON_BYTES:
         raise TopicDecodeError(f"{where}: payload of {len(payload)} bytes > {MAX_JSON_BYTES}")
     try:
-        data = json.loads(
-            bytes(payload).decode("utf-8"),
-            parse_constant=_reject_constant,
-            object_pairs_hook=_pairs_without_duplicates,
-        )
-        return cls.from_dict(data)
-    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
-        raise TopicDecodeError(f"{where}: {exc}") from exc
+        message = schema.convert(schema.parse_json(bytes(payload)), cls, cls.__name__)
+        message.check()
+    except ValueError as exc:  # JsonSyntaxError, SchemaError, MessageValueError
+        raise TopicDecodeError(f"{where}: {exc}") from None
+    return message
 
 
 # --------------------------------------------------------------------------- binary messages
@@ -856,23 +622,20 @@ def decode_map(payload: bytes, source: str = "zenoh map") -> OccupancyGrid:
 JPEG_SOI: Final = b"\xff\xd8"
 
 
-@dataclass(frozen=True)
-class ImageMsg:
+class ImageMsg(Checked, frozen=True):
     """A camera frame: JPEG bytes of a ``width`` x ``height`` image taken at ``stamp`` [s]."""
 
-    stamp: float
-    width: int
-    height: int
-    jpeg: bytes = field(repr=False)
+    stamp: Stamp
+    width: Annotated[int, Meta(ge=1, le=65535)]
+    height: Annotated[int, Meta(ge=1, le=65535)]
+    jpeg: Annotated[bytes, Meta(max_length=MAX_IMAGE_BYTES)]
 
-    def __post_init__(self) -> None:
-        _check_stamp(self)
-        _check_int(self, "width", 1, 65535)
-        _check_int(self, "height", 1, 65535)
-        if not isinstance(self.jpeg, bytes) or not self.jpeg.startswith(JPEG_SOI):
+    def check(self) -> None:
+        if not self.jpeg.startswith(JPEG_SOI):
             raise MessageValueError("ImageMsg.jpeg must be JPEG bytes (starting FF D8)")
-        if len(self.jpeg) > MAX_IMAGE_BYTES:
-            raise MessageValueError(f"ImageMsg.jpeg is {len(self.jpeg)} bytes > {MAX_IMAGE_BYTES}")
+
+    def __repr__(self) -> str:
+        return f"ImageMsg(stamp={self.stamp}, width={self.width}, height={self.height})"
 
 
 _IMAGE = struct.Struct("<2sBBdHHBI")  # preamble, stamp, width, height, format (1 JPEG), length

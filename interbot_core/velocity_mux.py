@@ -40,9 +40,13 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import yaml
+from msgspec import Meta
+
+from interbot_core import schema
+from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -66,67 +70,43 @@ class UnknownTopicError(MuxError, KeyError):
         return str(self.args[0]) if self.args else ""
 
 
-def _check_priority(kind: str, name: str, priority: object) -> int:
-    if isinstance(priority, bool) or not isinstance(priority, int):
-        raise MuxConfigError(
-            f"{kind} {name!r}: priority must be an integer in "
-            f"{PRIORITY_MIN}..{PRIORITY_MAX}, got {priority!r}"
-        )
-    if not PRIORITY_MIN <= priority <= PRIORITY_MAX:
-        raise MuxConfigError(
-            f"{kind} {name!r}: priority {priority} is outside {PRIORITY_MIN}..{PRIORITY_MAX}"
-        )
-    return priority
+Priority = Annotated[int, Meta(ge=PRIORITY_MIN, le=PRIORITY_MAX)]
+Timeout = Annotated[float, Meta(ge=0.0, le=schema.FINITE, extra={"unit": "s"})]  # 0: never
+Label = Annotated[str, Meta(pattern=r"\S", extra={"format": "a non-empty string"})]
+SpeedLimit = Annotated[float, Meta(gt=0.0, extra={"unit": "m/s"})]  # inf: no limit
+TurnLimit = Annotated[float, Meta(gt=0.0, extra={"unit": "rad/s"})]
 
 
-def _check_timeout(kind: str, name: str, timeout: object) -> float:
-    if isinstance(timeout, bool) or not isinstance(timeout, int | float):
-        raise MuxConfigError(
-            f"{kind} {name!r}: timeout must be a number of seconds >= 0, got {timeout!r}"
-        )
-    value = float(timeout)
-    if not math.isfinite(value) or value < 0.0:
-        raise MuxConfigError(
-            f"{kind} {name!r}: timeout must be finite and >= 0 s (0 = never expires), "
-            f"got {timeout!r}"
-        )
-    return value
+class _Entry(schema.Declared, frozen=True):
+    """An input or a lock; errors say which: ``input 'x': priority = 0 is outside ...``."""
+
+    ERROR: ClassVar[type[Exception]] = MuxConfigError
+    KIND: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        if schema.decoding():
+            return
+        try:
+            schema.check_fields(self, "")
+        except SchemaError as exc:
+            raise MuxConfigError(f"{self.KIND} {self.name!r}: {exc.message}") from None
+
+    @property
+    def name(self) -> str:  # pragma: no cover - every entry declares it
+        raise NotImplementedError
 
 
-def _check_text(kind: str, what: str, value: object) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise MuxConfigError(f"{kind}: {what} must be a non-empty string, got {value!r}")
-    return value
-
-
-def _check_limit(name: str, key: str, value: object, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise MuxConfigError(f"input {name!r}: {key} must be a number [{unit}] > 0, got {value!r}")
-    limit = float(value)
-    if not limit > 0.0 or math.isnan(limit):
-        raise MuxConfigError(f"input {name!r}: {key} must be > 0 {unit}, got {value!r}")
-    return limit
-
-
-@dataclass(frozen=True, slots=True)
-class MuxInput:
+class MuxInput(_Entry, frozen=True):
     """One velocity input: ``timeout`` [s] (0 = never expires), ``priority`` 1..255 (higher wins),
     speed limits ``max_linear`` [m/s] and ``max_angular`` [rad/s] (default: none)."""
 
-    name: str
-    topic: str
-    timeout: float
-    priority: int
-    max_linear: float = math.inf
-    max_angular: float = math.inf
-
-    def __post_init__(self) -> None:
-        _check_text("mux input", "name", self.name)
-        _check_text(f"mux input {self.name!r}", "topic", self.topic)
-        object.__setattr__(self, "timeout", _check_timeout("input", self.name, self.timeout))
-        _check_priority("input", self.name, self.priority)
-        for key, unit in (("max_linear", "m/s"), ("max_angular", "rad/s")):
-            object.__setattr__(self, key, _check_limit(self.name, key, getattr(self, key), unit))
+    KIND: ClassVar[str] = "input"
+    name: Label  # type: ignore[assignment]
+    topic: Label
+    timeout: Timeout
+    priority: Priority
+    max_linear: SpeedLimit = math.inf
+    max_angular: TurnLimit = math.inf
 
     def limit(self, linear: float, angular: float) -> tuple[float, float, bool]:
         """The command scaled into the limits (same curvature); True if it was scaled."""
@@ -140,20 +120,14 @@ class MuxInput:
         return linear * scale, angular * scale, True
 
 
-@dataclass(frozen=True, slots=True)
-class MuxLock:
+class MuxLock(_Entry, frozen=True):
     """One lock: while active it masks inputs of lower priority. ``timeout`` > 0 is a dead-man [s]."""
 
-    name: str
-    topic: str
-    timeout: float
-    priority: int
-
-    def __post_init__(self) -> None:
-        _check_text("mux lock", "name", self.name)
-        _check_text(f"mux lock {self.name!r}", "topic", self.topic)
-        object.__setattr__(self, "timeout", _check_timeout("lock", self.name, self.timeout))
-        _check_priority("lock", self.name, self.priority)
+    KIND: ClassVar[str] = "lock"
+    name: Label  # type: ignore[assignment]
+    topic: Label
+    timeout: Timeout
+    priority: Priority
 
 
 def _check_unique(kind: str, entries: Iterable[MuxInput | MuxLock], attr: str) -> None:
@@ -275,32 +249,16 @@ def _entries(raw: object, key: str, source: str) -> list[tuple[str, Mapping[str,
     raise MuxConfigError(f"{source}: {key} must be a list of entries, got {type(raw).__name__}")
 
 
-_ENTRY_KEYS = {"name", "topic", "timeout", "priority", "short_desc"}
-_LIMIT_KEYS = {"max_linear", "max_angular"}  # our extension, inputs only
-
-
 def _parse_entry(
     kind: type[MuxInput] | type[MuxLock], label: str, item: Mapping[str, Any], source: str
 ) -> MuxInput | MuxLock:
-    allowed = _ENTRY_KEYS | (_LIMIT_KEYS if kind is MuxInput else set())
-    unknown = set(item) - allowed
-    if unknown:
-        raise MuxConfigError(
-            f"{source}: {label} has unknown keys {sorted(unknown)} "
-            f"(allowed: {', '.join(sorted(allowed - {'short_desc'}))})"
-        )
-    missing = [k for k in ("topic", "timeout", "priority") if k not in item]
-    if missing:
-        raise MuxConfigError(f"{source}: {label} is missing {', '.join(missing)}")
-    topic = item["topic"]
-    name = item.get("name", topic)
-    limits = {k: item[k] for k in _LIMIT_KEYS if k in item}
+    fields = {k: v for k, v in item.items() if k != "short_desc"}  # twist_mux's, unused
+    if "topic" in fields:
+        fields.setdefault("name", fields["topic"])
     try:
-        return kind(
-            name=name, topic=topic, timeout=item["timeout"], priority=item["priority"], **limits
-        )
-    except MuxConfigError as exc:
-        raise MuxConfigError(f"{source}: {label}: {exc}") from None
+        return schema.convert(fields, kind, label)
+    except SchemaError as exc:
+        raise MuxConfigError(f"{source}: {exc.message}") from None
 
 
 def parse_mux_config(data: Mapping[str, Any], source: str = "<mux config>") -> MuxConfig:

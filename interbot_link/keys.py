@@ -27,14 +27,18 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Final
+from typing import Annotated, Any, Final
 
+import msgspec
 import yaml
 from cryptography import x509
 from cryptography.exceptions import InvalidSignature
 from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -56,14 +60,13 @@ class KeysError(Exception):
     """The key directory or a certificate is missing, malformed, expired or revoked."""
 
 
-@dataclass(frozen=True)
-class Member:
-    """One certificate holder in the inventory."""
+class Member(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """One certificate holder in the inventory (each entry of the file is checked by these types)."""
 
     name: str
-    role: str
-    serial: int
-    sha256: str  # hex digest of the DER certificate
+    role: Annotated[str, schema.one_of(*ROLES)]
+    serial: Annotated[int, Meta(ge=0)]
+    sha256: Annotated[str, Meta(pattern=r"^[0-9a-f]{64}$")]  # hex digest of the DER certificate
     not_after: str  # ISO 8601, UTC
     revoked: bool = False
 
@@ -155,11 +158,11 @@ class KeyStore:
         self.members: dict[str, Member] = {}
         for name, entry in raw["members"].items():
             try:
-                self.members[validate_name(str(name))] = Member(name=str(name), **entry)
-            except (TypeError, KeysError) as exc:
+                validate_name(str(name))
+                fields = {**entry, "name": str(name)} if isinstance(entry, dict) else entry
+                self.members[str(name)] = schema.convert(fields, Member, f"members.{name}")
+            except (ValueError, KeysError) as exc:
                 raise KeysError(f"{inventory}: member {name!r} is malformed: {exc}") from None
-            if self.members[name].role not in ROLES:
-                raise KeysError(f"{inventory}: member {name!r} has unknown role")
         self.ca_cert_path = self.dir / f"{CA_NAME}.crt"
         self.ca_cert = load_cert(self.ca_cert_path)
 
@@ -316,7 +319,7 @@ class KeyStore:
         member = self.members.get(name)
         if member is None:
             raise KeysError(f"no member {name!r} in {self.dir} (members: {sorted(self.members)})")
-        revoked = Member(**{**member.__dict__, "revoked": True})
+        revoked = msgspec.structs.replace(member, revoked=True)
         self.members[name] = revoked
         self._save()
         logger.warning("revoked %s %r (restart robots and stations to apply)", member.role, name)
@@ -324,7 +327,7 @@ class KeyStore:
 
     def _save(self) -> None:
         members = {
-            n: {k: v for k, v in m.__dict__.items() if k != "name"}
+            n: {k: v for k, v in msgspec.structs.asdict(m).items() if k != "name"}
             for n, m in sorted(self.members.items())
         }
         data: dict[str, Any] = {"members": members}

@@ -1,4 +1,4 @@
-"""The robot daemon's configuration: ``robot.yaml`` parsed into frozen, validated dataclasses.
+"""The robot daemon's configuration: ``robot.yaml`` declared as msgspec Structs (`RobotFile`).
 
 Every error names the file and the key and says what is allowed; nothing half-applies. The
 configuration is logged once at start-up. Example (all keys optional except where noted)::
@@ -24,13 +24,17 @@ every connection). Set it false only for a robot that runs with no station at al
 
 from __future__ import annotations
 
-import math
 import re
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
+import msgspec
 import yaml
+from msgspec import Meta
+
+from interbot_core import schema
+from interbot_core.schema import SchemaError
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = REPO_ROOT / "maps" / "isr_floor0.yaml"
@@ -45,14 +49,6 @@ class ConfigError(ValueError):
     """Invalid daemon configuration; the message names the source and the key."""
 
 
-def _number(source: str, key: str, value: Any, low: float, high: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ConfigError(f"{source}: '{key}' must be a number, got {value!r}")
-    if not low <= value <= high:
-        raise ConfigError(f"{source}: '{key}' = {value} is outside [{low}, {high}]")
-    return float(value)
-
-
 def validate_endpoint(source: str, key: str, endpoint: Any) -> str:
     """A zenoh ``tcp/HOST:PORT`` or ``tls/HOST:PORT`` endpoint (no scouting, no other protocols)."""
     if not isinstance(endpoint, str) or not (m := ENDPOINT_RE.match(endpoint)):
@@ -64,63 +60,65 @@ def validate_endpoint(source: str, key: str, endpoint: Any) -> str:
     return endpoint
 
 
-@dataclass(frozen=True)
-class Rates:
+def _quoted(error: SchemaError) -> str:
+    """``'sim.people' = -1 is outside ...``: the key quoted, as in every config message."""
+    rest = error.message.removeprefix(error.path)
+    return f"'{error.path}'{rest}" if rest != error.message else error.message
+
+
+class Section(schema.Declared, frozen=True, kw_only=True):
+    """A section of robot.yaml: its keys, types and ranges declared in its fields."""
+
+    ERROR: ClassVar[type[Exception]] = ConfigError
+
+
+Hz = Annotated[float, Meta(ge=0.1, le=100.0, extra={"unit": "Hz"})]
+
+
+class Rates(Section, frozen=True):
     """Loop rates [Hz]. The controller and localiser run at 10 Hz by default (see mux config)."""
 
-    controller_hz: float = 10.0
-    localiser_hz: float = 10.0
-    pose_hz: float = 20.0
-    scan_hz: float = 10.0
-    image_hz: float = 5.0
-    battery_hz: float = 1.0
-    status_hz: float = 2.0
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            _number("rates", f.name, getattr(self, f.name), 0.1, 100.0)
+    ROOT: ClassVar[str] = "rates"
+    controller_hz: Hz = 10.0
+    localiser_hz: Hz = 10.0
+    pose_hz: Hz = 20.0
+    scan_hz: Hz = 10.0
+    image_hz: Hz = 5.0
+    battery_hz: Hz = 1.0
+    status_hz: Hz = 2.0
 
 
-@dataclass(frozen=True)
-class SimSettings:
-    seed: int = 1
-    people: int = 4
-    odometry: str = "calibrated"  # perfect | calibrated (~3 %) | uncalibrated (~8 %)
-    realtime_factor: float = 1.0  # daemon only: how fast simulated time runs against the wall
-
-    def __post_init__(self) -> None:
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ConfigError(f"sim: 'seed' must be a non-negative integer, got {self.seed!r}")
-        if isinstance(self.people, bool) or not isinstance(self.people, int):
-            raise ConfigError(f"sim: 'people' must be an integer, got {self.people!r}")
-        if not 0 <= self.people <= 50:
-            raise ConfigError(f"sim: 'people' = {self.people} is outside [0, 50]")
-        if self.odometry not in ("perfect", "calibrated", "uncalibrated"):
-            raise ConfigError(
-                f"sim: 'odometry' must be perfect, calibrated or uncalibrated, got {self.odometry!r}"
-            )
-        _number("sim", "realtime_factor", self.realtime_factor, 0.1, 100.0)
+class SimSettings(Section, frozen=True):
+    ROOT: ClassVar[str] = "sim"
+    seed: Annotated[int, Meta(ge=0)] = 1
+    people: Annotated[int, Meta(ge=0, le=50)] = 4
+    # perfect | calibrated (~3 %) | uncalibrated (~8 %)
+    odometry: Annotated[str, schema.one_of("perfect", "calibrated", "uncalibrated")] = "calibrated"
+    # daemon only: how fast simulated time runs against the wall
+    realtime_factor: Annotated[float, Meta(ge=0.1, le=100.0)] = 1.0
 
 
-@dataclass(frozen=True)
-class ZenohSettings:
+Endpoint = Annotated[
+    str, Meta(pattern=ENDPOINT_RE.pattern, extra={"format": "tcp/HOST:PORT or tls/HOST:PORT"})
+]
+
+
+class ZenohSettings(Section, frozen=True, kw_only=False):
     """``mode: peer`` (robots listen, stations connect to them) or ``client`` (both connect to
     a building's router, `interbot router`; a client does not listen)."""
 
-    listen: tuple[str, ...] = ("tcp/127.0.0.1:7447",)
-    connect: tuple[str, ...] = ()
-    lease_ms: int = 2500
-    mode: str = "peer"
+    ROOT: ClassVar[str] = "zenoh"
+    listen: tuple[Endpoint, ...] = ("tcp/127.0.0.1:7447",)
+    connect: tuple[Endpoint, ...] = ()
+    lease_ms: Annotated[int, Meta(ge=500, le=60_000, extra={"unit": "ms"})] = 2500
+    mode: Annotated[str, schema.one_of("peer", "client")] = "peer"
 
-    def __post_init__(self) -> None:
+    def check(self) -> None:
         for key in ("listen", "connect"):
             for endpoint in getattr(self, key):
-                validate_endpoint("zenoh", key, endpoint)
+                validate_endpoint("zenoh", key, endpoint)  # the port range
         if not self.listen and not self.connect:
             raise ConfigError("zenoh: give at least one 'listen' or 'connect' endpoint")
-        _number("zenoh", "lease_ms", self.lease_ms, 500, 60_000)
-        if self.mode not in ("peer", "client"):
-            raise ConfigError(f"zenoh: mode must be 'peer' or 'client', got {self.mode!r}")
         if self.mode == "client" and (self.listen or not self.connect):
             raise ConfigError(
                 "zenoh: a client connects to a router and does not listen: "
@@ -133,7 +131,7 @@ class SecuritySettings:
     """``security``: the key directory (mutual TLS + access control) or the insecure override.
 
     Without ``keys`` the daemon refuses endpoints off the loopback interface unless
-    ``insecure`` (docs/security.md).
+    ``insecure`` (docs/security.md). Read from the file as `SecurityFile`.
     """
 
     keys: Path | None = None
@@ -149,8 +147,7 @@ class SecuritySettings:
 MAP_SURFACES = ("cell_face", "cell_centre")
 
 
-@dataclass(frozen=True)
-class LocaliserSettings:
+class LocaliserSettings(Section, frozen=True):
     """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
     whatever the backend (issue 12: the choice must not suit the simulator).
 
@@ -160,23 +157,39 @@ class LocaliserSettings:
     known to be exact.
     """
 
-    map_surface: str = "cell_centre"
-    help_after_s: float = 20.0  # a global search undecided this long asks for "Help me!"
+    ROOT: ClassVar[str] = "localiser"
+    map_surface: Annotated[str, schema.one_of(*MAP_SURFACES)] = "cell_centre"
+    # a global search undecided this long asks for "Help me!"
+    help_after_s: Annotated[float, Meta(ge=0.0, le=3600.0, extra={"unit": "s"})] = 20.0
 
-    def __post_init__(self) -> None:
-        if not (
-            isinstance(self.help_after_s, (int, float))
-            and math.isfinite(self.help_after_s)
-            and 0.0 <= self.help_after_s <= 3600.0
-        ):
-            raise ConfigError(
-                f"localiser: 'help_after_s' must be in [0, 3600] s, got {self.help_after_s!r}"
-            )
-        if self.map_surface not in MAP_SURFACES:
-            raise ConfigError(
-                f"localiser: 'map_surface' must be cell_face or cell_centre, "
-                f"got {self.map_surface!r}"
-            )
+
+FilePath = Annotated[str, Meta(min_length=1, extra={"format": "a file path"})]
+
+
+class SecurityFile(Section, frozen=True):
+    ROOT: ClassVar[str] = "security"
+    keys: FilePath | None = None
+    insecure: bool = False
+
+
+class RobotFile(Section, frozen=True):
+    """The document robot.yaml, as written: every key optional, paths relative to the file."""
+
+    ROOT: ClassVar[str] = ""
+    robot_id: Annotated[str, Meta(pattern=ROBOT_ID_RE.pattern, extra={"format": "1-32 of A-Z a-z 0-9 _ -"})] = "interbot1"  # fmt: skip
+    map: FilePath | None = None
+    topo: FilePath | None = None
+    mux: FilePath | None = None
+    safety: FilePath | None = None
+    backend: Annotated[str, schema.one_of("sim", "hardware")] = "sim"
+    rates: Rates = msgspec.field(default_factory=Rates)
+    sim: SimSettings = msgspec.field(default_factory=SimSettings)
+    zenoh: ZenohSettings = msgspec.field(default_factory=ZenohSettings)
+    localiser: LocaliserSettings = msgspec.field(default_factory=LocaliserSettings)
+    security: SecurityFile = msgspec.field(default_factory=SecurityFile)
+    hardware: dict[str, Any] = msgspec.field(default_factory=dict)  # checked by the drivers
+    recording: dict[str, Any] | None = None  # robot_daemon/recording/config.py
+    start_latched: bool = True
 
 
 @dataclass(frozen=True)
@@ -225,92 +238,41 @@ class DaemonConfig:
         )
 
 
-_TOP_KEYS = {
-    "robot_id",
-    "map",
-    "topo",
-    "mux",
-    "safety",
-    "backend",
-    "rates",
-    "sim",
-    "zenoh",
-    "localiser",
-    "hardware",
-    "recording",
-    "security",
-    "start_latched",
-}
-
-
-def _section(source: str, raw: dict[str, Any], key: str, cls: type) -> Any:
-    value = raw.get(key, {})
-    if not isinstance(value, dict):
-        raise ConfigError(f"{source}: '{key}' must be a mapping")
-    allowed = {f.name for f in fields(cls)}
-    unknown = set(value) - allowed
-    if unknown:
-        raise ConfigError(
-            f"{source}: unknown key(s) {sorted(unknown)} in '{key}' (allowed: {sorted(allowed)})"
-        )
-    kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in value.items()}
-    try:
-        return cls(**kwargs)
-    except ConfigError as exc:
-        raise ConfigError(f"{source}: {exc}") from None
-    except TypeError as exc:
-        raise ConfigError(f"{source}: '{key}': {exc}") from None
-
-
 def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
     """Build a `DaemonConfig` from the parsed YAML mapping; paths are relative to base_dir."""
-    if raw is None:
-        raw = {}
-    if not isinstance(raw, dict):
+    if not isinstance(raw, dict | None):
         raise ConfigError(f"{source}: expected a mapping at the top level")
-    unknown = set(raw) - _TOP_KEYS
-    if unknown:
-        raise ConfigError(
-            f"{source}: unknown key(s) {sorted(unknown)} (allowed: {sorted(_TOP_KEYS)})"
-        )
+    try:
+        doc = schema.convert(raw or {}, RobotFile, "")
+        schema.check_all(doc)
+    except SchemaError as exc:
+        if exc.kind == "unknown":
+            allowed = exc.message[exc.message.find(" (allowed") :]
+            raise ConfigError(f"{source}: unknown key '{exc.path}'{allowed}") from None
+        raise ConfigError(f"{source}: {_quoted(exc)}") from None
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
 
-    def path(key: str, default: Path) -> Path:
-        value = raw.get(key)
-        if value is None:
-            return default
-        if not isinstance(value, str) or not value:
-            raise ConfigError(f"{source}: '{key}' must be a file path")
-        return (base_dir / value).resolve()
+    def path(value: str | None, default: Path) -> Path:
+        return default if value is None else (base_dir / value).resolve()
 
-    security = raw.get("security", {})
-    if not isinstance(security, dict) or set(security) - {"keys", "insecure"}:
-        raise ConfigError(f"{source}: 'security' must be a mapping with 'keys' and/or 'insecure'")
-    keys = security.get("keys")
-    if keys is not None and (not isinstance(keys, str) or not keys):
-        raise ConfigError(f"{source}: 'security.keys' must be a directory path")
-    hardware = raw.get("hardware", {})
-    if not isinstance(hardware, dict):
-        raise ConfigError(f"{source}: 'hardware' must be a mapping")
-    recording = raw.get("recording") or {}
-    if not isinstance(recording, dict):
-        raise ConfigError(f"{source}: 'recording' must be a mapping")
     return DaemonConfig(
-        robot_id=raw.get("robot_id", "interbot1"),
-        map_yaml=path("map", DEFAULT_MAP),
-        topo_yaml=path("topo", DEFAULT_TOPO),
-        mux_yaml=path("mux", DEFAULT_MUX),
-        safety_yaml=path("safety", DEFAULT_SAFETY),
-        backend=raw.get("backend", "sim"),
-        rates=_section(source, raw, "rates", Rates),
-        sim=_section(source, raw, "sim", SimSettings),
-        zenoh=_section(source, raw, "zenoh", ZenohSettings),
-        localiser=_section(source, raw, "localiser", LocaliserSettings),
+        robot_id=doc.robot_id,
+        map_yaml=path(doc.map, DEFAULT_MAP),
+        topo_yaml=path(doc.topo, DEFAULT_TOPO),
+        mux_yaml=path(doc.mux, DEFAULT_MUX),
+        safety_yaml=path(doc.safety, DEFAULT_SAFETY),
+        backend=doc.backend,
+        rates=doc.rates,
+        sim=doc.sim,
+        zenoh=doc.zenoh,
+        localiser=doc.localiser,
         security=SecuritySettings(
-            (base_dir / keys).resolve() if keys else None, security.get("insecure", False)
+            path(doc.security.keys, Path()) if doc.security.keys else None, doc.security.insecure
         ),
-        hardware=hardware,
-        recording=recording,
-        start_latched=raw.get("start_latched", True),
+        hardware=doc.hardware,
+        recording=doc.recording or {},
+        start_latched=doc.start_latched,
         source=source,
     )
 

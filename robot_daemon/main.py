@@ -19,6 +19,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 
+import msgspec
+
 from interbot_core.occupancy_grid import MapLoadError
 from interbot_core.topological_map import TopologicalMapError
 from interbot_core.velocity_mux import MuxError
@@ -27,7 +29,6 @@ from robot_daemon.config import (
     ConfigError,
     DaemonConfig,
     SecuritySettings,
-    SimSettings,
     ZenohSettings,
     load_config,
     validate_endpoint,
@@ -104,8 +105,9 @@ def resolve_config(args: argparse.Namespace) -> DaemonConfig:
     sim = config.sim
     sim_changes = {"seed": args.seed, "people": args.people, "realtime_factor": args.speed}
     if any(v is not None for v in sim_changes.values()):
-        merged = {**sim.__dict__, **{k: v for k, v in sim_changes.items() if v is not None}}
-        sim = SimSettings(**merged)
+        sim = msgspec.structs.replace(
+            sim, **{k: v for k, v in sim_changes.items() if v is not None}
+        )
     zenoh = config.zenoh
     if args.listen or args.connect or args.mode:
         for endpoint in args.listen:

@@ -18,12 +18,15 @@ from __future__ import annotations
 import json
 import logging
 import os
-from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Annotated
 
+import msgspec
+from msgspec import Meta
 from PySide6.QtCore import QCryptographicHash, QObject, Signal
 from PySide6.QtNetwork import QAbstractSocket, QSsl, QSslConfiguration, QSslSocket
 
+from interbot_core import schema
 from interbot_core.protocol import ProtocolError
 from interbot_core.tablet_pairing import (
     PairingError,
@@ -38,14 +41,13 @@ logger = logging.getLogger(__name__)
 DEFAULT_CREDENTIALS = Path("~/.config/interbot/tablet.json")
 
 
-@dataclass(frozen=True)
-class TabletCredentials:
-    """A paired tablet's link to its station."""
+class TabletCredentials(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """A paired tablet's link to its station (the file is declared by these types)."""
 
-    host: str
-    port: int
-    fingerprint: str
-    token: str
+    host: Annotated[str, Meta(min_length=1, max_length=253)]
+    port: Annotated[int, Meta(ge=1, le=65535)]
+    fingerprint: str  # SHA-256 of the station's certificate (checked by normalise_fingerprint)
+    token: Annotated[str, Meta(pattern=r"^[0-9a-f]{64}$")]
     tablet_id: str
 
     def save(self, path: Path) -> None:
@@ -53,17 +55,17 @@ class TabletCredentials:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(asdict(self), f, indent=1)
+        with os.fdopen(fd, "wb") as f:
+            f.write(msgspec.json.format(msgspec.json.encode(self), indent=1))
         tmp.replace(path)
 
     @classmethod
     def load(cls, path: Path) -> TabletCredentials:
         path = path.expanduser()
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            creds = cls(**data)
-        except (OSError, ValueError, TypeError) as exc:
+            data = schema.parse_json(path.read_bytes())
+            creds = schema.convert(data, cls, "credentials")
+        except (OSError, ValueError) as exc:
             raise PairingError(f"cannot read the tablet's pairing from {path}: {exc}") from None
         normalise_fingerprint(creds.fingerprint)
         return creds
@@ -160,10 +162,17 @@ class PairedTlsConnection(QtTcpConnection):
             if not isinstance(token, str):
                 self._fail("the station's pairing answer has no token")
                 return
+            fields = (self._host, self._port, self.fingerprint, token, body["tablet_id"])
+            try:  # the station's answer is outside input too: the declared types check it
+                creds = schema.convert(
+                    dict(zip(TabletCredentials.__struct_fields__, fields, strict=True)),
+                    TabletCredentials,
+                    "pairing answer",
+                )
+            except ValueError as exc:
+                self._fail(f"the station's pairing answer is invalid: {exc}")
+                return
             self._token, self._code = token, None
-            creds = TabletCredentials(
-                self._host, self._port, self.fingerprint, token, body["tablet_id"]
-            )
             logger.info("paired with the station as %s", creds.tablet_id)
             self.paired.emit(creds)
         self._authorised = True

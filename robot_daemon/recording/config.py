@@ -15,9 +15,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
+from interbot_core.schema import SchemaError
 
 MB = 1024 * 1024
 
@@ -66,42 +72,35 @@ class RecordingConfig:
         cls, raw: Mapping[str, Any], base_dir: Path, directory: Path | None = None
     ) -> RecordingConfig:
         """Parse robot.yaml's ``recording:`` mapping (``directory`` overrides its directory)."""
-        if not isinstance(raw, Mapping):
-            raise RecordingConfigError("recording: must be a mapping")
-        allowed = {
-            "directory",
-            "max_file_mb",
-            "max_file_minutes",
-            "max_total_mb",
-            "camera",
-            "queue",
-        }
-        unknown = set(raw) - allowed
-        if unknown:
-            raise RecordingConfigError(
-                f"recording: unknown key(s) {sorted(unknown)} (allowed: {sorted(allowed)})"
-            )
+        try:
+            doc = schema.convert(raw, RecordingSection, "recording")
+        except SchemaError as exc:
+            if exc.kind == "unknown":
+                allowed = exc.message[exc.message.find(" (allowed") :]
+                raise RecordingConfigError(f"unknown key '{exc.path}'{allowed}") from None
+            raise RecordingConfigError(exc.message) from None
         if directory is None:
-            value = raw.get("directory")
-            if not isinstance(value, str) or not value:
+            if doc.directory is None:
                 raise RecordingConfigError("recording: 'directory' must be a directory path")
-            directory = (base_dir / value).resolve()
-        defaults = {f.name: f.default for f in fields(cls)}
-        queue = raw.get("queue", defaults["queue"])
-        if isinstance(queue, bool) or not isinstance(queue, int):
-            raise RecordingConfigError(f"recording: 'queue' must be an integer, got {queue!r}")
+            directory = (base_dir / doc.directory).resolve()
         return cls(
             directory=directory,
-            max_file_bytes=int(
-                _number("max_file_mb", raw.get("max_file_mb", 256), 0.01, 1 << 20) * MB
-            ),
-            max_file_seconds=_number(
-                "max_file_minutes", raw.get("max_file_minutes", 30), 0.01, 24 * 60
-            )
-            * 60.0,
-            max_total_bytes=int(
-                _number("max_total_mb", raw.get("max_total_mb", 4096), 0.02, 1 << 24) * MB
-            ),
-            camera=raw.get("camera", True),
-            queue=queue,
+            max_file_bytes=int(doc.max_file_mb * MB),
+            max_file_seconds=doc.max_file_minutes * 60.0,
+            max_total_bytes=int(doc.max_total_mb * MB),
+            camera=doc.camera,
+            queue=doc.queue,
         )
+
+
+class RecordingSection(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """The ``recording:`` mapping as written in robot.yaml (sizes in MB, durations in minutes)."""
+
+    directory: Annotated[str, Meta(min_length=1, extra={"format": "a directory path"})] | None = (
+        None
+    )
+    max_file_mb: Annotated[float, Meta(ge=0.01, le=1 << 20)] = 256
+    max_file_minutes: Annotated[float, Meta(ge=0.01, le=24 * 60)] = 30
+    max_total_mb: Annotated[float, Meta(ge=0.02, le=1 << 24)] = 4096
+    camera: bool = True
+    queue: Annotated[int, Meta(ge=16, le=1 << 20)] = 2048

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import foxglove
+import msgspec
 import numpy as np
 from foxglove.channels import (
     CompressedImageChannel,
@@ -103,10 +104,14 @@ def ns(t: float) -> int:
 
 
 def json_schema(cls: type) -> dict[str, Any]:
-    """A JSON Schema for a message dataclass, from its field annotations (for Foxglove's plots)."""
+    """A JSON Schema for a message class (for Foxglove's plots): msgspec's standard one for a
+    declared message (`interbot_core.topics`), else one from a dataclass's field annotations."""
+    if issubclass(cls, msgspec.Struct):
+        generated: dict[str, Any] = msgspec.json.schema(cls)["$defs"][cls.__name__]
+        return generated
     kinds = {"float": "number", "int": "integer", "bool": "boolean", "str": "string"}
     properties: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):
+    for f in dataclasses.fields(cls):  # type: ignore[arg-type]
         annotation = str(f.type)
         if annotation.startswith(("tuple", "list")):
             properties[f.name] = {"type": "array"}
@@ -119,16 +124,28 @@ def json_schema(cls: type) -> dict[str, Any]:
     return {"type": "object", "title": cls.__name__, "properties": properties}
 
 
+def is_message(value: object) -> bool:
+    """A message instance: a msgspec Struct or a dataclass (not the class itself)."""
+    return isinstance(value, msgspec.Struct) or (
+        dataclasses.is_dataclass(value) and not isinstance(value, type)
+    )
+
+
 def message_dict(message: object) -> dict[str, Any]:
-    """A dataclass message as a JSON-ready dict (tuples become lists, bytes are left out)."""
-    if not dataclasses.is_dataclass(message) or isinstance(message, type):
-        raise TypeError(f"not a message dataclass: {message!r}")
+    """A message as a JSON-ready dict (tuples become lists, bytes are left out)."""
+    if not is_message(message):
+        raise TypeError(f"not a message: {message!r}")
+    names = (
+        message.__struct_fields__
+        if isinstance(message, msgspec.Struct)
+        else tuple(f.name for f in dataclasses.fields(message))  # type: ignore[arg-type]
+    )
     out: dict[str, Any] = {}
-    for f in dataclasses.fields(message):
-        value = getattr(message, f.name)
+    for name in names:
+        value = getattr(message, name)
         if isinstance(value, bytes | np.ndarray):
             continue
-        out[f.name] = _jsonable(value)
+        out[name] = _jsonable(value)
     return out
 
 
@@ -142,7 +159,7 @@ def _jsonable(value: Any) -> Any:
         return {str(k): _jsonable(v) for k, v in value.items()}
     if isinstance(value, np.generic):
         return _jsonable(value.item())
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+    if is_message(value):
         return message_dict(value)
     if hasattr(value, "value") and not isinstance(value, int | float | str | bool):
         return _jsonable(value.value)  # enums
@@ -444,7 +461,7 @@ class Recorder:
             self._write_state(item[2], item[3], now, t)
         elif kind == "command":
             topic, message, source = item[2], item[3], item[4]
-            body = message_dict(message) if dataclasses.is_dataclass(message) else message
+            body = message_dict(message) if is_message(message) else message
             self._log_json(
                 COMMANDS, {"topic": topic, "source": source, "stamp": now, "message": body}, now
             )
@@ -458,7 +475,7 @@ class Recorder:
                 )
         elif kind == "json":
             data = item[3]
-            if dataclasses.is_dataclass(data) and not isinstance(data, type):
+            if is_message(data):
                 data = message_dict(data)
             self._log_json(item[2], _jsonable(dict(data)), now)
         elif kind == "path":

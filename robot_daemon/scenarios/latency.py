@@ -39,6 +39,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
@@ -178,7 +179,7 @@ def lay_out_run(
 
 def _mux_with_timeout(config: MuxConfig, timeout: float) -> MuxConfig:
     inputs = tuple(
-        dataclasses.replace(i, timeout=timeout) if i.topic in TOPIC.values() else i
+        msgspec.structs.replace(i, timeout=timeout) if i.topic in TOPIC.values() else i
         for i in config.inputs
     )
     return dataclasses.replace(config, inputs=inputs)
@@ -291,7 +292,7 @@ def run_trial(
     segments = straight_segments(system.grid, system.topo)
     start, distance, point = lay_out_run(segments, find_zone_point(system, config), config.distance)
     zone = LossyZone(point[0], point[1], config.zone_radius, config.zone_p_good_to_bad, "lossy")
-    wifi = dataclasses.replace(config.wifi, zones=(*config.wifi.zones, zone))
+    wifi = msgspec.structs.replace(config.wifi, zones=(*config.wifi.zones, zone))
     if not drive_to_pose(system, start):
         raise LatencyScenarioError(
             f"the robot could not drive from node 0 to ({start.x:.2f}, {start.y:.2f})"

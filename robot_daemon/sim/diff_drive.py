@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 
 logger = logging.getLogger(__name__)
@@ -36,32 +38,20 @@ class DiffDriveConfigError(ValueError):
     """A drive or footprint parameter is out of range; the message names the field."""
 
 
-def _positive(owner: str, name: str, value: float) -> None:
-    if not (math.isfinite(value) and value > 0):
-        raise DiffDriveConfigError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
+Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE)]
 
 
-@dataclass(frozen=True)
-class DiffDriveConfig:
+class DiffDriveConfig(schema.Declared, frozen=True):
     """Drive geometry and limits (limits default to thesis-era Interbot teleoperation values)."""
 
-    track_width: float = 0.46  # [m] distance between the wheel contact points
-    wheel_radius: float = 0.10  # [m]
-    max_linear: float = 0.8  # [m/s]
-    max_angular: float = 1.5  # [rad/s]
-    max_linear_accel: float = 0.6  # [m/s^2]
-    max_angular_accel: float = 2.0  # [rad/s^2]
-
-    def __post_init__(self) -> None:
-        for name in (
-            "track_width",
-            "wheel_radius",
-            "max_linear",
-            "max_angular",
-            "max_linear_accel",
-            "max_angular_accel",
-        ):
-            _positive("DiffDriveConfig", name, getattr(self, name))
+    ROOT: ClassVar[str] = "DiffDriveConfig"
+    ERROR: ClassVar[type[Exception]] = DiffDriveConfigError
+    track_width: Positive = 0.46  # [m] distance between the wheel contact points
+    wheel_radius: Positive = 0.10  # [m]
+    max_linear: Positive = 0.8  # [m/s]
+    max_angular: Positive = 1.5  # [rad/s]
+    max_linear_accel: Positive = 0.6  # [m/s^2]
+    max_angular_accel: Positive = 2.0  # [rad/s^2]
 
 
 def _sin_x_over_x(a: float) -> float:
@@ -143,21 +133,15 @@ class DiffDrive:
         return 0.5 * (lin0 + self._linear), 0.5 * (ang0 + self._angular)
 
 
-@dataclass(frozen=True)
-class RobotFootprint:
+class RobotFootprint(schema.Declared, frozen=True):
     """A rectangle ``length`` x ``width`` [m] whose centre sits at (offset_x, offset_y) in base_link."""
 
-    length: float = 0.60  # [m] along x
-    width: float = 0.55  # [m] along y
-    offset_x: float = 0.0  # [m]
-    offset_y: float = 0.0  # [m]
-
-    def __post_init__(self) -> None:
-        _positive("RobotFootprint", "length", self.length)
-        _positive("RobotFootprint", "width", self.width)
-        for name in ("offset_x", "offset_y"):
-            if not math.isfinite(getattr(self, name)):
-                raise DiffDriveConfigError(f"RobotFootprint.{name} must be finite")
+    ROOT: ClassVar[str] = "RobotFootprint"
+    ERROR: ClassVar[type[Exception]] = DiffDriveConfigError
+    length: Positive = 0.60  # [m] along x
+    width: Positive = 0.55  # [m] along y
+    offset_x: schema.Finite = 0.0  # [m]
+    offset_y: schema.Finite = 0.0  # [m]
 
     @property
     def circumscribed_radius(self) -> float:
@@ -179,7 +163,10 @@ class RobotFootprint:
 
     def outline_local(self, spacing: float) -> FloatArray:
         """(N, 2) points along the outline in base_link, no two further apart than ``spacing``."""
-        _positive("RobotFootprint.outline_local", "spacing", spacing)
+        if not (math.isfinite(spacing) and spacing > 0):
+            raise DiffDriveConfigError(
+                f"outline spacing must be a finite number > 0, got {spacing!r}"
+            )
         corners = self.corners_local()
         pieces = []
         for i in range(4):

@@ -27,10 +27,13 @@ import heapq
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -39,60 +42,48 @@ class WifiConfigError(ValueError):
     """A Wi-Fi link parameter is out of range; the message names the field."""
 
 
-def _check(name: str, value: float, low: float, high: float) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise WifiConfigError(f"{name} must be a number, got {value!r}")
-    if not (math.isfinite(value) and low <= value <= high):
-        raise WifiConfigError(f"{name} must be in [{low}, {high}], got {value!r}")
+Seconds = Annotated[float, Meta(ge=0.0, le=60.0, extra={"unit": "s"})]
+Probability = Annotated[float, Meta(ge=0.0, le=1.0)]
 
 
-@dataclass(frozen=True)
-class LossyZone:
+class LossyZone(schema.Declared, frozen=True):
     """A circle [m] of poor reception; ``p_good_to_bad`` applies to messages sent inside it."""
 
-    x: float
-    y: float
-    radius: float
-    p_good_to_bad: float = 0.02
+    ROOT: ClassVar[str] = "LossyZone"
+    ERROR: ClassVar[type[Exception]] = WifiConfigError
+    x: Annotated[float, Meta(ge=-1e6, le=1e6, extra={"unit": "m"})]
+    y: Annotated[float, Meta(ge=-1e6, le=1e6, extra={"unit": "m"})]
+    radius: Annotated[float, Meta(ge=1e-3, le=1e4, extra={"unit": "m"})]
+    p_good_to_bad: Probability = 0.02
     name: str = ""
-
-    def __post_init__(self) -> None:
-        _check("LossyZone.x", self.x, -1e6, 1e6)
-        _check("LossyZone.y", self.y, -1e6, 1e6)
-        _check("LossyZone.radius", self.radius, 1e-3, 1e4)
-        _check("LossyZone.p_good_to_bad", self.p_good_to_bad, 0.0, 1.0)
 
     def contains(self, x: float, y: float) -> bool:
         return math.hypot(x - self.x, y - self.y) <= self.radius
 
 
-@dataclass(frozen=True)
-class WifiConfig:
+class WifiConfig(schema.Declared, frozen=True):
     """The link's parameters (defaults: an office Wi-Fi with one bad spot, thesis §6.4)."""
 
-    base_delay: float = 0.004  # [s] one way
-    jitter: float = 0.002  # [s] mean of the exponential extra delay
-    p_good_to_bad: float = 0.001  # per message, outside the zones
-    p_bad_to_good: float = 0.6  # per message
-    bad_delay_min: float = 0.2  # [s] retransmission delay in the bad state
-    bad_delay_max: float = 1.5  # [s]
-    handover_min: float = 0.3  # [s] AP hand-over stall when crossing a zone boundary
-    handover_max: float = 1.2  # [s]
-    zones: tuple[LossyZone, ...] = field(default_factory=tuple)
+    ROOT: ClassVar[str] = "WifiConfig"
+    ERROR: ClassVar[type[Exception]] = WifiConfigError
+    base_delay: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "s"})] = 0.004  # one way
+    # mean of the exponential extra delay
+    jitter: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "s"})] = 0.002
+    p_good_to_bad: Probability = 0.001  # per message, outside the zones
+    p_bad_to_good: Annotated[float, Meta(ge=1e-6, le=1.0)] = 0.6  # per message
+    bad_delay_min: Seconds = 0.2  # retransmission delay in the bad state
+    bad_delay_max: Seconds = 1.5
+    handover_min: Seconds = 0.3  # AP hand-over stall when crossing a zone boundary
+    handover_max: Seconds = 1.2
+    zones: tuple[LossyZone, ...] = ()
 
-    def __post_init__(self) -> None:
-        _check("WifiConfig.base_delay", self.base_delay, 0.0, 10.0)
-        _check("WifiConfig.jitter", self.jitter, 0.0, 10.0)
-        _check("WifiConfig.p_good_to_bad", self.p_good_to_bad, 0.0, 1.0)
-        _check("WifiConfig.p_bad_to_good", self.p_bad_to_good, 1e-6, 1.0)
-        _check("WifiConfig.bad_delay_min", self.bad_delay_min, 0.0, 60.0)
-        _check("WifiConfig.bad_delay_max", self.bad_delay_max, self.bad_delay_min, 60.0)
-        _check("WifiConfig.handover_min", self.handover_min, 0.0, 60.0)
-        _check("WifiConfig.handover_max", self.handover_max, self.handover_min, 60.0)
-        object.__setattr__(self, "zones", tuple(self.zones))
-        for zone in self.zones:
-            if not isinstance(zone, LossyZone):
-                raise WifiConfigError(f"WifiConfig.zones must hold LossyZone, got {zone!r}")
+    def check(self) -> None:
+        for low, high in (("bad_delay_min", "bad_delay_max"), ("handover_min", "handover_max")):
+            if getattr(self, high) < getattr(self, low):
+                raise WifiConfigError(
+                    f"WifiConfig.{high} = {getattr(self, high)} s is below "
+                    f"{low} = {getattr(self, low)} s"
+                )
 
     @classmethod
     def ideal(cls) -> WifiConfig:

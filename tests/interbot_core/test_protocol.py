@@ -327,7 +327,6 @@ def test_invalid_limits_are_rejected(kwargs: dict[str, Any]) -> None:
         lambda: TourControl("pause"),
         lambda: Malfunction("fire", ""),
         lambda: Localisation("fine"),
-        lambda: TourState([1], (), None),  # type: ignore[arg-type]
         lambda: StatusInfo("\udc00", ""),
         lambda: SafetyInfo("danger", 0.1, True),
         lambda: SafetyInfo("stop", -0.1, True),
@@ -338,6 +337,17 @@ def test_invalid_limits_are_rejected(kwargs: dict[str, Any]) -> None:
 def test_invalid_messages_cannot_be_constructed(build: Any) -> None:
     with pytest.raises(InvalidField):
         build()
+
+
+def test_constructor_normalises_lists_and_ints() -> None:
+    """A list given for a tuple field is stored as a tuple (the message stays hashable) and an
+    int for a float field as a float, so equal messages encode alike."""
+    state = TourState([1, 3], (), None)  # type: ignore[arg-type]
+    assert state.stops == (1, 3) and isinstance(state.stops, tuple) and hash(state)
+    speed = Speed(0, 1)
+    assert isinstance(speed.linear, float) and encode(speed) == encode(Speed(0.0, 1.0))
+    with pytest.raises(InvalidField, match=r"tour_state.stops\[1\]"):
+        TourState([1, "a"], (), None)  # type: ignore[list-item]
 
 
 def test_encode_rejects_a_frame_over_the_limit() -> None:

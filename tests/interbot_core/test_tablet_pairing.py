@@ -96,3 +96,21 @@ def test_pairing_uri_round_trips_and_rejects_garbage() -> None:
                 offer.uri.replace(FP, "xyz")):  # fmt: skip
         with pytest.raises(PairingError):
             parse_pairing_uri(bad)
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ({"revoked": "no"}, r"tablets\[0\]\.revoked must be true or false, got 'no'"),
+        ({"token_sha256": "00"}, r"tablets\[0\]\.token_sha256 must be a string matching"),
+        ({"paired_at": "today"}, r"tablets\[0\]\.paired_at must be a number"),
+        ({"name": ""}, r"tablets\[0\]\.name must be a string matching"),
+    ],
+)
+def test_registry_file_with_wrong_types_is_refused(entry: dict[str, object], message: str) -> None:
+    """The registry file is outside input: a string where a flag belongs ("no" is truthy) must
+    not load as a revoked (or trusted) tablet."""
+    good = {"tablet_id": "t1", "name": "lobby", "token_sha256": "a" * 64, "paired_at": 5.0}
+    with pytest.raises(PairingError, match=message):
+        TabletRegistry.from_json({"version": 1, "tablets": [{**good, **entry}]}, counter_bytes())
+    assert TabletRegistry.from_json({"version": 1, "tablets": [good]}, counter_bytes()).records

@@ -181,7 +181,9 @@ def test_robot_yaml_security_section_and_the_deploy_example(repo_root: Path) -> 
 
     cfg = parse_config({"security": {"keys": "k", "insecure": False}}, "robot.yaml", Path("/x"))
     assert cfg.security == SecuritySettings(Path("/x/k"), False)
-    with pytest.raises(ConfigError, match="'security' must be a mapping"):
+    with pytest.raises(
+        ConfigError, match=r"unknown key 'security.key' \(allowed: keys, insecure\)"
+    ):
         parse_config({"security": {"key": "k"}}, "robot.yaml", Path("/x"))
     deploy = load_config(repo_root / "deploy" / "robot.yaml")
     assert deploy.security.keys == Path("/etc/interbot/keys") and not deploy.security.insecure
