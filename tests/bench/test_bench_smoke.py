@@ -62,6 +62,11 @@ POSITIVE = {
     ],
     "replay": ["replay_speed_x", "replay_poses_received"],
     "link": ["link_pose_samples", "link_pose_ms_median", "link_pose_ms_p99"],
+    "codec": [
+        "tablet_speed_encode_us_median",
+        "tablet_speed_decode_us_median",
+        "topic_pose_decode_us_p99",
+    ],
     "fleet": ["fleet_robots_seen", "fleet_discovery_ms_median", "fleet_gone_ms_median"],
     "station_fleet": [
         "station_fleet_supervised",
