@@ -82,8 +82,10 @@ class ScanMatcherConfig:
     converged_rad: float = 0.001
     # Scale [m] of the surface orientation (`surface_tensor`) that gives each inlier's normal
     # for the match information: the Gaussian-weighted scatter of the finest level's surface
-    # nodes within about 3 times this.
-    tensor_sigma_m: float = 0.15
+    # nodes within about 3 times this. 0.15 m over-smoothed the realistic world's door jambs and
+    # furniture (ISR tour seeds 1 and 3 lost); 0.05 m (one cell) no longer sees a dotted wall's
+    # direction (`test_match_information_along_a_dotted_corridor_is_small`).
+    tensor_sigma_m: float = 0.10
 
     def __post_init__(self) -> None:
         if not 1 <= self.levels <= 5:

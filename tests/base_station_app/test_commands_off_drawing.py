@@ -127,6 +127,10 @@ def test_between_frames_only_events_are_taken_and_the_state_waits_in_its_ring(
     qtbot, station, robot, clock
 ) -> None:
     """Polls between two frames leave the scan / pose rings alone; the next frame takes the newest."""
+    # The state snapshot the station asked for on selecting the robot is an event (it is taken
+    # between frames, as it should): let it arrive before the robot publishes the test's poses.
+    qtbot.wait(300)
+    station.poll_link()
     frames: list[int] = []
     station.frame_ready.connect(lambda: frames.append(station.state.version))
     station.display_rate = DisplayRate(10.0)
