@@ -70,9 +70,15 @@ class ScanOutcome:
 
 
 def log_config() -> LocaliserConfig:
-    """The localiser's configuration for maps built from logged scans: a wall lies anywhere in
-    its (binned) cell, on average mid-cell."""
-    return LocaliserConfig(matcher=ScanMatcherConfig(surface="cell_centre"))
+    """The localiser's configuration for maps built from logged scans (`grid_from_scans`): a
+    wall lies anywhere in its (binned) cell, on average mid-cell; and every surface the mapping
+    scans saw is an occupied cell, so the edge between free and unknown space is where those
+    scans ran out of range or out of view, never a wall (``unknown_edges_are_surfaces`` is for
+    map_server maps whose walls are grey edges; here it made the Freiburg campus whole-log RMS
+    8.3 m instead of 14 cm, reported degraded/lost)."""
+    return LocaliserConfig(
+        matcher=ScanMatcherConfig(surface="cell_centre"), unknown_edges_are_surfaces=False
+    )
 
 
 def map_of(records: Sequence[LaserRecord]) -> OccupancyGrid:
