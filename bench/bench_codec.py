@@ -92,20 +92,18 @@ def _figures(name: str, encode: Callable[[], bytes], decode: Callable[[bytes], o
 def run(quick: bool = False) -> dict[str, Any]:
     repeats = QUICK_REPEATS if quick else REPEATS
     figures: dict[str, Any] = {}
-    for name, msg in TABLET.items():
-        figures |= _figures(
-            f"tablet_{name}",
-            lambda m=msg: p.encode(m),
-            lambda b: p.decode_tablet_message(p.parse_frame(b.rstrip()), LIMITS),
-            repeats,
-        )
-    for name, msg in STATION.items():
-        figures |= _figures(
-            f"station_{name}",
-            lambda m=msg: p.encode(m),
-            lambda b: p.decode_station_message(p.parse_frame(b.rstrip()), LIMITS),
-            repeats,
-        )
+    apps = (
+        ("tablet", TABLET, p.decode_tablet_message),
+        ("station", STATION, p.decode_station_message),
+    )
+    for side, messages, decode in apps:
+        for name, msg in messages.items():
+            figures |= _figures(
+                f"{side}_{name}",
+                lambda m=msg: p.encode(m),
+                lambda b, d=decode: d(p.parse_frame(b.rstrip()), LIMITS),
+                repeats,
+            )
     for topic, msg in TOPICS.items():
         figures |= _figures(
             f"topic_{topic}",
