@@ -72,6 +72,8 @@ from robot_daemon.systemd_notify import SystemdNotifier
 logger = logging.getLogger(__name__)
 
 LOOP_PERIOD = 0.02  # [s] wall time between passes of the control loop (50 Hz)
+SLOW_PASS = 0.1  # [s] a pass longer than this is logged: commands waited that long
+SLOW_PASS_LOG_PERIOD = 10.0  # [s] wall time between two such log lines
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
 SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 
@@ -194,6 +196,8 @@ class Daemon:
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
+        self.slow_passes = 0  # passes longer than SLOW_PASS (commands waited)
+        self._slow_logged = -SLOW_PASS_LOG_PERIOD
         if options.auto_localise:
             self.stack.set_initial_pose(self.start_pose, 0.0)
         if config.start_latched:
@@ -383,9 +387,12 @@ class Daemon:
             for command in commands:
                 self.handle(command, link)
             if time.monotonic() >= next_tick:
+                started = time.monotonic()
                 self.stack.step(self.now)
+                stepped = time.monotonic()
                 self.publish(link)
                 notifier.watchdog(time.monotonic())
+                self._check_pass_time(started, stepped, time.monotonic())
                 next_tick += LOOP_PERIOD
                 if next_tick < time.monotonic():
                     next_tick = time.monotonic()  # overran: do not try to catch up
@@ -406,6 +413,21 @@ class Daemon:
             self._on_component_error(exc, link)
             next_tick = time.monotonic() + LOOP_PERIOD
         return next_tick
+
+    def _check_pass_time(self, started: float, stepped: float, done: float) -> None:
+        """Count and log (at most every 10 s) a pass that held commands back too long."""
+        if done - started <= SLOW_PASS:
+            return
+        self.slow_passes += 1
+        if done - self._slow_logged >= SLOW_PASS_LOG_PERIOD:
+            self._slow_logged = done
+            logger.warning(
+                "slow control loop pass: %.0f ms (step %.0f ms, publish %.0f ms; %d so far)",
+                (done - started) * 1000,
+                (stepped - started) * 1000,
+                (done - stepped) * 1000,
+                self.slow_passes,
+            )
 
     def _on_component_error(self, exc: Exception, link: RobotLink) -> None:
         """Zero the motors, give up the route (the station is told) and report the error."""

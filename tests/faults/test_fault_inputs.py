@@ -111,6 +111,16 @@ def test_frozen_tablet_stops_the_robot_within_the_ceiling(rig, daemon, observer)
             10.0,
             "the tablet to drive again",
         )
+        # The observer must see the robot turning before the freeze: a zero it sees first is
+        # then the robot's answer to the freeze, not the first message of a late-joining
+        # observer (its zenoh session may connect a second after the daemon starts listening).
+        rig.wait(
+            lambda resumed=resumed: any(
+                s.message.angular for s in observer.of(Topic.MUX, ROBOT, since=resumed)
+            ),
+            10.0,
+            "the observer to see the robot turning",
+        )
         tablet.send_signal(signal.SIGSTOP)
         frozen = time.monotonic()
 

@@ -4,6 +4,7 @@ leaves the motors at zero on every way out."""
 from __future__ import annotations
 
 import threading
+import time
 from pathlib import Path
 from unittest import mock
 
@@ -12,7 +13,7 @@ import pytest
 from interbot_core.topics import Status, StopRelease, Topic, Twist
 from interbot_link import Command
 from robot_daemon.config import ConfigError, DaemonConfig, SimSettings, parse_config
-from robot_daemon.daemon import Daemon, DaemonOptions
+from robot_daemon.daemon import SLOW_PASS, Daemon, DaemonOptions
 from robot_daemon.systemd_notify import SystemdNotifier
 
 
@@ -99,3 +100,24 @@ def test_every_exit_sets_the_motors_to_zero(shared: Daemon) -> None:
     ):
         daemon.run(link, threading.Event(), SystemdNotifier({}))  # type: ignore[arg-type]
     assert commands == [(0.0, 0.0)]
+
+
+def test_a_slow_loop_pass_is_counted_and_logged(
+    daemon: Daemon, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A pass that held commands back longer than SLOW_PASS is said in the log, not hidden."""
+    before = daemon.slow_passes
+    real_step = daemon.stack.step
+
+    def slow_step(now: float) -> object:
+        out = real_step(now)
+        time.sleep(SLOW_PASS + 0.02)
+        return out
+
+    with mock.patch.object(daemon.stack, "step", side_effect=slow_step):
+        link = RecordingLink()
+        daemon._pass(link, SystemdNotifier({}), 0.0)  # type: ignore[arg-type]
+    assert daemon.slow_passes == before + 1, link.statuses
+    assert any("slow control loop pass" in r.getMessage() for r in caplog.records)
+    daemon._pass(RecordingLink(), SystemdNotifier({}), 0.0)  # type: ignore[arg-type]
+    assert daemon.slow_passes == before + 1  # a normal pass is not counted
