@@ -1,6 +1,6 @@
 """Benchmark: the localiser on every real laser log in ../shared/data/laser_logs (eight CARMEN logs).
 
-Two methods of `robot_daemon.localisation.log_replay` (the real-data tests use the same code):
+Two methods of `tests/robot_daemon/localisation/log_replay.py` (the real-data tests use the same code):
 
 * ``revisit``: map the first half of a log with its logged (GMapping-corrected) poses, localise
   the later scans that come back to the mapped area. Not every log revisits (ACES and CSAIL
@@ -32,19 +32,30 @@ import importlib.util
 import json
 import logging
 import math
+import sys
 import time
 from pathlib import Path
-
-from interbot_core.carmen_log import read_laser_records
-from robot_daemon.localisation.log_replay import (
-    LogReplayError,
-    localise_interleaved,
-    localise_revisits,
-)
 
 _spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
 common = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
 _spec.loader.exec_module(common)  # type: ignore[union-attr]
+# The log reader and the replay method are the real-data tests' (tests/, not shipped with the
+# robot): loaded by path.
+_REPLAY = Path(__file__).resolve().parent.parent / "tests" / "robot_daemon" / "localisation"
+_spec = importlib.util.spec_from_file_location("interbot_bench_carmen_log", _REPLAY / "carmen_log.py")  # fmt: skip
+carmen_log = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
+sys.modules[_spec.name] = carmen_log  # type: ignore[union-attr]  # its dataclasses look it up
+_spec.loader.exec_module(carmen_log)  # type: ignore[union-attr]
+read_laser_records = carmen_log.read_laser_records
+_spec = importlib.util.spec_from_file_location("interbot_bench_log_replay", _REPLAY / "log_replay.py")  # fmt: skip
+log_replay = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
+sys.modules[_spec.name] = log_replay  # type: ignore[union-attr]  # its dataclasses look it up
+_spec.loader.exec_module(log_replay)  # type: ignore[union-attr]
+LogReplayError = log_replay.LogReplayError
+localise_interleaved, localise_revisits = (
+    log_replay.localise_interleaved,
+    log_replay.localise_revisits,
+)
 
 logger = logging.getLogger(__name__)
 

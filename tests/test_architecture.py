@@ -315,3 +315,86 @@ def test_the_new_rules_catch_violations(tmp_path: Path) -> None:
     assert "tools" in imported_top_levels(bad)
     assert {"bench_raycast", "topological_map_dict"} <= functions and "RoomArea" in classes
     assert area_key_uses(bad) == [5, 6, 7]
+
+
+# ---------------------------------------------------------------------- nothing ships unused
+# Issue 13: code that only tests and benchmarks use (the real-log replay used to sit in
+# robot_daemon/localisation/) lives in tests/ or bench/. Every product module is imported by
+# another product module, or is one of these entry points, each started by name, not imported:
+ENTRY_MODULES = {
+    # console scripts: pyproject.toml [project.scripts] (checked below)
+    "interbot_cli.screens": "`python -m` child of the demo launcher (asks Qt for the screens)",
+    "robot_daemon.hardware.emulators.hokuyo_emulator": "`python -m`: a laser on a pty",
+    "robot_daemon.hardware.emulators.roboteq_emulator": "`python -m`: a motor controller on a pty",
+    "robot_daemon.recording.foxglove_layout": "`python -m`: writes docs/foxglove_layout.json",
+    **{
+        f"robot_daemon.scenarios.{name}": "`interbot scenario NAME` (imported by name)"
+        for name in ("kidnap", "latency", "mission", "odometry", "teleop", "tour")
+    },
+}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Every module ``path`` imports, and ``pkg.name`` for each ``from pkg import name``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    me = module_name(path)
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = me.split(".") if path.name == "__init__.py" else me.split(".")[:-1]
+            if node.level:
+                base = base[: len(base) - node.level + 1]
+                module = ".".join([*base, *([node.module] if node.module else [])])
+            else:
+                module = node.module or ""
+            found.add(module)
+            found.update(f"{module}.{alias.name}" for alias in node.names)
+    return found - {me}
+
+
+def unused_product_modules(files: list[Path], entries: set[str]) -> list[str]:
+    imported = set().union(*(imported_modules(p) for p in files))
+    return sorted(
+        module_name(p)
+        for p in files
+        if p.name not in ("__init__.py", "__main__.py") and module_name(p) not in imported | entries
+    )
+
+
+def console_script_modules() -> set[str]:
+    import tomllib
+
+    scripts = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    return {target.split(":")[0] for target in scripts["scripts"].values()}
+
+
+def test_every_product_module_is_used_by_the_product() -> None:
+    entries = console_script_modules() | set(ENTRY_MODULES)
+    assert unused_product_modules(product_files(), entries) == []
+    stale = sorted(m for m in ENTRY_MODULES if m not in {module_name(p) for p in product_files()})
+    assert stale == [], "entry modules that no longer exist"
+
+
+def test_unused_module_rule_catches_a_test_only_module(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setattr(sys.modules[__name__], "REPO", tmp_path)
+    package = tmp_path / "robot_daemon"
+    (package / "localisation").mkdir(parents=True)
+    (package / "__init__.py").write_text("", encoding="utf-8")
+    (package / "main.py").write_text(
+        "from robot_daemon.localisation import localiser\n", encoding="utf-8"
+    )
+    (package / "localisation" / "__init__.py").write_text("", encoding="utf-8")
+    (package / "localisation" / "localiser.py").write_text("from . import maps\n", "utf-8")
+    (package / "localisation" / "maps.py").write_text("", encoding="utf-8")
+    (package / "localisation" / "log_replay.py").write_text("from .localiser import x\n", "utf-8")
+    files = sorted(package.rglob("*.py"))
+    assert unused_product_modules(files, {"robot_daemon.main"}) == [
+        "robot_daemon.localisation.log_replay"
+    ]

@@ -33,7 +33,7 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   estimate (below), or if its match was rejected. While lost the pose follows odometry alone
   and the state stays ``lost`` until `set_initial_pose` is called. A *silent failure*, an
   error above 0.3 m or 10 degrees reported ``ok``, is what the states exist to prevent;
-  `log_replay` counts them on real logs.
+  the real-log tests count them (`tests/robot_daemon/localisation/log_replay.py`).
 * **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
   *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
   has only the small "random" likelihood). A beam is impossible when its measured range passes

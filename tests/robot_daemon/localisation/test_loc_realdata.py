@@ -1,6 +1,6 @@
 """Localisation on real laser logs (Radish / Freiburg CARMEN logs in ../shared/data).
 
-The method lives in `robot_daemon.localisation.log_replay` (shared with bench/bench_reallogs.py).
+The method lives in `tests/robot_daemon/localisation/log_replay.py` (shared with bench/bench_reallogs.py).
 A map is built with `grid_from_scans` from the first part of a log and its logged (GMapping-
 corrected) poses. The scans of the later part that revisit the mapped area (logged pose within
 1 m of a mapping pose) are localised in runs, each run starting from its first logged pose, with
@@ -19,14 +19,18 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from interbot_core.carmen_log import LaserRecord, read_laser_records
 from robot_daemon.localisation import grid_from_scans
-from robot_daemon.localisation.log_replay import localise_interleaved, localise_revisits
 from robot_daemon.localisation.mapping import scan_points_in_map
+from tests.robot_daemon.localisation.carmen_log import LaserRecord, read_laser_records
+from tests.robot_daemon.localisation.log_replay import localise_interleaved, localise_revisits
 
 LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "data" / "laser_logs"
 
 pytestmark = pytest.mark.realdata
+
+
+def _records(name: str) -> list[LaserRecord]:
+    return read_laser_records(_log(name))
 
 
 def _log(name: str) -> Path:
@@ -37,7 +41,7 @@ def _log(name: str) -> Path:
 
 
 def test_intel_lab_revisits(record_property) -> None:
-    stats = localise_revisits(_log("intel"), 0.5, 2, 1)
+    stats = localise_revisits(_log("intel"), 0.5, 2, 1, records=_records("intel"))
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 150
@@ -50,7 +54,7 @@ def test_intel_lab_revisits(record_property) -> None:
 
 
 def test_freiburg_079_revisits(record_property) -> None:
-    stats = localise_revisits(_log("freiburg-079"), 0.5, 6, 4)
+    stats = localise_revisits(_log("freiburg-079"), 0.5, 6, 4, records=_records("freiburg-079"))
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 150
@@ -65,7 +69,7 @@ def test_freiburg_079_revisits(record_property) -> None:
 def test_whole_log_slice_has_no_silent_failure(name: str, start: int, record_property) -> None:
     """Interleaved method (map: even scans; localised: odd ones, forward in one run) on 300
     scans of the log: no scan more than 0.3 m or 10 degrees off while reported ok."""
-    stats = localise_interleaved(_log(name), 2, start=start, count=300)
+    stats = localise_interleaved(_log(name), 2, start=start, count=300, records=_records(name))
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 140
@@ -83,7 +87,9 @@ def test_infinite_corridor_worst_segment_is_never_silently_wrong(record_property
     profile this segment had 7 scans up to 1.7 m off reported ok. The localiser may drift
     there, but it must say so: no silent failure, and every scan it reports ok is within 0.3 m.
     """
-    stats = localise_interleaved(_log("infinite-corridor"), 2, start=960, count=300)
+    stats = localise_interleaved(
+        _log("infinite-corridor"), 2, start=960, count=300, records=_records("infinite-corridor")
+    )
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 140

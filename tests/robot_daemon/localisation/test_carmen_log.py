@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from interbot_core.carmen_log import (
+from tests.robot_daemon.localisation.carmen_log import (
     CarmenLogError,
     LaserRecord,
     OdomRecord,
@@ -22,7 +22,7 @@ from interbot_core.carmen_log import (
     read_laser_records,
 )
 
-LOGS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "laser_logs"
+LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "data" / "laser_logs"
 
 
 def _flaser(

@@ -31,10 +31,10 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from interbot_core.carmen_log import LaserRecord, read_laser_records
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
@@ -42,6 +42,9 @@ from robot_daemon.localisation.mapping import grid_from_scans
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 
 REVISIT_RADIUS_M = 1.0  # [m] a scan revisits the map when its pose is this close to a mapping pose
+if TYPE_CHECKING:  # the records come from the caller (tests and bench/bench_reallogs.py)
+    from tests.robot_daemon.localisation.carmen_log import LaserRecord
+
 SILENT_ERROR_M = 0.3  # [m] an error above this (or SILENT_ERROR_RAD) reported ok is silent
 SILENT_ERROR_RAD = math.radians(10.0)
 MAP_RESOLUTION = 0.05  # [m]
@@ -219,10 +222,6 @@ def revisit_runs(records: list[LaserRecord], split: int, min_len: int) -> list[l
     return runs
 
 
-def _records(path: Path, records: list[LaserRecord] | None) -> list[LaserRecord]:
-    return read_laser_records(path) if records is None else records
-
-
 def localise_revisits(
     path: Path,
     split_fraction: float,
@@ -230,13 +229,13 @@ def localise_revisits(
     loc_stride: int,
     seed: int = 0,
     *,
-    records: list[LaserRecord] | None = None,
+    records: list[LaserRecord],
     clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """Map the first ``split_fraction`` of the log at ``path``, localise the revisits of the rest.
 
     Every ``map_stride``-th scan builds the map; every ``loc_stride``-th scan of a revisit run
-    (>= 10 localised scans) is localised. ``records``: the log already read. Returns
+    (>= 10 localised scans) is localised. ``records``: the log, read (``path`` names it). Returns
     `summarise`'s figures and ``runs``.
     """
     if not 0.0 < split_fraction < 1.0 or map_stride < 1 or loc_stride < 1:
@@ -244,7 +243,6 @@ def localise_revisits(
             f"{path}: need 0 < split_fraction < 1 and strides >= 1, got {split_fraction}, "
             f"{map_stride}, {loc_stride}"
         )
-    records = _records(path, records)
     split = int(split_fraction * len(records))
     mapping = records[:split:map_stride]
     if not mapping:
@@ -269,7 +267,7 @@ def localise_interleaved(
     *,
     start: int = 0,
     count: int | None = None,
-    records: list[LaserRecord] | None = None,
+    records: list[LaserRecord],
     clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """Map every ``stride``-th scan of the log; localise the scans half-way between them
@@ -280,7 +278,6 @@ def localise_interleaved(
     """
     if stride < 2:
         raise LogReplayError(f"{path}: the interleaved method needs stride >= 2, got {stride}")
-    records = _records(path, records)
     if len(records) < 2 * stride:
         raise LogReplayError(f"{path}: {len(records)} scans are too few for stride {stride}")
     end = len(records) if count is None else min(len(records), start + count)
