@@ -28,7 +28,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import deque
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -278,7 +278,7 @@ class RobotStack:
 
     def reconfigure(self, params: dict[str, Any], now: float) -> None:
         """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
-        allowed = {f.name for f in fields(PlannerConfig)}
+        allowed = set(PlannerConfig.__struct_fields__)
         unknown = set(params) - allowed
         if unknown:
             raise StackError(f"unknown planner parameter(s) {sorted(unknown)}")

@@ -1,4 +1,4 @@
-"""Navigation parameters: one frozen, validated :class:`PlannerConfig`.
+"""Navigation parameters: one frozen :class:`PlannerConfig`, declared with its ranges (msgspec).
 
 Defaults follow the thesis where it gives values (Table 6.3: maximum speeds 0.25 m/s and
 1 rad/s, minimum linear speed 0, goal tolerances 0.5 m and 0.1 rad; robot footprint 0.60 x
@@ -9,11 +9,13 @@ shared/FIELD_NOTES.md "Navigation reference values"). Change values at run time 
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
 from robot_daemon.planning.costmap import CostmapConfig
 from robot_daemon.planning.global_planner import GlobalPlannerConfig
 
@@ -22,50 +24,6 @@ class PlannerConfigError(ValueError):
     """A navigation parameter is unknown or out of range; the message names it."""
 
 
-# field -> (lowest allowed, highest allowed, lowest is inclusive). Closed, physically sensible
-# bounds (issue 11): no value in them can exhaust memory or freeze the control loop (with
-# `MAX_ROLLOUT_STEPS` and `MAX_FIELD_CELLS` below), from a file or a ``config`` message alike.
-_RANGES: dict[str, tuple[float, float, bool]] = {
-    "max_linear_speed": (0.05, 1.0, True),
-    "min_linear_speed": (-0.5, 1.0, True),
-    "max_angular_speed": (0.1, 3.0, True),
-    "linear_acceleration": (0.05, 3.0, True),
-    "angular_acceleration": (0.1, 10.0, True),
-    "goal_xy_tolerance": (0.01, 2.0, True),
-    "goal_yaw_tolerance": (0.01, math.pi, True),
-    "approach_tolerance": (0.05, 5.0, True),
-    "robot_length": (0.1, 2.0, True),
-    "robot_width": (0.1, 2.0, True),
-    "laser_x_offset": (-1.0, 1.0, True),
-    "inflation_radius": (0.05, 3.0, True),
-    "cost_scaling_factor": (0.1, 50.0, True),
-    "obstacle_persistence": (0.0, 60.0, True),
-    "obstacle_max_range": (0.5, 30.0, True),
-    "raytrace_max_range": (0.5, 30.0, True),
-    "planning_resolution": (0.025, 0.5, True),
-    "cost_weight": (0.0, 1e4, True),
-    "path_spacing": (0.05, 2.0, True),
-    "replan_period": (0.1, 60.0, True),
-    "sim_time": (0.3, 5.0, True),
-    "sim_dt": (0.02, 0.5, True),
-    "v_samples": (2, 41, True),
-    "w_samples": (3, 61, True),
-    "lookahead": (0.2, 5.0, True),
-    "local_grid_resolution": (0.02, 0.2, True),
-    "slowdown_clearance": (0.0, 2.0, True),
-    "slowdown_min_fraction": (0.05, 1.0, True),
-    "approach_slowdown_distance": (0.05, 5.0, True),
-    "rotate_to_heading_angle": (0.1, math.pi, True),
-    "yaw_gain": (0.1, 10.0, True),
-    "min_rotation_speed": (0.0, 1.0, True),
-    "progress_distance": (0.05, 5.0, True),
-    "progress_timeout": (1.0, 300.0, True),
-    "blocked_timeout": (1.0, 3600.0, True),
-    "spin_angle": (0.0, 2 * math.pi, True),
-    "backup_distance": (0.0, 1.0, True),
-    "backup_speed": (0.02, 0.5, True),
-    "wait_duration": (0.0, 120.0, True),
-}
 MAX_ROLLOUT_STEPS = 20_000
 """Most integration steps of one local-planner cycle, ``v_samples * w_samples * sim_time/sim_dt``
 (the default is 3 465, about 10 ms here; the bound keeps a cycle well under 0.1 s)."""
@@ -73,74 +31,86 @@ MAX_FIELD_CELLS = 1_000_000
 """Most cells of the robot-centred obstacle grid (about 8 MB of float64)."""
 
 
-@dataclass(frozen=True)
-class PlannerConfig:
-    """Everything the navigator, its planners and its costmap need (SI units)."""
+def _within(low: float, high: float, unit: str = "") -> Meta:
+    """A closed range ``[low, high]``, with the unit the error message names."""
+    return Meta(ge=low, le=high, extra={"unit": unit} if unit else None)
+
+
+# Closed, physically sensible bounds on every number (issue 11): no value in them can exhaust
+# memory or freeze the control loop (with `MAX_ROLLOUT_STEPS` and `MAX_FIELD_CELLS` below), from a
+# file or a ``config`` message alike.
+Speed = Annotated[float, _within(0.05, 1.0, "m/s")]
+Metres = Annotated[float, _within(0.05, 5.0, "m")]
+Range = Annotated[float, _within(0.5, 30.0, "m")]
+Angle = Annotated[float, _within(0.01, math.pi, "rad")]
+Timeout = Annotated[float, _within(1.0, 300.0, "s")]
+
+
+class PlannerConfig(schema.Declared, frozen=True):
+    """Everything the navigator, its planners and its costmap need (SI units).
+
+    Each field's type carries its allowed range; a value outside it, of the wrong type or NaN
+    raises `PlannerConfigError` naming the field, the value and the range."""
+
+    ROOT: ClassVar[str] = "PlannerConfig"
+    ERROR: ClassVar[type[Exception]] = PlannerConfigError
 
     # Velocity limits, thesis Table 6.3 (rotational minimum -1 rad/s = -max_angular_speed).
-    max_linear_speed: float = 0.25  # [m/s]
-    min_linear_speed: float = 0.0  # [m/s] 0: the controller never reverses (recoveries may)
-    max_angular_speed: float = 1.0  # [rad/s]
-    linear_acceleration: float = 0.5  # [m/s^2]
-    angular_acceleration: float = 2.0  # [rad/s^2]
+    max_linear_speed: Speed = 0.25
+    # 0: the controller never reverses (recoveries may)
+    min_linear_speed: Annotated[float, _within(-0.5, 1.0, "m/s")] = 0.0
+    max_angular_speed: Annotated[float, _within(0.1, 3.0, "rad/s")] = 1.0
+    linear_acceleration: Annotated[float, _within(0.05, 3.0, "m/s^2")] = 0.5
+    angular_acceleration: Annotated[float, _within(0.1, 10.0, "rad/s^2")] = 2.0
     # Goal checking, thesis Table 6.3; approach tolerance of intermediate goals (§5.3.6).
-    goal_xy_tolerance: float = 0.5  # [m]
-    goal_yaw_tolerance: float = 0.1  # [rad]
-    approach_tolerance: float = 0.7  # [m] Nav2 drops via-points within 0.7 m
+    goal_xy_tolerance: Annotated[float, _within(0.01, 2.0, "m")] = 0.5
+    goal_yaw_tolerance: Angle = 0.1
+    approach_tolerance: Metres = 0.7  # Nav2 drops via-points within 0.7 m
     # Robot: rectangular footprint, centred on the base_link origin.
-    robot_length: float = 0.60  # [m] along x
-    robot_width: float = 0.55  # [m] along y
-    laser_x_offset: float = 0.0  # [m] laser position ahead of base_link
+    robot_length: Annotated[float, _within(0.1, 2.0, "m")] = 0.60  # along x
+    robot_width: Annotated[float, _within(0.1, 2.0, "m")] = 0.55  # along y
+    laser_x_offset: Annotated[float, _within(-1.0, 1.0, "m")] = 0.0  # laser ahead of base_link
     # Costmap (Nav2 inflation layer and obstacle layer).
-    inflation_radius: float = 0.6  # [m]
-    cost_scaling_factor: float = 5.0  # [1/m]
-    obstacle_persistence: float = 2.0  # [s]
-    obstacle_max_range: float = 4.0  # [m]
-    raytrace_max_range: float = 5.0  # [m]
+    inflation_radius: Annotated[float, _within(0.05, 3.0, "m")] = 0.6
+    cost_scaling_factor: Annotated[float, _within(0.1, 50.0, "1/m")] = 5.0
+    obstacle_persistence: Annotated[float, _within(0.0, 60.0, "s")] = 2.0
+    obstacle_max_range: Range = 4.0
+    raytrace_max_range: Range = 5.0
     allow_unknown: bool = False  # Nav2's allow_unknown (its default is True): see CostmapConfig
     # Global planner.
-    planning_resolution: float = 0.1  # [m]
-    cost_weight: float = 100.0
-    path_spacing: float = 0.25  # [m]
-    replan_period: float = 1.0  # [s]
+    planning_resolution: Annotated[float, _within(0.025, 0.5, "m")] = 0.1
+    cost_weight: Annotated[float, _within(0.0, 1e4)] = 100.0
+    path_spacing: Annotated[float, _within(0.05, 2.0, "m")] = 0.25
+    replan_period: Annotated[float, _within(0.1, 60.0, "s")] = 1.0
     # Local planner (dynamic window approach).
-    sim_time: float = 1.5  # [s] trajectory horizon
-    sim_dt: float = 0.1  # [s] integration step of the rollouts
-    v_samples: int = 11
-    w_samples: int = 21
-    lookahead: float = 1.0  # [m] carrot distance along the path
-    local_grid_resolution: float = 0.05  # [m]
-    slowdown_clearance: float = 0.3  # [m] below this footprint clearance the speed limit drops
-    slowdown_min_fraction: float = 0.4  # speed limit at zero clearance, fraction of the maximum
-    approach_slowdown_distance: float = 1.0  # [m] final approach: limit = max * d / this
-    rotate_to_heading_angle: float = 1.2  # [rad] beyond this path-heading error, turn in place
-    yaw_gain: float = 1.5  # [1/s] P gain of the final in-place rotation
-    min_rotation_speed: float = 0.1  # [rad/s] rotation never slower than this until aligned
+    sim_time: Annotated[float, _within(0.3, 5.0, "s")] = 1.5  # trajectory horizon
+    sim_dt: Annotated[float, _within(0.02, 0.5, "s")] = 0.1  # integration step of the rollouts
+    v_samples: Annotated[int, Meta(ge=2, le=41)] = 11
+    w_samples: Annotated[int, Meta(ge=3, le=61)] = 21
+    lookahead: Annotated[float, _within(0.2, 5.0, "m")] = 1.0  # carrot distance along the path
+    local_grid_resolution: Annotated[float, _within(0.02, 0.2, "m")] = 0.05
+    # below this footprint clearance the speed limit drops
+    slowdown_clearance: Annotated[float, _within(0.0, 2.0, "m")] = 0.3
+    # speed limit at zero clearance, fraction of the maximum
+    slowdown_min_fraction: Annotated[float, _within(0.05, 1.0)] = 0.4
+    approach_slowdown_distance: Metres = 1.0  # final approach: limit = max * d / this
+    # beyond this path-heading error, turn in place
+    rotate_to_heading_angle: Annotated[float, _within(0.1, math.pi, "rad")] = 1.2
+    yaw_gain: Annotated[float, _within(0.1, 10.0, "1/s")] = 1.5  # P gain of the final rotation
+    # rotation never slower than this until aligned
+    min_rotation_speed: Annotated[float, _within(0.0, 1.0, "rad/s")] = 0.1
     # Progress checker and recoveries (Nav2 behaviour tree defaults).
-    progress_distance: float = 0.5  # [m]
-    progress_timeout: float = 10.0  # [s]
-    blocked_timeout: float = 30.0  # [s] recoveries without progress -> "blocked"
-    spin_angle: float = math.pi / 2  # [rad]
-    backup_distance: float = 0.3  # [m]
-    backup_speed: float = 0.1  # [m/s]
-    wait_duration: float = 5.0  # [s]
+    progress_distance: Metres = 0.5
+    progress_timeout: Timeout = 10.0
+    # recoveries without progress -> "blocked"
+    blocked_timeout: Annotated[float, _within(1.0, 3600.0, "s")] = 30.0
+    spin_angle: Annotated[float, _within(0.0, 2 * math.pi, "rad")] = math.pi / 2
+    backup_distance: Annotated[float, _within(0.0, 1.0, "m")] = 0.3
+    backup_speed: Annotated[float, _within(0.02, 0.5, "m/s")] = 0.1
+    wait_duration: Annotated[float, _within(0.0, 120.0, "s")] = 5.0
 
-    def __post_init__(self) -> None:
-        for name, (low, high, inclusive) in _RANGES.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise PlannerConfigError(f"PlannerConfig.{name} must be a number, got {value!r}")
-            above = value >= low if inclusive else value > low
-            if not (math.isfinite(value) and above and value <= high):
-                bracket = "[" if inclusive else "("
-                raise PlannerConfigError(
-                    f"PlannerConfig.{name} = {value!r} is outside {bracket}{low}, {high}]"
-                )
-        if not isinstance(self.allow_unknown, bool):
-            raise PlannerConfigError("PlannerConfig.allow_unknown must be true or false")
-        for name in ("v_samples", "w_samples"):
-            if not isinstance(getattr(self, name), int):
-                raise PlannerConfigError(f"PlannerConfig.{name} must be an integer")
+    def check(self) -> None:
+        """Rules across fields: speeds ordered, inflation covers the robot, a cycle stays short."""
         if self.min_linear_speed > self.max_linear_speed:
             raise PlannerConfigError(
                 f"PlannerConfig.min_linear_speed ({self.min_linear_speed}) must be <="
@@ -175,13 +145,13 @@ class PlannerConfig:
 
     def replace(self, **changes: Any) -> PlannerConfig:
         """A validated copy with ``changes``; unknown names raise :class:`PlannerConfigError`."""
-        known = {f.name for f in dataclasses.fields(self)}
+        known = set(self.__struct_fields__)
         unknown = sorted(set(changes) - known)
         if unknown:
             raise PlannerConfigError(
                 f"unknown PlannerConfig field(s) {unknown}; known: {sorted(known)}"
             )
-        return dataclasses.replace(self, **changes)
+        return msgspec.structs.replace(self, **changes)
 
     def costmap_config(self) -> CostmapConfig:
         return CostmapConfig(

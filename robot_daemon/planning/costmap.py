@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy import ndimage
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -48,40 +50,37 @@ class CostmapConfigError(ValueError):
     """A costmap parameter is out of range; the message names the field and the allowed range."""
 
 
-@dataclass(frozen=True)
-class CostmapConfig:
-    """Inflation and obstacle-layer parameters (Nav2 names in comments)."""
+Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
 
-    inscribed_radius: float = 0.275  # [m] half the robot width (0.55 m)
-    inflation_radius: float = 0.6  # [m] inflation_radius
-    cost_scaling_factor: float = 5.0  # [1/m] cost_scaling_factor
-    obstacle_persistence: float = 2.0  # [s] how long a laser mark lives without a new hit
-    obstacle_max_range: float = 4.0  # [m] obstacle_max_range: beams beyond do not mark
-    raytrace_max_range: float = 5.0  # [m] raytrace_max_range: beams clear up to here
+
+class CostmapConfig(schema.Declared, frozen=True):
+    """Inflation and obstacle-layer parameters (Nav2 names in comments); every number finite and
+    > 0, the inflation radius at least the inscribed one."""
+
+    ROOT: ClassVar[str] = "costmap"
+    ERROR: ClassVar[type[Exception]] = CostmapConfigError
+
+    inscribed_radius: Positive = 0.275  # half the robot width (0.55 m)
+    inflation_radius: Positive = 0.6  # inflation_radius
+    cost_scaling_factor: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "1/m"})] = (
+        5.0
+    )
+    # how long a laser mark lives without a new hit
+    obstacle_persistence: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})] = (
+        2.0
+    )
+    obstacle_max_range: Positive = 4.0  # obstacle_max_range: beams beyond do not mark
+    raytrace_max_range: Positive = 5.0  # raytrace_max_range: beams clear up to here
     # Nav2's planner ``allow_unknown`` with the static layer's ``track_unknown_space``: unknown
     # cells are then not obstacles (not inflated) but cost UNKNOWN_COST, the most a traversable
     # cell costs, so paths cross them only where nothing known will do. False: unknown is lethal.
     allow_unknown: bool = False
 
-    def __post_init__(self) -> None:
-        positive = (
-            ("inscribed_radius [m]", self.inscribed_radius),
-            ("cost_scaling_factor [1/m]", self.cost_scaling_factor),
-            ("obstacle_persistence [s]", self.obstacle_persistence),
-            ("obstacle_max_range [m]", self.obstacle_max_range),
-            ("raytrace_max_range [m]", self.raytrace_max_range),
-        )
-        for name, value in positive:
-            if not (math.isfinite(value) and value > 0.0):
-                raise CostmapConfigError(
-                    f"costmap {name} must be a finite number > 0, got {value!r}"
-                )
-        if not (
-            math.isfinite(self.inflation_radius) and self.inflation_radius >= self.inscribed_radius
-        ):
+    def check(self) -> None:
+        if self.inflation_radius < self.inscribed_radius:
             raise CostmapConfigError(
-                f"costmap inflation_radius [m] must be >= inscribed_radius ({self.inscribed_radius}),"
-                f" got {self.inflation_radius!r}"
+                f"costmap.inflation_radius = {self.inflation_radius!r} m must be >= "
+                f"inscribed_radius ({self.inscribed_radius} m)"
             )
 
 

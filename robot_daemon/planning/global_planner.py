@@ -30,13 +30,15 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from interbot_core import schema
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.planning.costmap import INSCRIBED, LETHAL
 
@@ -70,38 +72,26 @@ class GlobalPlannerConfigError(ValueError):
     """A global planner parameter is out of range."""
 
 
-@dataclass(frozen=True)
-class GlobalPlannerConfig:
-    """Parameters of :class:`GlobalPlanner`."""
+Metres = Annotated[float, Meta(ge=0.0, le=schema.FINITE, extra={"unit": "m"})]
+PositiveMetres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
 
-    planning_resolution: float = 0.1  # [m] coarse grid (rounded to a multiple of the map's)
-    cost_weight: float = 100.0  # step cost = len * (1 + cost / cost_weight)
-    sample_spacing: float = 0.25  # [m] spacing of the returned points
-    snap_radius: float = 0.5  # [m] how far a start/goal in inscribed space may be moved
+
+class GlobalPlannerConfig(schema.Declared, frozen=True):
+    """Parameters of :class:`GlobalPlanner` (finite; sizes > 0, margins >= 0)."""
+
+    ROOT: ClassVar[str] = "global planner"
+    ERROR: ClassVar[type[Exception]] = GlobalPlannerConfigError
+
+    planning_resolution: PositiveMetres = 0.1  # coarse grid (rounded to a multiple of the map's)
+    # step cost = len * (1 + cost / cost_weight)
+    cost_weight: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = 100.0
+    sample_spacing: PositiveMetres = 0.25  # spacing of the returned points
+    snap_radius: Metres = 0.5  # how far a start/goal in inscribed space may be moved
     smooth: bool = True
-    # [m] search first in the box around start and goal grown by this margin (0: whole map);
-    # only if that box holds no path is the whole map searched. Legs between topological
-    # nodes are 5-20 m, so this cuts a plan on a 70 x 35 m floor from ~50 ms to a few ms.
-    window_margin: float = 8.0
-
-    def __post_init__(self) -> None:
-        for name, value in (
-            ("planning_resolution [m]", self.planning_resolution),
-            ("cost_weight", self.cost_weight),
-            ("sample_spacing [m]", self.sample_spacing),
-        ):
-            if not (math.isfinite(value) and value > 0.0):
-                raise GlobalPlannerConfigError(
-                    f"global planner {name} must be a finite number > 0, got {value!r}"
-                )
-        if not (math.isfinite(self.window_margin) and self.window_margin >= 0.0):
-            raise GlobalPlannerConfigError(
-                f"global planner window_margin [m] must be >= 0, got {self.window_margin!r}"
-            )
-        if not (math.isfinite(self.snap_radius) and self.snap_radius >= 0.0):
-            raise GlobalPlannerConfigError(
-                f"global planner snap_radius [m] must be >= 0, got {self.snap_radius!r}"
-            )
+    # Search first in the box around start and goal grown by this margin (0: whole map); only
+    # if that box holds no path is the whole map searched. Legs between topological nodes are
+    # 5-20 m, so this cuts a plan on a 70 x 35 m floor from ~50 ms to a few ms.
+    window_margin: Metres = 8.0
 
 
 def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.uint8]:
