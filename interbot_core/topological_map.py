@@ -18,22 +18,28 @@ File format (YAML, beside the occupancy-grid YAML it belongs to)::
 Node ids must be exactly 0..N-1 (any order in the file). ``home: true`` marks the home node (at
 most one; default node 0). Without ``arcs`` the nodes form a ring 0-1-...-(N-1)-0, as the thesis's
 ``initialData()`` (Algorithm 4) builds its distance matrix; ``arcs: []`` means no arcs at all.
-Unknown extra keys are allowed and ignored. Every problem raises :class:`TopologicalMapError`
-naming the file and the node or arc.
+Unknown extra keys are allowed and ignored. The file is declared by `TopologicalMapFile`
+(msgspec); every problem raises :class:`TopologicalMapError` naming the file, the node or arc,
+the value and what is allowed.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+import msgspec
 import yaml
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
+from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -116,33 +122,28 @@ class TopologicalMap:
     def from_dict(
         cls, data: Any, source: str = "<memory>", base_dir: Path | None = None
     ) -> TopologicalMap:
-        """Validate parsed YAML ``data``; ``map`` is resolved against ``base_dir`` (or cwd)."""
+        """Validate parsed YAML ``data`` (`TopologicalMapFile`); ``map`` is resolved against
+        ``base_dir`` (or cwd)."""
         if not isinstance(data, Mapping):
             raise TopologicalMapError(
                 f"{source}: expected a mapping with 'nodes' (and 'map', 'arcs'), "
                 f"got {type(data).__name__}"
             )
-        map_path: Path | None = None
-        if data.get("map") is not None:
-            map_name = data["map"]
-            if not isinstance(map_name, str) or not map_name:
+        try:
+            file = schema.convert(data, TopologicalMapFile, "")
+        except SchemaError as exc:
+            label = _node_label(data, exc.path)
+            raise TopologicalMapError(f"{source}: {label}{exc.message}") from None
+        map_path = None if file.map is None else ((base_dir or Path.cwd()) / file.map).resolve()
+        by_id: dict[int, NodeEntry] = {}
+        for entry in file.nodes:
+            if entry.id in by_id:
                 raise TopologicalMapError(
-                    f"{source}: 'map' must be the occupancy-grid YAML file name, got {map_name!r}"
+                    f"{source}: duplicate node id {entry.id} "
+                    f"({by_id[entry.id].name!r} and {entry.name!r})"
                 )
-            map_path = ((base_dir or Path.cwd()) / map_name).resolve()
-        raw_nodes = data.get("nodes")
-        if not isinstance(raw_nodes, list) or not raw_nodes:
-            raise TopologicalMapError(f"{source}: 'nodes' must be a non-empty list")
-        parsed = [_parse_node(raw, i, source) for i, raw in enumerate(raw_nodes)]
-        by_id: dict[int, Node] = {}
-        for node in parsed:
-            if node.id in by_id:
-                raise TopologicalMapError(
-                    f"{source}: duplicate node id {node.id} "
-                    f"({by_id[node.id].name!r} and {node.name!r})"
-                )
-            by_id[node.id] = node
-        n = len(parsed)
+            by_id[entry.id] = entry
+        n = len(file.nodes)
         missing = sorted(set(range(n)) - set(by_id))
         if missing:
             extra = sorted(set(by_id) - set(range(n)))
@@ -150,16 +151,13 @@ class TopologicalMap:
                 f"{source}: node ids must be 0..{n - 1} without gaps; "
                 f"missing {missing}, out of range {extra}"
             )
-        nodes = tuple(by_id[i] for i in range(n))
-        raw_arcs = data.get("arcs")
-        if raw_arcs is None:
+        nodes = tuple(by_id[i].node() for i in range(n))
+        if file.arcs is None:  # a ring in id order, as the thesis's initialData() builds
             arc_pairs: list[tuple[int, int, float | None]] = [
                 (i, (i + 1) % n, None) for i in range(n if n > 2 else n - 1)
             ]
-        elif isinstance(raw_arcs, list):
-            arc_pairs = [_parse_arc(raw, i, n, source) for i, raw in enumerate(raw_arcs)]
         else:
-            raise TopologicalMapError(f"{source}: 'arcs' must be a list of [u, v] or [u, v, w]")
+            arc_pairs = [_arc_ends(raw, i, n, source) for i, raw in enumerate(file.arcs)]
         arcs = tuple(
             Arc(u, v, nodes[u].pose.distance_to(nodes[v].pose) if w is None else w)
             for u, v, w in arc_pairs
@@ -241,82 +239,81 @@ def load_topological_map(path: str | Path) -> TopologicalMap:
     return topo
 
 
-# ---------------------------------------------------------------------- parsing helpers
+# ---------------------------------------------------------------------- the file's declaration
 
-_REQUIRED_NODE_FIELDS = ("id", "name", "x", "y", "yaw")
+NodeName = Annotated[str, Meta(pattern=r"\S", extra={"format": "a non-empty string"})]
+# An arc is [u, v] or [u, v, weight]: msgspec has no union of two array shapes, so the entries
+# are finite numbers and `_arc_ends` checks the length and that the ends are node ids.
+ArcEntry = tuple[schema.Finite, ...]
 
 
-def _parse_node(raw: Any, index: int, source: str) -> Node:
-    if not isinstance(raw, Mapping):
-        raise TopologicalMapError(f"{source}: nodes[{index}] must be a mapping, got {raw!r}")
-    label = f"nodes[{index}]"
-    if "id" in raw:
-        label = f"node {raw['id']!r}" + (f" ({raw['name']!r})" if "name" in raw else "")
-    for key in _REQUIRED_NODE_FIELDS:
-        if key not in raw:
-            raise TopologicalMapError(f"{source}: {label}: missing field '{key}'")
-    node_id = raw["id"]
-    if isinstance(node_id, bool) or not isinstance(node_id, int) or node_id < 0:
-        raise TopologicalMapError(
-            f"{source}: {label}: 'id' must be an integer >= 0, got {node_id!r}"
+class NodeEntry(msgspec.Struct, frozen=True):
+    """One entry of ``nodes:`` as written in the file (unknown keys are ignored)."""
+
+    id: Annotated[int, Meta(ge=0)]
+    name: NodeName
+    x: schema.Finite  # [m]
+    y: schema.Finite  # [m]
+    yaw: schema.Finite  # [rad]
+    info: str | None = ""
+    tour: bool = False
+    requests: bool = False
+    home: bool = False
+
+    def node(self) -> Node:
+        return Node(
+            self.id,
+            self.name,
+            Pose2D(self.x, self.y, self.yaw),
+            self.info or "",
+            self.tour,
+            self.requests,
+            self.home,
         )
-    name = raw["name"]
-    if not isinstance(name, str) or not name.strip():
-        raise TopologicalMapError(f"{source}: {label}: 'name' must be a non-empty string")
-    coords = [_finite(raw[key], key, label, source) for key in ("x", "y", "yaw")]
-    info = raw.get("info", "")
-    if info is None:
-        info = ""
-    if not isinstance(info, str):
-        raise TopologicalMapError(f"{source}: {label}: 'info' must be a string, got {info!r}")
-    flags = [_flag(raw, key, label, source) for key in ("tour", "requests", "home")]
-    return Node(
-        id=node_id,
-        name=name,
-        pose=Pose2D(*coords),
-        info=info,
-        tour=flags[0],
-        requests=flags[1],
-        home=flags[2],
-    )
 
 
-def _finite(value: Any, key: str, label: str, source: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise TopologicalMapError(
-            f"{source}: {label}: '{key}' must be a finite number, got {value!r}"
-        )
-    return float(value)
+class TopologicalMapFile(msgspec.Struct, frozen=True):
+    """The topological-map YAML (see the module docstring); unknown keys are ignored."""
+
+    nodes: Annotated[list[NodeEntry], Meta(min_length=1)]
+    map: (
+        Annotated[str, Meta(min_length=1, extra={"format": "the occupancy-grid YAML file name"})]
+        | None
+    ) = None
+    arcs: (
+        Annotated[list[ArcEntry], Meta(extra={"format": "a list of [u, v] or [u, v, weight]"})]
+        | None
+    ) = None
 
 
-def _flag(raw: Mapping[str, Any], key: str, label: str, source: str) -> bool:
-    value = raw.get(key, False)
-    if not isinstance(value, bool):
-        raise TopologicalMapError(
-            f"{source}: {label}: '{key}' must be true or false, got {value!r}"
-        )
-    return value
+def _node_label(data: Mapping[str, Any], path: str) -> str:
+    """``node 1 ('N1'): `` for an error inside ``nodes[1]`` whose id and name can be read."""
+    found = re.match(r"nodes\[(\d+)\]", path)
+    nodes = data.get("nodes")
+    if found is None or path.endswith(".id") or not isinstance(nodes, list):
+        return ""
+    if int(found[1]) >= len(nodes):
+        return ""
+    raw = nodes[int(found[1])]
+    if not isinstance(raw, Mapping) or "id" not in raw:
+        return ""
+    return f"node {raw['id']!r}" + (f" ({raw['name']!r})" if "name" in raw else "") + ": "
 
 
-def _parse_arc(raw: Any, index: int, n: int, source: str) -> tuple[int, int, float | None]:
-    label = f"arcs[{index}] {raw!r}"
-    if not isinstance(raw, Sequence) or isinstance(raw, str) or len(raw) not in (2, 3):
+def _arc_ends(raw: ArcEntry, index: int, n: int, source: str) -> tuple[int, int, float | None]:
+    label = f"arcs[{index}] [{', '.join(f'{x:g}' for x in raw)}]"
+    if len(raw) not in (2, 3):
         raise TopologicalMapError(f"{source}: {label}: an arc is [u, v] or [u, v, weight]")
-    ends = []
-    for end in raw[:2]:
-        if isinstance(end, bool) or not isinstance(end, int):
-            raise TopologicalMapError(f"{source}: {label}: node ids must be integers")
+    if not all(float(end).is_integer() for end in raw[:2]):
+        raise TopologicalMapError(f"{source}: {label}: node ids must be integers")
+    u, v = int(raw[0]), int(raw[1])
+    for end in (u, v):
         if not 0 <= end < n:
             raise TopologicalMapError(f"{source}: {label}: {end} is not a node (nodes 0..{n - 1})")
-        ends.append(end)
-    if ends[0] == ends[1]:
+    if u == v:
         raise TopologicalMapError(f"{source}: {label} is a self-loop")
-    weight: float | None = None
-    if len(raw) == 3:
-        w = raw[2]
-        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
-            raise TopologicalMapError(
-                f"{source}: {label}: weight must be a finite number >= 0 [m], got {w!r}"
-            )
-        weight = float(w)
-    return ends[0], ends[1], weight
+    if len(raw) == 3 and raw[2] < 0:
+        raise TopologicalMapError(
+            f"{source}: {label}: weight must be a finite number >= 0 [m], got {raw[2]!r}"
+        )
+    return u, v, None if len(raw) == 2 else float(raw[2])

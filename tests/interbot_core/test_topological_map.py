@@ -89,19 +89,32 @@ def _with(mutate: Any) -> dict[str, Any]:
 @pytest.mark.parametrize(
     ("mutate", "message"),
     [
-        (lambda d: d.pop("nodes"), "'nodes' must be a non-empty list"),
-        (lambda d: d["nodes"][1].pop("x"), r"node 1 \('N1'\): missing field 'x'"),
-        (lambda d: d["nodes"][1].update(x="abc"), "'x' must be a finite number"),
-        (lambda d: d["nodes"][1].update(y=float("nan")), "'y' must be a finite number"),
-        (lambda d: d["nodes"][1].update(yaw=True), "'yaw' must be a finite number"),
+        (lambda d: d.pop("nodes"), "nodes is missing"),
+        (lambda d: d["nodes"][1].pop("x"), r"node 1 \('N1'\): nodes\[1\]\.x is missing"),
+        (lambda d: d["nodes"][1].update(x="abc"), r"nodes\[1\]\.x must be a number, got 'abc'"),
+        (
+            lambda d: d["nodes"][1].update(y=float("nan")),
+            r"nodes\[1\]\.y must be a finite number, got nan",
+        ),
+        (lambda d: d["nodes"][1].update(yaw=True), r"nodes\[1\]\.yaw must be a number, got True"),
         (lambda d: d["nodes"][1].update(id=0), "duplicate node id 0"),
+        (lambda d: d.update(nodes=[]), "nodes has 0 elements; at least 1 are allowed"),
         (lambda d: d["nodes"][1].update(id=7), r"missing \[1\], out of range \[7\]"),
-        (lambda d: d["nodes"][1].update(id=-1), "'id' must be an integer >= 0"),
-        (lambda d: d["nodes"][1].update(id="1"), "'id' must be an integer"),
-        (lambda d: d["nodes"][1].update(name=""), "'name' must be a non-empty string"),
-        (lambda d: d["nodes"][1].update(tour="yes"), "'tour' must be true or false"),
-        (lambda d: d["nodes"][1].update(info=3), "'info' must be a string"),
-        (lambda d: d["nodes"].__setitem__(1, "N1"), r"nodes\[1\] must be a mapping"),
+        (
+            lambda d: d["nodes"][1].update(id=-1),
+            r"nodes\[1\]\.id = -1 is outside the allowed range 0\.\.inf",
+        ),
+        (lambda d: d["nodes"][1].update(id="1"), r"nodes\[1\]\.id must be an integer"),
+        (lambda d: d["nodes"][1].update(name=""), r"nodes\[1\]\.name must be a non-empty string"),
+        (
+            lambda d: d["nodes"][1].update(tour="yes"),
+            r"nodes\[1\]\.tour must be true or false, got 'yes'",
+        ),
+        (lambda d: d["nodes"][1].update(info=3), r"nodes\[1\]\.info must be a string"),
+        (
+            lambda d: d["nodes"].__setitem__(1, "N1"),
+            r"nodes\[1\] must be an object with keys id, name, x, y, yaw",
+        ),
         (
             lambda d: [d["nodes"][0].update(home=True), d["nodes"][2].update(home=True)],
             r"at most one node may have home: true, found nodes \[0, 2\]",
@@ -109,12 +122,15 @@ def _with(mutate: Any) -> dict[str, Any]:
         (lambda d: d["arcs"].append([1, 9]), r"arcs\[2\] \[1, 9\]: 9 is not a node \(nodes 0..2\)"),
         (lambda d: d["arcs"].append([2, 2]), "is a self-loop"),
         (lambda d: d["arcs"].append([0, 2, -1.0]), "weight must be a finite number >= 0"),
-        (lambda d: d["arcs"].append([0, 2, float("inf")]), "weight must be a finite number"),
+        (
+            lambda d: d["arcs"].append([0, 2, float("inf")]),
+            r"arcs\[2\]\[2\] must be a finite number, got inf",
+        ),
         (lambda d: d["arcs"].append([0]), r"an arc is \[u, v\] or \[u, v, weight\]"),
         (lambda d: d["arcs"].append([0, 1.5]), "node ids must be integers"),
         (lambda d: d["arcs"].append([2, 1]), r"arc \[2, 1\] is listed twice"),
-        (lambda d: d.update(arcs={"a": 1}), "'arcs' must be a list"),
-        (lambda d: d.update(map=3), "'map' must be the occupancy-grid YAML"),
+        (lambda d: d.update(arcs={"a": 1}), r"arcs must be a list of \[u, v\] or \[u, v, weight\]"),
+        (lambda d: d.update(map=3), "map must be the occupancy-grid YAML file name, got 3"),
     ],
 )
 def test_validation_errors_name_file_and_item(mutate: Any, message: str) -> None:
