@@ -28,10 +28,15 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Annotated, ClassVar
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -40,56 +45,75 @@ class MapViewError(ValueError):
     """Invalid map rectangle or widget size for a map view transform."""
 
 
-def _finite(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise MapViewError(f"map view {name} must be a finite number, got {value!r}")
-    return float(value)
+Metres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+Pixels = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "px"})]
 
 
-def _positive(name: str, value: float, unit: str) -> float:
-    value = _finite(name, value)
-    if value <= 0.0:
-        raise MapViewError(f"map view {name} must be > 0 {unit}, got {value!r}")
-    return value
+class _Declared(schema.Declared, frozen=True):
+    ERROR: ClassVar[type[Exception]] = MapViewError
+
+    def __post_init__(self) -> None:
+        for name in self.__struct_fields__:  # numpy scalars (grid origins, sizes) as Python's
+            value = getattr(self, name)
+            if isinstance(value, np.floating | np.integer):
+                msgspec.structs.force_setattr(self, name, value.item())
+        super().__post_init__()
 
 
-@dataclass(frozen=True, slots=True)
-class MapViewTransform:
+class GridFrame(_Declared, frozen=True):
+    """A ROS map_server grid's frame: ``origin`` (x, y[, yaw]) [m, rad] of cell (0, 0)'s corner,
+    ``resolution`` [m/cell], size in cells. Rotated maps (yaw != 0) cannot be drawn axis-aligned."""
+
+    ROOT: ClassVar[str] = "map grid"
+    origin: Annotated[tuple[schema.Finite, ...], Meta(min_length=2, max_length=3)]
+    resolution: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m/cell"})]
+    width_cells: Annotated[int, Meta(ge=1)]
+    height_cells: Annotated[int, Meta(ge=1)]
+
+    def check(self) -> None:
+        if len(self.origin) == 3 and self.origin[2] != 0.0:
+            raise MapViewError(
+                f"map origin yaw {self.origin[2]!r} rad is not supported: rotated maps cannot be "
+                "drawn axis-aligned; use yaw 0"
+            )
+
+
+class MapViewTransform(_Declared, frozen=True, dict=True):
     """Map rectangle [m] (lower-left ``map_origin``, size) shown in a widget [px].
 
     ``scale_x``/``scale_y`` are px per metre; ``offset_x``/``offset_y`` [px] the letterbox margins.
     """
 
-    map_origin_x: float
-    map_origin_y: float
-    map_width_m: float
-    map_height_m: float
-    widget_width_px: float
-    widget_height_px: float
+    ROOT: ClassVar[str] = "map view"
+    map_origin_x: schema.Finite
+    map_origin_y: schema.Finite
+    map_width_m: Metres
+    map_height_m: Metres
+    widget_width_px: Pixels
+    widget_height_px: Pixels
     keep_aspect: bool = True
-    scale_x: float = field(init=False)
-    scale_y: float = field(init=False)
-    offset_x: float = field(init=False)
-    offset_y: float = field(init=False)
 
-    def __post_init__(self) -> None:
-        setattr_ = object.__setattr__
-        setattr_(self, "map_origin_x", _finite("map_origin_x", self.map_origin_x))
-        setattr_(self, "map_origin_y", _finite("map_origin_y", self.map_origin_y))
-        setattr_(self, "map_width_m", _positive("map_width_m", self.map_width_m, "m"))
-        setattr_(self, "map_height_m", _positive("map_height_m", self.map_height_m, "m"))
-        setattr_(self, "widget_width_px", _positive("widget_width_px", self.widget_width_px, "px"))
-        setattr_(
-            self, "widget_height_px", _positive("widget_height_px", self.widget_height_px, "px")
-        )
+    @cached_property
+    def _scales(self) -> tuple[float, float]:
         sx = self.widget_width_px / self.map_width_m
         sy = self.widget_height_px / self.map_height_m
-        if self.keep_aspect:
-            sx = sy = min(sx, sy)
-        setattr_(self, "scale_x", sx)
-        setattr_(self, "scale_y", sy)
-        setattr_(self, "offset_x", (self.widget_width_px - self.map_width_m * sx) / 2.0)
-        setattr_(self, "offset_y", (self.widget_height_px - self.map_height_m * sy) / 2.0)
+        return (min(sx, sy), min(sx, sy)) if self.keep_aspect else (sx, sy)
+
+    @property
+    def scale_x(self) -> float:
+        return self._scales[0]
+
+    @property
+    def scale_y(self) -> float:
+        return self._scales[1]
+
+    @property
+    def offset_x(self) -> float:
+        return (self.widget_width_px - self.map_width_m * self.scale_x) / 2.0
+
+    @property
+    def offset_y(self) -> float:
+        return (self.widget_height_px - self.map_height_m * self.scale_y) / 2.0
 
     @classmethod
     def from_grid(
@@ -102,24 +126,13 @@ class MapViewTransform:
         widget_height_px: float,
         keep_aspect: bool = True,
     ) -> MapViewTransform:
-        """From a ROS map_server grid: ``origin`` (x, y[, yaw]) [m, rad] of cell (0, 0)'s corner,
-        ``resolution`` [m/cell], size in cells. Rotated maps (yaw != 0) are not supported."""
-        if len(origin) not in (2, 3):
-            raise MapViewError(f"map origin must be (x, y) or (x, y, yaw), got {origin!r}")
-        if len(origin) == 3 and _finite("origin yaw", origin[2]) != 0.0:
-            raise MapViewError(
-                f"map origin yaw {origin[2]!r} rad is not supported: rotated maps cannot be "
-                "drawn axis-aligned; use yaw 0"
-            )
-        resolution = _positive("resolution", resolution, "m/cell")
-        for name, cells in (("width_cells", width_cells), ("height_cells", height_cells)):
-            if isinstance(cells, bool) or not isinstance(cells, int) or cells < 1:
-                raise MapViewError(f"map view {name} must be an integer >= 1, got {cells!r}")
+        """From a ROS map_server grid (see `GridFrame`)."""
+        grid = GridFrame(tuple(origin), resolution, width_cells, height_cells)
         return cls(
-            origin[0],
-            origin[1],
-            width_cells * resolution,
-            height_cells * resolution,
+            grid.origin[0],
+            grid.origin[1],
+            grid.width_cells * grid.resolution,
+            grid.height_cells * grid.resolution,
             widget_width_px,
             widget_height_px,
             keep_aspect,

@@ -70,18 +70,30 @@ def test_from_grid_and_resized() -> None:
     assert bigger.map_origin_x == view.map_origin_x
     with pytest.raises(MapViewError, match="yaw"):
         MapViewTransform.from_grid((0.0, 0.0, 0.3), 0.05, 10, 10, 100, 100)
-    with pytest.raises(MapViewError, match="width_cells"):
+    with pytest.raises(
+        MapViewError, match=r"map grid.width_cells = 0 is outside the allowed range 1..inf"
+    ):
         MapViewTransform.from_grid((0.0, 0.0), 0.05, 0, 10, 100, 100)
-    with pytest.raises(MapViewError, match="resolution"):
+    with pytest.raises(
+        MapViewError,
+        match=r"map grid.resolution = 0.0 m/cell is outside the allowed range \(0, inf\) m/cell",
+    ):
         MapViewTransform.from_grid((0.0, 0.0), 0.0, 10, 10, 100, 100)
 
 
 def test_validation() -> None:
-    with pytest.raises(MapViewError, match="map_width_m must be > 0"):
+    with pytest.raises(
+        MapViewError,
+        match=r"map view.map_width_m = 0 m is outside the allowed range \(0, inf\) m",
+    ):
         MapViewTransform(0, 0, 0, 1, 10, 10)
-    with pytest.raises(MapViewError, match="widget_height_px must be > 0"):
+    with pytest.raises(
+        MapViewError, match=r"widget_height_px = -1 px is outside the allowed range \(0, inf\) px"
+    ):
         MapViewTransform(0, 0, 1, 1, 10, -1)
-    with pytest.raises(MapViewError, match="finite"):
+    with pytest.raises(
+        MapViewError, match=r"map view.map_origin_x must be a finite number, got nan"
+    ):
         MapViewTransform(math.nan, 0, 1, 1, 10, 10)
     with pytest.raises(MapViewError, match=r"\(N, 2\)"):
         MapViewTransform(0, 0, 1, 1, 10, 10).world_to_widget_array(np.zeros(3))
