@@ -14,7 +14,6 @@ the corrected parameters, and both runs are printed as thesis Tables 6.1/6.2.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 import math
@@ -22,6 +21,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import msgspec
 
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
@@ -137,7 +138,7 @@ class SimulatedRobot:
         # reversing (nothing behind a 270-degree laser) and would change the very speed the
         # calibration measures against. This robot is simulated only, so the monitor is off.
         guard = default_guard_config()
-        guard = guard.replace(monitor=dataclasses.replace(guard.monitor, enabled=False))
+        guard = guard.replace(monitor=msgspec.structs.replace(guard.monitor, enabled=False))
         self.config = StackConfig(localiser=localiser, motion_guard=guard)
         self.stack = RobotStack(self.grid, self.backend, self.config)
         self._mount_inv = self.config.laser_mount.inverse()

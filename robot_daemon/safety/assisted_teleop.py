@@ -34,10 +34,12 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
+from msgspec import Meta
 
+from interbot_core import schema
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     arc_poses,
@@ -53,9 +55,12 @@ from robot_daemon.safety.collision_monitor import (
     ESCAPE_STEP_M,
     ESCAPE_STEP_RAD,
     ESCAPE_TOLERANCE,
+    Points,
     SafetyConfigError,
-    check_number,
     check_points,
+    convert_section,
+    parse_points,
+    within,
 )
 
 logger = logging.getLogger(__name__)
@@ -65,66 +70,47 @@ DECIMATION_CELL = 0.03  # [m] returns are thinned to one per 3 cm cell for the p
 MAX_STEP = 0.05  # [m] path sampling step
 
 
-@dataclass(frozen=True)
-class AssistConfig:
+Weight = Annotated[float, within(0.0, 100.0)]
+
+
+class AssistConfig(schema.Declared, frozen=True):
     """Assisted teleoperation parameters (``assisted_teleop:`` in the safety YAML)."""
 
-    inputs: tuple[str, ...] = ("tablet_vel",)  # assisted at start (the station can switch)
-    footprint: tuple[tuple[float, float], ...] = DEFAULT_FOOTPRINT
-    margin: float = 0.06  # [m] footprint growth for the search
-    projection_time: float = 1.2  # [s] Nav2 AssistedTeleop's projection_time (= the monitor's)
-    min_lookahead: float = 1.0  # [m] arcs are searched at least this far (door frames ahead)
-    curvature_span: float = 1.2  # [rad/m]
-    curvature_samples: int = 13
-    heading_weight: float = 0.35
-    free_weight: float = 0.5
-    switch_penalty: float = 0.03
-    max_linear: float = 1.0  # [m/s]
-    max_angular: float = 1.5  # [rad/s]
-    rotation_threshold: float = 0.02  # [m/s]
+    ROOT: ClassVar[str] = "assisted_teleop"
+    ERROR: ClassVar[type[Exception]] = SafetyConfigError
 
-    def __post_init__(self) -> None:
-        where = "assisted_teleop"
-        if not isinstance(self.inputs, tuple) or not all(i in TELEOP_INPUTS for i in self.inputs):
+    # assisted at start (the station can switch)
+    inputs: tuple[Literal["station_vel", "tablet_vel"], ...] = ("tablet_vel",)
+    footprint: Points = DEFAULT_FOOTPRINT
+    margin: Annotated[float, within(0.0, 0.5, "m")] = 0.06  # footprint growth for the search
+    # Nav2 AssistedTeleop's projection_time (= the monitor's)
+    projection_time: Annotated[float, within(0.1, 5.0, "s")] = 1.2
+    # arcs are searched at least this far (door frames ahead)
+    min_lookahead: Annotated[float, within(0.0, 3.0, "m")] = 1.0
+    curvature_span: Annotated[float, within(0.0, 10.0, "rad/m")] = 1.2
+    curvature_samples: Annotated[int, Meta(ge=1, le=101)] = 13  # odd
+    heading_weight: Weight = 0.35
+    free_weight: Weight = 0.5
+    switch_penalty: Annotated[float, within(0.0, 10.0)] = 0.03
+    max_linear: Annotated[float, within(0.0, 5.0, "m/s", low_open=True)] = 1.0
+    max_angular: Annotated[float, within(0.0, 2 * math.pi, "rad/s", low_open=True)] = 1.5
+    rotation_threshold: Annotated[float, within(0.0, 1.0, "m/s")] = 0.02
+
+    def check(self) -> None:
+        check_points("assisted_teleop.footprint", self.footprint)
+        if self.curvature_samples % 2 == 0:
             raise SafetyConfigError(
-                f"{where}: 'inputs' must list some of {', '.join(TELEOP_INPUTS)}, got {self.inputs!r}"
+                f"assisted_teleop.curvature_samples must be odd, got {self.curvature_samples}"
             )
-        object.__setattr__(self, "footprint", check_points(f"{where}: footprint", self.footprint))
-        check_number(where, "margin", self.margin, 0.0, 0.5)
-        check_number(where, "projection_time", self.projection_time, 0.1, 5.0)
-        check_number(where, "min_lookahead", self.min_lookahead, 0.0, 3.0)
-        check_number(where, "curvature_span", self.curvature_span, 0.0, 10.0)
-        n = self.curvature_samples
-        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 101 or n % 2 == 0:
-            raise SafetyConfigError(
-                f"{where}: 'curvature_samples' must be an odd integer in [1, 101], got {n!r}"
-            )
-        check_number(where, "heading_weight", self.heading_weight, 0.0, 100.0)
-        check_number(where, "free_weight", self.free_weight, 0.0, 100.0)
-        check_number(where, "switch_penalty", self.switch_penalty, 0.0, 10.0)
-        check_number(where, "max_linear", self.max_linear, 0.0, 5.0, low_open=True)
-        check_number(where, "max_angular", self.max_angular, 0.0, 2 * math.pi, low_open=True)
-        check_number(where, "rotation_threshold", self.rotation_threshold, 0.0, 1.0)
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], source: str = "<mapping>") -> AssistConfig:
         if not isinstance(data, Mapping):
             raise SafetyConfigError(f"{source}: assisted_teleop: must be a mapping")
-        known = set(cls.__dataclass_fields__)
-        unknown = set(data) - known
-        if unknown:
-            raise SafetyConfigError(
-                f"{source}: assisted_teleop: unknown parameter(s) {sorted(unknown)}"
-            )
-        kwargs = dict(data)
-        if "inputs" in kwargs:
-            if not isinstance(kwargs["inputs"], list):
-                raise SafetyConfigError(f"{source}: assisted_teleop: 'inputs' must be a list")
-            kwargs["inputs"] = tuple(kwargs["inputs"])
-        try:
-            return cls(**kwargs)
-        except SafetyConfigError as exc:
-            raise SafetyConfigError(f"{source}: {exc}") from None
+        fields = dict(data)
+        if "footprint" in fields:
+            fields["footprint"] = parse_points(fields["footprint"])
+        return convert_section(fields, cls, "assisted_teleop", source)
 
 
 @dataclass(frozen=True)

@@ -35,13 +35,16 @@ import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any, ClassVar, TypeVar
 
 import numpy as np
 import yaml
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
+from interbot_core.schema import SchemaError
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     PolygonError,
@@ -56,6 +59,7 @@ from robot_daemon.safety.arc_geometry import (
 )
 
 logger = logging.getLogger(__name__)
+T = TypeVar("T")
 
 ACTIONS = ("stop", "slowdown", "limit", "approach")
 SEVERITY = {"none": 0, "slowdown": 1, "limit": 2, "approach": 3, "stop": 4, "no_data": 5}
@@ -70,150 +74,151 @@ class SafetyConfigError(ValueError):
     """The collision monitor / assisted teleoperation configuration is invalid; says where."""
 
 
-def check_number(
-    where: str, key: str, value: Any, low: float, high: float, *, low_open: bool = False
-) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SafetyConfigError(f"{where}: '{key}' must be a number, got {value!r}")
-    if value < low or value > high or (low_open and value == low):
-        bracket = "(" if low_open else "["
-        raise SafetyConfigError(f"{where}: '{key}' = {value} is outside {bracket}{low}, {high}]")
-    return float(value)
+def within(low: float, high: float, unit: str = "", *, low_open: bool = False) -> Meta:
+    """``[low, high]`` (``(low, high]`` when ``low_open``), with the unit errors name."""
+    extra = {"unit": unit} if unit else None
+    return Meta(gt=low, le=high, extra=extra) if low_open else Meta(ge=low, le=high, extra=extra)
 
 
-def check_points(where: str, value: Any) -> tuple[tuple[float, float], ...]:
-    if isinstance(value, str):  # Nav2 writes polygons as a string "[[x, y], ...]"
-        try:
-            value = yaml.safe_load(value)
-        except yaml.YAMLError as exc:
-            raise SafetyConfigError(f"{where}: 'points' is not a list: {exc}") from None
+Points = Annotated[
+    tuple[tuple[schema.Finite, schema.Finite], ...],
+    Meta(min_length=3, extra={"format": "a list of [x, y] points in base_link [m]"}),
+]
+"""A polygon in base_link [m]: at least 3 finite vertices (enclosing an area, within 10 m)."""
+
+
+def check_points(where: str, points: Points) -> None:
+    """The rules on a polygon the type cannot say: it encloses an area, within 10 m."""
     try:
-        poly = as_polygon(value, f"{where}: 'points'")
+        poly = as_polygon(points, f"{where}.points")
     except PolygonError as exc:
         raise SafetyConfigError(str(exc)) from None
     if polygon_radius(poly) > 10.0:
-        raise SafetyConfigError(f"{where}: 'points' reach more than 10 m from base_link")
-    return tuple((float(x), float(y)) for x, y in poly)
+        raise SafetyConfigError(f"{where}.points reach more than 10 m from base_link")
 
 
-@dataclass(frozen=True)
-class ZoneConfig:
+def convert_section(data: object, type_: type[T], root: str, source: str) -> T:
+    """``data`` as ``type_`` (checked, rules run); errors say ``source: root.key ...``."""
+    try:
+        value = schema.convert(data, type_, root)
+        schema.check_all(value)
+    except SchemaError as exc:
+        if exc.kind == "unknown":
+            allowed = exc.message[exc.message.find(" (allowed") :]
+            raise SafetyConfigError(f"{source}: unknown key '{exc.path}'{allowed}") from None
+        raise SafetyConfigError(f"{source}: {exc.message}") from None
+    except SafetyConfigError as exc:
+        raise SafetyConfigError(f"{source}: {exc}") from None
+    return value
+
+
+def parse_points(value: object) -> object:
+    """Nav2 writes polygons as a string ``"[[x, y], ...]"``: read it as YAML."""
+    if not isinstance(value, str):
+        return value
+    try:
+        return yaml.safe_load(value)
+    except yaml.YAMLError as exc:
+        raise SafetyConfigError(f"'points' is not a list: {exc}") from None
+
+
+class _Section(schema.Declared, frozen=True):
+    ERROR: ClassVar[type[Exception]] = SafetyConfigError
+
+
+# Nav2 keys of a polygon that only its visualisation and topics use: accepted, ignored.
+NAV2_DISPLAY_KEYS = ("visualize", "polygon_pub_topic", "polygon_sub_topic", "footprint_topic")
+
+
+class ZoneConfig(_Section, frozen=True):
     """One zone, named as in Nav2's ``polygons`` list (``points`` in base_link [m])."""
 
+    ROOT: ClassVar[str] = "zone"
     name: str
-    action_type: str
-    points: tuple[tuple[float, float], ...]
-    min_points: int = 3
-    slowdown_ratio: float = 0.5
-    linear_limit: float = 0.3  # [m/s]
-    angular_limit: float = 0.5  # [rad/s]
-    time_before_collision: float = 1.2  # [s]
-    simulation_time_step: float = 0.05  # [s]
+    action_type: Annotated[str, schema.one_of(*ACTIONS)]
+    points: Points
+    min_points: Annotated[int, Meta(ge=1, le=1000)] = 3
+    slowdown_ratio: Annotated[float, within(0.0, 1.0)] = 0.5
+    linear_limit: Annotated[float, within(0.0, 5.0, "m/s")] = 0.3
+    angular_limit: Annotated[float, within(0.0, 2 * math.pi, "rad/s")] = 0.5
+    time_before_collision: Annotated[float, within(0.0, 10.0, "s", low_open=True)] = 1.2
+    simulation_time_step: Annotated[float, within(0.0, 10.0, "s", low_open=True)] = 0.05
     enabled: bool = True
 
-    def __post_init__(self) -> None:
-        where = f"zone {self.name!r}"
-        if self.action_type not in ACTIONS:
+    def check(self) -> None:
+        where = f"collision_monitor.{self.name}"
+        check_points(where, self.points)
+        t, dt = self.time_before_collision, self.simulation_time_step
+        if dt > t:
             raise SafetyConfigError(
-                f"{where}: 'action_type' must be one of {', '.join(ACTIONS)}, got {self.action_type!r}"
+                f"{where}: simulation_time_step = {dt} s must be <= time_before_collision ({t} s)"
             )
-        object.__setattr__(self, "points", check_points(where, self.points))
-        mp = self.min_points
-        if isinstance(mp, bool) or not isinstance(mp, int) or not 1 <= mp <= 1000:
-            raise SafetyConfigError(
-                f"{where}: 'min_points' must be an integer in [1, 1000], got {mp!r}"
-            )
-        check_number(where, "slowdown_ratio", self.slowdown_ratio, 0.0, 1.0)
-        check_number(where, "linear_limit", self.linear_limit, 0.0, 5.0)
-        check_number(where, "angular_limit", self.angular_limit, 0.0, 2 * math.pi)
-        t = check_number(
-            where, "time_before_collision", self.time_before_collision, 0.0, 10.0, low_open=True
-        )
-        dt = check_number(
-            where, "simulation_time_step", self.simulation_time_step, 0.0, t, low_open=True
-        )
         if t / dt > 200:
             raise SafetyConfigError(
                 f"{where}: time_before_collision / simulation_time_step = {t / dt:.0f} steps > 200"
             )
-        if not isinstance(self.enabled, bool):
-            raise SafetyConfigError(f"{where}: 'enabled' must be true or false")
 
     @property
     def steps(self) -> int:
         return max(1, math.ceil(self.time_before_collision / self.simulation_time_step - 1e-9))
 
     @classmethod
-    def from_mapping(cls, name: str, data: Mapping[str, Any]) -> ZoneConfig:
-        where = f"zone {name!r}"
+    def from_mapping(
+        cls, name: str, data: Mapping[str, Any], source: str = "collision_monitor"
+    ) -> ZoneConfig:
+        """A zone of the Nav2 layout: ``type`` polygon (``points``) or circle (``radius``)."""
+        where = f"{source}: zone {name!r}"
         if not isinstance(data, Mapping):
             raise SafetyConfigError(f"{where}: must be a mapping of parameters")
-        known = {
-            "type", "points", "radius", "action_type", "min_points", "slowdown_ratio",
-            "linear_limit", "angular_limit", "time_before_collision", "simulation_time_step",
-            "enabled", "visualize", "polygon_pub_topic", "polygon_sub_topic", "footprint_topic",
-        }  # fmt: skip
-        unknown = set(data) - known
-        if unknown:
-            raise SafetyConfigError(f"{where}: unknown parameter(s) {sorted(unknown)}")
+        fields = {k: v for k, v in data.items() if k not in NAV2_DISPLAY_KEYS and k != "type"}
         kind = data.get("type", "polygon")
         if kind == "circle":
-            radius = check_number(where, "radius", data.get("radius"), 0.0, 10.0, low_open=True)
+            radius = fields.pop("radius", None)
+            if isinstance(radius, bool) or not isinstance(radius, int | float):
+                raise SafetyConfigError(f"{where}: 'radius' must be a number, got {radius!r}")
+            if not 0.0 < radius <= 10.0:
+                raise SafetyConfigError(
+                    f"{where}: 'radius' = {radius} m is outside the allowed range (0, 10] m"
+                )
             a = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
-            points: Any = [(radius * math.cos(t), radius * math.sin(t)) for t in a]
+            fields["points"] = [[radius * math.cos(t), radius * math.sin(t)] for t in a]
         elif kind == "polygon":
-            if "points" not in data:
+            if "points" not in fields:
                 raise SafetyConfigError(f"{where}: a polygon needs 'points'")
-            points = data["points"]
+            try:
+                fields["points"] = parse_points(fields["points"])
+            except SafetyConfigError as exc:
+                raise SafetyConfigError(f"{where}: {exc}") from None
         else:
             raise SafetyConfigError(f"{where}: 'type' must be polygon or circle, got {kind!r}")
-        kwargs = {
-            k: data[k]
-            for k in (
-                "min_points", "slowdown_ratio", "linear_limit", "angular_limit",
-                "time_before_collision", "simulation_time_step", "enabled",
-            )
-            if k in data
-        }  # fmt: skip
-        if "action_type" not in data:
-            raise SafetyConfigError(f"{where}: 'action_type' is required")
-        return cls(name, data["action_type"], points, **kwargs)
+        return convert_section({"name": name, **fields}, cls, f"collision_monitor.{name}", source)
 
 
-@dataclass(frozen=True)
-class CollisionMonitorConfig:
+class CollisionMonitorConfig(_Section, frozen=True):
     """The monitor: footprint (for the reported distance), zones, hysteresis, data timeout."""
 
-    zones: tuple[ZoneConfig, ...]
-    footprint: tuple[tuple[float, float], ...] = DEFAULT_FOOTPRINT
-    hysteresis: float = 0.02  # [m]
-    source_timeout: float = 0.5  # [s]
-    max_range: float = 4.0  # [m] returns farther than this from base_link are ignored
-    # [m/s] the laser sees 270 degrees: nothing behind the robot is seen, so reversing is capped
-    blind_reverse_speed: float = 0.15
+    ROOT: ClassVar[str] = "collision_monitor"
+    zones: Annotated[tuple[ZoneConfig, ...], Meta(min_length=1, max_length=MAX_ZONES)]
+    footprint: Points = DEFAULT_FOOTPRINT
+    hysteresis: Annotated[float, within(0.0, 0.5, "m")] = 0.02
+    source_timeout: Annotated[float, within(0.0, 10.0, "s", low_open=True)] = 0.5
+    # returns farther than this from base_link are ignored
+    max_range: Annotated[float, within(0.5, 30.0, "m")] = 4.0
+    # the laser sees 270 degrees: nothing behind the robot is seen, so reversing is capped
+    blind_reverse_speed: Annotated[float, within(0.0, 5.0, "m/s")] = 0.15
     enabled: bool = True
 
-    def __post_init__(self) -> None:
-        where = "collision_monitor"
-        object.__setattr__(self, "footprint", check_points(f"{where}: footprint", self.footprint))
-        check_number(where, "hysteresis", self.hysteresis, 0.0, 0.5)
-        check_number(where, "source_timeout", self.source_timeout, 0.0, 10.0, low_open=True)
-        check_number(where, "max_range", self.max_range, 0.5, 30.0)
-        check_number(where, "blind_reverse_speed", self.blind_reverse_speed, 0.0, 5.0)
-        if not isinstance(self.enabled, bool):
-            raise SafetyConfigError(f"{where}: 'enabled' must be true or false")
-        if not 1 <= len(self.zones) <= MAX_ZONES:
-            raise SafetyConfigError(
-                f"{where}: needs 1..{MAX_ZONES} polygons, got {len(self.zones)}"
-            )
+    def check(self) -> None:
+        check_points("collision_monitor.footprint", self.footprint)
         names = [z.name for z in self.zones]
         if len(set(names)) != len(names):
-            raise SafetyConfigError(f"{where}: polygon names must be unique, got {names}")
+            raise SafetyConfigError(f"collision_monitor: polygon names must be unique, got {names}")
 
     @classmethod
     def from_mapping(
         cls, data: Mapping[str, Any], source: str = "<mapping>"
     ) -> CollisionMonitorConfig:
+        """The Nav2 layout: ``polygons`` names the zones, each a key of its own."""
         where = f"{source}: collision_monitor"
         if not isinstance(data, Mapping):
             raise SafetyConfigError(f"{where}: must be a mapping")
@@ -226,28 +231,11 @@ class CollisionMonitorConfig:
         for name in names:
             if name not in data:
                 raise SafetyConfigError(f"{where}: polygon {name!r} is listed but not defined")
-            try:
-                zones.append(ZoneConfig.from_mapping(name, data[name]))
-            except SafetyConfigError as exc:
-                raise SafetyConfigError(f"{source}: {exc}") from None
-        kwargs: dict[str, Any] = {
-            k: data[k]
-            for k in (
-                "footprint",
-                "hysteresis",
-                "source_timeout",
-                "max_range",
-                "blind_reverse_speed",
-                "enabled",
-            )
-            if k in data
-        }
-        if isinstance(kwargs.get("footprint"), str):
-            kwargs["footprint"] = yaml.safe_load(kwargs["footprint"])
-        try:
-            return cls(tuple(zones), **kwargs)
-        except SafetyConfigError as exc:
-            raise SafetyConfigError(f"{source}: {exc}") from None
+            zones.append(ZoneConfig.from_mapping(name, data[name], source))
+        fields = {k: v for k, v in data.items() if k != "polygons" and k not in names}
+        if "footprint" in fields:
+            fields["footprint"] = parse_points(fields["footprint"])
+        return convert_section({**fields, "zones": zones}, cls, "collision_monitor", source)
 
 
 @dataclass(frozen=True)

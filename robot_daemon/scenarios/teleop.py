@@ -36,6 +36,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
@@ -312,7 +313,9 @@ def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:
         safety = config.motion_guard
         config = dataclasses.replace(
             config,
-            motion_guard=safety.replace(monitor=dataclasses.replace(safety.monitor, enabled=False)),
+            motion_guard=safety.replace(
+                monitor=msgspec.structs.replace(safety.monitor, enabled=False)
+            ),
         )
     system = SimulatedSystem(options, stack_config=config, autonomy=False)
     system.stack.set_teleop_assist("station_vel", setup == "assisted", system.now)
