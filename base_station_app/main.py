@@ -19,7 +19,8 @@ from pathlib import Path
 
 import zenoh
 
-from base_station_app import station_security
+from base_station_app import station_file, station_security
+from base_station_app.station_file import StationSettingsStore
 from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
 from interbot_link import LinkError, LinkSecurity, session_config
@@ -102,7 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="serve the thesis's plaintext tablet protocol (no TLS, no pairing)",
     )
     parser.add_argument(
-        "--config", type=Path, help="station YAML (security: {keys, identity, insecure, ...})"
+        "--config",
+        type=Path,
+        help="station file (security, config, tablet permissions; docs/station_config.md); "
+        "default $XDG_CONFIG_HOME/interbot/station.yaml",
     )
     parser.add_argument(
         "--geometry", metavar="X,Y,W,H", help="window position and size (default 1600x1000)"
@@ -131,6 +135,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except LayoutError as exc:
         sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
         return 2
+    settings = StationSettingsStore(args.config or station_file.default_path())
+    try:
+        saved = settings.load()
+    except station_file.StationFileError as exc:
+        sys.stderr.write(f"interbot-base-station: {exc}\n")
+        return 2
     try:
         security = station_security.resolve(
             keys=args.security,
@@ -139,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             insecure_tablet=args.insecure_tablet,
             connect=connect,
             tablet_host=args.tablet_host,
-            file_settings=station_security.load_settings(args.config) if args.config else None,
+            file_settings=station_security.settings_of(saved.security, settings.path),
         )
         holder = StationSession(
             connect, args.mode, security=security.link, insecure=security.insecure
@@ -189,6 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         tablet_port=args.tablet_port,
         robot_id=args.robot,
         tablet_auth=tablet_auth,
+        settings=settings,
     )
     if tablet_auth is not None:  # the operator sees who was refused or let in (issue 15)
         tablet_auth.auth_refused.connect(

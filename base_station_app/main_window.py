@@ -1,16 +1,16 @@
 """The Base Station's main window: a composition root (STYLE.md; thesis §5.3, Appendix I Fig. 2).
 
 It creates the widgets around one `StationController`, the actions (emergency stop, pause,
-resume, pick modes, quit, the robot selector), wires signals, and reads/writes QSettings (window
-geometry and state, the station configuration, tablet permissions, the robot commanded last:
-``--robot`` wins over it; with neither and several robots the station asks). It holds no protocol, planning or robot
+resume, pick modes, quit, the robot selector), wires signals, and reads/writes QSettings: window
+geometry and state and the robot commanded last (``--robot`` wins over it; with neither and several
+robots the station asks). Settings that change behaviour live in the station file, owned by the
+controller (docs/station_config.md). It holds no protocol, planning or robot
 logic. The map view with the camera under it fill the left, the control tabs the right. Teleoperation stops at once when the window loses activation.
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import fields
 
 from PySide6.QtCore import QEvent, QSettings, Qt
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
@@ -36,9 +36,7 @@ from base_station_app.qt_state_panel import QtStatePanel
 from base_station_app.qt_tablet_panel import QtTabletPanel
 from base_station_app.qt_task_panel import QtTaskPanel
 from base_station_app.qt_teleop_panel import QtTeleopPanel
-from base_station_app.station_config import StationConfig
 from base_station_app.station_controller import StationController
-from base_station_app.tablet_session import PERMISSION_KINDS
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoToPose
 from interbot_core.topics import TopicError, validate_robot_id
@@ -225,8 +223,6 @@ class MainWindow(QMainWindow):
         self.map_view.pose_picked.connect(self._on_pose_picked)
         self.map_view.pick_mode_changed.connect(self._on_pick_mode)
         self.task_panel.pick_requested.connect(self.map_view.set_pick_mode)
-        c.config_changed.connect(lambda _: self._write_settings())
-        c.tablet_changed.connect(self._save_permissions)
         c.log_added.connect(lambda level, text: self.statusBar().showMessage(text, 5000))
         c.estop_changed.connect(self.release_action.setEnabled)
         self.release_action.setEnabled(c.estop_latched)
@@ -242,6 +238,8 @@ class MainWindow(QMainWindow):
             self._reading = False
 
     def _apply_settings(self) -> None:
+        """Window state and the robot commanded last (docs/station_config.md: everything that
+        changes behaviour is in the station file, which the controller owns)."""
         s = self.settings
         geometry = s.value("window/geometry")
         if geometry is not None:
@@ -249,19 +247,7 @@ class MainWindow(QMainWindow):
         state = s.value("window/state")
         if state is not None:
             self.restoreState(state)
-        values = {f.name: s.value(f"config/{f.name}") for f in fields(StationConfig)}
-        values = {k: v for k, v in values.items() if v is not None}
-        if values:
-            config = StationConfig.from_mapping(values)
-            if config != self.controller.config:
-                self.controller.set_config(config)
         self._restore_robot()
-        for kind in PERMISSION_KINDS:
-            v = s.value(f"tablet/{kind}")
-            if v is not None:
-                allowed = v in (True, "true", "1", 1)
-                if allowed != self.controller.permissions.allows(kind):
-                    self.controller.set_permission(kind, allowed)
 
     def _write_settings(self) -> None:
         if self._reading:
@@ -269,16 +255,7 @@ class MainWindow(QMainWindow):
         s = self.settings
         s.setValue("window/geometry", self.saveGeometry())
         s.setValue("window/state", self.saveState())
-        for name, value in self.controller.config.to_dict().items():
-            s.setValue(f"config/{name}", value)
-        self._save_permissions()
         s.sync()
-
-    def _save_permissions(self) -> None:
-        if self._reading:
-            return
-        for kind in PERMISSION_KINDS:
-            self.settings.setValue(f"tablet/{kind}", self.controller.permissions.allows(kind))
 
     def _restore_robot(self) -> None:
         """The saved choice decides which robot a restarted station commands, unless --robot."""

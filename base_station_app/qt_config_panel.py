@@ -1,12 +1,10 @@
 """Configuration on the fly (thesis §5.3 "Configurations"): approach and final tolerances,
 teleoperation and planner speed limits, the tablet latency ceiling. "Apply" validates them into a
-`StationConfig` and hands it to the controller, which applies it at once (and the main window
-saves it with QSettings).
+`StationConfig` and hands it to the controller, which applies it at once and keeps it in the
+station file.
 """
 
 from __future__ import annotations
-
-from dataclasses import fields
 
 from PySide6.QtWidgets import QDoubleSpinBox, QFormLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
@@ -34,15 +32,14 @@ class QtConfigPanel(QWidget):
         layout = QVBoxLayout(self)
         form = QFormLayout()
         self.spins: dict[str, QDoubleSpinBox] = {}
-        for f in fields(StationConfig):
-            lo, hi, unit = RANGES[f.name]
+        for name, (lo, hi, unit) in RANGES.items():
             spin = QDoubleSpinBox()
             spin.setRange(lo, hi)
             spin.setDecimals(3)
             spin.setSingleStep(0.05)
             spin.setSuffix(f" {unit}")
-            form.addRow(TITLES[f.name], spin)
-            self.spins[f.name] = spin
+            form.addRow(TITLES[name], spin)
+            self.spins[name] = spin
         layout.addLayout(form)
         self.apply_button = QPushButton("Apply")
         self.message = QLabel()

@@ -3,9 +3,8 @@
 The thesis's station lets the operator set the remaining-distance tolerances used when
 approaching goals, the teleoperation speed limits and the latency ceiling of the Tablet
 watchdog (§5.3.4). `StationConfig` holds those, plus the planner's speed limits that the station
-forwards to the robot (a ``config`` message), validated in the constructor. `from_mapping` reads
-values saved with QSettings, falling back to the default for a missing or invalid entry (and
-logging why), so a hand-edited settings file never stops the station from starting.
+forwards to the robot (a ``config`` message), declared with their ranges (msgspec). They are kept
+in the ``config:`` section of the station file (`station_file`), their one owner.
 """
 
 from __future__ import annotations
@@ -13,9 +12,12 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, fields
-from typing import Any, Final
+from typing import Annotated, ClassVar, Final
 
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.supervisor import SupervisorConfig
 
 logger = logging.getLogger(__name__)
@@ -25,65 +27,35 @@ class StationConfigError(ValueError):
     """A configuration value is outside its allowed range; the message names field and range."""
 
 
-RANGES: Final[Mapping[str, tuple[float, float, str]]] = {
-    "approach_tolerance": (0.05, 5.0, "m"),
-    "goal_tolerance": (0.02, 2.0, "m"),
-    "yaw_tolerance": (0.02, math.pi, "rad"),
-    "teleop_linear_max": (0.05, 0.5, "m/s"),
-    "teleop_angular_max": (0.1, 1.5, "rad/s"),
-    "planner_linear_max": (0.05, 0.5, "m/s"),
-    "planner_angular_max": (0.1, 1.5, "rad/s"),
-    "latency_ceiling": (0.05, 1.0, "s"),
-}
-"""Allowed closed range and unit of every field. The speed ranges stay within the robot's own
-per-source limits (resources/config/interbot_mux.yaml: the station may offer less, never more);
-a tablet command is never older than 1 s when it drives (issue 11)."""
+def _within(low: float, high: float, unit: str) -> Meta:
+    return Meta(ge=low, le=high, extra={"unit": unit})
 
 
-@dataclass(frozen=True)
-class StationConfig:
-    """Operator-tunable parameters (defaults: thesis Table 6.3 tolerances, 0.2 s ceiling)."""
+class StationConfig(schema.Declared, frozen=True):
+    """Operator-tunable parameters (defaults: thesis Table 6.3 tolerances, 0.2 s ceiling).
 
-    approach_tolerance: float = 0.7  # [m] intermediate goals count as reached within this
-    goal_tolerance: float = 0.25  # [m] final goal position
-    yaw_tolerance: float = 0.25  # [rad] final goal heading
-    teleop_linear_max: float = 0.4  # [m/s] keyboard, arrow pad and mouse joystick
-    teleop_angular_max: float = 0.8  # [rad/s]
-    planner_linear_max: float = 0.25  # [m/s] sent to the robot's planner (its default, Table 6.3)
-    planner_angular_max: float = 1.0  # [rad/s]
-    latency_ceiling: float = 0.5  # [s] tablet speed commands older than this are discarded
+    The speed ranges stay within the robot's own per-source limits
+    (resources/config/interbot_mux.yaml: the station may offer less, never more); a tablet
+    command is never older than 1 s when it drives (issue 11)."""
 
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            lo, hi, unit = RANGES[f.name]
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise StationConfigError(f"{f.name} must be a number [{unit}], got {value!r}")
-            if not (math.isfinite(value) and lo <= value <= hi):
-                raise StationConfigError(
-                    f"{f.name} = {value!r} {unit} is outside the allowed range [{lo:g}, {hi:g}] {unit}"
-                )
-            object.__setattr__(self, f.name, float(value))
+    ROOT: ClassVar[str] = "config"
+    ERROR: ClassVar[type[Exception]] = StationConfigError
+
+    # intermediate goals count as reached within this
+    approach_tolerance: Annotated[float, _within(0.05, 5.0, "m")] = 0.7
+    goal_tolerance: Annotated[float, _within(0.02, 2.0, "m")] = 0.25  # final goal position
+    yaw_tolerance: Annotated[float, _within(0.02, math.pi, "rad")] = 0.25  # final goal heading
+    # keyboard, arrow pad and mouse joystick
+    teleop_linear_max: Annotated[float, _within(0.05, 0.5, "m/s")] = 0.4
+    teleop_angular_max: Annotated[float, _within(0.1, 1.5, "rad/s")] = 0.8
+    # sent to the robot's planner (its default, Table 6.3)
+    planner_linear_max: Annotated[float, _within(0.05, 0.5, "m/s")] = 0.25
+    planner_angular_max: Annotated[float, _within(0.1, 1.5, "rad/s")] = 1.0
+    # tablet speed commands older than this are discarded
+    latency_ceiling: Annotated[float, _within(0.05, 1.0, "s")] = 0.5
 
     def to_dict(self) -> dict[str, float]:
-        return asdict(self)
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any]) -> StationConfig:
-        """Build from saved values; a missing, malformed or out-of-range entry keeps its default."""
-        kwargs: dict[str, float] = {}
-        for f in fields(cls):
-            if f.name not in values:
-                continue
-            raw = values[f.name]
-            try:
-                value = float(raw)
-                cls(**{f.name: value})  # validate this field alone
-            except (TypeError, ValueError) as exc:
-                logger.warning("ignoring saved setting %s=%r: %s", f.name, raw, exc)
-                continue
-            kwargs[f.name] = value
-        return cls(**kwargs)
+        return msgspec.structs.asdict(self)
 
     def supervisor_config(self, request_timeout: float = 120.0) -> SupervisorConfig:
         return SupervisorConfig(
@@ -102,3 +74,21 @@ class StationConfig:
             "goal_xy_tolerance": self.goal_tolerance,
             "goal_yaw_tolerance": self.yaw_tolerance,
         }
+
+
+def _ranges() -> dict[str, tuple[float, float, str]]:
+    info = msgspec.inspect.type_info(StationConfig)
+    assert isinstance(info, msgspec.inspect.StructType)
+    out = {}
+    for f in info.fields:
+        meta = f.type
+        assert isinstance(meta, msgspec.inspect.Metadata)
+        number = meta.type
+        assert isinstance(number, msgspec.inspect.FloatType)
+        assert number.ge is not None and number.le is not None and meta.extra is not None
+        out[f.name] = (number.ge, number.le, str(meta.extra["unit"]))
+    return out
+
+
+RANGES: Final[Mapping[str, tuple[float, float, str]]] = _ranges()
+"""Allowed closed range and unit of every field, read from the declaration (for the panel)."""

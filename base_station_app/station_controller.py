@@ -74,6 +74,7 @@ from base_station_app.fleet import Ask, Fleet, Select, Waiting
 from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
+from base_station_app.station_file import StationFileError, StationSettingsStore
 from base_station_app.tablet_auth import TabletAuthServer
 from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
@@ -196,6 +197,7 @@ class StationController(QObject):
         timing: Timing = Timing(),
         tablet_auth: TabletAuthServer | None = None,
         route_ids: Callable[[], int] = random_route_id,
+        settings: StationSettingsStore | None = None,
         parent: QObject | None = None,
     ) -> None:
         super().__init__(parent)
@@ -204,7 +206,11 @@ class StationController(QObject):
         self.topo = topo
         self.names = {n.id: n.name for n in topo.nodes}
         self.planner = RoutePlanner(topo)  # Floyd-Warshall: every route precomputed (§5.3.3)
-        self.config = config if config is not None else StationConfig()
+        # The station file owns config and permissions (station_file.py): read once, written
+        # on every change the operator makes. None (tests): nothing is kept.
+        self.settings = settings
+        saved = settings.load() if settings is not None else None
+        self.config = config or (saved.config if saved is not None else StationConfig())
         self._request_timeout = self.config.supervisor_config().request_timeout
         self.rooms = load_room_map(topo_path, topo) if topo_path is not None else room_map(topo)
         self.static_map = self._load_static_map()
@@ -222,6 +228,8 @@ class StationController(QObject):
             self.config.teleop_angular_max,
         )
         self.tablet_policy = TabletPolicy()
+        if saved is not None:
+            self.tablet_policy.permissions = saved.tablet.permissions()
         self.clock_periods = PeriodStats(5000)
         self.latencies: deque[float] = deque(maxlen=300)
         self.request_id = 0
@@ -998,7 +1006,17 @@ class StationController(QObject):
         for mirror in self.fleet.all():
             mirror.config_pending = True
             self._resend_pending(mirror)
+        self._save_settings()
         self.config_changed.emit(config)
+
+    def _save_settings(self) -> None:
+        """Keep what the operator changed in the station file; say so if it cannot be written."""
+        if self.settings is None:
+            return
+        try:
+            self.settings.save(self.config, self.permissions)
+        except StationFileError as exc:
+            self.log("warning", f"{exc} (the change applies until the station stops)")
 
     # ------------------------------------------------------------------ teleoperation
     def _teleop_changed(self) -> None:
@@ -1055,6 +1073,7 @@ class StationController(QObject):
         if not policy.permissions.teleop:
             self._stop_tablet_speed("teleoperation not permitted")
         self._send_permissions()
+        self._save_settings()
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
         self.tablet_changed.emit()
 

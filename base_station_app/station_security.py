@@ -19,15 +19,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
+import msgspec
 
+from base_station_app.station_file import SecuritySection, StationFileError, StationSettingsStore
 from interbot_link import KeysError, KeyStore, LinkSecurity
 from interbot_link.keys import SETUP_HINT
 from interbot_link.security import is_loopback_host, warn_insecure
 
 logger = logging.getLogger(__name__)
-
-_KEYS = {"keys", "identity", "insecure", "insecure_tablet"}
 
 
 class StationSecurityError(ValueError):
@@ -63,21 +62,20 @@ class StationSecurity:
 
 
 def load_settings(path: Path) -> dict[str, Any]:
-    """The ``security`` mapping of a station YAML file (``{}`` if it has none)."""
+    """The ``security`` section of a station file (`station_file`) as `resolve` takes it."""
     try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise StationSecurityError(
-            f"{path}: cannot read the station configuration: {exc}"
-        ) from None
-    section = raw.get("security", {}) if isinstance(raw, dict) else None
-    if not isinstance(section, dict) or set(section) - _KEYS:
-        raise StationSecurityError(
-            f"{path}: 'security' must be a mapping with keys among {sorted(_KEYS)}"
-        )
-    if section.get("keys") is not None:
-        section["keys"] = (path.parent / str(section["keys"])).resolve()
-    return section
+        section = StationSettingsStore(path).load().security
+    except StationFileError as exc:
+        raise StationSecurityError(str(exc)) from None
+    return settings_of(section, path)
+
+
+def settings_of(section: SecuritySection, path: Path) -> dict[str, Any]:
+    """``section`` as a mapping, ``keys`` resolved against the file's folder."""
+    settings: dict[str, Any] = msgspec.structs.asdict(section)
+    if section.keys is not None:
+        settings["keys"] = (path.parent / section.keys).resolve()
+    return settings
 
 
 def resolve(

@@ -70,6 +70,12 @@ class SchemaError(ValueError):
         self.path = path
         self.message = message
 
+    def key_message(self) -> str:
+        """The message worded for a configuration file: an unknown field is an unknown key."""
+        if self.kind != "unknown":
+            return self.message
+        return f"unknown key '{self.path}'{self.message[self.message.find(' (allowed') :]}"
+
 
 def describe(value: object) -> str:
     """A short repr of a received value for an error message (40 characters at most)."""

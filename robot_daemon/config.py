@@ -247,8 +247,7 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         schema.check_all(doc)
     except SchemaError as exc:
         if exc.kind == "unknown":
-            allowed = exc.message[exc.message.find(" (allowed") :]
-            raise ConfigError(f"{source}: unknown key '{exc.path}'{allowed}") from None
+            raise ConfigError(f"{source}: {exc.key_message()}") from None
         raise ConfigError(f"{source}: {_quoted(exc)}") from None
     except ConfigError as exc:
         raise ConfigError(f"{source}: {exc}") from None

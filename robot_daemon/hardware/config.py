@@ -132,7 +132,4 @@ class HardwareConfig(_Section, frozen=True):
         try:
             return schema.convert(raw or {}, cls, "hardware")
         except SchemaError as exc:
-            if exc.kind == "unknown":
-                allowed = exc.message[exc.message.find(" (allowed") :]
-                raise HardwareConfigError(f"{source}: unknown key '{exc.path}'{allowed}") from None
-            raise HardwareConfigError(f"{source}: {exc.message}") from None
+            raise HardwareConfigError(f"{source}: {exc.key_message()}") from None

@@ -75,10 +75,7 @@ class RecordingConfig:
         try:
             doc = schema.convert(raw, RecordingSection, "recording")
         except SchemaError as exc:
-            if exc.kind == "unknown":
-                allowed = exc.message[exc.message.find(" (allowed") :]
-                raise RecordingConfigError(f"unknown key '{exc.path}'{allowed}") from None
-            raise RecordingConfigError(exc.message) from None
+            raise RecordingConfigError(exc.key_message()) from None
         if directory is None:
             if doc.directory is None:
                 raise RecordingConfigError("recording: 'directory' must be a directory path")

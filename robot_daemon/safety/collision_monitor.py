@@ -103,10 +103,7 @@ def convert_section(data: object, type_: type[T], root: str, source: str) -> T:
         value = schema.convert(data, type_, root)
         schema.check_all(value)
     except SchemaError as exc:
-        if exc.kind == "unknown":
-            allowed = exc.message[exc.message.find(" (allowed") :]
-            raise SafetyConfigError(f"{source}: unknown key '{exc.path}'{allowed}") from None
-        raise SafetyConfigError(f"{source}: {exc.message}") from None
+        raise SafetyConfigError(f"{source}: {exc.key_message()}") from None
     except SafetyConfigError as exc:
         raise SafetyConfigError(f"{source}: {exc}") from None
     return value

@@ -44,16 +44,6 @@ def test_config_rejects_out_of_range_naming_field_and_range(name):
         StationConfig(**{name: True})
 
 
-def test_config_from_saved_values_keeps_defaults_for_bad_entries():
-    c = StationConfig.from_mapping(
-        {"latency_ceiling": "0.8", "goal_tolerance": "banana", "yaw_tolerance": 99, "other": 1}
-    )
-    assert c.latency_ceiling == 0.8
-    assert c.goal_tolerance == StationConfig().goal_tolerance
-    assert c.yaw_tolerance == StationConfig().yaw_tolerance
-    assert StationConfig.from_mapping(c.to_dict()) == c
-
-
 # ------------------------------------------------------------------ TeleopInput
 def test_teleop_keys_combine_and_release():
     t = TeleopInput(0.5, 1.0)

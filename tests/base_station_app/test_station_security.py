@@ -56,7 +56,10 @@ def test_keys_from_the_station_yaml(keys: Path, tmp_path: Path) -> None:
     sec = _resolve(file_settings=station_security.load_settings(yaml_path))
     assert sec.keys == keys and sec.link is not None
     yaml_path.write_text("security: {key: x}\n")
-    with pytest.raises(station_security.StationSecurityError, match="'security' must be"):
+    with pytest.raises(
+        station_security.StationSecurityError,
+        match=r"station\.yaml: unknown key 'security\.key' \(allowed: keys, identity",
+    ):
         station_security.load_settings(yaml_path)
     with pytest.raises(station_security.StationSecurityError, match="is a robot, not a station"):
         _resolve(keys=keys, identity="interbot1")

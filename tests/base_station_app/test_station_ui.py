@@ -1,5 +1,5 @@
 """The main window with real QTest mouse and key events: teleop keys and pad, focus loss, e-stop
-buttons, room clicks and pose picks on the map, the task queue, configuration and QSettings."""
+buttons, room clicks and pose picks on the map, the task queue, configuration (station file) and QSettings (window state)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,15 @@ import math
 from pathlib import Path
 
 import pytest
+import yaml
 from PySide6.QtCore import QEvent, QPoint, QPointF, QSettings, Qt
 from PySide6.QtGui import QFocusEvent
 from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QApplication, QWidget
 
 from base_station_app.main_window import TAB_NAMES, MainWindow
-from base_station_app.station_config import StationConfig
 from base_station_app.station_controller import StationController
+from base_station_app.station_file import StationSettingsStore
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoTo, GoToPose
 from interbot_core.topics import InitialPose, Lock, StopRelease
@@ -204,7 +205,12 @@ def test_queue_reorder_and_cancel_buttons(qtbot, window, station, localise, topo
     assert station.supervisor.current_task == GoTo(5)
 
 
-def test_config_apply_and_settings_round_trip(qtbot, window, station, settings, topo, clock):
+def test_config_apply_and_settings_round_trip(
+    qtbot, window, station, settings, topo, clock, tmp_path
+):
+    """Config and permissions are kept in the station file (their one owner), not in QSettings."""
+    store = StationSettingsStore(tmp_path / "station.yaml")
+    station.settings = store
     panel = window.config_panel
     panel.spins["latency_ceiling"].setValue(0.8)
     panel.spins["approach_tolerance"].setValue(1.2)
@@ -213,17 +219,24 @@ def test_config_apply_and_settings_round_trip(qtbot, window, station, settings, 
     assert station.supervisor.config.approach_tolerance == pytest.approx(1.2)
     window.tablet_panel.permission_boxes["tours"].setChecked(False)
     assert not station.permissions.tours
+    saved = yaml.safe_load(store.path.read_text(encoding="utf-8"))
+    assert saved["config"]["latency_ceiling"] == pytest.approx(0.8)
+    assert saved["tablet"]["tours"] is False
+    window.close()
     settings.sync()
-    assert float(settings.value("config/latency_ceiling")) == pytest.approx(0.8)
-    # The next start (a fresh controller and window) reads them back.
-    fresh = StationController(topo, None, topo_path=TOPO_PATH, clock=clock, tablet_port=0)
-    assert fresh.config == StationConfig()
+    assert settings.value("window/geometry") is not None
+    assert [k for k in settings.allKeys() if not k.startswith(("window/", "fleet/"))] == []
+    # The next start (a fresh controller and window) reads them back from the file.
+    fresh = StationController(
+        topo, None, topo_path=TOPO_PATH, clock=clock, tablet_port=0, settings=store
+    )
     w2 = MainWindow(fresh, settings)
     qtbot.addWidget(w2)
     assert fresh.config.latency_ceiling == pytest.approx(0.8)
     assert fresh.config.approach_tolerance == pytest.approx(1.2)
     assert fresh.watchdog.ceiling_s == pytest.approx(0.8)
     assert not fresh.permissions.tours
+    assert w2.config_panel.spins["latency_ceiling"].value() == pytest.approx(0.8)
 
 
 def test_state_panel_and_robots_panel_show_the_robot(qtbot, window, station, robot, localise):

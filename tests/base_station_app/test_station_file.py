@@ -1,0 +1,123 @@
+"""The station file owns every station setting that changes behaviour (issue 13): declared,
+validated with errors that name the file, key, value and range, written back atomically, and
+nothing behavioural left in QSettings."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+import yaml
+
+from base_station_app.station_config import RANGES, StationConfig
+from base_station_app.station_file import StationFileError, StationSettingsStore
+from base_station_app.tablet_session import TabletPermissions
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_missing_file_is_the_defaults_and_save_round_trips(tmp_path: Path) -> None:
+    store = StationSettingsStore(tmp_path / "sub" / "station.yaml")
+    assert store.load().config == StationConfig()
+    config = StationConfig(latency_ceiling=0.3, goal_tolerance=0.4)
+    store.save(config, TabletPermissions(teleop=False))
+    again = StationSettingsStore(store.path).load()
+    assert again.config == config
+    assert again.tablet.permissions() == TabletPermissions(teleop=False)
+    assert list(store.path.parent.iterdir()) == [store.path]  # no temporary file left behind
+
+
+def test_save_keeps_the_security_section_as_written(tmp_path: Path) -> None:
+    path = tmp_path / "station.yaml"
+    path.write_text("security: {keys: ../keys, identity: desk2}\nconfig: {yaw_tolerance: 0.5}\n")
+    store = StationSettingsStore(path)
+    file = store.load()
+    assert file.config.yaw_tolerance == 0.5 and file.security.identity == "desk2"
+    store.save(file.config, TabletPermissions(tours=False))
+    saved = yaml.safe_load(path.read_text(encoding="utf-8"))
+    assert saved["security"]["keys"] == "../keys" and saved["security"]["identity"] == "desk2"
+    assert saved["tablet"]["tours"] is False
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            "config: {latency_ceiling: 3}\n",
+            r"station\.yaml: config\.latency_ceiling = 3 s is outside the allowed range "
+            r"\[0\.05, 1\] s",
+        ),
+        ("config: {goal_tolerance: fast}\n", r"config\.goal_tolerance must be a number \[m\]"),
+        ("tablet: {tours: 'no'}\n", r"tablet\.tours must be true or false, got 'no'"),
+        ("tablet: {drive: true}\n", r"unknown key 'tablet\.drive' \(allowed: teleop, goals"),
+        ("colour: red\n", r"unknown key 'colour' \(allowed: security, config, tablet\)"),
+        ("config: [1\n", r"invalid YAML"),
+    ],
+)
+def test_bad_values_stop_the_station_naming_file_key_and_range(
+    tmp_path: Path, text: str, message: str
+) -> None:
+    path = tmp_path / "station.yaml"
+    path.write_text(text)
+    with pytest.raises(StationFileError, match=message):
+        StationSettingsStore(path).load()
+
+
+def test_main_refuses_a_bad_station_file(tmp_path: Path, capsys) -> None:
+    from base_station_app.main import main
+
+    path = tmp_path / "station.yaml"
+    path.write_text("config: {teleop_linear_max: 2.0}\n")
+    assert main(["--config", str(path)]) == 2
+    assert "config.teleop_linear_max = 2.0 m/s is outside" in capsys.readouterr().err
+
+
+def test_a_file_that_cannot_be_written_is_reported(tmp_path: Path) -> None:
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("")
+    store = StationSettingsStore(blocker / "station.yaml")
+    with pytest.raises(StationFileError, match="cannot save the settings"):
+        store.save(StationConfig(), TabletPermissions())
+
+
+def test_panel_ranges_come_from_the_declaration() -> None:
+    assert RANGES["latency_ceiling"] == (0.05, 1.0, "s")
+    assert set(RANGES) == set(StationConfig.__struct_fields__)
+
+
+def qsettings_keys(path: Path) -> set[str]:
+    """The keys ``path`` reads or writes with QSettings ``value``/``setValue`` (on ``s``,
+    ``settings`` or ``self.settings``, the names the station gives its QSettings)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    keys = set()
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Attribute)
+            and node.func.attr in {"value", "setValue"}
+            and ast.unparse(node.func.value) in {"s", "settings", "self.settings"}
+            and node.args
+        ):
+            arg = node.args[0]
+            if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                keys.add(arg.value)
+            elif isinstance(arg, ast.JoinedStr | ast.Name | ast.Attribute):
+                keys.add(ast.unparse(arg))
+    return keys
+
+
+# QSettings holds what is not configuration (docs/station_config.md): the window, and the robot
+# the operator commanded last (a remembered choice, as a recent-files list; --robot overrides it).
+QSETTINGS_ALLOWED = {"window/geometry", "window/state", "ROBOT_KEY"}
+
+
+def test_qsettings_hold_window_state_and_the_last_robot_only() -> None:
+    used = set().union(*(qsettings_keys(p) for p in (REPO / "base_station_app").glob("*.py")))
+    assert used and used <= QSETTINGS_ALLOWED, sorted(used - QSETTINGS_ALLOWED)
+
+
+def test_qsettings_rule_catches_a_behaviour_setting(tmp_path: Path) -> None:
+    bad = tmp_path / "main_window.py"
+    bad.write_text('s.setValue(f"config/{name}", v)\nx = s.value("tablet/tours")\n')
+    assert qsettings_keys(bad) - QSETTINGS_ALLOWED == {"f'config/{name}'", "tablet/tours"}
