@@ -773,7 +773,6 @@ def parse_frame(frame: bytes) -> dict[str, Any]:
 # --------------------------------------------------------------------------------------------
 
 
-_SEEK, _FRAME, _DISCARD, _JUNK = range(4)
 _NON_WS = re.compile(rb"[^ \t\r\n]")
 _STRUCTURE = re.compile(rb'[{}\[\]"]')
 _IN_STRING = re.compile(rb'["\\]')
@@ -785,31 +784,29 @@ _QUOTE, _BACKSLASH = ord('"'), ord("\\")
 
 @dataclass
 class JsonStreamDecoder:
-    """Split a TCP byte stream into JSON objects (one per frame).
+    """Split a TCP byte stream into JSON objects (one per frame), for thesis-era clients that
+    write objects back to back with no delimiter.
 
-    Frames are JSON values that start with ``{`` (or ``[``, reported as NotAnObject) and end at
-    the matching bracket, found by a depth counter that skips over strings and their escapes.
-    Anything between frames other than whitespace is reported once per run as InvalidJson (or
-    NotAnObject for a bare string/number/literal) and skipped up to the next ``{`` or ``[``
-    outside a string (a ``"`` in such a run opens a string that is skipped whole, so a bare
-    ``"{...}"`` is not mistaken for a frame; an unclosed one is given up after
-    ``max_frame_bytes``).
-    A frame longer than ``max_frame_bytes`` is reported as FrameTooLarge and discarded up to
-    its closing bracket, without buffering it. Scanning is incremental: each byte is looked at
-    once, however the stream is split, and a split inside a UTF-8 sequence is harmless because
-    multibyte sequences contain no ASCII bytes.
-
-    ``feed`` never raises; it returns the decoded objects and ProtocolError instances in stream
-    order. At most ``max_frame_bytes`` bytes are held between calls.
+    A frame starts with ``{`` (or ``[``, reported as NotAnObject) and ends at the matching
+    bracket, found by a depth counter that skips strings and their escapes. Anything else
+    between frames is reported once per run (InvalidJson, or NotAnObject for a bare value) and
+    skipped up to the next ``{`` or ``[`` outside a string (a string in such a run is skipped
+    whole, so a bare ``"{...}"`` is no frame; an unclosed one is given up after
+    ``max_frame_bytes``). A frame longer than ``max_frame_bytes`` is reported as FrameTooLarge
+    and discarded up to its closing bracket without being buffered. Each byte is looked at once
+    however the stream is split (a split inside a UTF-8 sequence is harmless: multibyte
+    sequences contain no ASCII bytes). ``feed`` never raises; it returns the objects and
+    ProtocolError instances in stream order, holding at most ``max_frame_bytes`` between calls.
     """
 
     max_frame_bytes: int = DEFAULT_MAX_FRAME_BYTES
     _buf: bytearray = field(default_factory=bytearray, init=False, repr=False)
-    _mode: int = field(default=_SEEK, init=False, repr=False)
-    _depth: int = field(default=0, init=False, repr=False)
+    _depth: int = field(default=0, init=False, repr=False)  # > 0: inside a frame
+    _junk: bool = field(default=False, init=False, repr=False)  # skipping a run between frames
+    _discard: bool = field(default=False, init=False, repr=False)  # frame too large: not kept
     _in_string: bool = field(default=False, init=False, repr=False)
     _escape: bool = field(default=False, init=False, repr=False)
-    _skipped: int = field(default=0, init=False, repr=False)
+    _skipped: int = field(default=0, init=False, repr=False)  # bytes of a string in junk
 
     def __post_init__(self) -> None:
         if type(self.max_frame_bytes) is not int or self.max_frame_bytes < 2:
@@ -823,10 +820,8 @@ class JsonStreamDecoder:
     def reset(self) -> None:
         """Forget any partial frame (call on reconnect)."""
         self._buf.clear()
-        self._mode = _SEEK
-        self._depth = 0
-        self._in_string = self._escape = False
-        self._skipped = 0
+        self._depth = self._skipped = 0
+        self._junk = self._discard = self._in_string = self._escape = False
 
     def feed(self, data: bytes) -> list[dict[str, Any] | ProtocolError]:
         """Scan ``data`` and return every frame completed by it, in order."""
@@ -839,56 +834,72 @@ class JsonStreamDecoder:
             out.append(InvalidJson(f"stream decoder error ({type(exc).__name__}); reset"))
         return out
 
-    # The scanner is a state machine over four modes: _SEEK (between frames), _FRAME (inside a
-    # frame, buffering), _DISCARD (inside an oversized frame, not buffering) and _JUNK
-    # (skipping a run of non-JSON bytes or a bare top-level string).
     def _scan(self, data: bytes, out: list[dict[str, Any] | ProtocolError]) -> None:
-        i, n = 0, len(data)
+        i, n, start = 0, len(data), 0  # start: where this data's part of the frame begins
         while i < n:
-            if self._mode == _SEEK:
-                m = _NON_WS.search(data, i)
+            if self._in_string:
+                before, i = i, self._skip_string(data, i, n)
+                if self._in_string and not self._depth:  # an unclosed string in junk
+                    self._skipped += i - before
+                    self._in_string = self._skipped <= self.max_frame_bytes
+            elif self._depth:  # inside a frame
+                m = _STRUCTURE.search(data, i)
                 if m is None:
-                    return
-                i = m.start()
-                byte = data[i]
-                if byte in _OPEN:
-                    self._mode = _FRAME
-                    self._depth = 0
-                    self._in_string = self._escape = False
-                    self._buf.clear()
-                    continue
-                self._mode = _JUNK
-                self._skipped = 0
-                self._in_string = byte == _QUOTE
-                self._escape = False
-                if byte in _VALUE_START:
-                    out.append(NotAnObject("top-level JSON value must be an object"))
+                    break
+                i, byte = m.end(), data[m.start()]
+                if byte == _QUOTE:
+                    self._in_string = True
+                elif byte in _OPEN:
+                    self._depth += 1
                 else:
-                    out.append(
-                        InvalidJson(f"unexpected byte {bytes([byte])!r} between JSON objects")
-                    )
-                i += 1
-            elif self._mode == _JUNK:
-                if self._in_string:
-                    i = self._skip_string(data, i, n)
-                    if self._in_string:
-                        self._skipped += n - i
-                        if self._skipped > self.max_frame_bytes:
-                            self._in_string = False  # give up on the string; plain junk
-                        return
-                    continue
+                    self._depth -= 1
+                    if not self._depth and self._keep(data[start:i], out):
+                        frame = bytes(self._buf)
+                        self._buf.clear()
+                        try:  # a frame that started with "[" always raises NotAnObject here
+                            out.append(parse_frame(frame))
+                        except ProtocolError as exc:
+                            out.append(exc)
+            elif self._junk:
                 m = _JUNK_STOP.search(data, i)
                 if m is None:
                     return
                 i = m.start()
                 if data[i] == _QUOTE:  # a string inside junk: skip it whole, no new error
-                    self._in_string = True
-                    self._skipped = 0
-                    i += 1
+                    self._in_string, self._skipped, i = True, 0, i + 1
                 else:
-                    self._mode = _SEEK
-            else:
-                i = self._scan_frame(data, i, n, out)
+                    self._junk = False
+            else:  # between frames
+                m = _NON_WS.search(data, i)
+                if m is None:
+                    return
+                i, byte = m.start(), data[m.start()]
+                if byte in _OPEN:
+                    self._depth, self._discard, start = 1, False, i
+                elif byte in _VALUE_START:
+                    out.append(NotAnObject("top-level JSON value must be an object"))
+                else:
+                    out.append(
+                        InvalidJson(f"unexpected byte {bytes([byte])!r} between JSON objects")
+                    )
+                self._junk = byte not in _OPEN
+                self._in_string, self._skipped, i = byte == _QUOTE, 0, i + 1
+        if self._depth:
+            self._keep(data[start:], out)
+
+    def _keep(self, chunk: bytes, out: list[dict[str, Any] | ProtocolError]) -> bool:
+        """Buffer ``chunk`` of the current frame; False once the frame is too large."""
+        if self._discard:
+            return False
+        if len(self._buf) + len(chunk) > self.max_frame_bytes:
+            out.append(
+                FrameTooLarge(f"JSON object longer than {self.max_frame_bytes} bytes; discarded")
+            )
+            self._buf.clear()
+            self._discard = True
+            return False
+        self._buf += chunk
+        return True
 
     def _skip_string(self, data: bytes, i: int, n: int) -> int:
         """Advance through a JSON string body; returns the index after what was consumed."""
@@ -907,53 +918,3 @@ class JsonStreamDecoder:
                 self._in_string = False
                 return i
         return i
-
-    def _scan_frame(
-        self, data: bytes, i: int, n: int, out: list[dict[str, Any] | ProtocolError]
-    ) -> int:
-        """Scan inside a frame from ``i``; returns where scanning stopped."""
-        start = i
-        end = n  # exclusive end of this frame's bytes within data, if the frame completes
-        done = False
-        while i < n:
-            if self._in_string:
-                i = self._skip_string(data, i, n)
-                continue
-            m = _STRUCTURE.search(data, i)
-            if m is None:
-                i = n
-                break
-            i = m.end()
-            byte = data[m.start()]
-            if byte == _QUOTE:
-                self._in_string = True
-            elif byte in _OPEN:
-                self._depth += 1
-            else:
-                self._depth -= 1
-                if self._depth == 0:
-                    done, end = True, i
-                    break
-        chunk_end = end if done else n
-        if self._mode == _FRAME:
-            if len(self._buf) + (chunk_end - start) > self.max_frame_bytes:
-                out.append(
-                    FrameTooLarge(
-                        f"JSON object longer than {self.max_frame_bytes} bytes; discarded"
-                    )
-                )
-                self._buf.clear()
-                self._mode = _DISCARD
-            else:
-                self._buf += data[start:chunk_end]
-        if done:
-            if self._mode == _FRAME:
-                frame = bytes(self._buf)
-                self._buf.clear()
-                try:  # a frame that started with "[" always raises NotAnObject here
-                    out.append(parse_frame(frame))
-                except ProtocolError as exc:
-                    out.append(exc)
-            self._mode = _SEEK
-            self._depth = 0
-        return chunk_end

@@ -449,6 +449,15 @@ def test_unterminated_oversized_frame_keeps_discarding_in_bounded_memory() -> No
     assert dec.feed(b'"}{"goal":2}') == [{"goal": 2}]
 
 
+def test_an_unclosed_string_between_frames_is_given_up_after_the_frame_limit() -> None:
+    """A stray quote must not swallow every later frame (the old scanner never gave up)."""
+    dec = JsonStreamDecoder(max_frame_bytes=1000)
+    assert [type(x) for x in dec.feed(b'x"' + b"a" * 600)] == [InvalidJson]
+    assert dec.feed(b"{goal: 1}" + b"a" * 600) == []  # still inside the string: skipped
+    assert dec.feed(b'{"goal":2}') == [{"goal": 2}]
+    assert dec.buffered_bytes == 0
+
+
 def test_reset_forgets_a_partial_frame() -> None:
     dec = JsonStreamDecoder()
     assert dec.feed(b'{"goal":') == []
