@@ -132,6 +132,17 @@ class AlertRules:
     def _memory(self, robot: str) -> _RobotMemory:
         return self._robots.setdefault(robot, _RobotMemory())
 
+    def on_message(self, robot: str, message: object, now: float) -> None:
+        """Any message from ``robot``: the rules that apply to its kind."""
+        if isinstance(message, PoseMsg):
+            self.on_pose(robot, message, now)
+        elif isinstance(message, Battery):
+            self.on_battery(robot, message, now)
+        elif isinstance(message, RouteProgress):
+            self.on_route_progress(robot, message, now)
+        elif isinstance(message, Status):
+            self.on_status(robot, message, now)
+
     def on_pose(self, robot: str, pose: PoseMsg, now: float) -> None:
         memory = self._memory(robot)
         if pose.state == "lost" and memory.localisation == "ok":

@@ -42,7 +42,7 @@ class QtCameraView(QLabel):
         return self._image
 
     def refresh(self) -> None:
-        state = self._controller.state
+        state = self._controller.selected.state
         if state.image is None or state.image_version == self._version:
             return
         self._version = state.image_version

@@ -64,7 +64,7 @@ class QtDiagnosticsPanel(QWidget):
         c = self._controller
         for key, stats, threshold in (
             ("clock", c.clock_periods, c.clock_timer.interval() / 1000.0 * 1.5),
-            ("tablet", c.tablet_periods, c.config.latency_ceiling),
+            ("tablet", c.arbiter.tablet_periods, c.config.latency_ceiling),
         ):
             _, bars, label = self.plots[key]
             values, edges = stats.histogram(bins=30)

@@ -244,11 +244,11 @@ class QtMapView(pg.PlotWidget):
                 self._place_labels(grid)
                 self.fit_map()
         self.fleet_layer.redraw(c.fleet.views(c.names))
-        sup = c.supervisor
+        sup = c.selected.supervisor
         key = (
             c.selected.health,
-            c.state.version,
-            id(c.route),
+            c.selected.state.version,
+            id(c.selected.route),
             sup.route_index,
             sup.visited_tour_stops,
             sup.tour_stops,
@@ -261,7 +261,7 @@ class QtMapView(pg.PlotWidget):
         self._draw_tour()
 
     def _draw_robot(self) -> None:
-        state = self._controller.state
+        state = self._controller.selected.state
         pose_msg = state.pose
         if pose_msg is None or pose_msg.state == "unset":
             self.robot_item.setData([], [])
@@ -283,18 +283,18 @@ class QtMapView(pg.PlotWidget):
 
     def _draw_route(self) -> None:
         c = self._controller
-        route = c.route if c.supervisor.current_task is not None else None
+        route = c.selected.route if c.selected.supervisor.current_task is not None else None
         if route is None:
             self.route_item.setData([], [])
             self.waypoints_item.setData([])
             self.goal_item.setData([])
             return
         wps = np.array([[w[0], w[1]] for w in route.waypoints])
-        pose = c.state.localised_pose
-        index = c.supervisor.route_index
-        index = c.route_index if index is None else index
+        pose = c.selected.state.localised_pose
+        index = c.selected.supervisor.route_index
+        index = c.selected.route_index if index is None else index
         index = min(index, len(wps) - 1)
-        plan = c.state.plan
+        plan = c.selected.state.plan
         if plan is not None and plan.points and plan.route_id == route.route_id:
             pts = np.array(plan.points)
             if pose is not None:
@@ -309,7 +309,7 @@ class QtMapView(pg.PlotWidget):
         self.goal_item.setData(pos=wps[index : index + 1])
 
     def _draw_tour(self) -> None:
-        sup = self._controller.supervisor
+        sup = self._controller.selected.supervisor
         stops = sup.tour_stops
         if not stops:
             self.tour_item.setData([])

@@ -80,7 +80,7 @@ class QtStatePanel(QWidget):
         layout.addWidget(QLabel("Status log"))
         self.log_list = QListWidget()
         layout.addWidget(self.log_list, 1)
-        for entry in controller.state.log:
+        for entry in controller.selected.state.log:
             self._add_log(entry.level, entry.text)
         controller.log_added.connect(self._add_log)
         controller.frame_ready.connect(self.refresh)
@@ -99,7 +99,7 @@ class QtStatePanel(QWidget):
 
     def refresh(self) -> None:
         c = self._controller
-        s = c.state
+        s = c.selected.state
         if s.version == self._version:
             return
         self._version = s.version
@@ -127,10 +127,10 @@ class QtStatePanel(QWidget):
     def refresh_task(self) -> None:
         c = self._controller
         L = self.labels
-        text, alarm = estop_text(c.estop_latched, c.state.estop_engaged)
+        text, alarm = estop_text(c.estop_latched, c.selected.state.estop_engaged)
         L["estop"].setText(text)
         L["estop"].setStyleSheet("color: #c00; font-weight: bold;" if alarm else "")
         L["task"].setText(c.task_text())
-        d = c.supervisor.distance_to_next_goal
+        d = c.selected.supervisor.distance_to_next_goal
         L["distance"].setText(UNSET if d is None else f"{d:.2f} m")
         L["status"].setText(c.status_text())

@@ -63,7 +63,7 @@ class QtTabletPanel(QWidget):
         self.permission_boxes: dict[str, QCheckBox] = {}
         for kind in PERMISSION_KINDS:
             box = QCheckBox(_TITLES[kind])
-            box.setChecked(controller.permissions.allows(kind))
+            box.setChecked(controller.tablet_policy.permissions.allows(kind))
             box.toggled.connect(lambda on, k=kind: controller.set_permission(k, on))
             plo.addWidget(box)
             self.permission_boxes[kind] = box
@@ -112,7 +112,7 @@ class QtTabletPanel(QWidget):
         )
         for kind, box in self.permission_boxes.items():
             box.blockSignals(True)
-            box.setChecked(c.permissions.allows(kind))
+            box.setChecked(c.tablet_policy.permissions.allows(kind))
             box.blockSignals(False)
         task = c.tablet_task
         self.task_label.setText("none" if task is None else describe_task(task, c.names))
@@ -126,14 +126,14 @@ class QtTabletPanel(QWidget):
 
     def _refresh_watchdog(self) -> None:
         c = self._controller
-        latency = c.watchdog.latency(c.clock())
+        latency = c.arbiter.watchdog.latency(c.clock())
         since = (
             "no speed command yet"
             if math.isinf(latency)
             else f"last speed command {age_text(latency)} ago"
         )
-        state = "forwarding" if c.tablet_speed is not None else "idle"
+        state = "forwarding" if c.arbiter.tablet_speed is not None else "idle"
         self.watchdog_label.setText(
-            f"{since}; ceiling {c.watchdog.ceiling_s * 1000:.0f} ms; {state}; "
-            f"discarded {c.tablet_discarded}"
+            f"{since}; ceiling {c.arbiter.watchdog.ceiling_s * 1000:.0f} ms; {state}; "
+            f"discarded {c.arbiter.tablet_discarded}"
         )

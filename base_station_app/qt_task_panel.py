@@ -213,21 +213,21 @@ class QtTaskPanel(QWidget):
 
     def refresh(self) -> None:
         c = self._controller
-        task = c.supervisor.current_task
+        task = c.selected.supervisor.current_task
         who = " (tablet)" if c.tablet_task is not None else ""
         self.current_label.setText(
             "Now: idle" if task is None else f"Now: {describe_task(task, c.names)}{who}"
         )
         row = self.queue_list.currentRow()
         self.queue_list.clear()
-        for t in c.supervisor.queue:
+        for t in c.selected.supervisor.queue:
             self.queue_list.addItem(describe_task(t, c.names))
         if 0 <= row < self.queue_list.count():
             self.queue_list.setCurrentRow(row)
         self._refresh_buttons()
 
     def _refresh_buttons(self) -> None:
-        sup = self._controller.supervisor
+        sup = self._controller.selected.supervisor
         at_stop = sup.state is SupervisorState.AT_TOUR_STOP
         self.tour_resume_button.setEnabled(at_stop)
         self.tour_end_button.setEnabled(isinstance(sup.current_task, GuidedTour))

@@ -163,7 +163,7 @@ class QtTeleopPanel(QWidget):
             self.assist_check.setChecked(enabled)
 
     def _on_frame(self) -> None:
-        safety = self._controller.state.safety
+        safety = self._controller.selected.state.safety
         if safety is None:
             return
         said = describe_safety(safety.zone, safety.distance)

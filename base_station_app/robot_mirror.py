@@ -19,8 +19,21 @@ from base_station_app.tablet_session import describe_task
 from interbot_core.geometry import Pose2D
 from interbot_core.route_mirror import RouteLost, RouteMirror
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.supervisor import RequestShown, RouteStarted, Supervisor, SupervisorConfig
-from interbot_core.topics import RouteMsg, RouteProgress
+from interbot_core.supervisor import (
+    Event,
+    GoalReached,
+    RequestAccepted,
+    RequestDeclined,
+    RequestShown,
+    RequestTimedOut,
+    RouteStarted,
+    Supervisor,
+    SupervisorConfig,
+    TaskFinished,
+    TaskStarted,
+    TourStopReached,
+)
+from interbot_core.topics import RouteMsg, RouteProgress, Status, Topic
 from interbot_core.topological_map import TopologicalMap
 
 
@@ -150,6 +163,25 @@ class RobotMirror:
         if lost is not None:
             losses.append(lost)
         return losses
+
+    def on_message(self, topic: Topic, message: object) -> tuple[RouteLost | None, Status | None]:
+        """A message from this robot: into its state and route mirror. Returns the route it
+        lost and the status line to log (None: none)."""
+        self.state.apply(topic, message)
+        lost = None
+        if topic is Topic.ROUTE_PROGRESS and isinstance(message, RouteProgress):
+            lost = self.route_mirror.on_progress(message)
+        status = self.state.status if topic is Topic.STATUS else None
+        return lost, status if status is not None and status.text else None
+
+    def on_event(self, event: Event) -> None:
+        """What a supervisor event changes in this mirror (the controller acts on the rest)."""
+        if isinstance(event, TaskStarted):
+            self.goal_reached = False
+        elif isinstance(event, GoalReached | TourStopReached):
+            self.goal_reached = True
+        elif isinstance(event, TaskFinished | RequestAccepted | RequestDeclined | RequestTimedOut):
+            self.shown_request = None
 
     def route_progress(self) -> RouteProgress | None:
         """The robot's newest report on OUR route (None: none, or about another route)."""

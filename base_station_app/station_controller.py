@@ -80,16 +80,15 @@ from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_server import TabletServer
 from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
-from base_station_app.teleop import Direction, TeleopInput
+from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
-from interbot_core.route_mirror import RouteLost, RouteMirror
+from interbot_core.route_mirror import RouteLost
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.speed_freshness import SpeedFreshness
 from interbot_core.supervisor import (
     Delivery,
     Event,
@@ -106,7 +105,6 @@ from interbot_core.supervisor import (
     RequestTimedOut,
     RouteCancelled,
     RouteStarted,
-    Supervisor,
     SupervisorError,
     Task,
     TaskFinished,
@@ -116,22 +114,18 @@ from interbot_core.supervisor import (
 )
 from interbot_core.topics import (
     AssistMsg,
-    Battery,
     ConfigMsg,
     InitialPose,
     Lock,
-    PoseMsg,
     Relocalise,
     RouteCancel,
-    RouteMsg,
     RouteProgress,
-    Status,
     StopRelease,
     Topic,
     Twist,
 )
 from interbot_core.topological_map import TopologicalMap
-from interbot_core.watchdog import LatencyWatchdog, PeriodStats
+from interbot_core.watchdog import PeriodStats
 from interbot_link import LinkError, RobotAppeared, RobotLeft, StateMessage, StationLink
 from interbot_link.fleet_watch import FleetWatch
 
@@ -296,38 +290,6 @@ class StationController(QObject):
         return self.fleet.selected
 
     @property
-    def supervisor(self) -> Supervisor:
-        return self.fleet.selected.supervisor
-
-    @property
-    def state(self) -> RobotState:
-        return self.fleet.selected.state
-
-    @property
-    def route_mirror(self) -> RouteMirror:
-        return self.fleet.selected.route_mirror
-
-    @property
-    def route(self) -> RouteMsg | None:
-        return self.fleet.selected.route
-
-    @property
-    def route_index(self) -> int:
-        return self.fleet.selected.route_index
-
-    @property
-    def goal_reached(self) -> bool:
-        return self.fleet.selected.goal_reached
-
-    @property
-    def shown_request(self) -> tuple[int, RequestShown] | None:
-        return self.fleet.selected.shown_request
-
-    @property
-    def _stop_assert_pending(self) -> bool:
-        return self.fleet.selected.stop_assert_pending
-
-    @property
     def preferred_robot(self) -> str | None:
         return self.fleet.preferred
 
@@ -339,43 +301,6 @@ class StationController(QObject):
     def robots(self) -> dict[str, bool]:
         """Robot id -> present, for every robot seen."""
         return {r: m.online for r, m in sorted(self.fleet.mirrors.items())}
-
-    # The teleoperation and tablet parts, by the names panels and tests know them.
-    @property
-    def teleop(self) -> TeleopInput:
-        return self.arbiter.keys
-
-    @property
-    def watchdog(self) -> LatencyWatchdog:
-        return self.arbiter.watchdog
-
-    @property
-    def freshness(self) -> SpeedFreshness:
-        return self.arbiter.freshness
-
-    @property
-    def tablet_periods(self) -> PeriodStats:
-        return self.arbiter.tablet_periods
-
-    @property
-    def tablet_speed(self) -> p.Speed | None:
-        return self.arbiter.tablet_speed
-
-    @property
-    def tablet_forwarding(self) -> bool:
-        return self.arbiter.tablet_forwarding
-
-    @property
-    def tablet_discarded(self) -> int:
-        return self.arbiter.tablet_discarded
-
-    @property
-    def permissions(self) -> TabletPermissions:
-        return self.tablet_policy.permissions
-
-    @property
-    def tablet_tasks(self) -> list[Task]:
-        return self.tablet_policy.tasks
 
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
@@ -401,8 +326,8 @@ class StationController(QObject):
         self.tablet_watchdog.stop()
         if self.arbiter.stop_tablet():
             self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-        if self.teleop.active:
-            self.teleop.release_all()
+        if self.arbiter.keys.active:
+            self.arbiter.keys.release_all()
             self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=self.clock()))
         self._closed = True
         self.tablet.close()
@@ -424,10 +349,10 @@ class StationController(QObject):
     @property
     def grid(self) -> OccupancyGrid | None:
         """The robot's map when received, else the map beside the topological map."""
-        return self.state.grid if self.state.grid is not None else self.static_map
+        return self.selected.state.grid if self.selected.state.grid is not None else self.static_map
 
     def log(self, level: str, text: str) -> None:
-        self.state.add_log(self.clock(), level, text)
+        self.selected.state.add_log(self.clock(), level, text)
         self.log_added.emit(level, text)
 
     def _log_for(self, mirror: RobotMirror, level: str, text: str) -> None:
@@ -558,7 +483,7 @@ class StationController(QObject):
             selected = self.fleet.selected
             for topic, message in (link.poll_state() if display else {}).items():
                 selected.state.apply(topic, message)
-                self._check_alerts(selected, topic, message)
+                self.alert_rules.on_message(selected.robot_id or "?", message, self.clock())
             if self.watch is not None:
                 for msg in self.watch.poll():
                     self._on_state_message(msg)
@@ -588,24 +513,6 @@ class StationController(QObject):
                 f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
                 f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
             )
-
-    def _check_alerts(self, mirror: RobotMirror, topic: Topic, message: object) -> None:
-        """Each robot's state, through the alert rules (alerts.py)."""
-        robot, now, rules = mirror.robot_id or "?", self.clock(), self.alert_rules
-        if isinstance(message, PoseMsg):
-            rules.on_pose(robot, message, now)
-        elif isinstance(message, Battery):
-            rules.on_battery(robot, message, now)
-        elif isinstance(message, RouteProgress):
-            rules.on_route_progress(robot, message, now)
-        elif isinstance(message, Status):
-            rules.on_status(robot, message, now)
-
-    def _on_route_progress(self, progress: RouteProgress, mirror: RobotMirror) -> None:
-        """Mirror the robot's route (see `RouteMirror`)."""
-        lost = mirror.route_mirror.on_progress(progress)
-        if lost is not None:
-            self._route_lost(lost, mirror)
 
     def _route_lost(self, lost: RouteLost, mirror: RobotMirror | None = None) -> None:
         """Our route is gone on the robot: the task ends; nothing is re-sent."""
@@ -652,14 +559,12 @@ class StationController(QObject):
         mirror = self.fleet.mirrors.get(event.robot_id)
         if mirror is None:
             return  # a robot never announced: nothing to mirror it into
-        mirror.state.apply(event.topic, event.message)
-        self._check_alerts(mirror, event.topic, event.message)
-        if event.topic is Topic.ROUTE_PROGRESS and isinstance(event.message, RouteProgress):
-            self._on_route_progress(event.message, mirror)
-        if event.topic is Topic.STATUS:
-            status = mirror.state.status
-            if status is not None and status.text:
-                self._log_for(mirror, status.level, f"robot: {status.text}")
+        lost, status = mirror.on_message(event.topic, event.message)
+        self.alert_rules.on_message(mirror.robot_id or "?", event.message, self.clock())
+        if lost is not None:
+            self._route_lost(lost, mirror)
+        if status is not None:
+            self._log_for(mirror, status.level, f"robot: {status.text}")
 
     # ================================================================== clock()
     def tick(self) -> None:
@@ -759,8 +664,8 @@ class StationController(QObject):
             self.tablet.send(message)
 
     def _handle_one(self, event: Event, mirror: RobotMirror) -> None:
+        mirror.on_event(event)
         if isinstance(event, TaskStarted):
-            mirror.goal_reached = False
             self._log_for(mirror, "info", f"task started: {describe_task(event.task, self.names)}")
             self.tasks_changed.emit()
         elif isinstance(event, TaskFinished):
@@ -768,9 +673,7 @@ class StationController(QObject):
             self._log_for(
                 mirror, level, f"task {describe_task(event.task, self.names)}: {event.reason}"
             )
-            if self.tablet_policy.owns(event.task):
-                self.tablet_policy.forget(event.task)
-            mirror.shown_request = None
+            self.tablet_policy.forget(event.task)
             self.tasks_changed.emit()
         elif isinstance(event, QueueChanged):
             self.tasks_changed.emit()
@@ -781,7 +684,6 @@ class StationController(QObject):
         elif isinstance(event, IntermediateGoalReached):
             self._log_for(mirror, "info", f"intermediate goal {event.node} reached")
         elif isinstance(event, GoalReached):
-            mirror.goal_reached = True
             where = self.names.get(event.node, "pose") if event.node is not None else "pose"
             self._log_for(mirror, "info", f"goal reached: {where}")
             if event.node is not None:
@@ -794,7 +696,6 @@ class StationController(QObject):
             if mirror is self.fleet.selected:
                 self.paused_changed.emit(event.paused)
         elif isinstance(event, TourStopReached):
-            mirror.goal_reached = True
             self._handle(mirror.supervisor.pause(), mirror)  # wait at the stop (§5.3.6)
             self._log_for(
                 mirror, "info", f"tour stop {event.node} ({event.name}) reached; tour paused"
@@ -821,7 +722,6 @@ class StationController(QObject):
             verb = {RequestAccepted: "accepted", RequestDeclined: "declined"}.get(
                 type(event), "timed out"
             )
-            mirror.shown_request = None
             self._log_for(mirror, "info", f"request '{event.text}' {verb}")
 
     def _waiting(self, mirror: RobotMirror, text: str) -> None:
@@ -852,7 +752,7 @@ class StationController(QObject):
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:
         """Queue a task for the selected robot; False (and a logged reason) if the map rejects it."""
         try:
-            events = self.supervisor.submit(task)
+            events = self.selected.supervisor.submit(task)
         except TaskRejectedError as exc:
             self.log("error", f"task rejected: {exc}")
             if from_tablet:
@@ -877,59 +777,59 @@ class StationController(QObject):
 
     def cancel_task(self, who: str = "the operator") -> bool:
         """Cancel the running task; a tablet's task cancelled by someone else tells the tablet."""
-        tablets = self.tablet_policy.owns(self.supervisor.current_task)
-        cancelled = self._try(self.supervisor.cancel)
+        tablets = self.tablet_policy.owns(self.selected.supervisor.current_task)
+        cancelled = self._try(self.selected.supervisor.cancel)
         if cancelled and tablets and who != "the tablet":
             self.tablet.send(p.Cancel(f"cancelled by {who}"))
         return cancelled
 
     def stop_motion(self, who: str) -> None:
         """Stop whatever runs: the task (if any), a route this station did not start, teleop."""
-        if self.supervisor.current_task is not None:
+        if self.selected.supervisor.current_task is not None:
             self.cancel_task(who)
-        if self.route_mirror.robot_running and self.route is None:
+        if self.selected.route_mirror.robot_running and self.selected.route is None:
             # A route from before a station restart (or one we lost track of): cancel it too.
             self._send(
                 Topic.ROUTE_CANCEL, RouteCancel(None, f"stopped by {who}", stamp=self.clock())
             )
-            self.route_mirror.foreign = None
+            self.selected.route_mirror.foreign = None
             self.log("warning", f"{who}: cancelled the robot's route")
         self._stop_tablet_speed(f"stop from {who}")
 
     def move_task(self, index: int, delta: int) -> bool:
         target = index + delta
-        if not 0 <= target < len(self.supervisor.queue):
+        if not 0 <= target < len(self.selected.supervisor.queue):
             return False
-        return self._try(lambda: self.supervisor.reorder(index, target))
+        return self._try(lambda: self.selected.supervisor.reorder(index, target))
 
     def remove_task(self, index: int) -> bool:
-        return self._try(lambda: self.supervisor.remove(index))
+        return self._try(lambda: self.selected.supervisor.remove(index))
 
     def clear_queue(self) -> bool:
-        return self._try(self.supervisor.clear_queue)
+        return self._try(self.selected.supervisor.clear_queue)
 
     def pause(self) -> None:
-        self._handle(self.supervisor.pause())
+        self._handle(self.selected.supervisor.pause())
 
     def resume(self) -> None:
-        self._handle(self.supervisor.resume())
+        self._handle(self.selected.supervisor.resume())
 
     def tour_resume(self) -> bool:
         """Leave the tour stop: release the pause and drive to the next stop."""
-        ok = self._try(self.supervisor.tour_resume)
+        ok = self._try(self.selected.supervisor.tour_resume)
         if ok:
             self.selected.goal_reached = False
             self.resume()
         return ok
 
     def tour_end(self) -> bool:
-        ok = self._try(self.supervisor.tour_end)
+        ok = self._try(self.selected.supervisor.tour_end)
         if ok:
             self.resume()
         return ok
 
     def answer_request(self, accepted: bool) -> bool:
-        return self._try(lambda: self.supervisor.request_response(accepted))
+        return self._try(lambda: self.selected.supervisor.request_response(accepted))
 
     def emergency_stop(self) -> None:
         """Engage the stop lock on EVERY robot; it latches (here and on them) until released.
@@ -937,7 +837,7 @@ class StationController(QObject):
         The operator's stop is kept here even if no robot heard it, and delivered (and
         re-asserted) whenever a robot is connected.
         """
-        self.teleop.release_all()
+        self.arbiter.keys.release_all()
         self._stop_tablet_speed("emergency stop")
         was = self.estop_latched
         self.estop_latched = True
@@ -945,7 +845,7 @@ class StationController(QObject):
             # waiting tasks wait for "Resume queue"
             self._handle(mirror.supervisor.hold_queue(), mirror)
             self._assert_stop_intent(mirror)
-        if self._stop_assert_pending:
+        if self.selected.stop_assert_pending:
             self.log("error", "robot unreachable: the stop is kept and sent when it reconnects")
         if not was:
             self.log("error", "EMERGENCY STOP engaged")
@@ -959,8 +859,8 @@ class StationController(QObject):
         if self.estop_latched:
             self.log("warning", "release the emergency stop before resuming the queue")
             return
-        if self.supervisor.held:
-            self._handle(self.supervisor.release_queue())
+        if self.selected.supervisor.held:
+            self._handle(self.selected.supervisor.release_queue())
             self.log("info", "task queue resumed by the operator")
 
     def release_stop(self) -> None:
@@ -1014,7 +914,7 @@ class StationController(QObject):
         if self.settings is None:
             return
         try:
-            self.settings.save(self.config, self.permissions)
+            self.settings.save(self.config, self.tablet_policy.permissions)
         except StationFileError as exc:
             self.log("warning", f"{exc} (the change applies until the station stops)")
 
@@ -1038,13 +938,13 @@ class StationController(QObject):
     def set_joystick(self, linear: float, angular: float, pressed: bool) -> None:
         if self.estop_latched and pressed:
             return
-        self.teleop.set_joystick(linear, angular, pressed)
+        self.arbiter.keys.set_joystick(linear, angular, pressed)
         self._teleop_changed()
 
     def release_all(self) -> None:
         """Focus lost: stop teleoperating at once."""
-        if self.teleop.active:
-            self.teleop.release_all()
+        if self.arbiter.keys.active:
+            self.arbiter.keys.release_all()
             self._teleop_changed()
 
     # ================================================================== tablet
@@ -1058,7 +958,7 @@ class StationController(QObject):
 
     def _on_tablet_disconnected(self) -> None:
         self._stop_tablet_speed("tablet disconnected")
-        self.watchdog.reset()
+        self.arbiter.watchdog.reset()
         self.log("warning", "tablet disconnected")
         self.tablet_changed.emit()
 
@@ -1080,7 +980,7 @@ class StationController(QObject):
     @property
     def tablet_task(self) -> Task | None:
         """The selected robot's running task if the tablet ordered it."""
-        task = self.supervisor.current_task
+        task = self.selected.supervisor.current_task
         return task if self.tablet_policy.owns(task) else None
 
     def tablet_task_override(self) -> None:
@@ -1132,7 +1032,7 @@ class StationController(QObject):
         elif isinstance(msg, p.Tour):
             if msg.start:
                 self.submit(GuidedTour(), from_tablet=True)
-            elif isinstance(self.supervisor.current_task, GuidedTour):
+            elif isinstance(self.selected.supervisor.current_task, GuidedTour):
                 self.tour_end()
         elif isinstance(msg, p.TourControl):
             self.tour_resume() if msg.action == "resume" else self.tour_end()
@@ -1140,7 +1040,7 @@ class StationController(QObject):
             if msg.status:
                 self.submit(Delivery(msg.request, msg.room, msg.deliver_to), from_tablet=True)
         elif isinstance(msg, p.RequestAnswer):
-            if self.shown_request is not None and self.shown_request[0] == msg.id:
+            if self.selected.shown_request is not None and self.selected.shown_request[0] == msg.id:
                 self.answer_request(msg.accepted)
             else:
                 self.tablet.send(p.ErrorReport("unknown_request", f"no request {msg.id} is shown"))
@@ -1158,7 +1058,7 @@ class StationController(QObject):
         and the tablet is told why; its own task, a route nobody here owns, or teleoperation
         is stopped outright.
         """
-        task = self.supervisor.current_task
+        task = self.selected.supervisor.current_task
         if task is not None and not self.tablet_policy.owns(task):
             self.log("warning", "tablet: stop on the operator's task: paused")
             self.pause()

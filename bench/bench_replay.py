@@ -168,7 +168,7 @@ def _measure(
     poses: list[tuple[float, float]] = []  # (wall time, pose stamp)
 
     def on_frame() -> None:
-        pose = controller.state.pose
+        pose = controller.selected.state.pose
         if isinstance(pose, PoseMsg) and (not poses or pose.stamp != poses[-1][1]):
             poses.append((time.perf_counter(), pose.stamp))
 
@@ -177,8 +177,8 @@ def _measure(
         window.resize(1600, 1000)
         window.show()
         bar = window.replay_bar
-        wait_until(lambda: bar.replay_state is not None and controller.state.grid is not None, 60.0, "the replay in the station")  # fmt: skip
-        first_version = controller.state.map_version
+        wait_until(lambda: bar.replay_state is not None and controller.selected.state.grid is not None, 60.0, "the replay in the station")  # fmt: skip
+        first_version = controller.selected.state.map_version
         controller.frame_ready.connect(on_frame)
         client.send(ROBOT, ReplayCommand("play"))
         wait_until(
@@ -189,7 +189,7 @@ def _measure(
         while time.perf_counter() < end:
             app.processEvents()
             time.sleep(0.005)
-        received = controller.state.map_version - first_version
+        received = controller.selected.state.map_version - first_version
         moving = [(w, s) for w, s in poses if s > 0.0]
         speed = (
             (moving[-1][1] - moving[0][1]) / (moving[-1][0] - moving[0][0])

@@ -85,7 +85,7 @@ def run(quick: bool = False) -> dict[str, Any]:
             pose = poses[robot_id]
             links[robot_id].publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, state="ok"))
             end = time.monotonic() + 5.0
-            while station.state.localised_pose is None and time.monotonic() < end:
+            while station.selected.state.localised_pose is None and time.monotonic() < end:
                 station.poll_link()
                 time.sleep(0.01)
             station.submit(GoTo(GOALS[list(links).index(robot_id) % len(GOALS)]))

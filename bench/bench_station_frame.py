@@ -69,9 +69,9 @@ def _measure(tmp: Path, frames: int) -> dict[str, Any]:
         for i in range(WARMUP + frames):
             stamp = 10.0 + 0.05 * i
             yaw = math.remainder(0.01 * i, 2 * math.pi)
-            controller.state.apply(Topic.POSE, PoseMsg(home.x, home.y, yaw, stamp=stamp))
+            controller.selected.state.apply(Topic.POSE, PoseMsg(home.x, home.y, yaw, stamp=stamp))
             scan = LaserScan(stamp, -0.75 * math.pi, step, 0.1, 30.0, ranges)
-            controller.state.apply(Topic.SCAN, scan)
+            controller.selected.state.apply(Topic.SCAN, scan)
             c0, w0 = time.thread_time(), time.perf_counter()
             view.redraw()
             view.viewport().repaint()

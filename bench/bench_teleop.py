@@ -362,7 +362,7 @@ def _measure(
         scan_count = [0]
 
         def on_frame() -> None:
-            scan = controller.state.scan if controller is not None else None
+            scan = controller.selected.state.scan if controller is not None else None
             if scan is not None and scan is not scans_seen[0]:
                 scans_seen[0] = scan
                 scan_count[0] += 1
@@ -375,7 +375,7 @@ def _measure(
                     f"bench_teleop: the daemon exited with {proc.returncode}: "
                     f"{log_path.read_text(encoding='utf-8')[-2000:]}"
                 )
-            state = controller.state
+            state = controller.selected.state
             return (
                 controller.selected_robot == ROBOT
                 and state.grid is not None

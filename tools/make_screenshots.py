@@ -168,7 +168,7 @@ def help_me(p: Programs, room: int) -> None:
     click(t.map_screen.help_button)
     click(t.map_view.room_button(room))
     click(t.dialog.yes_button)  # type: ignore[union-attr]
-    p.wait(lambda: s.state.localisation == "ok", 30, "the robot to be localised")
+    p.wait(lambda: s.selected.state.localisation == "ok", 30, "the robot to be localised")
     p.wait(lambda: not t.session.lost, 10, "the tablet to know")
 
 
@@ -310,7 +310,7 @@ def fleet_screenshots(out: Path, speed: float) -> None:
             )
             click(panel.select_button)
             wait(lambda r=robot_id: station.selected_robot == r, 10, f"{robot_id} selected")  # type: ignore[misc]
-            wait(lambda: station.state.localisation == "ok", 60, f"{robot_id} localised")
+            wait(lambda: station.selected.state.localisation == "ok", 60, f"{robot_id} localised")
             station.submit(GoTo(goal))
 
         def planned() -> bool:
@@ -381,7 +381,7 @@ def main() -> int:
         t.show_map()
         click(t.map_view.room_button(GOAL_ROOM))
         click(t.dialog.go_button)  # type: ignore[union-attr]
-        p.wait(lambda: s.state.plan is not None and bool(s.state.plan.points), 20, "a plan")
+        p.wait(lambda: s.selected.state.plan is not None and bool(s.selected.state.plan.points), 20, "a plan")
         p.wait(lambda: (t.session.goal is not None and t.session.goal.progress >= 30), 60,
                "the robot to be on its way")  # fmt: skip
         save(grab_with_dialog(t), out, "tablet_going_1280x800")

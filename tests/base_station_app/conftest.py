@@ -148,7 +148,7 @@ def linked(qtbot, station: StationController, robot: FakeRobot) -> StationContro
     def ok() -> bool:
         station._resend_pending()  # the stop intent (release of the start latch) and config
         sent = station._send(Topic.CONFIG, ConfigMsg({"max_linear_speed": 0.5}))
-        return sent and not station._stop_assert_pending
+        return sent and not station.selected.stop_assert_pending
 
     qtbot.waitUntil(ok, timeout=3000)
 
@@ -170,7 +170,7 @@ def localise(qtbot, station: StationController, robot: FakeRobot):
 
         def seen() -> bool:
             station.poll_link()
-            p = station.state.pose
+            p = station.selected.state.pose
             return p is not None and (p.x, p.y, p.state) == (pose.x, pose.y, state)
 
         qtbot.waitUntil(seen, timeout=3000)
@@ -240,7 +240,7 @@ def robot_arrives(qtbot, station: StationController, robot: FakeRobot) -> None:
 
     def mirrored() -> bool:
         station.poll_link()
-        return station.supervisor.state not in (
+        return station.selected.supervisor.state not in (
             SupervisorState.NAVIGATING,
             SupervisorState.PAUSED,
         )

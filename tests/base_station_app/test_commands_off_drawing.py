@@ -73,7 +73,7 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
         real_on_speed(msg, now)  # type: ignore[arg-type]
 
     monkeypatch.setattr(station, "_on_tablet_speed", on_speed)
-    station.frame_ready.connect(lambda: trace.append(("frame", station.state.scan)))
+    station.frame_ready.connect(lambda: trace.append(("frame", station.selected.state.scan)))
     real_send = station._send
 
     def send(topic: Topic, message: object) -> bool:
@@ -132,7 +132,7 @@ def test_between_frames_only_events_are_taken_and_the_state_waits_in_its_ring(
     qtbot.wait(300)
     station.poll_link()
     frames: list[int] = []
-    station.frame_ready.connect(lambda: frames.append(station.state.version))
+    station.frame_ready.connect(lambda: frames.append(station.selected.state.version))
     station.display_rate = DisplayRate(10.0)
     station._on_frame_timer()  # the first poll draws
     assert len(frames) == 1
@@ -142,9 +142,15 @@ def test_between_frames_only_events_are_taken_and_the_state_waits_in_its_ring(
         clock.advance(0.025)
         station._on_frame_timer()  # within 100 ms of the frame: no state taken, no frame
     assert len(frames) == 1
-    assert station.state.pose is None or station.state.pose.x not in (1.0, 2.0, 3.0)
+    assert station.selected.state.pose is None or station.selected.state.pose.x not in (
+        1.0,
+        2.0,
+        3.0,
+    )
     qtbot.wait(200)  # the last pose is surely in the ring
     clock.advance(0.03)  # 105 ms after the first frame
     station._on_frame_timer()
     assert len(frames) == 2
-    assert station.state.pose is not None and station.state.pose.x == 3.0  # only the newest
+    assert (
+        station.selected.state.pose is not None and station.selected.state.pose.x == 3.0
+    )  # only the newest

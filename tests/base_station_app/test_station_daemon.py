@@ -42,27 +42,28 @@ def test_station_drives_the_simulated_daemon(qtbot, repo_root, topo, tmp_path):
     try:
         c.start()
         qtbot.waitUntil(
-            lambda: c.state.pose is not None and c.state.grid is not None, timeout=15000
+            lambda: c.selected.state.pose is not None and c.selected.state.grid is not None,
+            timeout=15000,
         )
         assert c.selected_robot == "sim1"
         c.set_initial_pose_room(0)
-        qtbot.waitUntil(lambda: c.state.localisation == "ok", timeout=5000)
-        start = c.state.localised_pose
+        qtbot.waitUntil(lambda: c.selected.state.localisation == "ok", timeout=5000)
+        start = c.selected.state.localised_pose
         c.press(Direction.FORWARD)  # node 0 faces west (yaw pi): forward is -x
-        qtbot.waitUntil(lambda: c.state.pose.x < start.x - 0.2, timeout=5000)
+        qtbot.waitUntil(lambda: c.selected.state.pose.x < start.x - 0.2, timeout=5000)
         c.release(Direction.FORWARD)
-        assert c.state.mux is not None and c.state.mux.source is not None
+        assert c.selected.state.mux is not None and c.selected.state.mux.source is not None
         c.submit(GoTo(2))
         qtbot.waitUntil(
             lambda: (
-                c.route is not None
-                and c.state.progress is not None
-                and c.state.progress.route_id == c.route.route_id
+                c.selected.route is not None
+                and c.selected.state.progress is not None
+                and c.selected.state.progress.route_id == c.selected.route.route_id
             ),
             timeout=5000,
         )
-        assert c.route.node_ids[-1] == 2
-        assert any("route" in e.text and e.text.startswith("robot:") for e in c.state.log)
+        assert c.selected.route.node_ids[-1] == 2
+        assert any("route" in e.text and e.text.startswith("robot:") for e in c.selected.state.log)
     finally:
         c.shutdown()
         session.close()

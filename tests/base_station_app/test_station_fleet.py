@@ -164,7 +164,9 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         QTest.mouseClick(dialog.buttons["bot3"], Qt.MouseButton.LeftButton)
         assert station.selected_robot == "bot3" and not dialog.isVisible()
         assert settings.value(ROBOT_KEY) == "bot3"
-        assert any("choose the one to command" in e.text for e in station.state.log)  # one log
+        assert any(
+            "choose the one to command" in e.text for e in station.selected.state.log
+        )  # one log
         assert window.robot_selector.currentText() == "bot3"
 
         # 2. Every robot on the map: label with its name and state colour, footprint.
@@ -269,7 +271,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
 
         qtbot.waitUntil(waiting, timeout=5000)
         assert bot2.supervisor.state is SupervisorState.AT_TOUR_STOP
-        assert station.supervisor.current_task is None  # bot0's queue is its own
+        assert station.selected.supervisor.current_task is None  # bot0's queue is its own
 
         # 5. The emergency stop reaches every robot, selected or not.
         QTest.mouseClick(window.estop_button, Qt.MouseButton.LeftButton)

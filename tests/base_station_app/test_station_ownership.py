@@ -27,7 +27,9 @@ def test_tablet_tasks_are_refused_during_a_stop_and_nothing_starts_on_release(
     assert "emergency stop" in t.of("error")[-1]["message"]
     station.release_stop()
     station.tick()
-    assert station.supervisor.current_task is None and station.supervisor.queue == ()
+    assert (
+        station.selected.supervisor.current_task is None and station.selected.supervisor.queue == ()
+    )
 
 
 def test_after_a_stop_waiting_tasks_wait_for_resume_queue(qtbot, linked, station, localise, topo):
@@ -37,11 +39,11 @@ def test_after_a_stop_waiting_tasks_wait_for_resume_queue(qtbot, linked, station
     station.tick()
     station.release_stop()
     station.tick()
-    assert station.supervisor.current_task is None
-    assert station.supervisor.state is SupervisorState.QUEUE_HELD
+    assert station.selected.supervisor.current_task is None
+    assert station.selected.supervisor.state is SupervisorState.QUEUE_HELD
     station.resume_queue()
     station.tick()
-    assert station.supervisor.current_task == GoTo(9)
+    assert station.selected.supervisor.current_task == GoTo(9)
 
 
 def test_the_tablet_stop_pauses_an_operators_task_and_says_why(
@@ -51,12 +53,12 @@ def test_the_tablet_stop_pauses_an_operators_task_and_says_why(
     t = handshake(qtbot, tablet_factory)
     station.submit(GoTo(9))  # the operator's task
     station.tick()
-    assert station.supervisor.current_task == GoTo(9)
+    assert station.selected.supervisor.current_task == GoTo(9)
     t.send({"stop": True})
     qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
     assert t.of("error")[-1]["code"] == "not_owner"
-    assert station.supervisor.current_task == GoTo(9)  # still the operator's
-    assert station.supervisor.paused  # but the robot has stopped
+    assert station.selected.supervisor.current_task == GoTo(9)  # still the operator's
+    assert station.selected.supervisor.paused  # but the robot has stopped
 
 
 def test_the_tablet_stop_cancels_its_own_task(
@@ -65,11 +67,11 @@ def test_the_tablet_stop_cancels_its_own_task(
     localise(topo.nodes[0].pose)
     t = handshake(qtbot, tablet_factory)
     t.send({"goal": 9})
-    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
     assert station.tablet_task == GoTo(9)
     t.send({"stop": True})
-    qtbot.waitUntil(lambda: station.supervisor.current_task is None, timeout=3000)
+    qtbot.waitUntil(lambda: station.selected.supervisor.current_task is None, timeout=3000)
     assert t.of("cancel") == []  # the tablet did it: no "cancelled by the operator"
 
 
@@ -79,7 +81,7 @@ def test_an_operator_cancel_of_a_tablet_task_tells_the_tablet(
     localise(topo.nodes[0].pose)
     t = handshake(qtbot, tablet_factory)
     t.send({"goal": 9})
-    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
     station.cancel_task()  # the task panel's "Cancel current"
     qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)

@@ -174,3 +174,44 @@ def test_tablet_feed_says_changes_only_and_nothing_stale_while_offline(
     m.pose_settling_until = 1.0  # an initial pose was just sent: "lost" is stale
     assert p.Localisation("lost") not in feed.messages(m, 0.4, True, ready)
     assert p.Localisation("lost") in feed.messages(m, 1.1, True, ready)
+
+
+def test_a_robots_messages_land_in_its_mirror_which_says_what_to_act_on(
+    topo: TopologicalMap,
+) -> None:
+    from interbot_core.supervisor import GoalReached, RequestShown, TaskFinished, TaskStarted
+    from interbot_core.topics import Status
+
+    m = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    m.new_route(8, RouteStarted((Pose2D(0.0, 0.0, 0.0),), (4,), 4), approach_tolerance=1.0,
+                goal_tolerance=0.2, yaw_tolerance=0.3)  # fmt: skip
+    m.route_sent(True)
+    m.route_mirror.reconnected(0.0)  # asked the robot: its next report is checked
+    assert m.on_message(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok")) == (None, None)
+    assert m.state.pose is not None and m.state.pose.x == 1.0
+    lost, _ = m.on_message(Topic.ROUTE_PROGRESS, RouteProgress(0, 0, False, "idle"))
+    assert lost is not None and lost.route_id == 8  # the robot restarted: our route is gone
+    assert m.on_message(Topic.STATUS, Status("info", "")) == (None, None)  # nothing to log
+    _, status = m.on_message(Topic.STATUS, Status("warning", "blocked by a door"))
+    assert status is not None and status.text == "blocked by a door"
+    m.on_event(GoalReached(4, Pose2D(0.0, 0.0, 0.0)))
+    assert m.goal_reached
+    m.on_event(TaskStarted(GoTo(5)))
+    assert not m.goal_reached
+    m.shown_request = (1, RequestShown("coffee", 3, 4, 10.0))
+    m.on_event(TaskFinished(GoTo(5), True, "done"))
+    assert m.shown_request is None
+
+
+def test_alert_rules_take_any_message_by_its_kind() -> None:
+    from base_station_app.alerts import AlertList, AlertRules
+    from interbot_core.topics import Battery, Status
+
+    alerts = AlertList()
+    rules = AlertRules(alerts)
+    rules.on_message("r", PoseMsg(0.0, 0.0, 0.0, state="ok"), 0.0)
+    rules.on_message("r", PoseMsg(0.0, 0.0, 0.0, state="lost"), 1.0)
+    rules.on_message("r", Status("error", "collision: bumper"), 2.0)
+    rules.on_message("r", Battery(23.0, soc=0.05), 3.0)
+    rules.on_message("r", MuxMsg(None), 4.0)  # no rule for it: ignored
+    assert [a.kind for a in alerts.alerts] == ["lost", "collision", "battery"]

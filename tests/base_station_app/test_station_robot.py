@@ -65,7 +65,7 @@ def test_emergency_stop_latches_until_release(qtbot, linked, station, robot, loc
     assert station.estop_latched
     station.press(Direction.FORWARD)  # ignored while latched
     station.tick()
-    assert not station.teleop.active
+    assert not station.arbiter.keys.active
     clock.advance(5.0)
     station.tick()
     assert station.estop_latched  # still latched: only Release clears it
@@ -99,20 +99,22 @@ def test_room_task_sends_whole_route(qtbot, linked, station, robot, localise, to
     for x, y, yaw in route.waypoints:
         localise(Pose2D(x, y, yaw))
         station.tick()
-    assert station.supervisor.current_task == GoTo(5) and not station.goal_reached
+    assert station.selected.supervisor.current_task == GoTo(5) and not station.selected.goal_reached
     # The robot reports its progress and its arrival; the station mirrors both.
     last = len(route.waypoints) - 1
     robot.link.publish_route_progress(RouteProgress(route.route_id, last, False, "active"))
-    qtbot.waitUntil(lambda: bool(station.poll_link() or station.supervisor.route_index == last))
-    assert any(e.text.startswith("intermediate goal") for e in station.state.log)
+    qtbot.waitUntil(
+        lambda: bool(station.poll_link() or station.selected.supervisor.route_index == last)
+    )
+    assert any(e.text.startswith("intermediate goal") for e in station.selected.state.log)
     robot.link.publish_route_progress(RouteProgress(route.route_id, last, True, "succeeded"))
 
     def finished() -> bool:
         station.poll_link()
-        return station.supervisor.current_task is None
+        return station.selected.supervisor.current_task is None
 
     qtbot.waitUntil(finished, timeout=3000)
-    assert station.goal_reached
+    assert station.selected.goal_reached
 
 
 def test_cancel_sends_route_cancel(qtbot, linked, station, robot, localise, topo):
@@ -126,7 +128,7 @@ def test_cancel_sends_route_cancel(qtbot, linked, station, robot, localise, topo
     assert isinstance(cancel, RouteCancel)
     assert cancel.route_id == robot.of("route")[0].route_id
     assert cancel.reason == "cancelled by the user"
-    assert station.route is None
+    assert station.selected.route is None
 
 
 def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise, topo):
@@ -137,11 +139,11 @@ def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise,
     qtbot.waitUntil(robot.report_arrival, timeout=3000)
     qtbot.waitUntil(
         lambda: bool(
-            station.poll_link() or station.supervisor.state is SupervisorState.AT_TOUR_STOP
+            station.poll_link() or station.selected.supervisor.state is SupervisorState.AT_TOUR_STOP
         ),
         timeout=3000,
     )
-    assert station.supervisor.paused
+    assert station.selected.supervisor.paused
     qtbot.waitUntil(
         lambda: bool(robot.of("pause_nav")[-1:] == [Lock(True, stamp=station.clock())]),
         timeout=3000,
@@ -149,9 +151,9 @@ def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise,
     assert station.tour_resume()
     qtbot.waitUntil(lambda: bool(robot.of("pause_nav")[-1].engaged is False), timeout=3000)
     station.tick()
-    assert station.supervisor.state is SupervisorState.NAVIGATING
+    assert station.selected.supervisor.state is SupervisorState.NAVIGATING
     qtbot.waitUntil(lambda: bool(len(robot.of("route")) >= 2), timeout=3000)
-    assert robot.of("route")[-1].node_ids[-1] == station.supervisor.next_tour_stop
+    assert robot.of("route")[-1].node_ids[-1] == station.selected.supervisor.next_tour_stop
 
 
 def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, localise, topo):
@@ -170,8 +172,8 @@ def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, 
         lambda: bool(any(c.params.get("max_linear_speed") == 0.3 for c in robot.of("config"))),
         timeout=3000,
     )
-    assert station.supervisor.config.approach_tolerance == 1.0
-    assert station.watchdog.ceiling_s == 0.3
+    assert station.selected.supervisor.config.approach_tolerance == 1.0
+    assert station.arbiter.watchdog.ceiling_s == 0.3
     assert isinstance(robot.of("config")[-1], ConfigMsg)
 
 
@@ -181,7 +183,7 @@ def test_robot_state_scan_and_lost_robot(qtbot, linked, station, robot, localise
 
     def got() -> bool:
         station.poll_link()
-        return station.state.scan is not None and station.state.pose is not None
+        return station.selected.state.scan is not None and station.selected.state.pose is not None
 
     qtbot.waitUntil(got, timeout=3000)
     assert station.robots == {"r1": True}
@@ -192,7 +194,7 @@ def test_robot_state_scan_and_lost_robot(qtbot, linked, station, robot, localise
         return station.robots == {"r1": False}
 
     qtbot.waitUntil(lost, timeout=3000)
-    assert any("lost" in e.text for e in station.state.log)
+    assert any("lost" in e.text for e in station.selected.state.log)
 
 
 def _restart_robot(qtbot, station, robot) -> None:
@@ -228,16 +230,18 @@ def test_restarted_robot_gets_config_and_stop_intent_but_never_the_route(
 
     qtbot.waitUntil(configured, timeout=5000)
     assert robot.of("stop")[-1].engaged is False
-    assert station.supervisor.current_task is not None  # not yet: the robot has not answered
+    assert (
+        station.selected.supervisor.current_task is not None
+    )  # not yet: the robot has not answered
     robot.link.publish_route_progress(RouteProgress(0, 0, False, "idle"))
 
     def ended() -> bool:
         station.poll_link()
         station.tick()
-        return station.supervisor.current_task is None
+        return station.selected.supervisor.current_task is None
 
     qtbot.waitUntil(ended, timeout=3000)
-    assert any("has no route" in e.text for e in station.state.log)
+    assert any("has no route" in e.text for e in station.selected.state.log)
     for _ in range(5):
         clock.advance(1.0)
         station.poll_link()
@@ -257,8 +261,8 @@ def test_silent_robot_after_reconnect_loses_the_route(
     qtbot.waitUntil(lambda: bool(station.poll_link() or station.robots["r1"]), timeout=3000)
     clock.advance(5.5)
     station.tick()
-    assert station.supervisor.current_task is None
-    assert any("did not report it" in e.text for e in station.state.log)
+    assert station.selected.supervisor.current_task is None
+    assert any("did not report it" in e.text for e in station.selected.state.log)
     qtbot.wait(100)
     assert robot.of("route") == []
 
@@ -272,7 +276,7 @@ def test_emergency_stop_while_robot_away_is_delivered_on_reconnect(
     qtbot.waitUntil(lambda: bool(station.poll_link() or station.robots["r1"] is False))
     station.emergency_stop()
     assert station.estop_latched
-    assert any("stop is kept" in e.text for e in station.state.log)
+    assert any("stop is kept" in e.text for e in station.selected.state.log)
     robot.link = RobotLink(robot.session, "r1")
     robot.commands.clear()
 
@@ -293,9 +297,9 @@ def test_route_no_robot_received_ends_its_task(qtbot, linked, station, robot, lo
     station.submit(GoTo(9))
     station.tick()  # the route is sent once, to nobody
     station.tick()  # its task ends
-    assert station.supervisor.current_task is None
-    assert station.route is None
-    assert any("no robot received route" in e.text for e in station.state.log)
+    assert station.selected.supervisor.current_task is None
+    assert station.selected.route is None
+    assert any("no robot received route" in e.text for e in station.selected.state.log)
 
 
 def test_route_ids_are_random_63_bit(qtbot, linked, station, robot, localise, topo):
@@ -330,10 +334,10 @@ def test_robot_reported_success_finishes_the_task(qtbot, linked, station, robot,
 
     def finished() -> bool:
         station.poll_link()
-        return station.supervisor.current_task is None
+        return station.selected.supervisor.current_task is None
 
     qtbot.waitUntil(finished, timeout=3000)
-    assert station.goal_reached
+    assert station.selected.goal_reached
 
 
 def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, localise, topo):
@@ -345,11 +349,11 @@ def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, local
 
     def finished() -> bool:
         station.poll_link()
-        return station.supervisor.current_task is None
+        return station.selected.supervisor.current_task is None
 
     qtbot.waitUntil(finished, timeout=3000)
-    assert not station.goal_reached
-    assert any("blocked: no path" in e.text for e in station.state.log)
+    assert not station.selected.goal_reached
+    assert any("blocked: no path" in e.text for e in station.selected.state.log)
 
 
 def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
@@ -369,4 +373,4 @@ def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
 
     qtbot.waitUntil(resent, timeout=3000)
     assert all(lock.engaged for lock in robot.of("stop"))
-    assert any("reports no emergency stop" in e.text for e in station.state.log)
+    assert any("reports no emergency stop" in e.text for e in station.selected.state.log)

@@ -50,7 +50,8 @@ def test_thesis_client_goal_without_newlines_drives_a_route(
     t.send_raw(b'{"goal": 7}{"pau')
     t.send_raw(b'se": false}')
     qtbot.waitUntil(
-        lambda: bool(station.supervisor.queue or station.supervisor.current_task), timeout=3000
+        lambda: bool(station.selected.supervisor.queue or station.selected.supervisor.current_task),
+        timeout=3000,
     )
     station.tick()
     qtbot.waitUntil(lambda: bool(len(robot.of("route")) == 1), timeout=3000)
@@ -122,9 +123,9 @@ def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tab
     assert [(v.linear, v.angular) for v in sent] == [(0.3, -0.2), (0.0, 0.0)]
     assert sent[0].stamp == arrived  # stamped with its arrival, never again
     assert all(isinstance(v, Twist) for v in sent)
-    assert station.tablet_discarded == 1
-    assert station.tablet_speed is None
-    assert not station.tablet_forwarding
+    assert station.arbiter.tablet_discarded == 1
+    assert station.arbiter.tablet_speed is None
+    assert not station.arbiter.tablet_forwarding
 
 
 def test_out_of_order_and_late_speed_commands_are_dropped(
@@ -145,10 +146,10 @@ def test_out_of_order_and_late_speed_commands_are_dropped(
     clock.advance(2.0)  # the tablet froze; its backlog arrives now, 2 s late
     speed(0.3, 12, 50.2)
     speed(0.3, 13, 50.3)
-    qtbot.waitUntil(lambda: bool(station.freshness.dropped_stale == 2), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.arbiter.freshness.dropped_stale == 2), timeout=3000)
     qtbot.wait(100)
     assert [v.linear for v in robot.of("tablet_vel") if v.linear] == [0.1, 0.25]
-    assert station.freshness.dropped_out_of_order == 1
+    assert station.arbiter.freshness.dropped_out_of_order == 1
 
 
 def test_only_the_newest_speed_of_a_burst_is_forwarded(
@@ -184,7 +185,9 @@ def test_tablet_stop_cancels_a_route_this_station_did_not_start(
     and its stop cancels it."""
     t = handshake(qtbot, tablet_factory)
     robot.link.publish_route_progress(RouteProgress(77, 1, False, "active"))
-    qtbot.waitUntil(lambda: bool(station.poll_link() or station.route_mirror.foreign), timeout=3000)
+    qtbot.waitUntil(
+        lambda: bool(station.poll_link() or station.selected.route_mirror.foreign), timeout=3000
+    )
     station.tick()
     qtbot.waitUntil(lambda: bool(t.of("status")), timeout=3000)
     assert "route 77" in t.of("status")[-1]["task"]
@@ -197,11 +200,11 @@ def test_speed_period_statistics(qtbot, station, tablet_factory, clock):
     t = handshake(qtbot, tablet_factory)
     for k in range(4):
         t.send({"speed": {"linear": 0.1, "angular": 0.0}})
-        qtbot.waitUntil(lambda: station.watchdog.last_feed == clock.now, timeout=3000)
-        assert station.tablet_periods.total_count == k
+        qtbot.waitUntil(lambda: station.arbiter.watchdog.last_feed == clock.now, timeout=3000)
+        assert station.arbiter.tablet_periods.total_count == k
         clock.advance(0.1)
-    assert station.tablet_periods.count == 3
-    assert abs(station.tablet_periods.mean() - 0.1) < 1e-9
+    assert station.arbiter.tablet_periods.count == 3
+    assert abs(station.arbiter.tablet_periods.mean() - 0.1) < 1e-9
 
 
 def test_permissions_refuse_goal_and_teleop(qtbot, station, tablet_factory, clock):
@@ -212,11 +215,13 @@ def test_permissions_refuse_goal_and_teleop(qtbot, station, tablet_factory, cloc
     t.send({"goal": 3})
     qtbot.waitUntil(lambda: bool(t.of("error")), timeout=3000)
     assert t.of("error")[0]["code"] == "not_permitted"
-    assert station.supervisor.queue == () and station.supervisor.current_task is None
+    assert (
+        station.selected.supervisor.queue == () and station.selected.supervisor.current_task is None
+    )
     station.set_permission("teleop", False)
     t.send({"speed": {"linear": 0.1, "angular": 0.0}})
     qtbot.waitUntil(lambda: bool(len(t.of("error")) == 2), timeout=3000)
-    assert station.tablet_speed is None
+    assert station.arbiter.tablet_speed is None
 
 
 def test_station_pings_and_measures_latency(qtbot, station, tablet_factory, clock):
@@ -237,10 +242,12 @@ def test_tablet_tour_stop_pause_and_resume(
     localise(first.pose)
     t = handshake(qtbot, tablet_factory)
     t.send({"tour": True})
-    qtbot.waitUntil(lambda: bool(station.supervisor.queue == (GuidedTour(),)), timeout=3000)
+    qtbot.waitUntil(
+        lambda: bool(station.selected.supervisor.queue == (GuidedTour(),)), timeout=3000
+    )
     station.tick()
     robot_arrives(qtbot, station, robot)  # at the first stop already
-    assert station.supervisor.state is SupervisorState.AT_TOUR_STOP
+    assert station.selected.supervisor.state is SupervisorState.AT_TOUR_STOP
     qtbot.waitUntil(
         lambda: bool({"goal": first.id, "reached": True, "tourReached": True} in t.of("goal")),
         timeout=3000,
@@ -251,9 +258,10 @@ def test_tablet_tour_stop_pause_and_resume(
     )
     t.send({"tour_control": "resume"})
     qtbot.waitUntil(
-        lambda: bool(station.supervisor.state is not SupervisorState.AT_TOUR_STOP), timeout=3000
+        lambda: bool(station.selected.supervisor.state is not SupervisorState.AT_TOUR_STOP),
+        timeout=3000,
     )
-    assert not station.supervisor.paused
+    assert not station.selected.supervisor.paused
     qtbot.waitUntil(
         lambda: bool([lock.engaged for lock in robot.of("pause_nav")] == [True, False]),
         timeout=3000,
@@ -266,17 +274,17 @@ def test_malfunction_goes_to_status_log_and_cancel_by_operator(
     t = handshake(qtbot, tablet_factory)
     t.send({"malfunction": {"kind": "collision", "text": "hit a chair"}})
     qtbot.waitUntil(
-        lambda: bool(any("hit a chair" in e.text for e in station.state.log)), timeout=3000
+        lambda: bool(any("hit a chair" in e.text for e in station.selected.state.log)), timeout=3000
     )
-    assert [e.level for e in station.state.log if "hit a chair" in e.text] == ["error"]
+    assert [e.level for e in station.selected.state.log if "hit a chair" in e.text] == ["error"]
     localise(topo.nodes[0].pose)
     t.send({"goal": 9})
-    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
     assert station.tablet_task == GoTo(9)
     station.tablet_task_cancel()
     qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)
-    assert station.supervisor.current_task is None
+    assert station.selected.supervisor.current_task is None
 
 
 def test_other_protocol_version_is_refused(qtbot, station, tablet_factory):
@@ -303,16 +311,17 @@ def test_request_shown_at_room_and_answered_from_tablet(
             }
         }
     )
-    qtbot.waitUntil(lambda: bool(station.supervisor.queue), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
     robot_arrives(qtbot, station, robot)
-    assert station.supervisor.state is SupervisorState.AWAITING_RESPONSE
+    assert station.selected.supervisor.state is SupervisorState.AWAITING_RESPONSE
     qtbot.waitUntil(lambda: bool(t.of("show_request")), timeout=3000)
     shown = t.of("show_request")[0]
     assert shown == {"id": 1, "request": "the blue folder", "room": room.id, "deliver_to": 0}
     t.send({"request_answer": {"id": 1, "accepted": True}})
     qtbot.waitUntil(
-        lambda: station.supervisor.state is not SupervisorState.AWAITING_RESPONSE, timeout=3000
+        lambda: station.selected.supervisor.state is not SupervisorState.AWAITING_RESPONSE,
+        timeout=3000,
     )
     station.tick()
     # on the way to deliver it
@@ -380,14 +389,14 @@ def test_collision_monitor_is_passed_on_to_the_tablet_when_it_changes(
     from interbot_core.topics import SafetyMsg, Topic
 
     t = handshake(qtbot, tablet_factory)
-    station.state.apply(
+    station.selected.state.apply(
         Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.034, 0.1, 0.0, ("tablet_vel",))
     )
     station.tick()
     qtbot.waitUntil(lambda: bool(t.of("safety")), timeout=3000)
     assert t.of("safety") == [{"zone": "stop", "distance": 0.03, "assisted": True}]
     station.tick()  # unchanged: not sent again
-    station.state.apply(Topic.SAFETY, SafetyMsg("none", "", 1000.0, 1000.0, 1.0, ()))
+    station.selected.state.apply(Topic.SAFETY, SafetyMsg("none", "", 1000.0, 1000.0, 1.0, ()))
     station.tick()
     qtbot.waitUntil(lambda: len(t.of("safety")) == 2, timeout=3000)
     assert t.of("safety")[1] == {"zone": "none", "distance": 1000.0, "assisted": False}
@@ -407,7 +416,7 @@ def test_a_flooding_tablet_is_rate_limited_and_its_stop_still_passes(
     assert error["code"] == "rate_limited" and "dropped" in error["message"]
     qtbot.waitUntil(lambda: station.tablet.policy.dropped > 1500, timeout=3000)
     assert station.tablet.policy.dropped <= 2000 - 49  # a burst of 50 (hello took one)
-    qtbot.waitUntil(lambda: any(e.text == "tablet: stop" for e in station.state.log))
+    qtbot.waitUntil(lambda: any(e.text == "tablet: stop" for e in station.selected.state.log))
     assert len(flood) > 3 * MAX_READ_BYTES  # it took several turns: the event loop ran between
     assert station.tablet.is_connected  # rate limiting is not a protocol error
     assert len(t.of("error")) <= 2  # one error a second, not one per dropped message
@@ -444,7 +453,7 @@ def test_the_tablet_is_told_when_the_robot_is_offline(
 ):
     t = handshake(qtbot, tablet_factory)
     robot.publish_pose(1.0, 2.0, 0.0)
-    qtbot.waitUntil(lambda: bool(station.poll_link() or station.state.pose), timeout=3000)
+    qtbot.waitUntil(lambda: bool(station.poll_link() or station.selected.state.pose), timeout=3000)
     station.tick()
     qtbot.waitUntil(lambda: bool(t.of("pose")), timeout=3000)
     robot.link.close()
@@ -460,7 +469,7 @@ def test_the_tablet_is_told_when_the_robot_is_offline(
     station.tick()
     qtbot.wait(50)
     assert len(t.of("pose")) == poses  # no stale pose
-    assert station.supervisor.queue == ()
+    assert station.selected.supervisor.queue == ()
 
 
 def test_tablet_socket_has_short_tcp_keepalive(qtbot, station, tablet_factory):

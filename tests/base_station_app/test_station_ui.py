@@ -83,9 +83,9 @@ def test_arrow_keys_on_the_map_drive_and_stop(qtbot, linked, window, robot, cloc
 def test_focus_loss_sends_zero(qtbot, linked, window, robot):
     view = window.map_view
     QTest.keyPress(view, Qt.Key.Key_W)
-    assert linked.teleop.active
+    assert linked.arbiter.keys.active
     QApplication.sendEvent(view, QFocusEvent(QEvent.Type.FocusOut))
-    assert not linked.teleop.active
+    assert not linked.arbiter.keys.active
     qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=3000)
     assert robot.of("station_vel")[-1].linear == 0.0
     QTest.keyPress(view, Qt.Key.Key_S)
@@ -96,7 +96,7 @@ def test_focus_loss_sends_zero(qtbot, linked, window, robot):
     other.show()
     other.activateWindow()  # the station window loses activation (changeEvent)
     qtbot.waitUntil(lambda: not window.isActiveWindow(), timeout=3000)
-    assert not linked.teleop.active
+    assert not linked.arbiter.keys.active
 
 
 def test_arrow_pad_buttons_press_and_release(qtbot, linked, window, robot):
@@ -105,9 +105,9 @@ def test_arrow_pad_buttons_press_and_release(qtbot, linked, window, robot):
     button = window.teleop_panel.pad[Direction.RIGHT]
     assert not button.autoRepeat()
     QTest.mousePress(button, Qt.MouseButton.LeftButton)
-    assert linked.teleop.command() == (0.0, -linked.config.teleop_angular_max)
+    assert linked.arbiter.keys.command() == (0.0, -linked.config.teleop_angular_max)
     QTest.mouseRelease(button, Qt.MouseButton.LeftButton)
-    assert not linked.teleop.active
+    assert not linked.arbiter.keys.active
     qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=3000)
 
 
@@ -119,11 +119,11 @@ def test_mouse_joystick_drives(qtbot, linked, window, robot):
     QTest.mousePress(
         joy, Qt.MouseButton.LeftButton, pos=QPoint(centre.x(), centre.y() - int(joy.radius() / 2))
     )
-    assert linked.teleop.active
-    lin, _ = linked.teleop.command()
+    assert linked.arbiter.keys.active
+    lin, _ = linked.arbiter.keys.command()
     assert lin == pytest.approx(linked.config.teleop_linear_max / 2, rel=0.05)
     QTest.mouseRelease(joy, Qt.MouseButton.LeftButton, pos=centre)
-    assert not linked.teleop.active
+    assert not linked.arbiter.keys.active
 
 
 def test_estop_buttons_latch_and_release(qtbot, linked, window, robot, clock):
@@ -149,7 +149,7 @@ def test_click_room_on_map_then_move_there(qtbot, window, station, topo):
         )
     assert blocker.args == [5]
     QTest.mouseClick(window.task_panel.goto_button, Qt.MouseButton.LeftButton)
-    assert station.supervisor.queue == (GoTo(5),)
+    assert station.selected.supervisor.queue == (GoTo(5),)
 
 
 def drag(window, a: tuple[float, float], b: tuple[float, float]) -> None:
@@ -169,7 +169,7 @@ def test_goal_by_click_and_drag(qtbot, window, station):
     assert mode == "goal"
     assert (pose.x, pose.y) == pytest.approx((0.0, 0.0), abs=0.2)
     assert pose.yaw == pytest.approx(math.pi / 2, abs=0.1)
-    (task,) = station.supervisor.queue
+    (task,) = station.selected.supervisor.queue
     assert isinstance(task, GoToPose) and task.pose == pose
     assert window.map_view.pick_mode == ""
 
@@ -191,18 +191,18 @@ def test_queue_reorder_and_cancel_buttons(qtbot, window, station, localise, topo
     assert panel.queue_list.count() == 3
     panel.queue_list.setCurrentRow(2)
     QTest.mouseClick(panel.up_button, Qt.MouseButton.LeftButton)
-    assert station.supervisor.queue == (GoTo(3), GoTo(9), GoTo(5))
+    assert station.selected.supervisor.queue == (GoTo(3), GoTo(9), GoTo(5))
     assert panel.queue_list.currentRow() == 1
     panel.queue_list.setCurrentRow(0)
     QTest.mouseClick(panel.remove_button, Qt.MouseButton.LeftButton)
-    assert station.supervisor.queue == (GoTo(9), GoTo(5))
+    assert station.selected.supervisor.queue == (GoTo(9), GoTo(5))
     localise(topo.nodes[0].pose)
     station.tick()
-    assert station.supervisor.current_task == GoTo(9)
+    assert station.selected.supervisor.current_task == GoTo(9)
     assert "Human-Robot" in panel.current_label.text()
     QTest.mouseClick(panel.cancel_button, Qt.MouseButton.LeftButton)
     station.tick()
-    assert station.supervisor.current_task == GoTo(5)
+    assert station.selected.supervisor.current_task == GoTo(5)
 
 
 def test_config_apply_and_settings_round_trip(
@@ -215,10 +215,10 @@ def test_config_apply_and_settings_round_trip(
     panel.spins["latency_ceiling"].setValue(0.8)
     panel.spins["approach_tolerance"].setValue(1.2)
     QTest.mouseClick(panel.apply_button, Qt.MouseButton.LeftButton)
-    assert station.watchdog.ceiling_s == pytest.approx(0.8)
-    assert station.supervisor.config.approach_tolerance == pytest.approx(1.2)
+    assert station.arbiter.watchdog.ceiling_s == pytest.approx(0.8)
+    assert station.selected.supervisor.config.approach_tolerance == pytest.approx(1.2)
     window.tablet_panel.permission_boxes["tours"].setChecked(False)
-    assert not station.permissions.tours
+    assert not station.tablet_policy.permissions.tours
     saved = yaml.safe_load(store.path.read_text(encoding="utf-8"))
     assert saved["config"]["latency_ceiling"] == pytest.approx(0.8)
     assert saved["tablet"]["tours"] is False
@@ -234,8 +234,8 @@ def test_config_apply_and_settings_round_trip(
     qtbot.addWidget(w2)
     assert fresh.config.latency_ceiling == pytest.approx(0.8)
     assert fresh.config.approach_tolerance == pytest.approx(1.2)
-    assert fresh.watchdog.ceiling_s == pytest.approx(0.8)
-    assert not fresh.permissions.tours
+    assert fresh.arbiter.watchdog.ceiling_s == pytest.approx(0.8)
+    assert not fresh.tablet_policy.permissions.tours
     assert w2.config_panel.spins["latency_ceiling"].value() == pytest.approx(0.8)
 
 
@@ -270,7 +270,7 @@ def test_tour_stops_coloured_on_map(qtbot, window, station, robot, localise, top
         for s in spots
     }
     assert brushes[(round(first.pose.x, 3), round(first.pose.y, 3))] == (0, 170, 0)  # visited
-    nxt = topo.nodes[station.supervisor.next_tour_stop].pose
+    nxt = topo.nodes[station.selected.supervisor.next_tour_stop].pose
     assert brushes[(round(nxt.x, 3), round(nxt.y, 3))] == (220, 0, 0)  # next
     assert window.task_panel.tour_resume_button.isEnabled()
 
@@ -324,7 +324,7 @@ def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
     sent = robot.of("teleop_assist")[-1]
     assert (sent.input, sent.enabled) == ("station_vel", True)
     assert linked.station_assist
-    linked.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
+    linked.selected.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
     linked.frame_ready.emit()
     assert "STOPPED" in panel.monitor_label.text() and "3 cm" in panel.monitor_label.text()
 
@@ -342,7 +342,10 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
 
         def got(stamp: float = stamp) -> bool:
             station.poll_link()
-            return station.state.pose is not None and station.state.pose.stamp == stamp
+            return (
+                station.selected.state.pose is not None
+                and station.selected.state.pose.stamp == stamp
+            )
 
         qtbot.waitUntil(got, timeout=3000)
     ranges = np.array([1.0, 1.0], dtype=np.float32)  # straight ahead and 90° left
@@ -371,7 +374,7 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
     localise(Pose2D(-29.5, 3.7, 0.0))
     station.submit(GoTo(5))
     station.tick()
-    route = station.route
+    route = station.selected.route
     assert route is not None
     bend = ((-29.5, 3.7), (-25.0, 3.7), (-25.0, -1.0), (-20.0, -1.0))
     robot.link.publish_plan(PlanMsg(route.route_id, bend))

@@ -159,7 +159,7 @@ class Rig:
         return (
             f"robot t={self.daemon.now:.1f} s truth={self.truth()} estimate={stack.pose} "
             f"localisation={stack.localisation_state.value} mux={stack.last_output} "
-            f"route={route_text} station={self.station.supervisor.state} "
+            f"route={route_text} station={self.station.selected.supervisor.state} "
             f"tablet={self.connection.state.value}"
         )
 
@@ -295,7 +295,7 @@ def make_rig(qtbot: Any, free_tcp_port: Callable[[], int]) -> Iterator[Callable[
         qtbot.waitUntil(lambda: station.tablet.greeted and connection.is_connected)
         rig = Rig(qtbot, daemon, backend, station, window, connection, topo, seen)
         # The robot publishes, the station has its pose and sends the tablet the state.
-        rig.wait(lambda: station.state.pose is not None, 10.0, "the robot's first pose")
+        rig.wait(lambda: station.selected.state.pose is not None, 10.0, "the robot's first pose")
         return rig
 
     try:

@@ -112,7 +112,7 @@ def test_help_me_without_initial_pose_joystick_then_room(make_rig: Any) -> None:
     assert window.stack.currentWidget() is screen  # back to the map while helping
     tell_the_robot_it_is_at(rig, ENTRANCE)
     assert_localised_at(rig, rig.node_pose(ENTRANCE))
-    assert any("initial pose set" in e.text for e in rig.station.state.log)
+    assert any("initial pose set" in e.text for e in rig.station.selected.state.log)
 
 
 def test_help_me_after_a_kidnap(make_rig: Any) -> None:
@@ -129,7 +129,7 @@ def test_help_me_after_a_kidnap(make_rig: Any) -> None:
     assert rig.daemon.now - kidnapped_at < 2.5  # lost within about 2 s of robot time
     rig.wait(lambda: "lost" in rig.seen.localisation, 5.0, "the tablet to be told: lost")
     rig.wait(lambda: banner_shown(rig), 5.0, "the tablet to show Help me")
-    assert rig.station.state.localisation == "lost"
+    assert rig.station.selected.state.localisation == "lost"
     assert rig.daemon.stack.last_output.linear == 0.0
 
     tell_the_robot_it_is_at(rig, ISR_AREA)

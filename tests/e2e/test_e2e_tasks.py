@@ -33,7 +33,7 @@ ARRIVAL_M = 0.35  # [m] robot's true position from the goal node (station tolera
 
 def robot_route(rig: Any) -> RouteState | None:
     """The route the robot drives if it is the station's current one."""
-    route, sent = rig.daemon.stack.route, rig.station.route
+    route, sent = rig.daemon.stack.route, rig.station.selected.route
     if route is None or sent is None or route.route_id != sent.route_id:
         return None
     return route
@@ -61,11 +61,11 @@ def test_goal_from_the_map_take_me_there(make_rig: Any) -> None:
     goal = rig.node_pose(SECRETARIAT)
     assert rig.truth().distance_to(goal) < ARRIVAL_M
     rig.wait(
-        lambda: (p := rig.station.state.progress) is not None and p.reached_final,
+        lambda: (p := rig.station.selected.state.progress) is not None and p.reached_final,
         5.0,
         "route progress: final goal reached, at the station",
     )
-    progress = rig.station.state.progress
+    progress = rig.station.selected.state.progress
     assert progress is not None and progress.state == "succeeded"
 
     rig.wait(lambda: any(m.goal == SECRETARIAT and m.reached for m in rig.seen.goal_status),
@@ -76,7 +76,7 @@ def test_goal_from_the_map_take_me_there(make_rig: Any) -> None:
     estimate = rig.daemon.stack.pose
     assert estimate is not None
     rig.wait(lambda: rig.marker_distance_px(estimate) < 6.0, 5.0, "the marker at the robot")
-    assert rig.station.supervisor.current_task is None
+    assert rig.station.selected.supervisor.current_task is None
 
 
 def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
@@ -89,8 +89,8 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
     rig.wait(lambda: isinstance(rig.window.dialog, QtTourStopDialog), 15.0, "the first tour stop")
     dialog = rig.window.dialog
     assert isinstance(dialog, QtTourStopDialog) and dialog.room.id == ENTRANCE
-    assert rig.station.supervisor.tour_stops[:2] == (ENTRANCE, SECRETARIAT)
-    assert rig.station.supervisor.paused  # waiting at the stop (pause lock engaged)
+    assert rig.station.selected.supervisor.tour_stops[:2] == (ENTRANCE, SECRETARIAT)
+    assert rig.station.selected.supervisor.paused  # waiting at the stop (pause lock engaged)
     rig.wait(lambda: "Pause Navigation" in rig.daemon.stack.last_output.active_locks, 5.0,
              "the robot to hold at the stop")  # fmt: skip
     # The station repeats "tour stop reached" every clock(); the tablet keeps ONE dialog.
@@ -102,7 +102,7 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
 
     rig.click(dialog.resume_button)
     rig.wait(lambda: route_to(rig, SECRETARIAT, "active"), 5.0, "the route to the next stop")
-    assert not rig.station.supervisor.paused
+    assert not rig.station.selected.supervisor.paused
     start = rig.truth()
     rig.wait(lambda: rig.truth().distance_to(start) > 0.5, 10.0, "the robot to head off")
     rig.wait(lambda: rig.window.map_view.room_state(SECRETARIAT) == "next", 5.0,
@@ -120,8 +120,8 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
     )
     assert rig.truth().distance_to(rig.node_pose(SECRETARIAT)) < ARRIVAL_M
     rig.click(rig.window.dialog.end_button)
-    rig.wait(lambda: rig.station.supervisor.current_task is None, 5.0, "the tour to end")
-    assert not rig.station.supervisor.paused
+    rig.wait(lambda: rig.station.selected.supervisor.current_task is None, 5.0, "the tour to end")
+    assert not rig.station.selected.supervisor.paused
     assert rig.window.dialog is None
     rig.wait(lambda: "Pause Navigation" not in rig.daemon.stack.last_output.active_locks,
              5.0, "the pause lock to be released")  # fmt: skip
@@ -130,7 +130,7 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
              and rig.daemon.stack.route.state == "succeeded", 5.0, "the route to succeed")  # fmt: skip
     route = rig.daemon.stack.route
     assert route is not None and route.state == "succeeded" and route.node_ids[-1] == SECRETARIAT
-    assert any("tour ended by the user after 2 of" in e.text for e in rig.station.state.log)
+    assert any("tour ended by the user after 2 of" in e.text for e in rig.station.selected.state.log)
 
 
 def test_request_picked_up_accepted_and_delivered(make_rig: Any) -> None:
@@ -167,5 +167,5 @@ def test_request_picked_up_accepted_and_delivered(make_rig: Any) -> None:
     assert rig.truth().distance_to(rig.node_pose(SERVER_ROOM)) < ARRIVAL_M
     rig.wait(lambda: any(m.goal == SERVER_ROOM and m.reached for m in rig.seen.goal_status),
              10.0, "the tablet to be told: delivered")  # fmt: skip
-    rig.wait(lambda: rig.station.supervisor.current_task is None, 5.0, "the task to finish")
-    assert any("request delivered to node 8" in e.text for e in rig.station.state.log)
+    rig.wait(lambda: rig.station.selected.supervisor.current_task is None, 5.0, "the task to finish")
+    assert any("request delivered to node 8" in e.text for e in rig.station.selected.state.log)

@@ -50,8 +50,8 @@ def test_joystick_drives_the_robot_and_a_stalled_link_stops_it(
         5.0,
         "the robot to turn",
     )
-    assert station.tablet_forwarding and station.tablet_discarded == 0
-    assert station.watchdog.ceiling_s == 0.5
+    assert station.arbiter.tablet_forwarding and station.arbiter.tablet_discarded == 0
+    assert station.arbiter.watchdog.ceiling_s == 0.5
 
     # The link stalls: nothing the Tablet writes gets out any more (the finger stays down).
     monkeypatch.setattr(rig.connection._link, "send", lambda _msg: True)
@@ -63,15 +63,15 @@ def test_joystick_drives_the_robot_and_a_stalled_link_stops_it(
 
     # The station's watchdog expires one ceiling after the last speed that got through (at most
     # one tablet period, 100 ms, before the stall) and discards the stale speed with a zero.
-    ceiling = station.watchdog.ceiling_s
+    ceiling = station.arbiter.watchdog.ceiling_s
     clock_s = rig.timing.clock_ms / 1000
-    rig.wait(lambda: station.tablet_discarded >= 1, 5.0, "the station's watchdog to expire")
+    rig.wait(lambda: station.arbiter.tablet_discarded >= 1, 5.0, "the station's watchdog to expire")
     discarded_after = time.monotonic() - stalled_at
     assert ceiling - 0.1 - clock_s < discarded_after < ceiling + clock_s + SLACK
-    assert not station.tablet_forwarding and station.tablet_speed is None
+    assert not station.arbiter.tablet_forwarding and station.arbiter.tablet_speed is None
     assert any(
         "tablet speed stopped (no command for 0.5 s): explicit zero sent" in e.text
-        for e in station.state.log
+        for e in station.selected.state.log
     )
     # At 8x the stale speed may already have timed out in the robot's multiplexer between two
     # station clocks; either way the robot is stopped within ceiling + clock + mux timeout.

@@ -234,8 +234,8 @@ class Rig:
             lambda: (
                 station.selected_robot == robot
                 and station.robot_online
-                and not station._stop_assert_pending
-                and station.state.localised_pose is not None
+                and not station.selected.stop_assert_pending
+                and station.selected.state.localised_pose is not None
             ),
             timeout,
             f"the station to follow robot {robot} (localised, start latch released)",

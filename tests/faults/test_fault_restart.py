@@ -32,8 +32,8 @@ def test_link_drop_and_daemon_restart_send_no_route_and_move_nothing(rig) -> Non
     station = rig.station(daemon, robot=ROBOT)
     rig.online(station, ROBOT)
     assert station.submit(GoTo(FAR_NODE))
-    rig.wait(lambda: station.route is not None, 5.0, "the route to be sent")
-    route_id = station.route.route_id
+    rig.wait(lambda: station.selected.route is not None, 5.0, "the route to be sent")
+    route_id = station.selected.route.route_id
     rig.wait(lambda: observer.travelled(ROBOT, 0.0) > 0.2, 30.0, "the robot to drive the route")
     assert len(observer.routes_received(ROBOT)) == 1
 
@@ -44,9 +44,9 @@ def test_link_drop_and_daemon_restart_send_no_route_and_move_nothing(rig) -> Non
     back = time.monotonic()
     rig.wait(lambda: station.robot_online, 15.0, "the robot to come back")
     rig.wait(
-        lambda: not station.route_mirror.checking, 10.0, "the station to learn the robot's route"
+        lambda: not station.selected.route_mirror.checking, 10.0, "the station to learn the robot's route"
     )
-    assert station.route is not None and station.route.route_id == route_id  # still ours
+    assert station.selected.route is not None and station.selected.route.route_id == route_id  # still ours
     assert observer.routes_received(ROBOT, since=back) == []  # asked, never re-sent
 
     # 2. EMERGENCY STOP, then the daemon is killed and restarted.
@@ -66,7 +66,7 @@ def test_link_drop_and_daemon_restart_send_no_route_and_move_nothing(rig) -> Non
     rig.wait(lambda: station.robot_online, 40.0, "the restarted robot")
     rig.wait(lambda: bool(observer.of(Topic.ODOM, ROBOT, since=killed)), 10.0, "its odometry")
     first = min(s.t for s in observer.of(Topic.ODOM, ROBOT, since=killed))
-    rig.wait(lambda: station.supervisor.current_task is None, 10.0, "the task to end")
+    rig.wait(lambda: station.selected.supervisor.current_task is None, 10.0, "the task to end")
     rig.qtbot.wait(3000)
     window = time.monotonic()
     moved = observer.travelled(ROBOT, first, window)
@@ -80,7 +80,7 @@ def test_link_drop_and_daemon_restart_send_no_route_and_move_nothing(rig) -> Non
     assert moved == 0.0
     assert observer.routes_received(ROBOT, since=killed) == []
     assert observer.robot_said(ROBOT, "emergency stop released", since=killed) == []
-    assert any("lost" in e.text and str(route_id) in e.text for e in station.state.log)
+    assert any("lost" in e.text and str(route_id) in e.text for e in station.selected.state.log)
 
     # 3. Released: the restarted robot resumes nothing.
     station.release_stop()
