@@ -63,7 +63,7 @@ def test_station_restart_and_robot_switch(rig) -> None:
     rig.online(station1, A)
     assert station1.submit(GoTo(14))
     rig.wait(lambda: observer.travelled(A, 0.0) > 0.2, 30.0, "robot A to drive its route")
-    old_route = station1.route.route_id
+    old_route = station1.selected.route.route_id
 
     # 1. The station restarts mid-route; the tablet connects to the new one.
     station1.destroyed_by_test()
@@ -93,12 +93,12 @@ def test_station_restart_and_robot_switch(rig) -> None:
     rig.qtbot.wait(1500)
     assert observer.travelled(A, stopped) < 0.1  # braking distance from 0.25 m/s
     assert observer.travelled(A, stopped + 1.0) == 0.0  # then standing
-    assert rig.wait(lambda: not station2.route_mirror.robot_running, 5.0, "idle") is None
+    assert rig.wait(lambda: not station2.selected.route_mirror.robot_running, 5.0, "idle") is None
 
     # 2. A new route for A, then the operator switches to B.
     assert station2.submit(GoTo(23))
     rig.wait(lambda: len(observer.routes_received(A, stopped)) == 1, 10.0, "A's new route")
-    new_route = station2.route.route_id
+    new_route = station2.selected.route.route_id
     assert new_route != old_route
     switched = time.monotonic()
     station2.select_robot(B)
@@ -110,4 +110,4 @@ def test_station_restart_and_robot_switch(rig) -> None:
     assert a.supervisor.current_task == GoTo(23)
     assert observer.travelled(A, switched) > 0.05  # and moves, watched, not followed
     assert observer.routes_received(B) == []  # robot 1's route never reaches robot 2
-    assert station2.supervisor.current_task is None
+    assert station2.selected.supervisor.current_task is None
