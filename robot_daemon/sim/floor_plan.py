@@ -6,8 +6,9 @@ map whose nodes stand at the entrance of every room, or inside the rooms that ta
 (§5.2.2, §6.2). Both are drawn from one floor plan (``maps/isr_floor0_plan.yaml``), which is also
 the simulated building's source (`robot_daemon.sim.realistic_world` draws it again, perturbed):
 
-* :func:`parse_floor_plan` / :func:`load_floor_plan` validate the plan into frozen dataclasses;
-  every error names the room (or corridor, door, node) and the field;
+* :func:`parse_floor_plan` / :func:`load_floor_plan` validate the plan (declared by `PlanFile`,
+  msgspec) into frozen dataclasses; every error names the room (or corridor, door, node), the
+  field, the value and what is allowed;
 * :func:`rasterise` draws it into an :class:`~interbot_core.occupancy_grid.OccupancyGrid`
   (building = occupied, floors of rooms/corridors and door openings = free, furniture = occupied,
   outside and courtyards = unknown), so walls are the gaps between floor rectangles.
@@ -21,15 +22,20 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+import msgspec
 import numpy as np
 import yaml
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -237,164 +243,120 @@ class FloorPlan:
 # ---------------------------------------------------------------------------- parsing
 
 
-class _Reader:
-    """Typed access to parsed YAML with errors that name the file, item and field."""
-
-    def __init__(self, source: str) -> None:
-        self.source = source
-
-    def fail(self, label: str, message: str) -> FloorPlanError:
-        return FloorPlanError(f"{self.source}: {label}: {message}")
-
-    def mapping(self, raw: Any, label: str) -> Mapping[str, Any]:
-        if not isinstance(raw, Mapping):
-            raise self.fail(label, f"expected a mapping, got {raw!r}")
-        return raw
-
-    def known_keys(self, raw: Mapping[str, Any], allowed: tuple[str, ...], label: str) -> None:
-        unknown = sorted(str(key) for key in raw if key not in allowed)
-        if unknown:
-            raise self.fail(label, f"unknown field(s) {unknown}; allowed: {', '.join(allowed)}")
-
-    def field(self, raw: Mapping[str, Any], key: str, label: str) -> Any:
-        if key not in raw:
-            raise self.fail(label, f"missing field '{key}'")
-        return raw[key]
-
-    def number(self, value: Any, label: str, key: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise self.fail(label, f"'{key}' must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise self.fail(label, f"'{key}' must be finite, got {value!r}")
-        return float(value)
-
-    def positive(self, value: Any, label: str, key: str) -> float:
-        number = self.number(value, label, key)
-        if number <= 0:
-            raise self.fail(label, f"'{key}' must be > 0, got {number}")
-        return number
-
-    def pair(self, value: Any, label: str, key: str) -> tuple[float, float]:
-        if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != 2:
-            raise self.fail(label, f"'{key}' must be a pair [a, b], got {value!r}")
-        return self.number(value[0], label, key), self.number(value[1], label, key)
-
-    def text(self, value: Any, label: str, key: str, allow_empty: bool = False) -> str:
-        if value is None and allow_empty:
-            return ""
-        if not isinstance(value, str) or (not allow_empty and not value.strip()):
-            raise self.fail(label, f"'{key}' must be a non-empty string, got {value!r}")
-        return value
-
-    def flag(self, raw: Mapping[str, Any], key: str, label: str) -> bool:
-        value = raw.get(key, False)
-        if not isinstance(value, bool):
-            raise self.fail(label, f"'{key}' must be true or false, got {value!r}")
-        return value
-
-    def rect(self, raw: Mapping[str, Any], label: str) -> Rect:
-        xs = self.pair(self.field(raw, "x", label), label, "x")
-        ys = self.pair(self.field(raw, "y", label), label, "y")
-        try:
-            return Rect(xs[0], ys[0], xs[1], ys[1])
-        except ValueError as exc:
-            raise self.fail(label, f"'x'/'y': {exc}") from None
-
-    def items(self, raw: Mapping[str, Any], key: str, label: str) -> list[Any]:
-        value = raw.get(key)
-        if value is None:
-            return []
-        if not isinstance(value, list):
-            raise self.fail(label, f"'{key}' must be a list, got {value!r}")
-        return value
+# The plan file, declared (msgspec): types carry the rules a single value can break; the geometry
+# across items is `validate_floor_plan`'s.
+Name = Annotated[str, Meta(pattern=r"\S", extra={"format": "a non-empty string"})]
+Span = tuple[schema.Finite, schema.Finite]  # [min, max] along one axis [m]
+Metres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+Text = Annotated[str | None, Meta(extra={"format": "a string"})]
 
 
-_ROOM_KEYS = (
-    "name",
-    "name_pt",
-    "x",
-    "y",
-    "doors",
-    "furniture",
-    "info",
-    "info_pt",
-    "tour",
-    "requests",
-    "home",
-    "inside",
-)
-_PLAN_KEYS = (
-    "name",
-    "map",
-    "outputs",
-    "entrance_distance",
-    "arc_clearance",
-    "node_clearance",
-    "building",
-    "corridors",
-    "courtyards",
-    "waypoints",
-    "rooms",
-    "ring",
-    "arcs",
-)
+class _Entry(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    pass
 
 
-def _parse_room(reader: _Reader, raw_any: Any, index: int) -> Room:
-    raw = reader.mapping(raw_any, f"rooms[{index}]")
-    name = reader.text(reader.field(raw, "name", f"rooms[{index}]"), f"rooms[{index}]", "name")
-    label = f"room {name!r}"
-    reader.known_keys(raw, _ROOM_KEYS, label)
-    rect = reader.rect(raw, label)
-    doors: list[Door] = []
-    raw_doors = reader.items(raw, "doors", label)
-    if not raw_doors:
-        raise reader.fail(label, "'doors' must list at least one door to a corridor")
-    for d, raw_door_any in enumerate(raw_doors):
-        door_label = f"{label} doors[{d}]"
-        raw_door = reader.mapping(raw_door_any, door_label)
-        wall = reader.field(raw_door, "wall", door_label)
-        offset = reader.number(reader.field(raw_door, "offset", door_label), door_label, "offset")
-        width = reader.number(reader.field(raw_door, "width", door_label), door_label, "width")
-        try:
-            doors.append(Door(str(wall), offset, width))
-        except ValueError as exc:
-            raise reader.fail(door_label, str(exc)) from None
-    furniture: list[Furniture] = []
-    for f, raw_item_any in enumerate(reader.items(raw, "furniture", label)):
-        item_label = f"{label} furniture[{f}]"
-        raw_item = reader.mapping(raw_item_any, item_label)
-        item_name = reader.text(raw_item.get("name", "furniture"), item_label, "name")
-        furniture.append(Furniture(item_name, reader.rect(raw_item, item_label)))
-    inside: tuple[float, float] | None = None
-    if raw.get("inside") is not None:
-        raw_inside = reader.mapping(raw["inside"], f"{label} inside")
-        inside = (
-            reader.number(reader.field(raw_inside, "x", f"{label} inside"), label, "inside.x"),
-            reader.number(reader.field(raw_inside, "y", f"{label} inside"), label, "inside.y"),
+class _RectEntry(_Entry, frozen=True):
+    x: Span
+    y: Span
+
+    def rect(self) -> Rect:
+        return Rect(self.x[0], self.y[0], self.x[1], self.y[1])
+
+
+class _AreaEntry(_RectEntry, frozen=True):
+    name: Name
+
+
+class _FurnitureEntry(_RectEntry, frozen=True):
+    name: Name = "furniture"
+
+
+class _DoorEntry(_Entry, frozen=True):
+    wall: Annotated[str, schema.one_of(*WALLS)]
+    offset: schema.Finite  # [m]
+    # [m] (1e-9: a width computed as 1.2000000000000002 is 1.2)
+    width: Annotated[
+        float, Meta(ge=DOOR_WIDTH_MIN - 1e-9, le=DOOR_WIDTH_MAX + 1e-9, extra={"unit": "m"})
+    ]
+
+
+class _PointEntry(_Entry, frozen=True):
+    x: schema.Finite
+    y: schema.Finite
+
+
+class _WaypointEntry(_PointEntry, frozen=True):
+    name: Name
+
+
+class _RoomEntry(_RectEntry, frozen=True):
+    name: Name
+    doors: Annotated[tuple[_DoorEntry, ...], Meta(min_length=1)]  # at least one to a corridor
+    furniture: tuple[_FurnitureEntry, ...] = ()
+    info: Text = ""
+    info_pt: Text = ""
+    name_pt: Text = ""
+    tour: bool = False
+    requests: bool = False
+    home: bool = False
+    inside: _PointEntry | None = None
+
+    def room(self) -> Room:
+        return Room(
+            name=self.name,
+            rect=self.rect(),
+            doors=tuple(Door(d.wall, d.offset, d.width) for d in self.doors),
+            furniture=tuple(Furniture(f.name, f.rect()) for f in self.furniture),
+            info=self.info or "",
+            tour=self.tour,
+            requests=self.requests,
+            home=self.home,
+            inside=None if self.inside is None else (self.inside.x, self.inside.y),
+            name_pt=self.name_pt or "",
+            info_pt=self.info_pt or "",
         )
-    return Room(
-        name=name,
-        rect=rect,
-        doors=tuple(doors),
-        furniture=tuple(furniture),
-        info=reader.text(raw.get("info", ""), label, "info", allow_empty=True),
-        tour=reader.flag(raw, "tour", label),
-        requests=reader.flag(raw, "requests", label),
-        home=reader.flag(raw, "home", label),
-        inside=inside,
-        name_pt=reader.text(raw.get("name_pt", ""), label, "name_pt", allow_empty=True),
-        info_pt=reader.text(raw.get("info_pt", ""), label, "info_pt", allow_empty=True),
-    )
 
 
-def _parse_areas(reader: _Reader, data: Mapping[str, Any], key: str) -> tuple[Area, ...]:
-    areas = []
-    for i, raw_any in enumerate(reader.items(data, key, key)):
-        raw = reader.mapping(raw_any, f"{key}[{i}]")
-        name = reader.text(reader.field(raw, "name", f"{key}[{i}]"), f"{key}[{i}]", "name")
-        areas.append(Area(name, reader.rect(raw, f"{key[:-1]} {name!r}")))
-    return tuple(areas)
+class _MapEntry(_Entry, frozen=True):
+    resolution: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m/cell"})]
+    origin: Span
+    size: tuple[Metres, Metres]  # [m] width (x), height (y)
+
+
+class _OutputsEntry(_Entry, frozen=True):
+    map: Name
+    topological: Name
+
+
+class PlanFile(_Entry, frozen=True):
+    """The floor-plan YAML (see ``maps/isr_floor0_plan.yaml`` for every key)."""
+
+    map: _MapEntry
+    outputs: _OutputsEntry
+    building: _RectEntry
+    name: Name = "floor plan"
+    entrance_distance: Metres = 0.9
+    arc_clearance: Metres = 0.3
+    node_clearance: Metres = 0.35
+    corridors: tuple[_AreaEntry, ...] = ()
+    courtyards: tuple[_AreaEntry, ...] = ()
+    waypoints: tuple[_WaypointEntry, ...] = ()
+    rooms: tuple[_RoomEntry, ...] = ()
+    ring: tuple[Name, ...] = ()
+    arcs: tuple[
+        Annotated[tuple[Name, ...], Meta(min_length=2, extra={"format": "a chain of node names"})],
+        ...,
+    ] = ()
+
+
+def _room_label(data: Any, path: str) -> str:
+    """``room 'Bar': `` for an error inside ``rooms[i]`` whose name can be read."""
+    found = re.match(r"rooms\[(\d+)\]", path)
+    rooms = data.get("rooms") if isinstance(data, Mapping) else None
+    if found is None or not isinstance(rooms, list) or int(found[1]) >= len(rooms):
+        return ""
+    raw = rooms[int(found[1])]
+    return f"room {raw['name']!r}: " if isinstance(raw, Mapping) and "name" in raw else ""
 
 
 def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
@@ -402,64 +364,41 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
 
     Raises :class:`FloorPlanError` naming ``source``, the room / corridor / door and the field.
     """
-    reader = _Reader(source)
-    top = reader.mapping(data, "plan")
-    reader.known_keys(top, _PLAN_KEYS, "plan")
-    map_raw = reader.mapping(reader.field(top, "map", "plan"), "map")
-    resolution = reader.positive(reader.field(map_raw, "resolution", "map"), "map", "resolution")
-    origin = reader.pair(reader.field(map_raw, "origin", "map"), "map", "origin")
-    size = reader.pair(reader.field(map_raw, "size", "map"), "map", "size")
-    if size[0] <= 0 or size[1] <= 0:
-        raise reader.fail("map", f"'size' must be positive [width, height] in m, got {size}")
-    outputs = reader.mapping(reader.field(top, "outputs", "plan"), "outputs")
-    waypoints = []
-    for i, raw_any in enumerate(reader.items(top, "waypoints", "plan")):
-        raw = reader.mapping(raw_any, f"waypoints[{i}]")
-        name = reader.text(reader.field(raw, "name", f"waypoints[{i}]"), f"waypoints[{i}]", "name")
-        label = f"waypoint {name!r}"
-        waypoints.append(
-            Waypoint(
-                name,
-                reader.number(reader.field(raw, "x", label), label, "x"),
-                reader.number(reader.field(raw, "y", label), label, "y"),
-            )
-        )
-    raw_rooms = reader.items(top, "rooms", "plan")
-    rooms = tuple(_parse_room(reader, raw, i) for i, raw in enumerate(raw_rooms))
-    ring = tuple(
-        reader.text(name, f"ring[{i}]", "name")
-        for i, name in enumerate(reader.items(top, "ring", "plan"))
-    )
-    arcs = []
-    for i, chain in enumerate(reader.items(top, "arcs", "plan")):
-        if not isinstance(chain, list) or len(chain) < 2:
-            raise reader.fail(f"arcs[{i}]", "an arc chain lists at least two node names")
-        arcs.append(tuple(reader.text(name, f"arcs[{i}]", "name") for name in chain))
+    try:
+        top = schema.convert(data, PlanFile, "")
+    except SchemaError as exc:
+        message = exc.key_message()
+        raise FloorPlanError(f"{source}: {_room_label(data, exc.path)}{message}") from None
+    rect_of: list[tuple[str, _RectEntry]] = [("building", top.building)]
+    rect_of += [(f"corridor {a.name!r}", a) for a in top.corridors]
+    rect_of += [(f"courtyard {a.name!r}", a) for a in top.courtyards]
+    for room in top.rooms:
+        rect_of.append((f"room {room.name!r}", room))
+        rect_of += [(f"room {room.name!r} furniture ({f.name})", f) for f in room.furniture]
+    for label, entry in rect_of:
+        try:
+            entry.rect()
+        except ValueError as exc:
+            raise FloorPlanError(f"{source}: {label}: 'x'/'y': {exc}") from None
     plan = FloorPlan(
-        name=reader.text(top.get("name", "floor plan"), "plan", "name"),
-        resolution=resolution,
-        origin_x=origin[0],
-        origin_y=origin[1],
-        width_m=size[0],
-        height_m=size[1],
-        map_file=reader.text(reader.field(outputs, "map", "outputs"), "outputs", "map"),
-        topological_file=reader.text(
-            reader.field(outputs, "topological", "outputs"), "outputs", "topological"
-        ),
-        building=reader.rect(
-            reader.mapping(reader.field(top, "building", "plan"), "building"), "building"
-        ),
-        corridors=_parse_areas(reader, top, "corridors"),
-        courtyards=_parse_areas(reader, top, "courtyards"),
-        rooms=rooms,
-        waypoints=tuple(waypoints),
-        ring=ring,
-        arcs=tuple(arcs),
-        entrance_distance=reader.positive(
-            top.get("entrance_distance", 0.9), "plan", "entrance_distance"
-        ),
-        arc_clearance=reader.positive(top.get("arc_clearance", 0.3), "plan", "arc_clearance"),
-        node_clearance=reader.positive(top.get("node_clearance", 0.35), "plan", "node_clearance"),
+        name=top.name,
+        resolution=top.map.resolution,
+        origin_x=top.map.origin[0],
+        origin_y=top.map.origin[1],
+        width_m=top.map.size[0],
+        height_m=top.map.size[1],
+        map_file=top.outputs.map,
+        topological_file=top.outputs.topological,
+        building=top.building.rect(),
+        corridors=tuple(Area(a.name, a.rect()) for a in top.corridors),
+        courtyards=tuple(Area(a.name, a.rect()) for a in top.courtyards),
+        rooms=tuple(room.room() for room in top.rooms),
+        waypoints=tuple(Waypoint(w.name, w.x, w.y) for w in top.waypoints),
+        ring=top.ring,
+        arcs=top.arcs,
+        entrance_distance=top.entrance_distance,
+        arc_clearance=top.arc_clearance,
+        node_clearance=top.node_clearance,
         source=source,
     )
     validate_floor_plan(plan)
