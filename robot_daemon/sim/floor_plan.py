@@ -124,19 +124,12 @@ class Rect:
 
 @dataclass(frozen=True)
 class Door:
-    """A door in one wall of a room: ``offset`` [m] from the wall's west/south end to its centre."""
+    """A door in one wall of a room: ``offset`` [m] from the wall's west/south end to its centre
+    (checked as read: `_DoorEntry`)."""
 
     wall: str
     offset: float  # [m]
     width: float  # [m]
-
-    def __post_init__(self) -> None:
-        if self.wall not in WALLS:
-            raise ValueError(f"'wall' must be one of {', '.join(WALLS)}, got {self.wall!r}")
-        if not DOOR_WIDTH_MIN - 1e-9 <= self.width <= DOOR_WIDTH_MAX + 1e-9:
-            raise ValueError(
-                f"'width' must be in [{DOOR_WIDTH_MIN}, {DOOR_WIDTH_MAX}] m, got {self.width}"
-            )
 
 
 @dataclass(frozen=True)
