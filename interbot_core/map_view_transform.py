@@ -94,26 +94,27 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
     keep_aspect: bool = True
 
     @cached_property
-    def _scales(self) -> tuple[float, float]:
-        sx = self.widget_width_px / self.map_width_m
-        sy = self.widget_height_px / self.map_height_m
-        return (min(sx, sy), min(sx, sy)) if self.keep_aspect else (sx, sy)
-
-    @property
     def scale_x(self) -> float:
-        return self._scales[0]
+        sx = self.widget_width_px / self.map_width_m
+        return min(sx, self.widget_height_px / self.map_height_m) if self.keep_aspect else sx
 
-    @property
+    @cached_property
     def scale_y(self) -> float:
-        return self._scales[1]
+        sy = self.widget_height_px / self.map_height_m
+        return min(sy, self.widget_width_px / self.map_width_m) if self.keep_aspect else sy
 
-    @property
+    @cached_property
     def offset_x(self) -> float:
         return (self.widget_width_px - self.map_width_m * self.scale_x) / 2.0
 
-    @property
+    @cached_property
     def offset_y(self) -> float:
         return (self.widget_height_px - self.map_height_m * self.scale_y) / 2.0
+
+    @cached_property
+    def map_top_y(self) -> float:
+        """World y of the map's top edge [m]."""
+        return self.map_origin_y + self.map_height_m
 
     @classmethod
     def from_grid(
@@ -155,11 +156,6 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
         """Isotropic scale [px/m]: equals ``scale_x == scale_y`` when the aspect is kept, else the
         smaller of the two (the largest circle-preserving scale, e.g. for the robot's outline)."""
         return min(self.scale_x, self.scale_y)
-
-    @property
-    def map_top_y(self) -> float:
-        """World y of the map's top edge [m]."""
-        return self.map_origin_y + self.map_height_m
 
     def map_rect_px(self) -> tuple[float, float, float, float]:
         """Where the map image goes in the widget: (left, top, width, height) [px]."""
