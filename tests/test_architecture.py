@@ -326,7 +326,6 @@ ENTRY_MODULES = {
     "interbot_cli.screens": "`python -m` child of the demo launcher (asks Qt for the screens)",
     "robot_daemon.hardware.emulators.hokuyo_emulator": "`python -m`: a laser on a pty",
     "robot_daemon.hardware.emulators.roboteq_emulator": "`python -m`: a motor controller on a pty",
-    "robot_daemon.recording.foxglove_layout": "`python -m`: writes docs/foxglove_layout.json",
     **{
         f"robot_daemon.scenarios.{name}": "`interbot scenario NAME` (imported by name)"
         for name in ("kidnap", "latency", "mission", "odometry", "teleop", "tour")

@@ -381,7 +381,11 @@ def main() -> int:
         t.show_map()
         click(t.map_view.room_button(GOAL_ROOM))
         click(t.dialog.go_button)  # type: ignore[union-attr]
-        p.wait(lambda: s.selected.state.plan is not None and bool(s.selected.state.plan.points), 20, "a plan")
+        p.wait(
+            lambda: s.selected.state.plan is not None and bool(s.selected.state.plan.points),
+            20,
+            "a plan",
+        )
         p.wait(lambda: (t.session.goal is not None and t.session.goal.progress >= 30), 60,
                "the robot to be on its way")  # fmt: skip
         save(grab_with_dialog(t), out, "tablet_going_1280x800")

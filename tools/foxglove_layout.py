@@ -4,7 +4,9 @@ Written in the app's import format (`app_layout`). A 3D panel with the map (Grid
 (the ``base_link`` frame of ``/tf``, followed), the station's route and the planner's path; beside
 it the camera, the velocity the mux sent to the motors, and the station's commands.
 
-    .venv/bin/python -m robot_daemon.recording.foxglove_layout > docs/foxglove_layout.json
+    .venv/bin/python tools/foxglove_layout.py > docs/foxglove_layout.json
+
+An authoring tool (it writes a file in docs/), so it lives in tools/, not in what the robot runs.
 """
 
 from __future__ import annotations
