@@ -130,7 +130,9 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
              and rig.daemon.stack.route.state == "succeeded", 5.0, "the route to succeed")  # fmt: skip
     route = rig.daemon.stack.route
     assert route is not None and route.state == "succeeded" and route.node_ids[-1] == SECRETARIAT
-    assert any("tour ended by the user after 2 of" in e.text for e in rig.station.selected.state.log)
+    assert any(
+        "tour ended by the user after 2 of" in e.text for e in rig.station.selected.state.log
+    )
 
 
 def test_request_picked_up_accepted_and_delivered(make_rig: Any) -> None:
@@ -167,5 +169,7 @@ def test_request_picked_up_accepted_and_delivered(make_rig: Any) -> None:
     assert rig.truth().distance_to(rig.node_pose(SERVER_ROOM)) < ARRIVAL_M
     rig.wait(lambda: any(m.goal == SERVER_ROOM and m.reached for m in rig.seen.goal_status),
              10.0, "the tablet to be told: delivered")  # fmt: skip
-    rig.wait(lambda: rig.station.selected.supervisor.current_task is None, 5.0, "the task to finish")
+    rig.wait(
+        lambda: rig.station.selected.supervisor.current_task is None, 5.0, "the task to finish"
+    )
     assert any("request delivered to node 8" in e.text for e in rig.station.selected.state.log)

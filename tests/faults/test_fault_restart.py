@@ -44,9 +44,13 @@ def test_link_drop_and_daemon_restart_send_no_route_and_move_nothing(rig) -> Non
     back = time.monotonic()
     rig.wait(lambda: station.robot_online, 15.0, "the robot to come back")
     rig.wait(
-        lambda: not station.selected.route_mirror.checking, 10.0, "the station to learn the robot's route"
+        lambda: not station.selected.route_mirror.checking,
+        10.0,
+        "the station to learn the robot's route",
     )
-    assert station.selected.route is not None and station.selected.route.route_id == route_id  # still ours
+    assert (
+        station.selected.route is not None and station.selected.route.route_id == route_id
+    )  # still ours
     assert observer.routes_received(ROBOT, since=back) == []  # asked, never re-sent
 
     # 2. EMERGENCY STOP, then the daemon is killed and restarted.
