@@ -481,6 +481,7 @@ class StationController(QObject):
                 if mirror is old and old.online:
                     self.link.request_state(old.robot_id)
         self.tablet_feed.forget()
+        self.tablet.send(p.RobotName(robot_id or "none"))  # its welcome named the old one
         self.log("info", f"commanding robot {robot_id}" if robot_id else "no robot selected")
         self.robot_selected.emit(robot_id or "")
         self.robots_changed.emit()
