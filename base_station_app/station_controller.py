@@ -263,6 +263,7 @@ class StationController(QObject):
             parent=self.tablet,
         )
         self.tablet.speed_received.connect(self.tablet_teleop.on_speed)  # in the tablet thread
+        self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
         self.tablet_teleop.refused.connect(self._on_tablet_speed_refused)
         self.tablet_teleop.stopped.connect(self._on_tablet_speed_stopped)
         self.tablet_teleop.forwarded.connect(self._on_tablet_speed_forwarded)

@@ -132,6 +132,11 @@ class TabletTeleop(QObject):
             self.stopped.emit(why)
         return zero
 
+    def on_tablet_disconnected(self) -> None:
+        """The tablet is gone: its driving stops now, in this thread, not when the Qt thread
+        gets to it."""
+        self.stop("tablet disconnected")
+
     def on_watchdog(self) -> None:
         """Thesis Fig. 5.10: no speed command for the latency ceiling (§5.3.4)."""
         self.stop(f"no command for {self.ceiling_s:g} s")

@@ -74,6 +74,24 @@ def test_the_watchdog_zero_comes_while_the_qt_thread_is_busy(
     )
 
 
+def test_a_tablet_that_disconnects_gets_its_zero_while_the_qt_thread_is_busy(
+    qtbot, linked, station, robot, tablet_factory
+) -> None:
+    station.set_config(StationConfig(latency_ceiling=1.0))  # the watchdog alone: 1 s later
+    t = handshake(qtbot, tablet_factory)
+    qtbot.wait(100)
+    t.send({"speed": {"linear": 0.2, "angular": 0.0}})
+    assert busy_wait(lambda: tablet_vels(robot) == [(0.2, 0.0)])
+    t.close()
+    assert busy_wait(lambda: len(tablet_vels(robot)) == 2, timeout_s=3.0)
+    assert tablet_vels(robot) == [(0.2, 0.0), (0.0, 0.0)]
+    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=3000)
+    qtbot.wait(100)
+    assert tablet_vels(robot) == [(0.2, 0.0), (0.0, 0.0)]  # one zero, not one per thread
+    stops = [e.text for e in station.state.log if "tablet speed stopped" in e.text]
+    assert stops == ["tablet speed stopped (tablet disconnected): explicit zero sent"]
+
+
 def test_the_emergency_stop_wins_over_a_tablet_that_keeps_driving(
     qtbot, linked, station, robot, tablet_factory
 ) -> None:
