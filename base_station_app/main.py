@@ -202,12 +202,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         settings=settings,
     )
     if tablet_auth is not None:  # the operator sees who was refused or let in (issue 15)
-        tablet_auth.auth_refused.connect(
-            lambda peer, why: controller.log("warning", f"refused tablet {peer}: {why}")
-        )
-        tablet_auth.tablet_authorised.connect(
-            lambda r: controller.log("info", f"tablet {r.tablet_id} ({r.name}) authorised")
-        )
+        # Bound slots, not lambdas: the server lives in the tablet thread, the log in this one.
+        tablet_auth.auth_refused.connect(controller.log_tablet_refused)
+        tablet_auth.tablet_authorised.connect(controller.log_tablet_authorised)
     window = MainWindow(controller)
     window.setWindowTitle(window.windowTitle() + security.title_suffix())
     window.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose, False)

@@ -52,6 +52,10 @@ Safety (issue 11, shared/DESIGN.md "State has one owner"):
   or late ones are dropped), forwarded once stamped with its arrival time, and restarts a
   single-shot `QTimer` (thesis Fig. 5.10) of the latency ceiling whose timeout sends one
   explicit zero. Nothing re-stamps an old command.
+* **Off the drawing thread (issue 14).** The tablet server and `TabletTeleop` run in their own
+  thread: a speed command is read, checked and forwarded there, never behind a frame being
+  drawn here. This object changes what gates the tablet (the e-stop, the selected robot, the
+  link) under ``tablet_teleop.lock``, so the e-stop wins over a command in flight.
 * **The tablet knows.** While the robot is offline the tablet gets no stale pose, the status
   "robot offline" and permissions that offer nothing (no teleop while the stop is engaged).
 """
@@ -80,8 +84,9 @@ from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_server import TabletServer
 from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
+from base_station_app.tablet_teleop import TabletTeleop
 from base_station_app.teleop import Direction
-from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
+from base_station_app.teleop_arbiter import TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
 from interbot_core.geometry import Pose2D
@@ -162,6 +167,7 @@ class StationController(QObject):
     frame_ready = Signal()
     alert_raised = Signal(object)  # Alert: new, or a repeat of an unacknowledged one
     clocked = Signal()
+    _log_requested = Signal(str, str)  # a log line from the tablet thread (queued to ours)
     robots_changed = Signal()
     robot_selected = Signal(str)
     robot_choice_needed = Signal(object)  # tuple[str, ...]: several robots, no choice: ask
@@ -236,6 +242,9 @@ class StationController(QObject):
 
         self.link: StationLink | None = StationLink(session) if session is not None else None
         self.watch: FleetWatch | None = FleetWatch(session) if session is not None else None
+        self._log_requested.connect(self.log)
+        # The tablet server and its speed path live in their own thread from `start` on (no
+        # parent: they move there); their signals reach this object's slots queued.
         self.tablet = TabletServer(
             clock,
             tablet_host,
@@ -244,16 +253,28 @@ class StationController(QObject):
             limits=p.ProtocolLimits(node_ids=frozenset(self.names)),
             ping_interval_ms=timing.ping_ms,
             server=tablet_auth,
-            parent=self,
         )
+        self.tablet_teleop = TabletTeleop(
+            self.arbiter,
+            clock,
+            send_twist=lambda twist: self._send_tablet_twist(twist),  # late bound: wrappable
+            refusal=self._tablet_teleop_refusal,
+            estop=lambda: self.estop_latched,
+            reply=self.tablet.send,
+            latency_ceiling=self.config.latency_ceiling,
+            parent=self.tablet,
+        )
+        self.tablet.speed_received.connect(self.tablet_teleop.on_speed)  # in the tablet thread
+        self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
+        self.tablet_teleop.refused.connect(self._on_tablet_speed_refused)
+        self.tablet_teleop.stopped.connect(self._on_tablet_speed_stopped)
+        self.tablet_teleop.forwarded.connect(self._on_tablet_speed_forwarded)
         self.tablet.connected.connect(self._on_tablet_connected)
         self.tablet.disconnected.connect(self._on_tablet_disconnected)
         self.tablet.message_received.connect(self.on_tablet_message)
         self.tablet.latency_measured.connect(self._on_latency)
-        self.tablet.protocol_error.connect(lambda text: self.log("warning", f"tablet: {text}"))
-        self.tablet.refused.connect(
-            lambda peer, why: self.log("warning", f"refused tablet {peer}: {why}")
-        )
+        self.tablet.protocol_error.connect(self._on_tablet_protocol_error)
+        self.tablet.refused.connect(self.log_tablet_refused)
 
         self.clock_timer = QTimer(self)
         self.clock_timer.setTimerType(Qt.TimerType.PreciseTimer)
@@ -263,13 +284,6 @@ class StationController(QObject):
         self.frame_timer.setInterval(timing.frame_ms)
         self.frame_timer.timeout.connect(self._on_frame_timer)
         self.display_rate = DisplayRate(timing.display_hz)  # draw at most this often
-        # Thesis Fig. 5.10: a single-shot timer restarted by every tablet speed command; its
-        # timeout means the tablet went silent for the latency ceiling: one explicit zero.
-        self.tablet_watchdog = QTimer(self)
-        self.tablet_watchdog.setSingleShot(True)
-        self.tablet_watchdog.setTimerType(Qt.TimerType.PreciseTimer)
-        self.tablet_watchdog.setInterval(round(self.config.latency_ceiling * 1000))
-        self.tablet_watchdog.timeout.connect(self._on_tablet_watchdog)
 
     def _make_mirror(self, robot_id: str | None) -> RobotMirror:
         mirror = RobotMirror(
@@ -302,12 +316,18 @@ class StationController(QObject):
         """Robot id -> present, for every robot seen."""
         return {r: m.online for r, m in sorted(self.fleet.mirrors.items())}
 
+    @property
+    def tablet_watchdog(self) -> QTimer:
+        """Thesis Fig. 5.10: the single-shot timer of the tablet's speed (tablet thread)."""
+        return self.tablet_teleop.watchdog
+
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
         """Listen for the tablet and start the timers; False if the tablet port is taken.
 
         ``timers=False`` leaves ``tick`` / ``poll_link`` to the caller (tests step them).
         """
+        self.tablet.start_thread()
         ok = self.tablet.listen()
         if not ok:
             self.log("error", f"cannot listen for the tablet on port {self.tablet.port}")
@@ -323,18 +343,19 @@ class StationController(QObject):
             return
         self.clock_timer.stop()
         self.frame_timer.stop()
-        self.tablet_watchdog.stop()
-        if self.arbiter.stop_tablet():
-            self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-        if self.arbiter.keys.active:
-            self.arbiter.keys.release_all()
-            self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-        self._closed = True
-        self.tablet.close()
-        if self.watch is not None:
-            self.watch.close()
-        if self.link is not None:
-            self.link.close()
+        with self.tablet_teleop.lock:  # no tablet command after this zero
+            if self.arbiter.stop_tablet():
+                self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
+            if self.arbiter.keys.active:
+                self.arbiter.keys.release_all()
+                self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=self.clock()))
+            self._closed = True
+        self.tablet.stop_thread()
+        with self.tablet_teleop.lock:
+            if self.watch is not None:
+                self.watch.close()
+            if self.link is not None:
+                self.link.close()
         logger.info("station controller shut down")
 
     def _load_static_map(self) -> OccupancyGrid | None:
@@ -363,13 +384,17 @@ class StationController(QObject):
 
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
-        """Send to the selected robot (False: nobody received it)."""
-        if self.link is None or self.link.selected is None or self._closed:
+        """Send to the selected robot (False: nobody received it).
+
+        Also called in the tablet thread (the tablet's speed, under ``tablet_teleop.lock``):
+        a failure is logged through a signal, queued to this object's thread from there."""
+        link = self.link
+        if link is None or link.selected is None or self._closed:
             return False
         try:
-            return self.link.send(topic, message)
+            return link.send(topic, message)
         except LinkError as exc:
-            self.log("error", f"cannot send {topic}: {exc}")
+            self._log_requested.emit("error", f"cannot send {topic}: {exc}")
             return False
 
     def _send_to(self, mirror: RobotMirror, topic: Topic, message: object) -> bool:
@@ -402,8 +427,9 @@ class StationController(QObject):
             return
         self.release_all()
         self._stop_tablet_speed("robot switched")
-        old, new = self.fleet.select(robot_id)
-        self.link.select_robot(robot_id)
+        with self.tablet_teleop.lock:  # the tablet thread publishes on the link's publishers
+            old, new = self.fleet.select(robot_id)
+            self.link.select_robot(robot_id)
         self._sync_watch()
         now = self.clock()
         new.state.scan = None  # no stale laser drawn from a robot followed lightly until now
@@ -414,6 +440,7 @@ class StationController(QObject):
                 if mirror is old and old.online:
                     self.link.request_state(old.robot_id)
         self.tablet_feed.forget()
+        self.tablet.send(p.RobotName(robot_id or "none"))  # its welcome named the old one
         self.log("info", f"commanding robot {robot_id}" if robot_id else "no robot selected")
         self.robot_selected.emit(robot_id or "")
         self.robots_changed.emit()
@@ -608,14 +635,37 @@ class StationController(QObject):
 
     def _stop_tablet_speed(self, why: str) -> None:
         """Forget the tablet's command and send one explicit zero if one was forwarded."""
-        self.tablet_watchdog.stop()
-        if self.arbiter.stop_tablet():
-            self._send(Topic.TABLET_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-            self.log("warning", f"tablet speed stopped ({why}): explicit zero sent")
+        self.tablet_teleop.stop(why)  # logged by _on_tablet_speed_stopped
 
-    def _on_tablet_watchdog(self) -> None:
-        """Thesis Fig. 5.10: no speed command for the latency ceiling (§5.3.4)."""
-        self._stop_tablet_speed(f"no command for {self.config.latency_ceiling:g} s")
+    def _send_tablet_twist(self, twist: Twist) -> bool:
+        """Publish the tablet's command (tablet thread, under ``tablet_teleop.lock``)."""
+        return self._send(Topic.TABLET_VEL, twist)
+
+    def _tablet_teleop_refusal(self) -> str | None:
+        """Why the tablet may not drive now (tablet thread; plain reads of our state)."""
+        return self.tablet_policy.refusal("teleop", self.robot_online, self.estop_latched)
+
+    def _on_tablet_speed_refused(self, why: str) -> None:
+        self.alert_rules.on_refused(why, self.clock())
+        self.tablet_changed.emit()
+
+    def _on_tablet_speed_stopped(self, why: str) -> None:
+        self.log("warning", f"tablet speed stopped ({why}): explicit zero sent")
+        self.tablet_changed.emit()
+
+    def _on_tablet_speed_forwarded(self) -> None:
+        self.tablet_changed.emit()
+
+    def _on_tablet_protocol_error(self, text: str) -> None:
+        self.log("warning", f"tablet: {text}")
+
+    def log_tablet_refused(self, peer: str, why: str) -> None:
+        """A tablet connection refused (another is connected, TLS, pairing)."""
+        self.log("warning", f"refused tablet {peer}: {why}")
+
+    def log_tablet_authorised(self, record: object) -> None:
+        tablet_id, name = getattr(record, "tablet_id", "?"), getattr(record, "name", "?")
+        self.log("info", f"tablet {tablet_id} ({name}) authorised")
 
     def _pose_section(self, now: float) -> None:
         """Every robot's supervisor sees its own robot's pose (per-robot supervision)."""
@@ -630,7 +680,8 @@ class StationController(QObject):
         msg = self.tablet_permissions().to_message()
         if msg != self._permissions_sent and self.tablet.send(msg):
             self._permissions_sent = msg
-            self.arbiter.stop_told = False  # a refused speed is explained again
+            with self.tablet_teleop.lock:
+                self.arbiter.stop_told = False  # a refused speed is explained again
 
     def _communication_section(self, now: float) -> None:
         """Tell the tablet about the commanded robot (tablet_feed.py), changes only."""
@@ -838,9 +889,10 @@ class StationController(QObject):
         re-asserted) whenever a robot is connected.
         """
         self.arbiter.keys.release_all()
+        with self.tablet_teleop.lock:  # from here on no tablet command is forwarded
+            was = self.estop_latched
+            self.estop_latched = True
         self._stop_tablet_speed("emergency stop")
-        was = self.estop_latched
-        self.estop_latched = True
         for mirror in self.fleet.all():
             # waiting tasks wait for "Resume queue"
             self._handle(mirror.supervisor.hold_queue(), mirror)
@@ -866,8 +918,9 @@ class StationController(QObject):
     def release_stop(self) -> None:
         if not self.estop_latched:
             return
-        self.estop_latched = False
-        self.arbiter.stop_told = False
+        with self.tablet_teleop.lock:
+            self.estop_latched = False
+            self.arbiter.stop_told = False
         for mirror in self.fleet.all():
             self._assert_stop_intent(mirror)
         self.log("info", "emergency stop released")
@@ -899,10 +952,11 @@ class StationController(QObject):
         self.config = config
         for mirror in self.fleet.all():
             mirror.supervisor.config = config.supervisor_config(self._request_timeout)
-        self.arbiter.set_limits(
-            config.latency_ceiling, config.teleop_linear_max, config.teleop_angular_max
-        )
-        self.tablet_watchdog.setInterval(round(config.latency_ceiling * 1000))
+        with self.tablet_teleop.lock:
+            self.arbiter.set_limits(
+                config.latency_ceiling, config.teleop_linear_max, config.teleop_angular_max
+            )
+        self.tablet_teleop.set_ceiling(config.latency_ceiling)
         for mirror in self.fleet.all():
             mirror.config_pending = True
             self._resend_pending(mirror)
@@ -950,7 +1004,8 @@ class StationController(QObject):
     # ================================================================== tablet
     def _on_tablet_connected(self, peer: str) -> None:
         self.tablet_feed.forget()
-        self.arbiter.tablet_connected()
+        with self.tablet_teleop.lock:
+            self.arbiter.tablet_connected()
         self._permissions_sent = None
         self._send_permissions()
         self.log("info", f"tablet connected from {peer}")
@@ -958,7 +1013,8 @@ class StationController(QObject):
 
     def _on_tablet_disconnected(self) -> None:
         self._stop_tablet_speed("tablet disconnected")
-        self.arbiter.watchdog.reset()
+        with self.tablet_teleop.lock:
+            self.arbiter.watchdog.reset()
         self.log("warning", "tablet disconnected")
         self.tablet_changed.emit()
 
@@ -1006,6 +1062,9 @@ class StationController(QObject):
 
         The tablet is bound to the selected robot: its tasks go to that robot's queue.
         """
+        if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)
+            self._on_tablet_speed(msg, self.clock())
+            return
         now = self.clock()
         kind = permission_for(msg)  # type: ignore[arg-type]
         why = self.tablet_policy.refusal(kind, self.robot_online, self.estop_latched)
@@ -1073,10 +1132,6 @@ class StationController(QObject):
         self.stop_motion("the tablet")
 
     def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:
-        """Forward one fresh tablet command once, stamped with its arrival time ``now``."""
-        verdict = self.arbiter.on_tablet_speed(msg, now, self.estop_latched)
-        if isinstance(verdict, Refuse):
-            self.tablet.send(p.ErrorReport("not_permitted", verdict.reason))
-        elif isinstance(verdict, Forward):
-            self._send(Topic.TABLET_VEL, verdict.twist)
-            self.tablet_watchdog.start()  # restarted by every command (thesis Fig. 5.10)
+        """A speed command handed to this thread (a caller other than the tablet server):
+        the same path as in the tablet thread, stamped with the clock when it runs."""
+        self.tablet_teleop.on_speed(msg)

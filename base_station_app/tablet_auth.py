@@ -9,7 +9,9 @@ Each incoming connection becomes a `QSslSocket` with the station's own certifica
 Accepted sockets are handed over with ``addPendingConnection`` (``pendingConnectionAvailable``),
 so the protocol inside (hello, speed, ping ...) and every policy of `TabletServer` are unchanged.
 
-Revoking a tablet (`revoke`) also drops its live connection. The registry is saved as JSON
+Revoking a tablet (`revoke`) also drops its live connection. The server lives in the tablet
+server's thread (issue 14); `new_offer` and `revoke`, called by the pairing panel on the Qt
+thread, run in the server's thread (`ThreadCall`). The registry is saved as JSON
 (mode 0600) beside the station's keys; it holds token digests, never tokens.
 """
 
@@ -44,6 +46,7 @@ from interbot_core.tablet_pairing import (
     TabletRegistry,
     decode_auth_frame,
 )
+from interbot_qt.thread_call import ThreadCall
 
 logger = logging.getLogger(__name__)
 
@@ -201,6 +204,7 @@ class TabletAuthServer(QTcpServer):
         self.offer: PairingOffer | None = None
         self.advertised_host = "127.0.0.1"
         """The address tablets are told to connect to (shown in the pairing QR code)."""
+        self._call = ThreadCall(self)
 
     @classmethod
     def from_files(
@@ -244,6 +248,9 @@ class TabletAuthServer(QTcpServer):
 
     def new_offer(self, host: str | None = None) -> PairingOffer:
         """A fresh one-time code for a tablet to pair with (shown with its QR code)."""
+        return self._call.run(lambda: self._new_offer_now(host))
+
+    def _new_offer_now(self, host: str | None) -> PairingOffer:
         host = host or self.advertised_host
         code, expires = self.registry.new_code(self._clock())
         self.offer = PairingOffer(host, int(self.serverPort()), self.fingerprint, code, expires)
@@ -283,6 +290,9 @@ class TabletAuthServer(QTcpServer):
 
     def revoke(self, tablet_id: str) -> TabletRecord:
         """Revoke a tablet's token and drop its live connections at once."""
+        return self._call.run(lambda: self._revoke_now(tablet_id))
+
+    def _revoke_now(self, tablet_id: str) -> TabletRecord:
         record = self.registry.revoke(tablet_id)
         self._save()
         for socket in list(self._live.pop(tablet_id, [])):

@@ -29,6 +29,13 @@ Bounded work and memory (issue 11), whatever one client sends:
 
 Framing and validation are the pure `interbot_core.protocol` functions; this object only moves
 bytes (`interbot_qt.qt_tcp_connection.QtTcpConnection`: one write per message, TCP_NODELAY).
+
+Its own thread (issue 14): `start_thread` moves the server, its sockets (TLS included) and
+timers into a `QThread` with its own event loop, so reading the tablet never waits for the Qt
+thread's drawing. Speed commands leave as ``speed_received`` in that thread (the station's
+`TabletTeleop` forwards them from there); everything else reaches the station through queued
+signals. The public methods (`send`, `listen`, `close`, `ping`, `disconnect_tablet`) may be
+called from any thread: they run in the server's thread (`ThreadCall`) and return its answer.
 """
 
 from __future__ import annotations
@@ -37,7 +44,7 @@ import logging
 import socket as pysocket
 from collections.abc import Callable
 
-from PySide6.QtCore import QObject, QTimer, Signal
+from PySide6.QtCore import QCoreApplication, QObject, QThread, QTimer, Signal
 from PySide6.QtNetwork import QAbstractSocket, QHostAddress, QTcpServer, QTcpSocket
 
 from base_station_app.tablet_session import ErrorBudget
@@ -60,6 +67,7 @@ from interbot_core.protocol import (
 )
 from interbot_core.tablet_input_policy import InputPolicyConfig, TabletInputPolicy
 from interbot_qt.qt_tcp_connection import QtTcpConnection
+from interbot_qt.thread_call import ThreadCall
 
 logger = logging.getLogger(__name__)
 
@@ -89,13 +97,15 @@ class TabletServer(QObject):
     """Listens for tablets and talks to the one that controls the robot.
 
     Signals: ``connected(peer: str)``, ``disconnected()``, ``message_received(msg)`` (validated
-    tablet messages other than hello/ping/pong), ``latency_measured(rtt [s])``,
+    tablet messages other than speed/hello/ping/pong), ``speed_received(Speed)`` (the newest
+    speed of a read turn, emitted in the server's thread), ``latency_measured(rtt [s])``,
     ``protocol_error(text)``, ``refused(peer, reason)``.
     """
 
     connected = Signal(str)
     disconnected = Signal()
     message_received = Signal(object)
+    speed_received = Signal(object)
     latency_measured = Signal(float)
     protocol_error = Signal(str)
     refused = Signal(str, str)
@@ -133,7 +143,7 @@ class TabletServer(QObject):
         self._ping_seq = 0
         self._ping_timer = QTimer(self)
         self._ping_timer.setInterval(ping_interval_ms)
-        self._ping_timer.timeout.connect(self.ping)
+        self._ping_timer.timeout.connect(self._ping_now)
         self.policy = TabletInputPolicy(input_policy)
         # [s] a greeted tablet silent to pings this long is gone (default: 5 pings, >= 3 s)
         self.pong_timeout_s = (
@@ -141,15 +151,47 @@ class TabletServer(QObject):
         )
         self._last_pong = 0.0
         self._newest_speed: Speed | None = None
+        self._call = ThreadCall(self)  # public methods run in the server's thread
+        self._thread: QThread | None = None
+        self._port = port  # [the port listened on, once listening]
+
+    # ------------------------------------------------------------------ its thread
+    def start_thread(self) -> None:
+        """Move the server (sockets, timers, children) into a thread with its own event loop."""
+        if self._thread is not None or self.parent() is not None:
+            return
+        thread = QThread()
+        thread.setObjectName("tablet")
+        self.moveToThread(thread)
+        thread.start()
+        self._thread = thread
+
+    def stop_thread(self) -> None:
+        """Close, bring the server back to the application's thread and end its thread."""
+        thread = self._thread
+        if thread is None:
+            self.close()
+            return
+        app = QCoreApplication.instance()
+
+        def close_and_return() -> None:
+            self._close_now()
+            if app is not None:
+                self.moveToThread(app.thread())
+
+        self._call.run(close_and_return)
+        thread.quit()
+        thread.wait()
+        self._thread = None
 
     # ------------------------------------------------------------------ state
     @property
     def port(self) -> int:
-        return int(self._server.serverPort())
+        return self._port
 
     @property
     def is_listening(self) -> bool:
-        return self._server.isListening()
+        return bool(self._call.run(self._server.isListening))
 
     @property
     def is_connected(self) -> bool:
@@ -165,6 +207,9 @@ class TabletServer(QObject):
         return self._greeted
 
     def listen(self) -> bool:
+        return bool(self._call.run(self._listen_now))
+
+    def _listen_now(self) -> bool:
         address = QHostAddress(self._host)
         if not self._server.listen(address, self._port):
             logger.error(
@@ -174,11 +219,15 @@ class TabletServer(QObject):
                 self._server.errorString(),
             )
             return False
+        self._port = int(self._server.serverPort())
         logger.info("listening for the tablet on %s:%d", self._host, self.port)
         return True
 
     def close(self) -> None:
         """Stop listening and drop the tablet (shutdown)."""
+        self._call.run(self._close_now)
+
+    def _close_now(self) -> None:
         self._ping_timer.stop()
         self._server.close()
         if self._conn is not None:
@@ -188,6 +237,9 @@ class TabletServer(QObject):
 
     def send(self, msg: Message) -> bool:
         """Send one message to the connected tablet; False when none is connected."""
+        return bool(self._call.run(lambda: self._send_now(msg)))
+
+    def _send_now(self, msg: Message) -> bool:
         if self._conn is None:
             return False
         ok = self._conn.send(msg)
@@ -208,6 +260,9 @@ class TabletServer(QObject):
         conn.abort()  # disconnected() follows and frees the slot
 
     def ping(self) -> None:
+        self._call.run(self._ping_now)
+
+    def _ping_now(self) -> None:
         if not self.is_connected:
             return
         now = self._clock()
@@ -223,6 +278,9 @@ class TabletServer(QObject):
 
     def disconnect_tablet(self, reason: str = "") -> None:
         """Close the tablet's connection (after flushing what was written)."""
+        self._call.run(lambda: self._disconnect_now(reason))
+
+    def _disconnect_now(self, reason: str) -> None:
         if self._conn is not None:
             logger.info("closing the tablet connection %s: %s", self._peer, reason)
             self._conn.close()
@@ -317,7 +375,7 @@ class TabletServer(QObject):
             return
         speed, self._newest_speed = self._newest_speed, None
         if speed is not None:
-            self.message_received.emit(speed)
+            self.speed_received.emit(speed)
         error = self.policy.end_turn(self._clock())
         if error is not None and self._conn is not None:
             logger.warning("tablet %s: %s", self._peer, error)

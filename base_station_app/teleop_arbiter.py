@@ -12,8 +12,9 @@ Qt and without sending anything itself, what each input means:
 * the station's keys produce their command while held, one zero on release, nothing during a
   stop.
 
-The controller owns the single-shot watchdog `QTimer` (thesis Fig. 5.10) and the link, and sends
-what the arbiter returns to the *selected* robot.
+`TabletTeleop` (tablet_teleop.py) owns the single-shot watchdog `QTimer` (thesis Fig. 5.10) and
+sends what the arbiter returns for the tablet to the *selected* robot, in the tablet thread; the
+arbiter's tablet state is used under its lock (issue 14). The controller sends the keys'.
 """
 
 from __future__ import annotations

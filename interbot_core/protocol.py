@@ -538,6 +538,18 @@ class Welcome(Message, frozen=True):
     robot: Text
 
 
+class RobotName(Message, frozen=True):
+    """The robot the tablet now drives: ``{"robot": "interbot2"}`` (issue 14).
+
+    `Welcome` names the robot at connect time; when the operator commands another robot the
+    station says its name with this message, so the tablet never shows a stale name.
+    """
+
+    KEY: ClassVar[str] = "robot"
+    BARE: ClassVar[bool] = True
+    name: Text
+
+
 class Refused(Message, frozen=True):
     """Connection refused, then closed: ``{"refused": {"reason": "a tablet is connected"}}``."""
 
@@ -656,6 +668,7 @@ StationMessage = (
     | Pose
     | GoalStatus
     | Welcome
+    | RobotName
     | Refused
     | TourState
     | ShowRequest

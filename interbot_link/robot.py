@@ -77,6 +77,9 @@ CommandMessage = (
 
 PRIORITY_TOPICS = frozenset({str(Topic.STOP), str(Topic.STOP_RELEASE)})
 """Commands on the priority lane: never queued behind other commands, never dropped for space."""
+MOTION_TOPICS = frozenset({str(Topic.STATION_VEL), str(Topic.TABLET_VEL), str(Topic.PAUSE_NAV)})
+"""Commands on the motion lane (with the priority lane): what a daemon's command thread applies
+to the multiplexer at once, without waiting for the localiser or the planner (issue 14)."""
 PRIORITY_CAPACITY = 65_536
 """Bound of the priority lane (only a broken station could fill it; then the oldest go)."""
 
@@ -117,6 +120,7 @@ class RobotLink:
         self._cond = threading.Condition(self._lock)
         self._raw: list[tuple[str, bytes]] = []
         self._priority: list[tuple[str, bytes]] = []  # stop / stop_release: always first
+        self._motion: list[tuple[str, bytes]] = []  # station_vel, tablet_vel, pause_nav
         self._capacity = queue_capacity
         self._notify = notify
         self._snapshot: dict[Topic, bytes] = {}
@@ -149,17 +153,19 @@ class RobotLink:
         if sample.kind != zenoh.SampleKind.PUT:
             return
         item = (str(sample.key_expr), sample.payload.to_bytes())
+        name = item[0].rsplit("/", 1)[-1]
         with self._cond:
-            if item[0].rsplit("/", 1)[-1] in PRIORITY_TOPICS:
+            if name in PRIORITY_TOPICS:
                 if len(self._priority) >= PRIORITY_CAPACITY:
                     self.priority_overflow += 1
                     del self._priority[0]
                 self._priority.append(item)
-            elif len(self._raw) >= self._capacity:
-                self.overflow += 1
-                return
             else:
-                self._raw.append(item)
+                lane = self._motion if name in MOTION_TOPICS else self._raw
+                if len(lane) >= self._capacity:
+                    self.overflow += 1
+                    return
+                lane.append(item)
             self._cond.notify_all()
         if self._notify is not None:
             self._notify()
@@ -176,17 +182,18 @@ class RobotLink:
 
     # ------------------------------------------------------------------ daemon thread
 
-    def poll_commands(self) -> list[Command]:
+    def poll_commands(self, motion: bool | None = None) -> list[Command]:
         """Decode and return every command received since the last call, oldest first.
 
-        ``stop`` and ``stop_release`` come first (the priority lane), then the others.
+        ``stop`` and ``stop_release`` come first (the priority lane), then the others. With
+        ``motion=True`` only the priority and motion lanes (`MOTION_TOPICS`: what a command
+        thread applies at once); with ``motion=False`` only the rest (routes, poses, config).
 
         Malformed payloads and state topics published by someone else are dropped, counted in
         `decode_errors` and logged; they never reach the daemon.
         """
         with self._lock:
-            raw, self._raw = self._priority + self._raw, []
-            self._priority = []
+            raw = self._take(motion)
         commands: list[Command] = []
         for key_expr, payload in raw:
             try:
@@ -203,10 +210,24 @@ class RobotLink:
             commands.append(Command(topic, cast(CommandMessage, message)))
         return commands
 
-    def wait_commands(self, timeout: float) -> bool:
-        """Block up to ``timeout`` [s] until a command is queued (for loops that can sleep)."""
+    def _take(self, motion: bool | None) -> list[tuple[str, bytes]]:
+        """Empty the lanes ``motion`` selects (see `poll_commands`); the lock is held."""
+        taken: list[tuple[str, bytes]] = []
+        if motion is not False:
+            taken, self._priority, self._motion = self._priority + self._motion, [], []
+        if motion is not True:
+            taken, self._raw = taken + self._raw, []
+        return taken
+
+    def _pending(self, motion: bool | None) -> bool:
+        fast = bool(self._priority or self._motion)
+        return fast if motion else bool(self._raw) if motion is False else fast or bool(self._raw)
+
+    def wait_commands(self, timeout: float, motion: bool | None = None) -> bool:
+        """Block up to ``timeout`` [s] until a command is queued (for loops that can sleep);
+        ``motion`` picks the lanes as in `poll_commands`."""
         with self._cond:
-            return self._cond.wait_for(lambda: bool(self._raw or self._priority), timeout)
+            return self._cond.wait_for(lambda: self._pending(motion), timeout)
 
     def subscribed(self, topic: Topic) -> bool:
         """True if some station subscribes to state ``topic`` (skip encoding images if not)."""

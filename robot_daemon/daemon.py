@@ -2,7 +2,12 @@
 
 One thread runs everything that decides (thesis Fig. 4.5 in one loop): it takes the commands
 the zenoh callbacks queued (`RobotLink.poll_commands`), steps the stack, and publishes state at
-fixed rates. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
+fixed rates. A second, the command thread (issue 14), takes only the motion commands
+(`interbot_link.robot.MOTION_TOPICS`: teleoperation, pause, stop, stop release) and applies them
+to the multiplexer and the motors the moment they arrive, and publishes the new ``mux``
+output: a command never waits for a pass's localiser, planner or simulator work. Both
+threads meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero
+and the collision monitor apply to every output, whichever thread computed it. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
 as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
 service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh session closed.
 """
@@ -76,6 +81,7 @@ SLOW_PASS = 0.1  # [s] a pass longer than this is logged: commands waited that l
 SLOW_PASS_LOG_PERIOD = 10.0  # [s] wall time between two such log lines
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
 SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
+COMMAND_WAIT = 0.1  # [s] the command thread re-checks for a stop this often when idle
 
 
 @dataclass(frozen=True)
@@ -300,11 +306,12 @@ class Daemon:
             if odom is not None:
                 p = odom.pose
                 link.publish_odom(Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
-            out = stack.last_output
-            link.publish_cmd_vel(Twist(out.linear, out.angular, now))
-            link.publish_mux(
-                MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
-            )
+            with stack.motion_lock:  # in order with the command thread's mux samples
+                out = stack.last_output
+                link.publish_cmd_vel(Twist(out.linear, out.angular, now))
+                link.publish_mux(
+                    MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
+                )
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
@@ -364,26 +371,60 @@ class Daemon:
     def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
         """Run until ``stop`` is set."""
         link.publish_map(self.grid)
+        done = threading.Event()  # the command thread stops with the loop, however it ends
+        commands = threading.Thread(
+            target=self._command_loop, args=(link, done), name="motion-commands", daemon=True
+        )
+        commands.start()
         notifier.ready(f"robot {self.config.robot_id} serving")
         logger.info("daemon ready: %s", self.config.summary())
         next_tick = time.monotonic()
         try:
             while not stop.is_set():
                 next_tick = self._pass(link, notifier, next_tick)
-                # Sleep until the next pass, or until a command arrives.
-                link.wait_commands(max(0.0, next_tick - time.monotonic()))
+                # Sleep until the next pass, or until a (non-motion) command arrives.
+                link.wait_commands(max(0.0, next_tick - time.monotonic()), motion=False)
         finally:
+            done.set()
+            commands.join(2.0)
             # Every way out (stop, exception, KeyboardInterrupt) leaves the motors at zero.
             self._motors_to_zero()
             self.backend.close()
             self._search_thread.shutdown(wait=False, cancel_futures=True)
             notifier.stopping()
 
+    def _command_loop(self, link: RobotLink, done: threading.Event) -> None:
+        """The command thread: motion commands to the multiplexer and motors as they arrive."""
+        while not done.is_set():
+            if link.wait_commands(COMMAND_WAIT, motion=True):
+                self.apply_motion(link, link.poll_commands(motion=True))
+
+    def apply_motion(self, link: RobotLink, commands: list[Command]) -> None:
+        """Apply teleoperation / pause / stop commands and send the new output to the motors.
+
+        Stamped with the loop's latest time (at most one pass old): the command thread never
+        advances the simulator. The output is computed and published under the motion lock, so
+        ``mux`` samples leave in the order the outputs were made.
+        """
+        if not commands:
+            return
+        try:
+            with self.stack.motion_lock:
+                for command in commands:
+                    self.handle(command, link)
+                now = self.now
+                out = self.stack.apply_output(now)
+                link.publish_mux(
+                    MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
+                )
+        except Exception as exc:  # report and stop, as the loop does (its route is its own)
+            self._on_component_error(exc, link, abort_route=False)
+
     def _pass(self, link: RobotLink, notifier: SystemdNotifier, next_tick: float) -> float:
         """One pass of the loop; a component's error is reported and stops the robot."""
         try:
             self._advance_time()
-            commands = link.poll_commands()
+            commands = link.poll_commands(motion=False)
             for command in commands:
                 self.handle(command, link)
             if time.monotonic() >= next_tick:
@@ -396,19 +437,6 @@ class Daemon:
                 next_tick += LOOP_PERIOD
                 if next_tick < time.monotonic():
                     next_tick = time.monotonic()  # overran: do not try to catch up
-            elif commands:
-                # A command between two passes goes to the motors now, not up to 20 ms later.
-                output = self.stack.apply_output(self.now)
-                link.publish_mux(
-                    MuxMsg(
-                        output.source,
-                        output.reason,
-                        output.active_locks,
-                        output.linear,
-                        output.angular,
-                        self.now,
-                    )
-                )
         except Exception as exc:  # any component: report, stop, carry on
             self._on_component_error(exc, link)
             next_tick = time.monotonic() + LOOP_PERIOD
@@ -429,28 +457,36 @@ class Daemon:
                 self.slow_passes,
             )
 
-    def _on_component_error(self, exc: Exception, link: RobotLink) -> None:
-        """Zero the motors, give up the route (the station is told) and report the error."""
+    def _on_component_error(
+        self, exc: Exception, link: RobotLink, abort_route: bool = True
+    ) -> None:
+        """Zero the motors, give up the route (the station is told) and report the error.
+
+        The command thread leaves the route to the loop thread that drives it
+        (``abort_route=False``): the robot stops, and the station hears why."""
         self.component_errors += 1
         logger.exception("component error in the control loop; robot stopped")
         self._motors_to_zero()
         text = f"internal error, robot stopped: {type(exc).__name__}: {exc}"[:900]
         try:
-            self.stack.abort_route(self.now, text)
+            if abort_route:
+                self.stack.abort_route(self.now, text)
             link.publish_status(Status("error", text, stamp=self.now))
         except Exception:  # reporting must not take the loop down
             logger.exception("could not report the component error")
 
     def _motors_to_zero(self) -> None:
         try:
-            self.backend.set_cmd_vel(0.0, 0.0, self.now)
+            with self.stack.motion_lock:
+                self.backend.set_cmd_vel(0.0, 0.0, self.now)
         except Exception:  # the backend itself is broken: log and go on
             logger.exception("could not set the motors to zero")
 
 
 def safety_message(stack: RobotStack, now: float) -> SafetyMsg:
     """The motion guard's report as the ``safety`` topic carries it (no inf on the wire)."""
-    r = stack.guard.report()
+    with stack.motion_lock:
+        r = stack.guard.report()
     cap = MAX_SAFETY_DISTANCE
     return SafetyMsg(
         r.zone,

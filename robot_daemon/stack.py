@@ -21,12 +21,19 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
   the robot is, so no progress timer counts the suspension as being stuck.
 * **Multiplexer.** Every step publishes the mux output to the motors: an explicit zero when no
   input is valid or a lock masks them; the emergency stop latches until `release_stop`.
+* **One lock for the motion path (issue 14).** The daemon applies teleoperation and stop
+  commands from its own command thread while `step` localises and plans on the loop thread.
+  ``motion_lock`` guards everything on the way to the motors: the multiplexer, the motion guard
+  (collision monitor and assisted teleoperation) and ``backend.set_cmd_vel``. `step` takes it
+  only for those short sections, never during the localiser or the planner, so a command
+  waits at most for one of them, and every output still passes the collision monitor.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import threading
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -141,6 +148,9 @@ class RobotStack:
         self.grid = grid
         self.backend = backend
         self.mux = VelocityMux(config.mux)
+        # The multiplexer, the motion guard and the motors' input, shared with the daemon's
+        # command thread (module docstring). Re-entrant: `apply_output` runs inside `step`'s.
+        self.motion_lock = threading.RLock()
         planner = config.planner
         if planner.laser_x_offset != config.laser_mount.x:
             planner = planner.replace(laser_x_offset=config.laser_mount.x)
@@ -179,9 +189,13 @@ class RobotStack:
         self._events.append(StackEvent(now, level, text))
 
     def drain_events(self) -> list[StackEvent]:
-        """Status-log lines since the last call."""
-        events = list(self._events)
-        self._events.clear()
+        """Status-log lines since the last call.
+
+        Popped one by one: the daemon's command thread may add one meanwhile (an e-stop), and
+        a copy-then-clear would lose it."""
+        events: list[StackEvent] = []
+        while self._events:
+            events.append(self._events.popleft())
         return events
 
     # -- commands (from the link or a scenario script) --------------------------------------
@@ -190,8 +204,9 @@ class RobotStack:
         """A teleoperation command on ``station_vel`` or ``tablet_vel``."""
         if topic == PLANNER_TOPIC:
             raise StackError("planner_vel is the robot's own planner; it is not a command input")
-        linear, angular = self.guard.on_teleop(topic, linear, angular, now)
-        self.mux.on_twist(topic, linear, angular, now)
+        with self.motion_lock:
+            linear, angular = self.guard.on_teleop(topic, linear, angular, now)
+            self.mux.on_twist(topic, linear, angular, now)
 
     def set_teleop_assist(self, topic: str, enabled: bool, now: float) -> None:
         """Assisted teleoperation on or off for ``station_vel`` / ``tablet_vel``."""
@@ -199,21 +214,25 @@ class RobotStack:
             raise StackError(
                 f"assisted teleoperation applies to station_vel or tablet_vel, not {topic!r}"
             )
-        if self.guard.set_assist(topic, enabled):
+        with self.motion_lock:
+            changed = self.guard.set_assist(topic, enabled)
+        if changed:
             self._event(
                 now, "info", f"assisted teleoperation {'on' if enabled else 'off'} for {topic}"
             )
 
     def on_lock(self, topic: str, engaged: bool, now: float) -> None:
         """``pause_nav`` or ``stop``; the stop lock latches until `release_stop`."""
-        self.mux.on_lock(topic, engaged, now)
+        with self.motion_lock:
+            self.mux.on_lock(topic, engaged, now)
         if topic == STOP_TOPIC and engaged:
             self._event(now, "warning", "emergency stop engaged (latched until released)")
         elif topic == PAUSE_TOPIC:
             self._event(now, "info", "navigation paused" if engaged else "navigation resumed")
 
     def release_stop(self, now: float, operator: str = "") -> None:
-        released = self.mux.release_stop()
+        with self.motion_lock:
+            released = self.mux.release_stop()
         if released:
             who = f" by {operator}" if operator else ""
             self._event(now, "info", f"emergency stop released{who}")
@@ -269,7 +288,8 @@ class RobotStack:
 
     def abort_route(self, now: float, reason: str) -> None:
         """Give up the route in progress and zero the planner's input (an internal error)."""
-        self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+        with self.motion_lock:
+            self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
         if self.route is not None and not self.route.finished:
             self.route.state, self.route.reason = "aborted", reason
             self._event(now, "error", f"route {self.route.route_id} aborted: {reason}")
@@ -334,7 +354,8 @@ class RobotStack:
         scan = self.backend.read_scan(now)
         if scan is not None:
             self.last_scan = scan
-            self.guard.on_scan(scan, now)
+            with self.motion_lock:
+                self.guard.on_scan(scan, now)
         if (
             self.last_scan is not None
             and self.last_scan is not self._scan_localised
@@ -356,11 +377,13 @@ class RobotStack:
         return output
 
     def apply_output(self, now: float) -> MuxOutput:
-        """Send the multiplexer's current output to the motors (also between loop passes)."""
-        output = self.guard.limit(self.mux.output(now), now)  # the collision monitor
-        self.backend.set_cmd_vel(output.linear, output.angular, now)
-        self.last_output = output
-        return output
+        """Send the multiplexer's current output to the motors (also between loop passes, from
+        the daemon's command thread)."""
+        with self.motion_lock:
+            output = self.guard.limit(self.mux.output(now), now)  # the collision monitor
+            self.backend.set_cmd_vel(output.linear, output.angular, now)
+            self.last_output = output
+            return output
 
     def _relocalise(self, now: float) -> None:
         self.last_scan_time = now
@@ -388,20 +411,23 @@ class RobotStack:
             self._localisation_state = state
             if state in (LocaliserState.LOST, LocaliserState.SEARCHING):
                 # Stop now: do not drive blind on the planner's last command until it times out.
-                self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+                with self.motion_lock:
+                    self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
 
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
         state = self.localisation_state
         if state not in (LocaliserState.OK, LocaliserState.DEGRADED):
             return f"localisation {state.value}"
-        locks = {lock.topic for lock in self.mux.active_locks(now)}
+        with self.motion_lock:
+            locks = {lock.topic for lock in self.mux.active_locks(now)}
+            valid = self.mux.valid_inputs(now)
         if STOP_TOPIC in locks:
             return "emergency stop"
         if PAUSE_TOPIC in locks:
             return "paused"
         planner_priority = self.config.mux.input_by_topic(PLANNER_TOPIC).priority
-        for entry in self.mux.valid_inputs(now):
+        for entry in valid:
             if entry.priority > planner_priority:
                 return f"manual control ({entry.name})"
         return None
@@ -463,4 +489,5 @@ class RobotStack:
         linear = command.linear
         if self.localiser.state is LocaliserState.DEGRADED:
             linear *= self.config.degraded_speed_scale
-        self.mux.on_twist(PLANNER_TOPIC, linear, command.angular, now)
+        with self.motion_lock:
+            self.mux.on_twist(PLANNER_TOPIC, linear, command.angular, now)

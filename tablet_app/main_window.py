@@ -186,6 +186,8 @@ class TabletWindow(QMainWindow):
         c.status_received.connect(s.on_status)
         c.status_received.connect(self._on_status)
         c.error_received.connect(s.on_error)
+        c.robot_name_changed.connect(s.on_robot_name)
+        c.robot_name_changed.connect(lambda _name: self._update_connection_text())
 
         self.menu.joystick_requested.connect(self.show_joystick)
         self.menu.map_requested.connect(self.show_map)
@@ -434,7 +436,9 @@ class TabletWindow(QMainWindow):
         state = self.connection.state
         target = f"{self.connection.host}:{self.connection.port}"
         if state == ConnectionState.CONNECTED:
-            text = self.tr("Connected to %1").replace("%1", target)
+            robot = self.session.robot  # the robot driven, which the operator may switch
+            shown = f"{robot} ({target})" if robot else target
+            text = self.tr("Connected to %1").replace("%1", shown)
             latency = self.connection.average_latency_ms
             if latency is not None:
                 text += " · " + self.tr("%1 ms").replace("%1", f"{latency:.0f}")

@@ -34,6 +34,7 @@ from interbot_core.protocol import (
     Pose,
     ProtocolError,
     Refused,
+    RobotName,
     SafetyInfo,
     ShowRequest,
     StatusInfo,
@@ -74,6 +75,7 @@ class TabletConnection(QObject):
     status_received = Signal(object)  # StatusInfo
     error_received = Signal(object)  # ErrorReport from the station
     welcome_received = Signal(object)  # Welcome
+    robot_name_changed = Signal(str)  # the robot this tablet drives (Welcome, RobotName)
     refused = Signal(str)  # reason
     protocol_error = Signal(str)  # a frame or message from the station we could not use
     connected = Signal()
@@ -136,6 +138,7 @@ class TabletConnection(QObject):
             StatusInfo: self.status_received.emit,
             ErrorReport: self.error_received.emit,
             Welcome: self._on_welcome,
+            RobotName: self._on_robot_name,
             Refused: self._on_refused,
             Ping: self._on_ping,
             Pong: self._on_pong,
@@ -297,6 +300,12 @@ class TabletConnection(QObject):
     def _on_welcome(self, welcome: Welcome) -> None:
         self.robot_name = welcome.robot
         self.welcome_received.emit(welcome)
+        self.robot_name_changed.emit(welcome.robot)
+
+    def _on_robot_name(self, msg: RobotName) -> None:
+        """The operator now commands another robot: this tablet drives that one."""
+        self.robot_name = msg.name
+        self.robot_name_changed.emit(msg.name)
 
     def _on_refused(self, refused: Refused) -> None:
         self.last_refusal = refused.reason

@@ -110,6 +110,7 @@ class TabletSession:
     activity: str = "idle"  # the station's supervisor state, plain words chosen by the screen
     activity_distance: float | None = None  # [m] to the next goal, when the station says
     estop: bool = False
+    robot: str = ""  # the robot this tablet drives, as the station names it ("" until told)
     _cancelled: tuple[int, float] | None = None  # (room, until) after the user's cancel
     _left_stop: tuple[int, float] | None = None  # (room, until) after Resume / End at a stop
     _help_deadline: float = math.inf
@@ -154,6 +155,12 @@ class TabletSession:
             self.help, self.help_room, self._help_deadline = Help.OFFERED, None, math.inf
 
     # ------------------------------------------------------------------ station messages
+    def on_robot_name(self, name: str) -> None:
+        """The station names the robot this tablet drives (at connect, and on a switch)."""
+        if name != self.robot:
+            self.robot = name
+            self._changed()
+
     def on_pose(self, msg: Pose) -> None:
         """The station sends the pose only while the robot is localised (thesis §5.3.6)."""
         self.pose = (msg.x, msg.y, msg.angle)

@@ -113,6 +113,7 @@ STATE_OWNERS = {
     "Fleet",
     "RobotState",
     "TeleopArbiter",
+    "TabletTeleop",
     "TeleopInput",
     "TabletPolicy",
     "TabletFeed",

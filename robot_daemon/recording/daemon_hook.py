@@ -144,8 +144,8 @@ class RecordingLink(RobotLink):
             return True
         return super().subscribed(topic)
 
-    def poll_commands(self) -> list[Command]:
-        commands = super().poll_commands()
+    def poll_commands(self, motion: bool | None = None) -> list[Command]:
+        commands = super().poll_commands(motion)
         now = self._clock()
         for command in commands:
             source = "tablet via station" if command.topic is Topic.TABLET_VEL else "station"

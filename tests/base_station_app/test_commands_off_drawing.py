@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings
+from PySide6.QtCore import QSettings, Qt
 
 from base_station_app.main_window import MainWindow
 from base_station_app.qt_scan_points import ScanPointsItem
@@ -65,14 +65,17 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
     window.show()
     qtbot.waitExposed(window)
     station.display_rate = DisplayRate(15.0)
-    trace: list[tuple[str, object]] = []  # what the Qt thread did, in order
-    real_on_speed = station._on_tablet_speed
+    trace: list[tuple[str, object]] = []  # what the Qt and tablet threads did, in order
 
-    def on_speed(msg: object, now: float) -> None:
+    def arrived(msg: object) -> None:
         trace.append(("arrived", round(msg.angular, 6)))  # type: ignore[attr-defined]
-        real_on_speed(msg, now)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(station, "_on_tablet_speed", on_speed)
+    # The speed path runs in the tablet thread (issue 14): note each arrival there, just
+    # before the station's own slot forwards it.
+    speed_received, forward = station.tablet.speed_received, station.tablet_teleop.on_speed
+    speed_received.disconnect(forward)
+    speed_received.connect(arrived, Qt.ConnectionType.DirectConnection)
+    speed_received.connect(forward)
     station.frame_ready.connect(lambda: trace.append(("frame", station.selected.state.scan)))
     real_send = station._send
 

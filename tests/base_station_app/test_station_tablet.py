@@ -487,3 +487,14 @@ def test_tablet_socket_has_short_tcp_keepalive(qtbot, station, tablet_factory):
         count = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPCNT)
     assert (idle, interval, count) == KEEPALIVE
     assert station.tablet.is_connected  # the duplicate descriptor closed, the connection not
+
+
+def test_a_robot_switch_tells_the_tablet_the_new_robot_name(qtbot, station, tablet_factory):
+    """Issue 14: the welcome names the robot at connect; a switch is said with ``robot``."""
+    t = handshake(qtbot, tablet_factory)
+    assert t.of("welcome")[0]["robot"] == "r1" and t.of("robot") == []
+    station.select_robot("r2")
+    qtbot.waitUntil(lambda: t.of("robot") == ["r2"], timeout=3000)
+    station.select_robot("r2")  # no switch: nothing said again
+    station.select_robot("r1")
+    qtbot.waitUntil(lambda: t.of("robot") == ["r2", "r1"], timeout=3000)

@@ -42,6 +42,7 @@ class Station:
         self.received: list[object] = []
         self.refusals: list[str] = []
         self.server.message_received.connect(self.received.append)
+        self.server.speed_received.connect(self.received.append)  # speeds: their own signal
         self.auth.auth_refused.connect(lambda _peer, why: self.refusals.append(why))
         assert self.server.listen()
         self.port = self.server.port

@@ -98,3 +98,13 @@ def test_a_tour_stop_left_is_not_reopened_by_a_repeat() -> None:
     assert s.tour_stop is None
     s.on_goal_status(GoalStatus(4, True, True), now=1.0 + CANCEL_GRACE_S + 0.1)
     assert s.tour_stop == 4  # the station really is still waiting there: ask again
+
+
+def test_the_robot_name_changes_once_per_new_name() -> None:
+    session = TabletSession()
+    calls: list[str] = []
+    session.subscribe(lambda: calls.append(session.robot))
+    session.on_robot_name("bot1")
+    session.on_robot_name("bot1")
+    session.on_robot_name("bot4")
+    assert calls == ["bot1", "bot4"] and session.robot == "bot4"

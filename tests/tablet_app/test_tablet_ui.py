@@ -448,3 +448,19 @@ def test_exit_gesture_needs_the_taps_close_together() -> None:
     gesture = ExitGesture(taps=3, window_s=1.0)
     assert not any(gesture.tap(t) for t in (0.0, 0.6, 1.2))  # too slow
     assert [gesture.tap(t) for t in (2.0, 2.3, 2.6)] == [False, False, True]
+
+
+def test_the_header_names_the_robot_welcomed_then_the_one_switched_to(
+    qtbot: Any, station: Any, window: Any
+) -> None:
+    """Issue 14: the operator switches robots; the tablet's header follows (no stale name)."""
+    from interbot_core.protocol import RobotName, Welcome
+
+    qtbot.waitUntil(lambda: window.connection.is_connected)
+    station.send(Welcome(1, "bot1"))
+    qtbot.waitUntil(lambda: "bot1" in window.connection_label.text())
+    assert window.session.robot == "bot1" and window.connection.robot_name == "bot1"
+    station.send(RobotName("bot4"))
+    qtbot.waitUntil(lambda: "bot4" in window.connection_label.text())
+    assert "bot1" not in window.connection_label.text()
+    assert "bot4" in window.menu.connection_label.text() and window.session.robot == "bot4"
