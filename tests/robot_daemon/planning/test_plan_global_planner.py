@@ -13,8 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid, load_map
-from robot_daemon.planning.config import PlannerConfig
-from robot_daemon.planning.costmap import INSCRIBED, LETHAL, Costmap
+from robot_daemon.planning.costmap import INSCRIBED, Costmap
 from robot_daemon.planning.global_planner import (
     GlobalPlanner,
     GlobalPlannerConfig,
@@ -144,28 +143,6 @@ def test_too_narrow_door_has_no_path() -> None:
     grid = office(0.5)
     with pytest.raises(NoPathError, match="office"):
         GlobalPlanner(grid).plan(Costmap(grid).costs(0.0), (1.0, 1.0), (9.0, 5.0))
-
-
-def test_a_gap_the_coarse_grid_closes_is_found_at_the_map_resolution() -> None:
-    """Two fine rows of passable cost that straddle the 0.1 m blocks: max-pooling closes the
-    gap, the retry at the map's 5 cm finds it; cells dearer than the passage margin's cost (a gap
-    narrower than the robot plus the collision monitor's 0.04 m a side) stay refused."""
-    grid = office()
-    limit = PlannerConfig().global_planner_config().fine_cost_limit
-    assert 150 < limit < INSCRIBED  # 0.04 m beyond the inscribed radius
-    costs = np.zeros(grid.cells.shape, dtype=np.uint8)
-    costs[:, 100:102] = LETHAL  # a wall at x = 5 m
-    costs[59:61, 100:102] = limit - 1  # rows 59-60: blocks (58, 59) and (60, 61) stay lethal
-    planner = GlobalPlanner(grid, GlobalPlannerConfig(fine_cost_limit=limit))
-    path = np.asarray(planner.plan(costs, (1.0, 3.0), (9.0, 3.0)))
-    crossing = path[np.argmin(np.abs(path[:, 0] - 5.05))]
-    assert abs(crossing[1] - 3.0) < 0.06  # through the two rows at y = 2.95..3.05 m
-    no_retry = GlobalPlanner(grid, GlobalPlannerConfig(window_margin=0.0))
-    with pytest.raises(NoPathError):
-        no_retry.plan(costs, (1.0, 3.0), (9.0, 3.0))
-    costs[59:61, 100:102] = limit  # a gap narrower than the margin allows
-    with pytest.raises(NoPathError, match="separated by obstacles"):
-        planner.plan(costs, (1.0, 3.0), (9.0, 3.0))
 
 
 def test_start_and_goal_errors_and_start_snapping() -> None:
