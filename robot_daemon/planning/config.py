@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from robot_daemon.planning.costmap import INSCRIBED, CostmapConfig, inflation_cost
+from robot_daemon.planning.costmap import CostmapConfig
 from robot_daemon.planning.global_planner import GlobalPlannerConfig
 
 
@@ -43,7 +43,6 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "obstacle_max_range": (0.5, 30.0, True),
     "raytrace_max_range": (0.5, 30.0, True),
     "planning_resolution": (0.025, 0.5, True),
-    "passage_margin": (0.0, 0.3, True),
     "cost_weight": (0.0, 1e4, True),
     "path_spacing": (0.05, 2.0, True),
     "replan_period": (0.1, 60.0, True),
@@ -101,10 +100,6 @@ class PlannerConfig:
     allow_unknown: bool = False  # Nav2's allow_unknown (its default is True): see CostmapConfig
     # Global planner.
     planning_resolution: float = 0.1  # [m]
-    # [m] beyond the inscribed radius, kept from walls when the path is searched at the map's own
-    # resolution (gaps the 0.1 m grid closes): the collision monitor's stop zone reaches 0.04 m
-    # beyond the footprint, so a gap narrower than the robot's width + 2 x 0.04 m is refused.
-    passage_margin: float = 0.04
     cost_weight: float = 100.0
     path_spacing: float = 0.25  # [m]
     replan_period: float = 1.0  # [s]
@@ -116,10 +111,7 @@ class PlannerConfig:
     lookahead: float = 1.0  # [m] carrot distance along the path
     local_grid_resolution: float = 0.05  # [m]
     slowdown_clearance: float = 0.3  # [m] below this footprint clearance the speed limit drops
-    # Speed limit at zero clearance, fraction of the maximum. The collision monitor's slowdown
-    # zone (ratio 0.6) comes on top: 0.6 x 0.6 x 0.25 = 0.09 m/s through a 0.8 m door, well over
-    # the progress checker's 0.05 m/s (0.4 gave 0.06 m/s and braking made it stall, issue 12).
-    slowdown_min_fraction: float = 0.6
+    slowdown_min_fraction: float = 0.4  # speed limit at zero clearance, fraction of the maximum
     approach_slowdown_distance: float = 1.0  # [m] final approach: limit = max * d / this
     rotate_to_heading_angle: float = 1.2  # [rad] beyond this path-heading error, turn in place
     yaw_gain: float = 1.5  # [1/s] P gain of the final in-place rotation
@@ -203,15 +195,8 @@ class PlannerConfig:
         )
 
     def global_planner_config(self) -> GlobalPlannerConfig:
-        margin_cost = inflation_cost(
-            self.inscribed_radius + self.passage_margin,
-            self.inscribed_radius,
-            self.inflation_radius,
-            self.cost_scaling_factor,
-        )
         return GlobalPlannerConfig(
             planning_resolution=self.planning_resolution,
             cost_weight=self.cost_weight,
             sample_spacing=self.path_spacing,
-            fine_cost_limit=max(1, min(int(margin_cost), INSCRIBED)),
         )

@@ -16,10 +16,7 @@ until the goal is reached, so only A*'s ellipse around the straight line is expl
 
 Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
 takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
-all its fine cells are). A 0.9 m door still leaves a band of free coarse cells at 0.1 m; a gap
-a fine cell or two wider than the robot may not, so when the coarse grid holds no path the
-search is repeated at the map's own resolution in the window around start and goal, keeping
-``fine_cost_limit`` (a passage margin beyond the inscribed radius) from the walls.
+all its fine cells are). A 0.9 m door still leaves a band of free coarse cells at 0.1 m.
 
 Smoothing. Greedy line-of-sight shortcutting on the fine cost grid: from each anchor the path jumps
 to the farthest later vertex whose straight segment stays out of inscribed space and never meets a
@@ -86,11 +83,6 @@ class GlobalPlannerConfig:
     # only if that box holds no path is the whole map searched. Legs between topological
     # nodes are 5-20 m, so this cuts a plan on a 70 x 35 m floor from ~50 ms to a few ms.
     window_margin: float = 8.0
-    # Cells at or above this cost are not entered by the search at the map's own resolution
-    # (the retry when the coarse grid holds no path): the cost of a cell a passage margin beyond
-    # the inscribed radius (PlannerConfig.passage_margin), so the fine search does not squeeze
-    # the robot through gaps the coarse one refused for good reason. INSCRIBED: no margin.
-    fine_cost_limit: int = INSCRIBED
 
     def __post_init__(self) -> None:
         for name, value in (
@@ -105,11 +97,6 @@ class GlobalPlannerConfig:
         if not (math.isfinite(self.window_margin) and self.window_margin >= 0.0):
             raise GlobalPlannerConfigError(
                 f"global planner window_margin [m] must be >= 0, got {self.window_margin!r}"
-            )
-        if not (isinstance(self.fine_cost_limit, int) and 1 <= self.fine_cost_limit <= INSCRIBED):
-            raise GlobalPlannerConfigError(
-                f"global planner fine_cost_limit must be an integer in [1, {INSCRIBED}], got"
-                f" {self.fine_cost_limit!r}"
             )
         if not (math.isfinite(self.snap_radius) and self.snap_radius >= 0.0):
             raise GlobalPlannerConfigError(
@@ -150,16 +137,15 @@ def astar_cells(
     start: tuple[int, int],
     goal: tuple[int, int],
     cost_weight: float = 100.0,
-    blocked_from: int = INSCRIBED,
 ) -> tuple[list[tuple[int, int]], float]:
     """Optimal 8-connected path of (row, col) cells on a cost grid, and its cost [cells].
 
-    Cells of cost >= ``blocked_from`` (default 253, inscribed) are not traversable. Raises
-    :class:`NoPathError` when the goal cannot be reached; start and goal must be traversable.
+    Cells of cost >= 253 are not traversable. Raises :class:`NoPathError` when the goal cannot
+    be reached; start and goal must be traversable.
     """
     h, w = costs.shape
     for name, (r, c) in (("start", start), ("goal", goal)):
-        if not (0 <= r < h and 0 <= c < w) or costs[r, c] >= blocked_from:
+        if not (0 <= r < h and 0 <= c < w) or costs[r, c] >= INSCRIBED:
             raise PlanningError(f"{name} cell {(r, c)} is outside the grid or not traversable")
     if start == goal:
         return [start], 0.0
@@ -168,7 +154,7 @@ def astar_cells(
     padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
     padded[1:-1, 1:-1] = costs
     flat_cost = padded.ravel()
-    free_flat = flat_cost < blocked_from
+    free_flat = flat_cost < INSCRIBED
     nodes = np.flatnonzero(free_flat)
     compact = np.full(flat_cost.size, -1, dtype=np.int64)
     compact[nodes] = np.arange(nodes.size)
@@ -268,42 +254,32 @@ class GlobalPlanner:
                 f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is in an obstacle, unknown space or outside"
                 f" {grid.source}; pick a goal in free space"
             )
-        # Coarse in the window around start and goal, coarse on the whole map, and last at the
-        # map's own resolution in the window: max-pooling can close a gap the robot fits through
-        # by up to one fine cell a side (a 0.85 m corridor narrowed by people or a shifted wall).
-        attempts: list[tuple[tuple[int, int, int, int] | None, int]] = [(None, self.factor)]
+        windows: list[tuple[int, int, int, int] | None] = [None]
         if self.config.window_margin > 0.0:
-            box = self._window(start, goal, costs.shape)
-            attempts.insert(0, (box, self.factor))
-            if self.factor > 1:
-                attempts.append((box, 1))
-        for attempt, (window, factor) in enumerate(attempts):
+            windows.insert(0, self._window(start, goal, costs.shape))
+        for window in windows:
             r0, r1, c0, c1 = window or (0, costs.shape[0], 0, costs.shape[1])
-            coarse = coarsen_costs(costs[r0:r1, c0:c1], factor)
-            offset = (r0 // factor, c0 // factor)
-            limit = INSCRIBED if factor == self.factor else self.config.fine_cost_limit
-            start_cell = self._snap(coarse, start, "start", offset, factor, limit)
-            goal_cell = self._snap(coarse, goal, "goal", offset, factor, limit)
+            coarse = coarsen_costs(costs[r0:r1, c0:c1], self.factor)
+            offset = (r0 // self.factor, c0 // self.factor)
+            start_cell = self._snap(coarse, start, "start", offset)
+            goal_cell = self._snap(coarse, goal, "goal", offset)
             try:
-                cells, _ = astar_cells(
-                    coarse, start_cell, goal_cell, self.config.cost_weight, limit
-                )
+                cells, _ = astar_cells(coarse, start_cell, goal_cell, self.config.cost_weight)
                 break
             except NoPathError as exc:
-                if attempt == len(attempts) - 1:
+                if window is None:
                     raise NoPathError(
                         f"no path from ({start[0]:.2f}, {start[1]:.2f}) to "
                         f"({goal[0]:.2f}, {goal[1]:.2f}) in {grid.source}: "
                         "they are separated by obstacles"
                     ) from exc
-                logger.debug("no path at %d x the map's cells in %s", factor, window or "the map")
-        resolution = factor * grid.resolution
+                logger.debug("no path inside the search window; searching the whole map")
         rows = np.array([c[0] for c in cells], dtype=np.float64) + offset[0]
         cols = np.array([c[1] for c in cells], dtype=np.float64) + offset[1]
         points = np.column_stack(
             (
-                grid.origin_x + (cols + 0.5) * resolution,
-                grid.origin_y + (rows + 0.5) * resolution,
+                grid.origin_x + (cols + 0.5) * self.coarse_resolution,
+                grid.origin_y + (rows + 0.5) * self.coarse_resolution,
             )
         )
         # Replace the end cells' centres by the true start/goal where those are traversable.
@@ -346,24 +322,21 @@ class GlobalPlanner:
         point: tuple[float, float],
         name: str,
         offset: tuple[int, int] = (0, 0),
-        factor: int | None = None,
-        limit: int = INSCRIBED,
     ) -> tuple[int, int]:
-        """The coarse cell of ``point`` in ``coarse`` (``factor`` x the map's cells, default the
-        planning resolution's; its cell (0, 0) is the full coarse grid's ``offset``), or the
-        nearest traversable one within snap_radius."""
+        """The coarse cell of ``point`` in ``coarse`` (whose cell (0, 0) is the full coarse
+        grid's ``offset``), or the nearest traversable one within snap_radius."""
         grid = self.grid
-        res = (factor or self.factor) * grid.resolution
+        res = self.coarse_resolution
         col = math.floor((point[0] - grid.origin_x) / res) - offset[1]
         row = math.floor((point[1] - grid.origin_y) / res) - offset[0]
         h, w = coarse.shape
-        if 0 <= row < h and 0 <= col < w and coarse[row, col] < limit:
+        if 0 <= row < h and 0 <= col < w and coarse[row, col] < INSCRIBED:
             return row, col
         k = max(1, math.ceil(self.config.snap_radius / res))
         r0, r1 = max(row - k, 0), min(row + k + 1, h)
         c0, c1 = max(col - k, 0), min(col + k + 1, w)
         window = coarse[r0:r1, c0:c1]
-        rr, cc = np.nonzero(window < limit)
+        rr, cc = np.nonzero(window < INSCRIBED)
         if rr.size:
             cx = grid.origin_x + (cc + c0 + offset[1] + 0.5) * res
             cy = grid.origin_y + (rr + r0 + offset[0] + 0.5) * res

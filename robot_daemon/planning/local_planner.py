@@ -16,9 +16,7 @@ Admissibility. The rectangular footprint (``robot_length x robot_width``) is cov
 circles on its long axis (radius ``sqrt((L / 2n)^2 + (W / 2)^2)``); a pose collides when the
 Euclidean distance transform of a robot-centred obstacle grid (live scan points and the
 costmap's lethal cells) at a circle centre is below its radius. All trajectories x all steps x
-all circles are checked in one vectorised lookup. A trajectory is admissible when its clearance
-stays above half a grid cell or, when the robot already stands closer than that, when it never
-comes closer still (the collision monitor's rule for its stop zone).
+all circles are checked in one vectorised lookup.
 
 Objective (lower is better; Fox's heading, dist and velocity terms, DWB-style)::
 
@@ -219,12 +217,6 @@ class DWAPlanner:
         )
         traj_clearance = d.reshape(len(v_s), -1).min(axis=1) - radius
         admissible = traj_clearance > margin
-        if clearance <= margin:
-            # Squeezed (a narrow door, a shifted wall, range noise on the 5 cm grid): a
-            # trajectory that never comes closer than the robot already is stays admissible,
-            # as the collision monitor lets the robot move along or away from what is near it;
-            # otherwise the planner brakes whenever the clearance estimate flickers.
-            admissible |= traj_clearance >= max(clearance, 0.0)
         count = int(admissible.sum())
         if count == 0:
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
