@@ -32,6 +32,7 @@ import numpy.typing as npt
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.planning.bottleneck import free_width, widest_way
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.costmap import LETHAL, Costmap
 from robot_daemon.planning.global_planner import (
@@ -289,8 +290,9 @@ class Navigator:
             if self._unreachable_in_static_map(pose, target, exc):
                 self._state = NavState.BLOCKED
                 self._path = None
-                logger.warning("goal %d unreachable: %s", self._index, exc)
-                return self._emit(0.0, 0.0, f"goal unreachable in the map: {exc}")
+                why = f"{exc}; {self._narrowest_way(pose, target)}"
+                logger.warning("goal %d unreachable: %s", self._index, why)
+                return self._emit(0.0, 0.0, f"goal unreachable in the map: {why}")
             self._path = None
             return self._start_recovery(now, pose, f"no path: {exc}")
         self._path = np.asarray(points, dtype=np.float64)
@@ -311,6 +313,31 @@ class Navigator:
         except PlanningError:
             return True
         return False
+
+    def _narrowest_way(self, pose: Pose2D, target: Pose2D) -> str:
+        """Where the widest way from ``pose`` to ``target`` in the a-priori map is narrowest
+        (`bottleneck`), searched in the global planner's window: the "where and why" of an
+        unreachable goal."""
+        grid = self.grid
+        margin = self.global_planner.config.window_margin or max(grid.size_m)
+        xs, ys = (pose.x, target.x), (pose.y, target.y)
+        rows, cols = grid.world_to_cell(
+            [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
+        )
+        r0, r1 = max(int(rows[0]), 0), min(int(rows[1]) + 1, grid.height)
+        c0, c1 = max(int(cols[0]), 0), min(int(cols[1]) + 1, grid.width)
+        width = free_width(self.costmap.static_distance[r0:r1, c0:c1], grid.resolution)
+        (rs, rg), (cs, cg) = grid.world_to_cell(xs, ys)
+        found = widest_way(width, (int(rs) - r0, int(cs) - c0), (int(rg) - r0, int(cg) - c0))
+        if found.width <= 0.0:
+            return "no free floor joins them in the map"
+        x, y = grid.cell_to_world(found.row + r0, found.col + c0)
+        high = found.width + grid.resolution  # the measure is at most one cell low
+        return (
+            f"the widest way there narrows to {found.width:.2f}-{high:.2f} m at ({float(x):.2f},"
+            f" {float(y):.2f}), too narrow to plan through for a robot"
+            f" {self.config.robot_width:.2f} m wide"
+        )
 
     def _obstacle_field(self, now: float, pose: Pose2D, scan: LaserScan | None) -> ObstacleField:
         half = self.local_planner.field_half_size()

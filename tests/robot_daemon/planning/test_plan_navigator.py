@@ -22,13 +22,13 @@ DT = 0.1
 BEAMS = 271  # 1 degree over 270 degrees: enough for tests, cheap to cast
 
 
-def two_rooms() -> OccupancyGrid:
-    """8 x 5 m, outer walls, a wall at x = 4 m with a 0.9 m door centred at y = 2.5 m."""
+def two_rooms(door_cells: int = 18) -> OccupancyGrid:
+    """8 x 5 m, outer walls, a wall at x = 4 m with a door centred at y = 2.5 m (18 cells: 0.9 m)."""
     cells = np.full((100, 160), FREE, dtype=np.int8)
     cells[:2, :] = cells[-2:, :] = OCCUPIED
     cells[:, :2] = cells[:, -2:] = OCCUPIED
     cells[:, 80:82] = OCCUPIED
-    cells[41:59, 80:82] = FREE  # 18 cells = 0.9 m
+    cells[50 - door_cells // 2 : 50 - door_cells // 2 + door_cells, 80:82] = FREE
     return OccupancyGrid(cells, RES, 0.0, 0.0, source="two_rooms")
 
 
@@ -211,6 +211,22 @@ def test_goal_inside_a_wall_is_blocked_at_once() -> None:
     cmd = nav.update(0.0, Pose2D(1.0, 1.0, 0.0))
     assert cmd.state is NavState.BLOCKED
     assert "unreachable" in cmd.reason and "two_rooms" in cmd.reason
+
+
+def test_a_door_too_narrow_is_reported_with_where_and_how_wide() -> None:
+    """A 0.6 m door for a 0.55 m robot: blocked at once, naming the door's place and width."""
+    grid = two_rooms(door_cells=12)
+    nav = Navigator(grid)
+    nav.set_goal(Pose2D(6.5, 2.5, 0.0), now=0.0)
+    cmd = nav.update(0.0, Pose2D(1.0, 2.5, 0.0))
+    assert cmd.state is NavState.BLOCKED and cmd.linear == cmd.angular == 0.0
+    assert "unreachable" in cmd.reason
+    assert "narrows to 0.55-0.60 m at (4.0" in cmd.reason, cmd.reason
+    assert "robot 0.55 m wide" in cmd.reason
+    # The same door at 0.9 m is planned through.
+    wide = Navigator(two_rooms())
+    wide.set_goal(Pose2D(6.5, 2.5, 0.0), now=0.0)
+    assert wide.update(0.0, Pose2D(1.0, 2.5, 0.0)).state is NavState.FOLLOWING
 
 
 def test_progress_checker_starts_recovery_when_the_robot_does_not_move() -> None:

@@ -20,21 +20,23 @@ from robot_daemon.scenarios import tour
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
 
 REPO = Path(__file__).resolve().parents[3]
-# map name -> (graph, the one tour stop of the short tour: the first corridor stretch from home)
+# map name -> (graph, the stops of the short tour). Willow: from home along the south corridor and
+# through the hall's narrowest vias (1.05 m); the first Willow graph was blocked within 10 m of
+# home, at a 0.73 m pinch of its south corridor (test_scn_tour.py guards the graph's widths).
 REAL = {
-    "willow": (REPO / "maps" / "willow_topo.yaml", "South corridor"),
-    "fetch_office": (REPO / "maps" / "fetch_office_topo.yaml", "West rooms south"),
+    "willow": (REPO / "maps" / "willow_topo.yaml", ("Hall",)),
+    "fetch_office": (REPO / "maps" / "fetch_office_topo.yaml", ("West rooms south",)),
 }
 
 
 def _options(shared_data: Path, name: str, tmp: Path | None = None, **kw: Any) -> ScenarioOptions:
-    graph, stop = REAL[name]
+    graph, stops = REAL[name]
     topo = graph
-    if tmp is not None:  # the same graph with one tour stop
+    if tmp is not None:  # the same graph with only the short tour's stops
         data: dict[str, Any] = yaml.safe_load(graph.read_text())
         data["map"] = str(shared_data / "maps" / f"{name}.yaml")
         for node in data["nodes"]:
-            node["tour"] = node["name"] == stop
+            node["tour"] = node["name"] in stops
         topo = tmp / f"{name}_short.yaml"
         topo.write_text(yaml.safe_dump(data))
     return ScenarioOptions(map_yaml=shared_data / "maps" / f"{name}.yaml", topo_yaml=topo, **kw)
@@ -67,13 +69,13 @@ def test_scan_at_the_truth_fits_the_real_map(name: str, shared_data: Path) -> No
 def test_short_realistic_tour_on_the_real_building(
     name: str, shared_data: Path, tmp_path: Path
 ) -> None:
-    """Home -> the first corridor stop -> home, people about, pose set by hand: no collision,
-    no loss, no silent failure, RMS <= 5 cm (issue 12's target for the real buildings)."""
-    options = _options(shared_data, name, tmp_path, seed=1, people=2, max_sim_time=240.0)
+    """Home -> the short tour's stops, people about, pose set by hand: no collision, no loss,
+    no silent failure, RMS <= 5 cm (issue 12's target for the real buildings)."""
+    options = _options(shared_data, name, tmp_path, seed=1, people=2, max_sim_time=300.0)
     f = tour.run(options).figures
     print(f)
     assert f["completed"], f["reason"]
-    assert f["stops_visited"] == f["stops_total"] == 1
+    assert f["stops_visited"] == f["stops_total"] == len(REAL[name][1])
     assert f["collisions"] == 0
     assert f["localisation_losses"] == 0
     assert f["loc_silent_failures"] == 0

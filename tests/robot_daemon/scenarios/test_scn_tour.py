@@ -15,6 +15,7 @@ import yaml
 from interbot_core.occupancy_grid import load_map
 from interbot_core.topological_map import load_topological_map
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
+from robot_daemon.planning.bottleneck import free_width, widest_way
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import Costmap
 from robot_daemon.planning.global_planner import GlobalPlanner
@@ -88,3 +89,39 @@ def test_real_building_graph_is_drivable(name: str, shared_data: Path) -> None:
         length = sum(math.dist(p, q) for p, q in itertools.pairwise(path))
         # Straight, clear arcs: the planned path is no detour.
         assert length < 1.5 * weight + 0.5, f"{topo.node(u).name} -> {topo.node(v).name}"
+
+
+MIN_ARC_WIDTH = 0.8  # [m] narrower than this the robot (0.55 m wide) cannot really pass (issue 12)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name", sorted(REAL_GRAPHS))
+def test_real_building_graph_avoids_gaps_the_robot_cannot_pass(
+    name: str, shared_data: Path
+) -> None:
+    """Every arc joins its nodes through floor at least 0.8 m wide near the straight line (the
+    Willow graph once routed its south corridor through a 0.73 m pinch and was blocked there;
+    `tools/topo_gaps.py` prints the figures)."""
+    topo = load_topological_map(REAL_GRAPHS[name])
+    assert topo.map_yaml_path is not None
+    grid = load_map(topo.map_yaml_path)
+    distance = Costmap(grid).static_distance
+    narrow = []
+    for u, v, _ in topo.weighted_arcs():
+        a, b = topo.node(u).pose, topo.node(v).pose
+        margin = 2.0  # [m] around the box of the arc
+        rows, cols = grid.world_to_cell(
+            [min(a.x, b.x) - margin, max(a.x, b.x) + margin],
+            [min(a.y, b.y) - margin, max(a.y, b.y) + margin],
+        )
+        r0, c0 = max(int(rows[0]), 0), max(int(cols[0]), 0)
+        width = free_width(distance[r0 : int(rows[1]) + 1, c0 : int(cols[1]) + 1], grid.resolution)
+        (ra, rb), (ca, cb) = grid.world_to_cell([a.x, b.x], [a.y, b.y])
+        found = widest_way(width, (int(ra) - r0, int(ca) - c0), (int(rb) - r0, int(cb) - c0))
+        if found.width < MIN_ARC_WIDTH:
+            x, y = grid.cell_to_world(found.row + r0, found.col + c0)
+            narrow.append(
+                f"{topo.node(u).name} -> {topo.node(v).name}: {found.width:.2f} m at"
+                f" ({float(x):.2f}, {float(y):.2f})"
+            )
+    assert narrow == []
