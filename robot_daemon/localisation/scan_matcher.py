@@ -489,14 +489,15 @@ class ScanMatcher:
                     # Final evaluation only: H and score at the solution.
                     jt = gy * rx - gx * ry
                     hessian = _hessian(gx, gy, jt)
-                    score = float(m.mean()) if m.size else 0.0
+                    score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # m.mean()
                     tensor = level.tensor_at(rx + px, ry + py)
                     normal_info, n_inliers = normal_information(m, gx, gy, rx, ry, tensor)
                     break
                 r = 1.0 - m
                 jt = gy * rx - gx * ry  # ∇M · ∂S/∂ψ
                 h = _hessian(gx, gy, jt)
-                g = np.array([(gx * r).sum(), (gy * r).sum(), (jt * r).sum()])
+                add = np.add.reduce  # ndarray.sum without its wrapper: the same sums
+                g = np.array([add(gx * r), add(gy * r), add(jt * r)])
                 lam = cfg.damping * (h[0, 0] + h[1, 1] + h[2, 2]) / 3.0 + 1e-9
                 h[0, 0] += lam
                 h[1, 1] += lam
