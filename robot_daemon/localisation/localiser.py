@@ -787,7 +787,8 @@ class Localiser:
         sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
         xs = (px[:, None] + c * sx - s * sy).ravel()
         ys = (py[:, None] + s * sx + c * sy).ravel()
-        scores = level.interpolate(xs, ys)[0].reshape(along.size, -1).mean(axis=1)
+        m = level.value(xs, ys).reshape(along.size, -1)
+        scores = np.add.reduce(m, axis=1) / m.shape[1]  # m.mean(axis=1), without the wrapper
         base = float(scores[0])
         if base <= 0.0:
             return np.ones((2, k))
@@ -865,7 +866,8 @@ class Localiser:
             better = Pose2D(p.x + t * v[0], p.y + t * v[1], p.yaw)
         level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
         q = 1.0 - np.exp(-(offsets**2) / (2.0 * level.sigma**2))
-        fraction = float(np.clip((1.0 - ratios) / q[None, :], 0.0, 1.0).min())
+        bound = (1.0 - ratios) / q[None, :]
+        fraction = min(max(float(bound.min()), 0.0), 1.0)  # = np.clip(bound, 0, 1).min()
         n_eff = min(float(result.n_inliers), cfg.match_effective_points)
         supported = fraction * n_eff / cfg.match_sigma_m**2
         if supported >= dd:
