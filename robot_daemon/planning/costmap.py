@@ -330,11 +330,10 @@ class Costmap:
         Only the bounding box of the live obstacles (grown by the inflation radius) is
         recomputed: there the distance is ``min(static distance, distance to live marks)``.
         """
+        h, w = self.grid.height, self.grid.width
         box = self._live_box(now)
-        if box is None:
-            box = (0, self._marked_until.shape[0], 0, self._marked_until.shape[1])
-        b0, _, d0, _ = box
-        live = self._marked_until[box[0] : box[1], box[2] : box[3]] > now
+        b0, b1, d0, d1 = (0, h, 0, w) if box is None else box
+        live = self._marked_until[b0:b1, d0:d1] > now
         key = (float(np.count_nonzero(live)), self._version)
         if self._cache_key == key:
             return self._cache
@@ -344,7 +343,6 @@ class Costmap:
             rows = np.flatnonzero(live.any(axis=1)) + b0
             cols = np.flatnonzero(live.any(axis=0)) + d0
             pad = math.ceil(self.config.inflation_radius / self.resolution) + 1
-            h, w = self._marked_until.shape
             r0, r1 = max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)
             c0, c1 = max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)
             live_distance = ndimage.distance_transform_edt(
