@@ -551,9 +551,16 @@ class Localiser:
         g = self._grid
         col = np.floor((xs - g.origin_x) / g.resolution).astype(np.intp)
         row = np.floor((ys - g.origin_y) / g.resolution).astype(np.intp)
-        inside = (row >= 0) & (row < g.height) & (col >= 0) & (col < g.width)
-        out = np.full(xs.shape, np.inf)
-        out[inside] = self._dist_padded[(row[inside] + 1) * (g.width + 2) + col[inside] + 1]
+        # Points outside the map land on the field's border of inf cells (one gather, no mask).
+        np.minimum(col, g.width, out=col)
+        np.maximum(col, -1, out=col)
+        np.minimum(row, g.height, out=row)
+        np.maximum(row, -1, out=row)
+        row += 1
+        row *= g.width + 2
+        row += col
+        row += 1
+        out: FloatArray = self._dist_padded.take(row)
         return out
 
     def _to_map(self, points: FloatArray, pose: Pose2D) -> tuple[FloatArray, FloatArray]:
@@ -565,7 +572,8 @@ class Localiser:
         if points.shape[0] == 0:
             return 0.0
         xs, ys = self._to_map(points, pose)
-        return float(np.mean(self._distance_to_map(xs, ys) <= self.config.hit_tolerance_m))
+        hits = np.count_nonzero(self._distance_to_map(xs, ys) <= self.config.hit_tolerance_m)
+        return float(hits) / xs.size  # np.mean of the flags, without its wrapper
 
     def impossible_fraction(
         self, points: FloatArray, pose: Pose2D, see_through: bool = False
@@ -662,23 +670,32 @@ class Localiser:
             return out_d
 
         t = np.zeros(idx.shape)
+        # Up to 30 passes over a few dozen rays: the cost is numpy calls, not arithmetic, so a
+        # pass without a hit skips the bookkeeping (np.count_nonzero is the cheapest test).
         for _ in range(cfg.impossible_max_steps):
             # Truncation (astype) equals floor for padded coordinates >= 0; negative ones
             # truncate to <= 0 and clip to the border, as floor would.
             d = lookup(t, dcol, drow)
             hit = d < blocked_below
-            if depth > 0.0 and hit.any():
+            any_hit = np.count_nonzero(hit) > 0
+            if any_hit and depth > 0.0:
                 # Only a ray that stays inside occupied cells for `depth` goes through the map:
                 # a lone occupied cell is as likely a stray end point of the mapping run.
                 for frac in (0.5, 1.0):
                     deep = lookup(t[hit] + frac * depth, dcol[hit], drow[hit]) < blocked_below
                     hit[hit] = deep
-            out[idx[hit]] = True
-            crossing[idx[hit]] = t[hit]
-            t += np.maximum(d - slack, min_step)
+                any_hit = np.count_nonzero(hit) > 0
+            if any_hit:
+                out[idx[hit]] = True
+                crossing[idx[hit]] = t[hit]
+            np.subtract(d, slack, out=d)
+            np.maximum(d, min_step, out=d)
+            t += d
             # Done: impossible (hit), reached the limit, or left the map (d = inf).
-            keep = ~hit & (t < limit)
-            if not keep.all():
+            keep = t < limit
+            if any_hit:
+                keep &= ~hit
+            if np.count_nonzero(keep) < keep.size:
                 t, limit, dcol, drow, idx = t[keep], limit[keep], dcol[keep], drow[keep], idx[keep]
                 if t.size == 0:
                     break
@@ -770,7 +787,8 @@ class Localiser:
         sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
         xs = (px[:, None] + c * sx - s * sy).ravel()
         ys = (py[:, None] + s * sx + c * sy).ravel()
-        scores = level.interpolate(xs, ys)[0].reshape(along.size, -1).mean(axis=1)
+        m = level.value(xs, ys).reshape(along.size, -1)
+        scores = np.add.reduce(m, axis=1) / m.shape[1]  # m.mean(axis=1), without the wrapper
         base = float(scores[0])
         if base <= 0.0:
             return np.ones((2, k))
@@ -848,7 +866,8 @@ class Localiser:
             better = Pose2D(p.x + t * v[0], p.y + t * v[1], p.yaw)
         level = self.matcher.levels[min(1, len(self.matcher.levels) - 1)]
         q = 1.0 - np.exp(-(offsets**2) / (2.0 * level.sigma**2))
-        fraction = float(np.clip((1.0 - ratios) / q[None, :], 0.0, 1.0).min())
+        bound = (1.0 - ratios) / q[None, :]
+        fraction = min(max(float(bound.min()), 0.0), 1.0)  # = np.clip(bound, 0, 1).min()
         n_eff = min(float(result.n_inliers), cfg.match_effective_points)
         supported = fraction * n_eff / cfg.match_sigma_m**2
         if supported >= dd:

@@ -105,6 +105,30 @@ def inflation_cost(
     return cost.astype(np.uint8)
 
 
+def _clearing_samples(
+    x: float,
+    y: float,
+    angles: npt.NDArray[np.float64],
+    reach: npt.NDArray[np.float64],
+    step: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Map-frame points [m] every ``step`` along each beam from (x, y), short of its ``reach``.
+
+    Beam ``b`` gets the samples ``t_k = k * step < reach[b]``, as a dense (beams x samples)
+    grid masked by ``t_k < reach`` would; only those are computed, in beam order (a scan's
+    clearing beams reach on average under half the longest one).
+    """
+    t = np.arange(0.0, float(reach.max()), step)
+    counts = np.searchsorted(t, reach, side="left")  # samples with t_k < reach
+    beam = np.repeat(np.arange(reach.size), counts)
+    starts = np.cumsum(counts) - counts
+    k = np.arange(beam.size) - np.repeat(starts, counts)
+    tk = t[k]
+    xs = x + np.cos(angles)[beam] * tk
+    ys = y + np.sin(angles)[beam] * tk
+    return xs, ys
+
+
 class Costmap:
     """Static map layer + laser obstacle layer + inflation, on the map's own grid.
 
@@ -120,6 +144,11 @@ class Costmap:
         self._build_static()
         # Time [s] until which each cell holds a live laser obstacle (-inf: none).
         self._marked_until = np.full(grid.cells.shape, -np.inf, dtype=np.float64)
+        # (expiry [s], row0, row1, col0, col1) of each batch of marks: the live cells at any
+        # time lie in the boxes not yet expired (`_live_box`), so `costs` need not compare the
+        # whole grid (a 70 x 35 m floor is a million cells) to find them.
+        self._mark_boxes: list[tuple[float, int, int, int, int]] = []
+        self._latest_query = -math.inf
         self._cache_key: tuple[float, int] | None = None
         self._cache: npt.NDArray[np.uint8] = self._static_costs
         self._version = 0
@@ -197,34 +226,76 @@ class Costmap:
         reach = np.minimum(ranges[clear], cfg.raytrace_max_range) - self.resolution
         beam_angles = angles[clear] + origin.yaw
         if reach.size and float(reach.max()) > 0.0:
-            step = self.resolution
-            t = np.arange(0.0, float(reach.max()), step)
-            inside = t[None, :] < reach[:, None]
-            xs = origin.x + np.cos(beam_angles)[:, None] * t[None, :]
-            ys = origin.y + np.sin(beam_angles)[:, None] * t[None, :]
-            rows, cols = self.grid.world_to_cell(xs[inside], ys[inside])
-            ok = self.grid.in_bounds(rows, cols)
-            self._marked_until[rows[ok], cols[ok]] = -np.inf
+            self._clear_cells(
+                *_clearing_samples(origin.x, origin.y, beam_angles, reach, self.resolution)
+            )
         # Marking: endpoints within obstacle_max_range.
         mark = valid & (ranges <= cfg.obstacle_max_range)
         px, py = ranges[mark] * np.cos(angles[mark]), ranges[mark] * np.sin(angles[mark])
         wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
         rows, cols = self.grid.world_to_cell(wx, wy)
         ok = self.grid.in_bounds(rows, cols)
-        self._marked_until[rows[ok], cols[ok]] = now + cfg.obstacle_persistence
-        self._touch()
+        self._mark(rows[ok], cols[ok], now, now + cfg.obstacle_persistence)
+
+    def _clear_cells(self, xs: npt.NDArray[np.float64], ys: npt.NDArray[np.float64]) -> None:
+        """Forget the live marks of the cells holding map-frame points (xs, ys) [m]."""
+        g = self.grid
+        cols = np.floor((xs - g.origin_x) / g.resolution).astype(np.int64)
+        rows = np.floor((ys - g.origin_y) / g.resolution).astype(np.int64)
+        ok = (rows >= 0) & (rows < g.height) & (cols >= 0) & (cols < g.width)
+        if not ok.all():
+            rows, cols = rows[ok], cols[ok]
+        rows *= g.width
+        rows += cols
+        self._marked_until.ravel()[rows] = -np.inf
 
     def mark_points(self, now: float, points: npt.ArrayLike) -> None:
         """Mark map-frame points (N, 2) [m] as live obstacles (e.g. a sonar or a test)."""
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         rows, cols = self.grid.world_to_cell(pts[:, 0], pts[:, 1])
         ok = self.grid.in_bounds(rows, cols)
-        self._marked_until[rows[ok], cols[ok]] = now + self.config.obstacle_persistence
+        self._mark(rows[ok], cols[ok], now, now + self.config.obstacle_persistence)
+
+    def _mark(
+        self, rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], now: float, until: float
+    ) -> None:
+        """Mark cells (rows, cols), all inside the grid, as live obstacles until ``until``."""
+        self._marked_until[rows, cols] = until
+        if rows.size:
+            box = (
+                until,
+                int(rows.min()),
+                int(rows.max()) + 1,
+                int(cols.min()),
+                int(cols.max()) + 1,
+            )
+            self._mark_boxes.append(box)
+            if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
+                self._live_box(now)
         self._touch()
+
+    def _live_box(self, now: float) -> tuple[int, int, int, int] | None:
+        """(row0, row1, col0, col1) holding every cell live at ``now``, or None to look at the
+        whole grid. Boxes that expired are dropped, which is only safe while time does not go
+        back: a query before the latest one looks at the whole grid."""
+        if now < self._latest_query:
+            return None
+        self._latest_query = now
+        self._mark_boxes = [b for b in self._mark_boxes if b[0] > now]
+        if not self._mark_boxes:
+            return 0, 0, 0, 0
+        boxes = np.array([b[1:] for b in self._mark_boxes])
+        return (
+            int(boxes[:, 0].min()),
+            int(boxes[:, 1].max()),
+            int(boxes[:, 2].min()),
+            int(boxes[:, 3].max()),
+        )
 
     def clear(self) -> None:
         """Forget every live obstacle (the "clear costmap" recovery)."""
         self._marked_until.fill(-np.inf)
+        self._mark_boxes = []
         self._touch()
 
     def live_obstacles(self, now: float) -> npt.NDArray[np.bool_]:
@@ -258,21 +329,23 @@ class Costmap:
         Only the bounding box of the live obstacles (grown by the inflation radius) is
         recomputed: there the distance is ``min(static distance, distance to live marks)``.
         """
-        live = self.live_obstacles(now)
+        h, w = self.grid.height, self.grid.width
+        box = self._live_box(now)
+        b0, b1, d0, d1 = (0, h, 0, w) if box is None else box
+        live = self._marked_until[b0:b1, d0:d1] > now
         key = (float(np.count_nonzero(live)), self._version)
         if self._cache_key == key:
             return self._cache
         if not live.any():
             result = self._static_costs
         else:
-            rows = np.flatnonzero(live.any(axis=1))
-            cols = np.flatnonzero(live.any(axis=0))
+            rows = np.flatnonzero(live.any(axis=1)) + b0
+            cols = np.flatnonzero(live.any(axis=0)) + d0
             pad = math.ceil(self.config.inflation_radius / self.resolution) + 1
-            h, w = live.shape
             r0, r1 = max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)
             c0, c1 = max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)
             live_distance = ndimage.distance_transform_edt(
-                ~live[r0:r1, c0:c1], sampling=self.resolution
+                ~(self._marked_until[r0:r1, c0:c1] > now), sampling=self.resolution
             )
             distance = np.minimum(self._static_distance[r0:r1, c0:c1], live_distance)
             result = self._static_costs.copy()

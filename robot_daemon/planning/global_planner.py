@@ -122,6 +122,66 @@ def octile_distance(
     return result
 
 
+def octile_grid(shape: tuple[int, int], goal: tuple[int, int]) -> npt.NDArray[np.float64]:
+    """`octile_distance` from every cell of a grid of ``shape`` to ``goal``, as a grid.
+
+    Computed from one row and one column of distances (broadcast), element for element the
+    same arithmetic as `octile_distance`: gathering from this grid is cheaper than evaluating
+    the formula on every (node, neighbour) pair.
+    """
+    dr = np.abs(np.arange(shape[0], dtype=np.int64) - goal[0]).astype(np.float64)[:, None]
+    dc = np.abs(np.arange(shape[1], dtype=np.int64) - goal[1]).astype(np.float64)[None, :]
+    result: npt.NDArray[np.float64] = np.maximum(dr, dc) + (SQRT2 - 1.0) * np.minimum(dr, dc)
+    return result
+
+
+def _reduced_cost_graph(
+    costs: npt.NDArray[np.uint8], goal: tuple[int, int], cost_weight: float
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+    int,
+]:
+    """The CSR arrays of `astar_cells`' graph on the reduced costs ``w(u, v) - h(u) + h(v)``.
+
+    Returns (reduced costs, neighbour node ids, indptr, node cells as flat indices of the
+    padded grid, padded cell -> node id, h of each node, padded width). Edges are listed node
+    by node in ``_OFFSETS`` order.
+    """
+    h, w = costs.shape
+    # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
+    wp = w + 2
+    padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
+    padded[1:-1, 1:-1] = costs
+    flat_cost = padded.ravel()
+    free_flat = flat_cost < INSCRIBED
+    nodes = np.flatnonzero(free_flat)
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    compact[nodes] = np.arange(nodes.size)
+    h_flat = octile_grid((h + 2, wp), (goal[0] + 1, goal[1] + 1)).ravel()
+    heuristic = h_flat[nodes]
+    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
+    neighbours = nodes[:, None] + offsets[None, :]
+    traversable = free_flat[neighbours]
+    # Dense (nodes x 8) arithmetic first, one masked extraction at the end.
+    neighbour_h = h_flat[neighbours]
+    cost_f = flat_cost.astype(np.float64)
+    weight = _STEP[None, :] * (
+        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    )
+    reduced_dense = weight - heuristic[:, None] + neighbour_h
+    reduced = reduced_dense[traversable]
+    neighbour_compact = compact[neighbours[traversable]]
+    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
+    np.maximum(reduced, 1e-12, out=reduced)
+    indptr = np.concatenate(([0], np.cumsum(np.count_nonzero(traversable, axis=1))))
+    return reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp
+
+
 def astar_cells(
     costs: npt.NDArray[np.uint8],
     start: tuple[int, int],
@@ -139,35 +199,9 @@ def astar_cells(
             raise PlanningError(f"{name} cell {(r, c)} is outside the grid or not traversable")
     if start == goal:
         return [start], 0.0
-    # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
-    wp = w + 2
-    padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
-    padded[1:-1, 1:-1] = costs
-    flat_cost = padded.ravel()
-    free_flat = flat_cost < INSCRIBED
-    nodes = np.flatnonzero(free_flat)
-    compact = np.full(flat_cost.size, -1, dtype=np.int64)
-    compact[nodes] = np.arange(nodes.size)
-    node_rows, node_cols = np.divmod(nodes, wp)
+    graph_parts = _reduced_cost_graph(costs, goal, cost_weight)
+    reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp = graph_parts
     goal_p = (goal[0] + 1, goal[1] + 1)
-    heuristic = octile_distance(node_rows, node_cols, goal_p)
-    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
-    neighbours = nodes[:, None] + offsets[None, :]
-    traversable = free_flat[neighbours]
-    # Dense (nodes x 8) arithmetic first, one masked extraction at the end: gathers are slow.
-    neighbour_h = octile_distance(
-        node_rows[:, None] + _OFFSETS[None, :, 0], node_cols[:, None] + _OFFSETS[None, :, 1], goal_p
-    )
-    cost_f = flat_cost.astype(np.float64)
-    weight = _STEP[None, :] * (
-        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
-    )
-    reduced_dense = weight - heuristic[:, None] + neighbour_h
-    reduced = reduced_dense[traversable]
-    neighbour_compact = compact[neighbours[traversable]]
-    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
-    np.maximum(reduced, 1e-12, out=reduced)
-    indptr = np.concatenate(([0], np.cumsum(traversable.sum(axis=1))))
     graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size, nodes.size))
     s = int(compact[(start[0] + 1) * wp + start[1] + 1])
     g = int(compact[goal_p[0] * wp + goal_p[1]])

@@ -95,14 +95,24 @@ class ObstacleField:
             free = np.ones((self.n, self.n), dtype=bool)
             free[idx[:, 1], idx[:, 0]] = False  # [row = y, col = x]
             self.distance = ndimage.distance_transform_edt(free, sampling=resolution)
+        # The distance with a border of inf cells, flat: `lookup` clips indices to the border
+        # instead of masking the points outside (one gather).
+        bordered = np.full((self.n + 2, self.n + 2), np.inf)
+        bordered[1:-1, 1:-1] = self.distance
+        self._bordered = bordered.ravel()
 
     def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Distance at robot-frame points; outside the grid counts as far from everything."""
         col = np.floor((np.asarray(x) + self.half_size) / self.resolution).astype(np.int64)
         row = np.floor((np.asarray(y) + self.half_size) / self.resolution).astype(np.int64)
-        inside = (row >= 0) & (row < self.n) & (col >= 0) & (col < self.n)
-        result = np.full(col.shape, np.inf)
-        result[inside] = self.distance[row[inside], col[inside]]
+        # Cell k of the grid is k + 1 of the bordered one; anything outside lands on the border.
+        np.clip(col, -1, self.n, out=col)
+        np.clip(row, -1, self.n, out=row)
+        row += 1
+        row *= self.n + 2
+        row += col
+        row += 1
+        result: npt.NDArray[np.float64] = self._bordered.take(row)
         return result
 
 
@@ -111,11 +121,24 @@ def rollout(
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Poses (x, y, theta), each (S, K), of S constant-(v, w) arcs at K times, from the origin."""
     theta = w[:, None] * times[None, :]
+    return _rollout_with_trig(v, times, theta, np.sin(theta), np.cos(theta))
+
+
+def _rollout_with_trig(
+    v: npt.NDArray[np.float64],
+    times: npt.NDArray[np.float64],
+    theta: npt.NDArray[np.float64],
+    sin_t: npt.NDArray[np.float64],
+    cos_t: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """`rollout` from ``sin(theta)`` and ``cos(theta)`` computed once by the caller (who needs
+    them again for the footprint circles). Where ``theta`` is not small ``sin(safe)`` is
+    ``sin(theta)``; where it is, the ratios are replaced by their limits, as `rollout` does."""
     dist = v[:, None] * times[None, :]
     small = np.abs(theta) < 1e-9
     safe = np.where(small, 1.0, theta)
-    sin_ratio = np.where(small, 1.0, np.sin(safe) / safe)
-    cos_ratio = np.where(small, 0.5 * theta, (1.0 - np.cos(safe)) / safe)
+    sin_ratio = np.where(small, 1.0, sin_t / safe)
+    cos_ratio = np.where(small, 0.5 * theta, (1.0 - cos_t) / safe)
     return dist * sin_ratio, dist * cos_ratio, theta
 
 
@@ -210,8 +233,10 @@ class DWAPlanner:
             indexing="ij",
         )
         v_s, w_s = vs.ravel(), ws.ravel()
-        x, y, th = rollout(v_s, w_s, _times(c))
+        times = _times(c)
+        th = w_s[:, None] * times[None, :]
         cos_t, sin_t = np.cos(th), np.sin(th)
+        x, y, th = _rollout_with_trig(v_s, times, th, sin_t, cos_t)
         d = field.lookup(
             x[..., None] + cos_t[..., None] * offsets, y[..., None] + sin_t[..., None] * offsets
         )

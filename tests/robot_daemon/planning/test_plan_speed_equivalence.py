@@ -1,0 +1,162 @@
+"""The planner's fast paths equal their plain references, bit for bit (issue 12 speed work).
+
+Each reference is the readable version the fast code replaced (STYLE.md); equality, not
+closeness, is asserted: the same costmap, the same A* graph (hence the same routes, ties
+included) and the same local-planner distances.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
+from robot_daemon.planning.costmap import Costmap, _clearing_samples
+from robot_daemon.planning.global_planner import (
+    _OFFSETS,
+    _STEP,
+    _reduced_cost_graph,
+    octile_distance,
+)
+from robot_daemon.planning.local_planner import ObstacleField, _rollout_with_trig, rollout
+
+
+def clearing_reference(
+    x: float, y: float, angles: np.ndarray, reach: np.ndarray, step: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The dense (beams x samples) grid masked by ``t_k < reach``."""
+    t = np.arange(0.0, float(reach.max()), step)
+    inside = t[None, :] < reach[:, None]
+    xs = x + np.cos(angles)[:, None] * t[None, :]
+    ys = y + np.sin(angles)[:, None] * t[None, :]
+    return xs[inside], ys[inside]
+
+
+def costs_reference(costmap: Costmap, now: float) -> np.ndarray:
+    """`Costmap.costs` from the whole grid's live cells."""
+    live = costmap._marked_until > now
+    if not live.any():
+        return costmap.static_costs
+    rows = np.flatnonzero(live.any(axis=1))
+    cols = np.flatnonzero(live.any(axis=0))
+    pad = math.ceil(costmap.config.inflation_radius / costmap.resolution) + 1
+    h, w = live.shape
+    r0, r1 = max(int(rows[0]) - pad, 0), min(int(rows[-1]) + pad + 1, h)
+    c0, c1 = max(int(cols[0]) - pad, 0), min(int(cols[-1]) + pad + 1, w)
+    live_distance = ndimage.distance_transform_edt(~live[r0:r1, c0:c1], sampling=costmap.resolution)
+    distance = np.minimum(costmap.static_distance[r0:r1, c0:c1], live_distance)
+    result = costmap.static_costs.copy()
+    window = (slice(r0, r1), slice(c0, c1))
+    result[window] = costmap._costs_from_distance(distance.astype(np.float32), window)
+    return result
+
+
+def graph_reference(costs: np.ndarray, goal: tuple[int, int], cost_weight: float) -> tuple:
+    """A*'s reduced-cost CSR arrays with the octile formula on every (node, neighbour) pair."""
+    h, w = costs.shape
+    wp = w + 2
+    padded = np.full((h + 2, wp), 254, dtype=np.uint8)
+    padded[1:-1, 1:-1] = costs
+    flat_cost = padded.ravel()
+    free_flat = flat_cost < 253
+    nodes = np.flatnonzero(free_flat)
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    compact[nodes] = np.arange(nodes.size)
+    node_rows, node_cols = np.divmod(nodes, wp)
+    goal_p = (goal[0] + 1, goal[1] + 1)
+    heuristic = octile_distance(node_rows, node_cols, goal_p)
+    neighbours = nodes[:, None] + (_OFFSETS[:, 0] * wp + _OFFSETS[:, 1])[None, :]
+    traversable = free_flat[neighbours]
+    neighbour_h = octile_distance(
+        node_rows[:, None] + _OFFSETS[None, :, 0], node_cols[:, None] + _OFFSETS[None, :, 1], goal_p
+    )
+    cost_f = flat_cost.astype(np.float64)
+    weight = _STEP[None, :] * (
+        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    )
+    reduced = (weight - heuristic[:, None] + neighbour_h)[traversable]
+    np.maximum(reduced, 1e-12, out=reduced)
+    indptr = np.concatenate(([0], np.cumsum(traversable.sum(axis=1))))
+    return reduced, compact[neighbours[traversable]], indptr, nodes, compact, heuristic
+
+
+def _room_grid() -> OccupancyGrid:
+    cells = np.full((120, 160), FREE, dtype=np.int8)
+    cells[:2, :] = cells[-2:, :] = cells[:, :2] = cells[:, -2:] = OCCUPIED
+    cells[40:80, 70:74] = OCCUPIED
+    return OccupancyGrid(cells, 0.05, -1.0, -2.0)
+
+
+def _scan(rng: np.random.Generator) -> LaserScan:
+    ranges = rng.uniform(0.05, 8.0, 1081).astype(np.float32)
+    ranges[rng.random(1081) < 0.05] = np.inf
+    return LaserScan(0.0, -2.356194490192345, math.radians(0.25), 0.02, 30.0, ranges)
+
+
+def test_clearing_samples_equal_the_masked_dense_grid() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        angles = rng.uniform(-math.pi, math.pi, 541)
+        reach = rng.uniform(-0.5, 5.0, 541)
+        reach[0] = 4.95  # at least one beam reaches
+        x, y = rng.uniform(-3, 3, 2)
+        fast = _clearing_samples(float(x), float(y), angles, reach, 0.05)
+        ref = clearing_reference(float(x), float(y), angles, reach, 0.05)
+        assert np.array_equal(fast[0], ref[0]) and np.array_equal(fast[1], ref[1])
+
+
+def test_costs_from_the_recent_mark_boxes_equal_the_whole_grid_scan() -> None:
+    rng = np.random.default_rng(2)
+    costmap = Costmap(_room_grid())
+    now = 0.0
+    for k in range(60):
+        now += float(rng.uniform(0.05, 0.6))
+        pose = Pose2D(
+            float(rng.uniform(0.0, 6.0)), float(rng.uniform(-1.0, 3.5)), float(rng.uniform(-3, 3))
+        )
+        costmap.update(now, pose, _scan(rng))
+        if k % 7 == 3:
+            costmap.mark_points(now, rng.uniform(-1.0, 7.0, (5, 2)))
+        if k == 40:
+            costmap.clear()
+        # Queries now, later (marks expired), and back in time (the whole grid is consulted).
+        for when in (now, now + 1.0, now + 2.5, now - 1.5):
+            assert np.array_equal(costmap.costs(when), costs_reference(costmap, when))
+
+
+def test_reduced_cost_graph_equals_the_octile_formula_everywhere() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        costs = rng.choice(np.array([0, 0, 0, 30, 120, 252, 253, 254], dtype=np.uint8), (40, 55))
+        goal = (int(rng.integers(0, 40)), int(rng.integers(0, 55)))
+        fast = _reduced_cost_graph(costs, goal, 100.0)
+        ref = graph_reference(costs, goal, 100.0)
+        for a, b in zip(fast[:6], ref, strict=True):
+            assert np.array_equal(a, b)
+
+
+def test_obstacle_field_lookup_equals_the_masked_lookup() -> None:
+    rng = np.random.default_rng(4)
+    field = ObstacleField(rng.uniform(-1.5, 1.5, (200, 2)), 1.4, 0.05)
+    x, y = rng.uniform(-3.0, 3.0, (2, 5000))  # many points outside the grid
+    col = np.floor((x + field.half_size) / field.resolution).astype(np.int64)
+    row = np.floor((y + field.half_size) / field.resolution).astype(np.int64)
+    inside = (row >= 0) & (row < field.n) & (col >= 0) & (col < field.n)
+    ref = np.full(col.shape, np.inf)
+    ref[inside] = field.distance[row[inside], col[inside]]
+    assert np.array_equal(field.lookup(x, y), ref)
+
+
+def test_rollout_with_the_callers_trig_equals_rollout() -> None:
+    v = np.linspace(0.0, 0.25, 11).repeat(21)
+    w = np.tile(np.linspace(-1.0, 1.0, 21), 11)
+    w[5] = 1e-12  # a straight line: the small-angle limits
+    times = 0.1 * np.arange(1, 16)
+    theta = w[:, None] * times[None, :]
+    fast = _rollout_with_trig(v, times, theta, np.sin(theta), np.cos(theta))
+    for a, b in zip(fast, rollout(v, w, times), strict=True):
+        assert np.array_equal(a, b)
