@@ -21,6 +21,11 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
   bound) is rejected. Calibration on the eight real logs: ``bench/bench_reallogs.py`` reports
   the mean NEES (3 when calibrated) and the fraction of scans inside the 95 % ellipsoid.
+* **The odometry's scale** (`odometry_scale.OdometryScale`): a fourth filter state, the ratio
+  of true to measured translation, learnt where the scans fix the pose along the travel and
+  used where they do not; its uncertainty makes the covariance along a featureless corridor
+  grow linearly with the distance, as a systematic scale error does (Infinite Corridor log,
+  whole-log RMS 0.80 m -> 4.5 cm).
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
   occupied map cell, reported with Hector's score (mean ``M``); ``certainty`` is the
   probability, under ``P``, of an error within ``tolerance_m`` and ``tolerance_rad``.
