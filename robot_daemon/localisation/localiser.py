@@ -21,6 +21,11 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   A match whose innovation fails the Mahalanobis gate ``gate_chi2`` (or the plausible-jump
   bound) is rejected. Calibration on the eight real logs: ``bench/bench_reallogs.py`` reports
   the mean NEES (3 when calibrated) and the fraction of scans inside the 95 % ellipsoid.
+* **The odometry's scale** (`odometry_scale.OdometryScale`): a fourth filter state, the ratio
+  of true to measured translation, learnt where the scans fix the pose along the travel and
+  used where they do not; its uncertainty makes the covariance along a featureless corridor
+  grow linearly with the distance, as a systematic scale error does (Infinite Corridor log,
+  whole-log RMS 0.80 m -> 4.5 cm).
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
   occupied map cell, reported with Hector's score (mean ``M``); ``certainty`` is the
   probability, under ``P``, of an error within ``tolerance_m`` and ``tolerance_rad``.
@@ -64,6 +69,7 @@ from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
+from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
 from robot_daemon.localisation.scan_matcher import (
     MatchResult,
     ScanMatcher,
@@ -96,6 +102,7 @@ class LocaliserConfig:
 
     matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)
     dynamic_map: DynamicMapConfig = field(default_factory=DynamicMapConfig)
+    odometry_scale: OdometryScaleConfig = field(default_factory=OdometryScaleConfig)
     max_range_m: float = 30.0  # beams beyond are ignored
     hit_tolerance_m: float = 0.10  # an end point this close to the map counts as a hit
     lost_confidence: float = 0.35  # a scan below this hit fraction is bad
@@ -285,6 +292,7 @@ class Localiser:
         self._full_search = True
         self._first_match = True
         self._cov = np.zeros((3, 3))
+        self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
     # ------------------------------------------------------------------ inputs
@@ -356,6 +364,7 @@ class Localiser:
         self._full_search = True  # first match after an initial pose uses every level
         self._first_match = True  # ... from several starts (`_match_from_starts`)
         self._odom_at_scan = self._odom
+        self.scale.reset_cross()
         self.dynamic.reset_streaks()
 
     def on_odometry(self, odom_pose: Pose2D, now: float) -> None:
@@ -371,10 +380,14 @@ class Localiser:
             self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, now)
             return self._last
         cfg = self.config
-        step = self._odometry_step()
+        raw_step = self._odometry_step()
+        step = self.scale.scaled(raw_step)
         predicted = self._pose.compose(step)
-        cov_pred = self._propagate(self._pose, step, self._cov)
+        cov_pred = self.scale.predict(
+            self._pose, raw_step, step, self._propagate(self._pose, step, self._cov)
+        )
         if self._state is LocaliserState.LOST:
+            self.scale.keep_prediction()
             self._pose, self._cov = predicted, cov_pred
             self._last = LocaliserEstimate(
                 predicted, LocaliserState.LOST, 0.0, 0.0, now, 0.0, cov_pred, 0.0, "lost"
@@ -387,6 +400,7 @@ class Localiser:
         if points.shape[0] < 10:
             pose, cov, confidence, score = predicted, cov_pred, 0.0, 0.0
             reason = "too few beams"
+            self.scale.keep_prediction()
         else:
             sxy = math.sqrt(max(cov_pred[0, 0], cov_pred[1, 1]))
             syaw = math.sqrt(cov_pred[2, 2])
@@ -409,9 +423,11 @@ class Localiser:
                 pose, cov = predicted, cov_pred
                 reason = "match rejected (inconsistent with odometry)"
                 self._full_search = True
+                self.scale.keep_prediction()
             else:
                 pose, cov = fused
                 self._full_search = False
+                self.scale.update(cov_pred, cov, _pose_difference(pose, predicted))
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
@@ -987,6 +1003,11 @@ def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
     cells = grid.cells.copy()
     cells[edge] = OCCUPIED
     return grid.with_cells(cells)
+
+
+def _pose_difference(a: Pose2D, b: Pose2D) -> FloatArray:
+    """``a - b`` as (x, y, yaw) in the map frame, the yaw wrapped."""
+    return np.array([a.x - b.x, a.y - b.y, wrap_angle(a.yaw - b.yaw)])
 
 
 def _max_eig_2x2(cov: FloatArray) -> float:
