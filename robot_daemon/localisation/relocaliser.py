@@ -373,10 +373,7 @@ class Relocaliser:
             return
         if self._views:
             step = self._odom.relative_to(self._views[-1][1])
-            if (
-                abs(step.yaw) < cfg.view_every_rad
-                and math.hypot(step.x, step.y) < cfg.view_every_m
-            ):
+            if abs(step.yaw) < cfg.view_every_rad and math.hypot(step.x, step.y) < cfg.view_every_m:
                 return
         self._views.append((points, self._odom))
         del self._views[: -cfg.max_views]

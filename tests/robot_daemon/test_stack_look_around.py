@@ -21,7 +21,9 @@ CORNER = Pose2D(-29.2, 11.2, -1.63)  # base_link, the north-west corner of the c
 
 
 def _system(config: StackConfig | None = None) -> SimulatedSystem:
-    return SimulatedSystem(ScenarioOptions(seed=2, people=0), start_pose=CORNER, stack_config=config)
+    return SimulatedSystem(
+        ScenarioOptions(seed=2, people=0), start_pose=CORNER, stack_config=config
+    )
 
 
 def _outputs(system: SimulatedSystem, seconds: float) -> tuple[list[tuple[float, float]], bool]:
