@@ -34,6 +34,15 @@ every mode alive until the data removes all but one):
    one that failed the last scan (a place that fits now and then is still a look-alike).
    Symmetric places therefore stay *ambiguous* until motion disambiguates them; the stack does
    not drive autonomously meanwhile, and after ``help_after_s`` it asks a person ("Help me!").
+4. **Views.** Meanwhile the stack turns the robot in place (`look_around`). A scan is kept as a
+   *view* every ``view_every_rad`` of turning (or ``view_every_m`` of travel). A hypothesis a
+   later search finds must explain every view (its pose chained back along odometry, refined
+   on each; at most ``view_misses`` views below ``min_confidence``, none through walls), so a
+   look-alike the turn has shown wrong is not taken up again. Every candidate keeps its
+   quality on each view; a look-alike within ``margin`` no longer blocks acceptance when, over
+   at least ``view_min_views`` shared views spanning ``view_span_rad`` of turning, the best is
+   ``view_margin`` better on average and no worse in ``view_win_fraction`` of them: a winner
+   consistent over the whole turn, not on one scan.
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
@@ -381,14 +390,16 @@ class Relocaliser:
             cand.view_quality.append(cand.scan_quality)
             del cand.view_quality[: -cfg.max_views]
 
-    def explains_views(self, pose: Pose2D) -> bool:
-        """Whether the laser pose ``pose`` (now) also explains every view kept: each view's
-        pose is predicted from the next newer one by odometry and refined by the matcher
-        (a chain, so odometry's slip over a whole turn does not add up)."""
+    def view_qualities(self, pose: Pose2D) -> list[float] | None:
+        """The quality of the laser pose ``pose`` (now) on every view kept, oldest first, or
+        None when a view contradicts it. Each view's pose is predicted from the next newer
+        one by odometry and refined by the matcher (a chain, so odometry's slip over a whole
+        turn does not add up)."""
         if self._odom is None:
-            return True
+            return []
         cfg = self.config
         misses = 0
+        qualities: list[float] = []
         here, odom_here = pose, self._odom
         for points, odom_then in reversed(self._views):
             predicted = here.compose(odom_then.relative_to(odom_here))
@@ -397,14 +408,15 @@ class Relocaliser:
                 abs(angle_diff(v.pose.yaw, predicted.yaw)) > cfg.max_jump_rad
             )
             if jump or v.impossible > cfg.max_impossible:
-                return False
+                return None
+            qualities.append(v.quality)
             if not self._verified(v):
                 misses += 1
                 if misses > cfg.view_misses:
-                    return False
+                    return None
                 v = Verification(predicted, v.confidence, v.impossible)
             here, odom_here = v.pose, odom_then
-        return True
+        return qualities[::-1]
 
     def _search_due(self, now: float) -> bool:
         """A fresh search every ``search_every_s``; at once after one that set places aside
@@ -577,12 +589,13 @@ class Relocaliser:
             dup = self._duplicate_of(v.pose)
             if dup is not None:
                 dup.wins += win  # already tracked (its re-verification keeps it current)
-            elif not self.explains_views(v.pose):
+            elif (seen := self.view_qualities(v.pose)) is None:
                 # Contradicted by what the robot saw from another heading or place.
                 self._exclude(hyp.pose.compose(moved), now)
                 continue
             else:
                 dup = Candidate(v.pose, v.quality, now, wins=win, scan_quality=v.quality)
+                dup.view_quality = seen  # how it explains the views kept before it was found
                 self._candidates.append(dup)
             if win:
                 self._search_best = dup
@@ -626,7 +639,7 @@ class Relocaliser:
         diff = np.array(best.view_quality[-k:]) - np.array(other.view_quality[-k:])
         return bool(
             float(np.mean(diff)) >= cfg.view_margin
-            and float(np.mean(diff > 0.0)) >= cfg.view_win_fraction
+            and float(np.mean(diff >= 0.0)) >= cfg.view_win_fraction
         )
 
     def _decide(self, now: float) -> Pose2D | None:
