@@ -135,6 +135,9 @@ class RelocaliserConfig:
     view_every_m: float = 0.3
     max_views: int = 24
     view_misses: int = 1
+    # View verifications per scan at most (~1.5 ms each, on the control loop's thread): a
+    # hypothesis that would exceed it waits for the next search (neither taken nor set aside).
+    view_checks_per_scan: int = 36
     # Look-alikes seen from many headings: a candidate within ``margin`` of the best is still
     # outweighed when, over at least view_min_views views they share spanning view_span_rad
     # of turning, the best's quality is view_margin higher on average and higher in at least
@@ -180,6 +183,7 @@ class RelocaliserConfig:
             ("view_every_m", self.view_every_m, 0.01, 10.0),
             ("max_views", self.max_views, 0, 1000),
             ("view_misses", self.view_misses, 0, 1000),
+            ("view_checks_per_scan", self.view_checks_per_scan, 0, 100_000),
             ("view_min_views", self.view_min_views, 1, 1000),
             ("view_span_rad", self.view_span_rad, 0.0, 4.0 * math.pi),
             ("view_margin", self.view_margin, 0.0, 1.0),
@@ -269,6 +273,7 @@ class Relocaliser:
         self._last_proof = -math.inf
         # Scans kept at distinct headings/places in this attempt: (points, odometry of the laser)
         self._views: list[tuple[FloatArray, Pose2D]] = []
+        self._view_checks = 0  # view verifications left on this scan
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -357,6 +362,7 @@ class Relocaliser:
             self.last_failure = "too few laser returns"
             return None
         self._reverify(points, now)
+        self._view_checks = cfg.view_checks_per_scan
         done = self._collect("search")
         if done is not None:
             self._use_search(done[0], done[1], points, now)
@@ -398,6 +404,7 @@ class Relocaliser:
         if self._odom is None:
             return []
         cfg = self.config
+        self._view_checks -= len(self._views)
         misses = 0
         qualities: list[float] = []
         here, odom_here = pose, self._odom
@@ -589,6 +596,8 @@ class Relocaliser:
             dup = self._duplicate_of(v.pose)
             if dup is not None:
                 dup.wins += win  # already tracked (its re-verification keeps it current)
+            elif len(self._views) > self._view_checks:
+                continue  # no time left on this scan to check it against the views
             elif (seen := self.view_qualities(v.pose)) is None:
                 # Contradicted by what the robot saw from another heading or place.
                 self._exclude(hyp.pose.compose(moved), now)
