@@ -402,6 +402,7 @@ class RobotStack:
         yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
         was_turning = self.look_around.turning
         angular = self.look_around.update(since, yaw, self._motion_blocker(now), now)
+        reloc.relocaliser.turning = angular is not None
         if angular is not None:
             if not was_turning:
                 self._event(now, "info", TURNING_TEXT)

@@ -140,7 +140,7 @@ class RelocaliserConfig:
     view_checks_per_scan: int = 36
     # Look-alikes seen from many headings: a candidate within ``margin`` of the best is still
     # outweighed when, over at least view_min_views views they share spanning view_span_rad
-    # of turning, the best's quality is view_margin higher on average and higher in at least
+    # of turning, the best's quality is view_margin higher on average and no lower in at least
     # view_win_fraction of them (a consistent winner over the whole turn, not one scan).
     view_min_views: int = 8
     view_span_rad: float = math.pi
@@ -274,6 +274,8 @@ class Relocaliser:
         # Scans kept at distinct headings/places in this attempt: (points, odometry of the laser)
         self._views: list[tuple[FloatArray, Pose2D]] = []
         self._view_checks = 0  # view verifications left on this scan
+        # Set by the stack while it turns the robot in place to look around (`look_around`).
+        self.turning = False
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -662,12 +664,15 @@ class Relocaliser:
             return None
         # Every candidate still tracked counts, even one that failed the last scan: a place
         # that passes one scan and fails the next is still a look-alike.
+        # While the robot turns to look around, *every* other verified place blocks until the
+        # turn has shown the best one better on views covering half a turn (or it failed): the
+        # truth may fit far worse than a look-alike behind clutter or people (ISR, kidnap seed
+        # 3: truth 0.74, a corridor 29 m away 0.98), and the turn is what can tell them apart.
         for other in self._candidates:
-            if (
-                other is not best
-                and other.quality >= best.quality - cfg.margin
-                and not self._outseen(best, other)
-            ):
+            if other is best:
+                continue
+            near = other.quality >= best.quality - cfg.margin
+            if (near or self.turning) and not self._outseen(best, other):
                 self.last_failure = "look-alike places"
                 return None
         if best is not self._search_best:
