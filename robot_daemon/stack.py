@@ -396,9 +396,11 @@ class RobotStack:
 
     def _look_around(self, now: float) -> None:
         """While a global search is undecided, turn in place to see more (`look_around`):
-        on the planner's input, so locks, operators and the collision monitor rule it."""
+        on the planner's input, so locks, operators and the collision monitor rule it. Not
+        while checking a "Help me!" pose: the person who gave it stands at the tablet."""
         reloc = self.relocalisation
-        since = reloc.relocaliser.since if reloc.active else None
+        searching = reloc.active and reloc.relocaliser.reason != "help-me"
+        since = reloc.relocaliser.since if searching else None
         yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
         was_turning = self.look_around.turning
         angular = self.look_around.update(since, yaw, self._motion_blocker(now), now)

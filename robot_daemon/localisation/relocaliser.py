@@ -291,6 +291,11 @@ class Relocaliser:
         return self._active
 
     @property
+    def reason(self) -> str:
+        """Why the current search runs: start-up, lost, request, help-me, kidnap."""
+        return self._reason
+
+    @property
     def since(self) -> float:
         """[s] when the current search attempt started (meaningful while `active`)."""
         return self._since

@@ -81,3 +81,15 @@ def test_no_turning_when_disabled() -> None:
     assert not found
     assert all(out == (0.0, 0.0) for out in outputs)
     assert stack.look_around.turns_started == 0
+
+
+def test_no_turning_while_a_help_me_pose_is_checked() -> None:
+    """The person who gave the pose stands at the tablet, on the robot: it keeps still."""
+    system = _system()
+    stack = system.stack
+    system.step()
+    stack.set_initial_pose(CORNER, system.now, verify=True)
+    outputs, found = _outputs(system, 4.0)
+    assert found, stack.relocalisation.relocaliser.last_failure  # the room settles it
+    assert all(out == (0.0, 0.0) for out in outputs)
+    assert stack.look_around.turns_started == 0
