@@ -11,7 +11,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: cell_centre, help_after_s: 20}  # surface: cell_centre | cell_face
+    localiser: {map_surface: cell_centre, help_after_s: 20, look_around: true}  # surface: cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     start_latched: true                 # start with the emergency stop latched (see below)
@@ -161,6 +161,8 @@ class LocaliserSettings(Section, frozen=True):
     map_surface: Annotated[str, schema.one_of(*MAP_SURFACES)] = "cell_centre"
     # a global search undecided this long asks for "Help me!"
     help_after_s: Annotated[float, Meta(ge=0.0, le=3600.0, extra={"unit": "s"})] = 20.0
+    # while a global search is undecided, turn in place (at most one turn) to see more
+    look_around: bool = True
 
 
 FilePath = Annotated[str, Meta(min_length=1, extra={"format": "a file path"})]

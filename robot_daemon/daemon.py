@@ -62,6 +62,7 @@ from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
+from robot_daemon.localisation.look_around import LookAroundConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
@@ -177,6 +178,9 @@ class Daemon:
                 on_unset=options.relocalise,
                 on_lost=options.relocalise,
                 background=options.relocalise,
+            ),
+            look_around=LookAroundConfig(
+                enabled=options.relocalise and config.localiser.look_around
             ),
         )
         self.stack = RobotStack(self.grid, backend, stack_config)

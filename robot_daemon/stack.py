@@ -54,6 +54,7 @@ from robot_daemon.localisation.localiser import (
     LocaliserEstimate,
     LocaliserState,
 )
+from robot_daemon.localisation.look_around import TURNING_TEXT, LookAround, LookAroundConfig
 from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.goal_checker import final_goal_reached, next_goal_index
@@ -81,6 +82,7 @@ class StackConfig:
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     localiser: LocaliserConfig = field(default_factory=LocaliserConfig)
     relocalisation: RelocalisationConfig = field(default_factory=RelocalisationConfig)
+    look_around: LookAroundConfig = field(default_factory=LookAroundConfig)
     laser_mount: Pose2D = DEFAULT_LASER_MOUNT
     motion_guard: MotionGuardConfig = field(default_factory=default_guard_config)
     degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
@@ -159,6 +161,7 @@ class RobotStack:
         # Collision monitor under the mux, assisted teleop before it (robot_daemon/safety).
         self.guard = MotionGuard(config.motion_guard, config.laser_mount)
         self.relocalisation = Relocalisation(grid, self.localiser, config.relocalisation)
+        self.look_around = LookAround(config.look_around)
         self._mount = config.laser_mount
         self._mount_inv = config.laser_mount.inverse()
         self._localise_due = Periodic(config.rates.localiser_hz)
@@ -366,6 +369,7 @@ class RobotStack:
             self._relocalise(now)
             self._track_localisation(now)
         if self._control_due(now):
+            self._look_around(now)
             self._control(now)
         output = self.apply_output(now)
         battery = self.backend.read_battery(now)
@@ -414,11 +418,38 @@ class RobotStack:
                 with self.motion_lock:
                     self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
 
+    def _look_around(self, now: float) -> None:
+        """While a global search is undecided, turn in place to see more (`look_around`):
+        on the planner's input, so locks, operators and the collision monitor rule it. Not
+        while checking a "Help me!" pose: the person who gave it stands at the tablet."""
+        reloc = self.relocalisation
+        searching = reloc.active and reloc.relocaliser.reason != "help-me"
+        since = reloc.relocaliser.since if searching else None
+        yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
+        was_turning = self.look_around.turning
+        angular = self.look_around.update(since, yaw, self._motion_blocker(now), now)
+        reloc.relocaliser.turning = angular is not None
+        if angular is not None:
+            if not was_turning:
+                self._event(now, "info", TURNING_TEXT)
+            with self.motion_lock:
+                self.mux.on_twist(PLANNER_TOPIC, 0.0, angular, now)
+        elif was_turning:
+            with self.motion_lock:
+                self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)  # stop turning at once
+            reason = self.look_around.end_reason
+            if reason:
+                self._event(now, "info", f"stopped turning ({reason})")
+
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""
         state = self.localisation_state
         if state not in (LocaliserState.OK, LocaliserState.DEGRADED):
             return f"localisation {state.value}"
+        return self._motion_blocker(now)
+
+    def _motion_blocker(self, now: float) -> str | None:
+        """Why the robot may not move by itself now (locks, an operator driving), or None."""
         with self.motion_lock:
             locks = {lock.topic for lock in self.mux.active_locks(now)}
             valid = self.mux.valid_inputs(now)

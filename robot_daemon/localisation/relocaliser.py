@@ -34,6 +34,15 @@ every mode alive until the data removes all but one):
    one that failed the last scan (a place that fits now and then is still a look-alike).
    Symmetric places therefore stay *ambiguous* until motion disambiguates them; the stack does
    not drive autonomously meanwhile, and after ``help_after_s`` it asks a person ("Help me!").
+4. **Views.** Meanwhile the stack turns the robot in place (`look_around`). A scan is kept as a
+   *view* every ``view_every_rad`` of turning (or ``view_every_m`` of travel). A hypothesis a
+   later search finds must explain every view (its pose chained back along odometry, refined
+   on each; at most ``view_misses`` views below ``min_confidence``, none through walls), so a
+   look-alike the turn has shown wrong is not taken up again. Every candidate keeps its
+   quality on each view; a look-alike within ``margin`` no longer blocks acceptance when, over
+   at least ``view_min_views`` shared views spanning ``view_span_rad`` of turning, the best is
+   ``view_margin`` better on average and no worse in ``view_win_fraction`` of them: a winner
+   consistent over the whole turn, not on one scan.
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
@@ -44,6 +53,7 @@ Poses here are of the laser in ``map``, like the localiser's; time is injected.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from concurrent.futures import Executor, Future
@@ -115,6 +125,27 @@ class RelocaliserConfig:
     # per level (exhaustive where the usual budget is not), at most every proof_every_s.
     proof_max_nodes: int = 600_000
     proof_every_s: float = 2.0
+    # Views: a scan is kept (with its odometry) each time the robot has turned view_every_rad
+    # or moved view_every_m since the last one kept, at most max_views (the newest). A new
+    # hypothesis must explain every view (chained back along odometry, each refined), so a
+    # look-alike that the robot turning (`look_around`) has already shown wrong is not taken
+    # up again by a later search. A view may miss (people in front) at most view_misses
+    # times by its hit fraction, never by beams through walls.
+    view_every_rad: float = 0.35
+    view_every_m: float = 0.3
+    max_views: int = 24
+    view_misses: int = 1
+    # View verifications per scan at most (~1.5 ms each, on the control loop's thread): a
+    # hypothesis that would exceed it waits for the next search (neither taken nor set aside).
+    view_checks_per_scan: int = 36
+    # Look-alikes seen from many headings: a candidate within ``margin`` of the best is still
+    # outweighed when, over at least view_min_views views they share spanning view_span_rad
+    # of turning, the best's quality is view_margin higher on average and no lower in at least
+    # view_win_fraction of them (a consistent winner over the whole turn, not one scan).
+    view_min_views: int = 8
+    view_span_rad: float = math.pi
+    view_margin: float = 0.03
+    view_win_fraction: float = 0.8
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -148,6 +179,15 @@ class RelocaliserConfig:
             ("max_exclusions", self.max_exclusions, 0, 100_000),
             ("proof_max_nodes", self.proof_max_nodes, 1, 10**8),
             ("proof_every_s", self.proof_every_s, 0.0, 600.0),
+            ("view_every_rad", self.view_every_rad, 0.01, math.pi),
+            ("view_every_m", self.view_every_m, 0.01, 10.0),
+            ("max_views", self.max_views, 0, 1000),
+            ("view_misses", self.view_misses, 0, 1000),
+            ("view_checks_per_scan", self.view_checks_per_scan, 0, 100_000),
+            ("view_min_views", self.view_min_views, 1, 1000),
+            ("view_span_rad", self.view_span_rad, 0.0, 4.0 * math.pi),
+            ("view_margin", self.view_margin, 0.0, 1.0),
+            ("view_win_fraction", self.view_win_fraction, 0.0, 1.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -180,6 +220,9 @@ class Candidate:
     streak: int = 1  # verified scans in a row
     failures: int = 0  # failed verifications in a row
     wins: int = 1  # global searches whose best hypothesis, verified, this candidate was
+    scan_quality: float = 0.0  # quality on the last scan, verified or not
+    # quality on each view kept since it was found (the last entries of Relocaliser's views)
+    view_quality: list[float] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -228,6 +271,11 @@ class Relocaliser:
         # accepted (a place that fails verification but fits better may be the truth).
         self._search_best: Candidate | None = None
         self._last_proof = -math.inf
+        # Scans kept at distinct headings/places in this attempt: (points, odometry of the laser)
+        self._views: list[tuple[FloatArray, Pose2D]] = []
+        self._view_checks = 0  # view verifications left on this scan
+        # Set by the stack while it turns the robot in place to look around (`look_around`).
+        self.turning = False
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -241,6 +289,16 @@ class Relocaliser:
     @property
     def active(self) -> bool:
         return self._active
+
+    @property
+    def reason(self) -> str:
+        """Why the current search runs: start-up, lost, request, help-me, kidnap."""
+        return self._reason
+
+    @property
+    def since(self) -> float:
+        """[s] when the current search attempt started (meaningful while `active`)."""
+        return self._since
 
     @property
     def candidates(self) -> tuple[Candidate, ...]:
@@ -265,6 +323,7 @@ class Relocaliser:
         self._want_proof = False
         self._last_proof = -math.inf
         self._search_best = None
+        self._views = []
 
     def stop(self) -> None:
         self._active = False
@@ -272,6 +331,7 @@ class Relocaliser:
         self._region = None
         self._pending = None
         self._exclusions = []
+        self._views = []
 
     def status(self, now: float) -> RelocaliserStatus:
         cfg = self.config
@@ -309,6 +369,7 @@ class Relocaliser:
             self.last_failure = "too few laser returns"
             return None
         self._reverify(points, now)
+        self._view_checks = cfg.view_checks_per_scan
         done = self._collect("search")
         if done is not None:
             self._use_search(done[0], done[1], points, now)
@@ -324,7 +385,52 @@ class Relocaliser:
             result = self._run_search(points, self._region, "search", exclude, budget)
             if result is not None:
                 self._use_search(result, Pose2D(0.0, 0.0, 0.0), points, now)
+        self._keep_view(points)
         return self._decide(now)
+
+    def _keep_view(self, points: FloatArray) -> None:
+        """Keep this scan as a view when the robot has turned or moved enough since the last."""
+        cfg = self.config
+        if self._odom is None or cfg.max_views == 0:
+            return
+        if self._views:
+            step = self._odom.relative_to(self._views[-1][1])
+            if abs(step.yaw) < cfg.view_every_rad and math.hypot(step.x, step.y) < cfg.view_every_m:
+                return
+        self._views.append((points, self._odom))
+        del self._views[: -cfg.max_views]
+        for cand in self._candidates:
+            cand.view_quality.append(cand.scan_quality)
+            del cand.view_quality[: -cfg.max_views]
+
+    def view_qualities(self, pose: Pose2D) -> list[float] | None:
+        """The quality of the laser pose ``pose`` (now) on every view kept, oldest first, or
+        None when a view contradicts it. Each view's pose is predicted from the next newer
+        one by odometry and refined by the matcher (a chain, so odometry's slip over a whole
+        turn does not add up)."""
+        if self._odom is None:
+            return []
+        cfg = self.config
+        self._view_checks -= len(self._views)
+        misses = 0
+        qualities: list[float] = []
+        here, odom_here = pose, self._odom
+        for points, odom_then in reversed(self._views):
+            predicted = here.compose(odom_then.relative_to(odom_here))
+            v = self.verify(points, predicted)
+            jump = v.pose.distance_to(predicted) > cfg.max_jump_m or (
+                abs(angle_diff(v.pose.yaw, predicted.yaw)) > cfg.max_jump_rad
+            )
+            if jump or v.impossible > cfg.max_impossible:
+                return None
+            qualities.append(v.quality)
+            if not self._verified(v):
+                misses += 1
+                if misses > cfg.view_misses:
+                    return None
+                v = Verification(predicted, v.confidence, v.impossible)
+            here, odom_here = v.pose, odom_then
+        return qualities[::-1]
 
     def _search_due(self, now: float) -> bool:
         """A fresh search every ``search_every_s``; at once after one that set places aside
@@ -480,6 +586,7 @@ class Relocaliser:
             jump = v.pose.distance_to(cand.pose) > cfg.max_jump_m or (
                 abs(angle_diff(v.pose.yaw, cand.pose.yaw)) > cfg.max_jump_rad
             )
+            cand.scan_quality = -1.0 if jump else v.quality
             if self._verified(v) and not jump:
                 cand.pose, cand.quality = v.pose, v.quality
                 cand.streak += 1
@@ -515,8 +622,15 @@ class Relocaliser:
             dup = self._duplicate_of(v.pose)
             if dup is not None:
                 dup.wins += win  # already tracked (its re-verification keeps it current)
+            elif len(self._views) > self._view_checks:
+                continue  # no time left on this scan to check it against the views
+            elif (seen := self.view_qualities(v.pose)) is None:
+                # Contradicted by what the robot saw from another heading or place.
+                self._exclude(hyp.pose.compose(moved), now)
+                continue
             else:
-                dup = Candidate(v.pose, v.quality, now, wins=win)
+                dup = Candidate(v.pose, v.quality, now, wins=win, scan_quality=v.quality)
+                dup.view_quality = seen  # how it explains the views kept before it was found
                 self._candidates.append(dup)
             if win:
                 self._search_best = dup
@@ -546,6 +660,23 @@ class Relocaliser:
                 return cand
         return None
 
+    def _outseen(self, best: Candidate, other: Candidate) -> bool:
+        """Whether ``best`` explains the views both were tracked over clearly and consistently
+        better than ``other`` (the robot turned enough for them to cover other headings)."""
+        cfg = self.config
+        k = min(len(best.view_quality), len(other.view_quality), len(self._views))
+        if k < cfg.view_min_views:
+            return False
+        yaws = [odom.yaw for _, odom in self._views[-k:]]
+        span = sum(abs(angle_diff(b, a)) for a, b in itertools.pairwise(yaws))
+        if span < cfg.view_span_rad:
+            return False
+        diff = np.array(best.view_quality[-k:]) - np.array(other.view_quality[-k:])
+        return bool(
+            float(np.mean(diff)) >= cfg.view_margin
+            and float(np.mean(diff >= 0.0)) >= cfg.view_win_fraction
+        )
+
     def _decide(self, now: float) -> Pose2D | None:
         cfg = self.config
         alive = [c for c in self._candidates if c.streak > 0]
@@ -557,8 +688,15 @@ class Relocaliser:
             return None
         # Every candidate still tracked counts, even one that failed the last scan: a place
         # that passes one scan and fails the next is still a look-alike.
+        # While the robot turns to look around, *every* other verified place blocks until the
+        # turn has shown the best one better on views covering half a turn (or it failed): the
+        # truth may fit far worse than a look-alike behind clutter or people (ISR, kidnap seed
+        # 3: truth 0.74, a corridor 29 m away 0.98), and the turn is what can tell them apart.
         for other in self._candidates:
-            if other is not best and other.quality >= best.quality - cfg.margin:
+            if other is best:
+                continue
+            near = other.quality >= best.quality - cfg.margin
+            if (near or self.turning) and not self._outseen(best, other):
                 self.last_failure = "look-alike places"
                 return None
         if best is not self._search_best:

@@ -70,7 +70,8 @@ def test_the_watchdog_zero_comes_while_the_qt_thread_is_busy(
     assert time.monotonic() - started >= 0.2 - 0.02  # not before the ceiling
     assert not station.arbiter.tablet_forwarding
     qtbot.waitUntil(
-        lambda: any("explicit zero sent" in e.text for e in station.selected.state.log), timeout=3000
+        lambda: any("explicit zero sent" in e.text for e in station.selected.state.log),
+        timeout=3000,
     )
 
 

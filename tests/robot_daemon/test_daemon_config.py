@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -72,6 +73,22 @@ def test_map_surface_is_one_model_whatever_the_backend(tmp_path: Path) -> None:
         parse_config({"localiser": {"help_after_s": -1}}, "robot.yaml", tmp_path)
     config = parse_config({"localiser": {"help_after_s": 45}}, "robot.yaml", tmp_path)
     assert config.localiser.help_after_s == 45
+
+
+def test_look_around_is_on_by_default_and_robot_yaml_turns_it_off(tmp_path: Path) -> None:
+    """Issue 16: turning in place while the global search is undecided, configurable."""
+    from robot_daemon.config import SimSettings
+    from robot_daemon.daemon import Daemon, DaemonOptions
+
+    assert DaemonConfig().localiser.look_around is True
+    config = parse_config({"localiser": {"look_around": False}}, "robot.yaml", tmp_path)
+    assert config.localiser.look_around is False
+    with pytest.raises(ConfigError, match="look_around"):
+        parse_config({"localiser": {"look_around": "sometimes"}}, "robot.yaml", tmp_path)
+    daemon = Daemon(replace(config, sim=SimSettings(people=0)), DaemonOptions())
+    assert daemon.stack.look_around.config.enabled is False
+    on = Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions(relocalise=False))
+    assert on.stack.look_around.config.enabled is False  # --no-relocalise: no search, no turn
 
 
 def test_the_daemon_says_a_new_contact_once_as_a_collision() -> None:

@@ -260,3 +260,46 @@ def test_end_points_on_the_edge_of_unknown_space_count_as_hits() -> None:
     full = Relocaliser(grid, Localiser(grid), CONFIG).verify(points, laser).confidence
     assert conf[0.0] < full - 0.03
     assert conf[1.0] == pytest.approx(full, abs=0.02)
+
+
+# Twin rooms that differ only behind a robot standing at (3, 2.5) facing east: the second
+# has a cabinet against its west wall, in the 90° the UTM-30LX does not see.
+CABINET = np.array([[0.1, 2.0, 0.7, 3.0]])
+TWINS_BUT_BEHIND = np.vstack(
+    [ROOM, np.vstack([ROOM, CABINET]) + np.array([TWIN_SHIFT, 0.0, TWIN_SHIFT, 0.0])]
+)
+
+
+def _turning(laser: Pose2D, turn_rad_per_scan: float, scans: int) -> tuple[Relocaliser, list]:
+    """Scans from ``laser`` turning in place by ``turn_rad_per_scan`` (odometry says so)."""
+    grid = rasterise(TWINS_BUT_BEHIND, size=(TWIN_SHIFT + 6.0, 5.0))
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG)
+    reloc.start(0.0, "test")
+    rng = np.random.default_rng(7)
+    accepted: list[tuple[float, Pose2D]] = []
+    for k in range(scans):
+        now = 0.1 * (k + 1)
+        turned = Pose2D(laser.x, laser.y, laser.yaw + turn_rad_per_scan * k)
+        reloc.on_odometry(Pose2D(0.0, 0.0, turn_rad_per_scan * k))
+        pose = reloc.on_scan(utm_scan(TWINS_BUT_BEHIND, turned, now, rng), now)
+        if pose is not None:
+            accepted.append((now, pose))
+            break
+    return reloc, accepted
+
+
+def test_a_look_alike_that_only_differs_behind_the_robot_is_told_apart_by_turning() -> None:
+    """Standing, the two rooms stay ambiguous; turning in place (0.5 rad/s at 10 Hz) shows the
+    cabinet and the room with it is accepted at the truth; from the room without it, turning
+    cannot tell (a cabinet missing from the scan reads as glass), so it stays ambiguous:
+    never the wrong room."""
+    in_cabinet_room = Pose2D(3.0 + TWIN_SHIFT, 2.5, 0.0)
+    reloc, accepted = _turning(in_cabinet_room, 0.0, 100)
+    assert accepted == [] and reloc.last_failure == "look-alike places"
+    reloc, accepted = _turning(in_cabinet_room, 0.05, 130)
+    assert accepted, reloc.last_failure
+    when, pose = accepted[0]
+    assert pose.distance_to(in_cabinet_room) < 0.05
+    assert when <= 0.1 * 126  # within one turn
+    reloc, accepted = _turning(Pose2D(3.0, 2.5, 0.0), 0.05, 130)
+    assert accepted == [] and reloc.last_failure == "look-alike places"

@@ -1,0 +1,144 @@
+"""Look around: turn in place, slowly, while a global search stays undecided (issue 16).
+
+A standing robot's 270° scan may fit two places equally well (ISR's corridor spots 7 m and
+36 m apart verify at 0.99-1.00 alike). What the scan does not show, the robot can: turning in
+place brings the blind sector behind it into view, and every hypothesis must then explain the
+new scans too (`relocaliser`: candidates are moved by odometry and re-verified on every scan,
+and a new one must fit the views kept from earlier headings). This is Nav2's *spin* recovery
+behaviour used for localisation, as AMCL's users do by hand.
+
+The rules (safety first):
+
+* **Only rotation**, never translation, at ``angular_speed``; the command goes through the
+  multiplexer on the planner's input, so the e-stop and pause locks mask it, a station or
+  tablet command overrides it, and the collision monitor still limits what reaches the motors.
+* **At most one turn** (``max_turn_rad``, measured by odometry) per search attempt.
+* **Ends for good** (this attempt) when the e-stop is latched or navigation is paused or
+  someone else drives: the robot does not start turning again by itself after that; the search
+  goes on standing and asks for "Help me!" as before.
+* Starts only after the search has been undecided for ``start_after_s``; off when ``enabled``
+  is false (robot.yaml ``localiser: {look_around: false}``).
+
+The policy is pure: time and what the stack knows come in as arguments; it returns the angular
+speed to command (or None: command nothing) and says what it is doing for the operator.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+from interbot_core.geometry import angle_diff
+
+logger = logging.getLogger(__name__)
+
+TURNING_TEXT = "turning to find my position…"
+
+
+class LookAroundConfigError(ValueError):
+    """A look-around parameter is outside its allowed range."""
+
+
+@dataclass(frozen=True)
+class LookAroundConfig:
+    """Turning in place while the global search is undecided (SI units)."""
+
+    enabled: bool = True
+    angular_speed: float = 0.5  # [rad/s] slow: a full turn in 12.6 s, scans 2.9° apart at 10 Hz
+    max_turn_rad: float = 2.0 * math.pi  # at most one full turn per attempt
+    start_after_s: float = 0.5  # [s] undecided this long before turning
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool):
+            raise LookAroundConfigError(
+                f"LookAroundConfig.enabled must be true or false, got {self.enabled!r}"
+            )
+        checks = [
+            ("angular_speed", self.angular_speed, 0.05, 1.0),
+            ("max_turn_rad", self.max_turn_rad, 0.0, 2.0 * math.pi),
+            ("start_after_s", self.start_after_s, 0.0, 600.0),
+        ]
+        for name, value, low, high in checks:
+            if not (math.isfinite(value) and low <= value <= high):
+                raise LookAroundConfigError(
+                    f"LookAroundConfig.{name} must be in [{low}, {high}], got {value}"
+                )
+
+
+class LookAround:
+    """One turn in place per search attempt, while nothing forbids it."""
+
+    def __init__(self, config: LookAroundConfig | None = None) -> None:
+        self.config = config or LookAroundConfig()
+        self._attempt: float | None = None  # the search attempt (its start time) being served
+        self._turning = False
+        self._done = False  # this attempt's turn is over (full turn, or stopped by someone)
+        self._last_yaw: float | None = None
+        self.turned_rad = 0.0  # odometry rotation in this attempt
+        self.turns_started = 0  # (for figures and tests)
+        self.end_reason = ""
+
+    @property
+    def turning(self) -> bool:
+        return self._turning
+
+    def reset(self) -> None:
+        """No search is running: forget the attempt."""
+        self._attempt = None
+        self._turning = False
+        self._done = False
+        self._last_yaw = None
+        self.turned_rad = 0.0
+        self.end_reason = ""
+
+    def update(
+        self,
+        searching_since: float | None,
+        odom_yaw: float | None,
+        blocker: str | None,
+        now: float,
+    ) -> float | None:
+        """The angular speed to command now [rad/s], or None to command nothing.
+
+        ``searching_since``: when the undecided search began (None: no search is running);
+        ``odom_yaw``: the odometry heading [rad]; ``blocker``: why the robot may not turn by
+        itself now (e-stop, pause, manual control), else None.
+        """
+        cfg = self.config
+        if searching_since is None:
+            self.reset()
+            return None
+        if self._attempt != searching_since:
+            self.reset()
+            self._attempt = searching_since
+        if odom_yaw is not None:
+            if self._last_yaw is not None and self._turning:
+                self.turned_rad += abs(angle_diff(odom_yaw, self._last_yaw))
+            self._last_yaw = odom_yaw
+        if self._done or not cfg.enabled:
+            return None
+        if blocker is not None:
+            if self._turning:
+                self._finish(f"stopped: {blocker}")
+            elif now - searching_since >= cfg.start_after_s:
+                # Due, but forbidden: this attempt does not turn after the block clears.
+                self._finish(f"not started: {blocker}")
+            return None
+        if self.turned_rad >= cfg.max_turn_rad:
+            self._finish("one full turn done")
+            return None
+        if not self._turning:
+            if now - searching_since < cfg.start_after_s or odom_yaw is None:
+                return None
+            self._turning = True
+            self.turns_started += 1
+            logger.info("search undecided: turning in place to see more")
+        return cfg.angular_speed
+
+    def _finish(self, why: str) -> None:
+        if self._turning:
+            logger.info("look-around ended after %.0f° (%s)", math.degrees(self.turned_rad), why)
+        self._turning = False
+        self._done = True
+        self.end_reason = why
