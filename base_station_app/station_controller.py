@@ -426,10 +426,18 @@ class StationController(QObject):
         if robot_id == self.link.selected:
             return
         self.release_all()
-        self._stop_tablet_speed("robot switched")
-        with self.tablet_teleop.lock:  # the tablet thread publishes on the link's publishers
-            old, new = self.fleet.select(robot_id)
-            self.link.select_robot(robot_id)
+        link, selected = self.link, self.fleet.select
+
+        def switch() -> tuple[RobotMirror, RobotMirror]:
+            pair = selected(robot_id)
+            link.select_robot(robot_id)  # the tablet thread publishes on its publishers
+            return pair
+
+        # The tablet's zero and the switch under one hold of the speed path's lock: no tablet
+        # command reaches the old robot after its zero.
+        switched: list[tuple[RobotMirror, RobotMirror]] = []
+        self.tablet_teleop.stop("robot switched", then=lambda: switched.append(switch()))
+        old, new = switched[0]
         self._sync_watch()
         now = self.clock()
         new.state.scan = None  # no stale laser drawn from a robot followed lightly until now

@@ -119,15 +119,19 @@ class TabletTeleop(QObject):
             self._reply(p.ErrorReport("not_permitted", verdict.reason))
             self.refused.emit(verdict.reason)
 
-    def stop(self, why: str) -> bool:
+    def stop(self, why: str, then: Callable[[], object] | None = None) -> bool:
         """Forget the tablet's command; one explicit zero if one was forwarded (any thread).
 
-        The watchdog may still fire later: it then finds nothing forwarded and sends nothing.
+        ``then`` runs under the same hold of the lock, after the zero (a robot switch: no
+        command can reach the old robot between its zero and the switch). The watchdog may
+        still fire later: it then finds nothing forwarded and sends nothing.
         """
         with self.lock:
             zero = self.arbiter.stop_tablet()
             if zero:
                 self._send_twist(Twist(0.0, 0.0, stamp=self._clock()))
+            if then is not None:
+                then()
         if zero:
             self.stopped.emit(why)
         return zero

@@ -35,11 +35,7 @@ def qos_for(topic: Topic) -> Qos:
         return Qos(congestion, zenoh.Priority.DATA_LOW, express=False)
     if spec.must_arrive:
         return Qos(congestion, zenoh.Priority.INTERACTIVE_LOW, express=False)
-    # Express: sent at once, not held up to zenoh's batching time limit (1 ms by default). The
-    # mux output is what the robot's motors do now: the station's stop line and the teleop
-    # benchmark read it (issue 14).
-    express = topic in (Topic.POSE, Topic.CMD_VEL, Topic.MUX)
-    return Qos(congestion, zenoh.Priority.DATA_HIGH, express=express)
+    return Qos(congestion, zenoh.Priority.DATA_HIGH, express=topic in (Topic.POSE, Topic.CMD_VEL))
 
 
 def declare_publisher(session: zenoh.Session, key_expr: str, topic: Topic) -> zenoh.Publisher:
