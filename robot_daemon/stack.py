@@ -421,9 +421,17 @@ class RobotStack:
     def _look_around(self, now: float) -> None:
         """While a global search is undecided, turn in place to see more (`look_around`):
         on the planner's input, so locks, operators and the collision monitor rule it. Not
-        while checking a "Help me!" pose: the person who gave it stands at the tablet."""
+        while checking a "Help me!" pose: the person who gave it stands at the tablet.
+
+        Only in the service of a command (no motion nobody commanded): the operator's
+        "Relocalise", or a route the robot was given and cannot drive while it does not know
+        where it is. A robot switched on, or pushed, while idle searches standing still.
+        """
         reloc = self.relocalisation
-        searching = reloc.active and reloc.relocaliser.reason != "help-me"
+        reason = reloc.relocaliser.reason
+        route_waiting = self.route is not None and not self.route.finished
+        commanded = reason == "request" or (route_waiting and reason != "help-me")
+        searching = reloc.active and commanded
         since = reloc.relocaliser.since if searching else None
         yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
         was_turning = self.look_around.turning

@@ -1,6 +1,7 @@
 """Look around on the full stack (issue 16), on the realistic ISR world, simulated time.
 
-The robot starts with its pose unset in the north-west corner of ISR's corridor ring, whose
+The robot starts with its pose unset (and turns only when asked to "Relocalise": an idle robot
+searches standing still) in the north-west corner of ISR's corridor ring, whose
 scan from a standing robot fits the south-east corner 64 m away as well (quality 0.94 vs 0.89,
 inside the decision's 0.1 margin). Turning in place it sees every heading, the truth explains
 all the views clearly better, and it is accepted: at the truth, with only rotation commanded.
@@ -38,9 +39,21 @@ def _outputs(system: SimulatedSystem, seconds: float) -> tuple[list[tuple[float,
     return out, system.run_until(step, seconds)
 
 
+def test_an_idle_robot_searches_standing_still() -> None:
+    """No route and no "Relocalise": nobody asked it to move, so it does not turn."""
+    system = _system()
+    outputs, found = _outputs(system, 6.0)
+    assert not found  # standing, the corners stay look-alikes
+    assert all(out == (0.0, 0.0) for out in outputs)
+    assert system.stack.look_around.turns_started == 0
+
+
 def test_a_robot_in_a_look_alike_corner_turns_and_finds_itself() -> None:
+    """The operator's "Relocalise" is the command the turn serves."""
     system = _system()
     stack = system.stack
+    system.step()
+    stack.relocalise(system.now)
     outputs, found = _outputs(system, 15.0)
     assert found, stack.relocalisation.relocaliser.last_failure
     estimate = stack.pose
@@ -62,6 +75,7 @@ def test_no_turning_while_the_emergency_stop_is_latched() -> None:
     system = _system()
     stack = system.stack
     stack.on_lock("stop", True, 0.0)
+    stack.relocalise(0.0)
     outputs, found = _outputs(system, 6.0)
     assert not found  # standing, the corners stay look-alikes
     assert stack.localisation_state is LocaliserState.SEARCHING
@@ -77,6 +91,7 @@ def test_no_turning_while_the_emergency_stop_is_latched() -> None:
 def test_no_turning_when_disabled() -> None:
     system = _system(StackConfig(look_around=LookAroundConfig(enabled=False)))
     stack = system.stack
+    stack.relocalise(0.0)
     outputs, found = _outputs(system, 6.0)
     assert not found
     assert all(out == (0.0, 0.0) for out in outputs)
