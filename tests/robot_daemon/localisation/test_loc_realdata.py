@@ -143,7 +143,9 @@ def test_infinite_corridor_worst_segment_is_tracked_on_a_learnt_odometry_scale(
     position along the corridor the pose rides on the odometry, whose 5 % scale error the
     localiser learns where they do (`odometry_scale`). Without it the segment's RMS was 0.59 m
     (max 1.7 m, a loss); with it 4 cm (max 11 cm)."""
-    stats = localise_interleaved(_log("infinite-corridor"), 2, start=960, count=300)
+    stats = localise_interleaved(
+        _log("infinite-corridor"), 2, start=960, count=300, records=_records("infinite-corridor")
+    )
     for key, value in stats.items():
         record_property(key, value)
     assert stats["lost_scans"] == 0
@@ -158,7 +160,7 @@ def test_csail_revisit_through_a_fast_turn_is_tracked(record_property) -> None:
     next scans (logged poses fitting the map at 0.95) pull it back (RMS 2 cm); before, the
     error grew to 23 degrees and 1.3 m and the run was lost (RMS 38 cm): the logged poses
     were right, the localiser was not."""
-    stats = localise_revisits(_log("csail"), 0.5, 1, 1)
+    stats = localise_revisits(_log("csail"), 0.5, 1, 1, records=_records("csail"))
     for key, value in stats.items():
         record_property(key, value)
     assert stats["scans"] >= 20
