@@ -328,6 +328,10 @@ class StationController(QObject):
         ``timers=False`` leaves ``tick`` / ``poll_link`` to the caller (tests step them).
         """
         self.tablet.start_thread()
+        if self.tablet.priority is not None:  # the tablet's commands: real-time or not
+            self.log(
+                "info" if self.tablet.priority.realtime else "warning", self.tablet.priority.text
+            )
         ok = self.tablet.listen()
         if not ok:
             self.log("error", f"cannot listen for the tablet on port {self.tablet.port}")
@@ -571,7 +575,8 @@ class StationController(QObject):
         now = self.clock()
         if isinstance(event, RobotAppeared):
             mirror = self.fleet.mirror(event.robot_id)
-            mirror.online = True
+            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
+                mirror.online = True
             self.log("info", f"robot {event.robot_id} is online")
             self._sync_watch()
             if self.link is not None and event.robot_id != self.selected_robot:
@@ -582,7 +587,8 @@ class StationController(QObject):
             self.robots_changed.emit()
         elif isinstance(event, RobotLeft):
             mirror = self.fleet.mirror(event.robot_id)
-            mirror.online = False
+            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
+                mirror.online = False
             self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
             self.alert_rules.on_robot_left(event.robot_id, now)
             self.robots_changed.emit()
@@ -650,7 +656,11 @@ class StationController(QObject):
         return self._send(Topic.TABLET_VEL, twist)
 
     def _tablet_teleop_refusal(self) -> str | None:
-        """Why the tablet may not drive now (tablet thread; plain reads of our state)."""
+        """Why the tablet may not drive now (tablet thread, under ``tablet_teleop.lock``).
+
+        Everything it reads is written under that lock: the e-stop (`engage_estop`,
+        `release_estop`), the permissions (`set_permission`), the selected robot
+        (`select_robot`) and its online flag (`_on_link_event`)."""
         return self.tablet_policy.refusal("teleop", self.robot_online, self.estop_latched)
 
     def _on_tablet_speed_refused(self, why: str) -> None:
@@ -1033,9 +1043,10 @@ class StationController(QObject):
 
     def set_permission(self, kind: str, allowed: bool) -> None:
         policy = self.tablet_policy
-        policy.permissions = policy.permissions.with_kind(kind, allowed)
-        if not policy.permissions.teleop:
-            self._stop_tablet_speed("teleoperation not permitted")
+        with self.tablet_teleop.lock:  # the tablet thread reads it (TabletTeleop.on_speed)
+            policy.permissions = policy.permissions.with_kind(kind, allowed)
+            if not policy.permissions.teleop:
+                self._stop_tablet_speed("teleoperation not permitted")
         self._send_permissions()
         self._save_settings()
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")

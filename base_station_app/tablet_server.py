@@ -36,6 +36,9 @@ thread's drawing. Speed commands leave as ``speed_received`` in that thread (the
 `TabletTeleop` forwards them from there); everything else reaches the station through queued
 signals. The public methods (`send`, `listen`, `close`, `ping`, `disconnect_tablet`) may be
 called from any thread: they run in the server's thread (`ThreadCall`) and return its answer.
+That thread runs at real-time priority where the OS allows it (`priority` says;
+`interbot_link.command_priority`): a speed command that arrives while the Qt thread draws, or
+other programs keep the cores busy, is read and forwarded at once.
 """
 
 from __future__ import annotations
@@ -66,6 +69,7 @@ from interbot_core.protocol import (
     encode,
 )
 from interbot_core.tablet_input_policy import InputPolicyConfig, TabletInputPolicy
+from interbot_link.command_priority import PriorityOutcome, raise_current_thread
 from interbot_qt.qt_tcp_connection import QtTcpConnection
 from interbot_qt.thread_call import ThreadCall
 
@@ -154,6 +158,7 @@ class TabletServer(QObject):
         self._call = ThreadCall(self)  # public methods run in the server's thread
         self._thread: QThread | None = None
         self._port = port  # [the port listened on, once listening]
+        self.priority: PriorityOutcome | None = None  # its thread's scheduling (start_thread)
 
     # ------------------------------------------------------------------ its thread
     def start_thread(self) -> None:
@@ -165,6 +170,13 @@ class TabletServer(QObject):
         self.moveToThread(thread)
         thread.start()
         self._thread = thread
+        self.priority = self._call.run(self._raise_priority)
+
+    def _raise_priority(self) -> PriorityOutcome | None:
+        """Real-time priority for the tablet thread (never for the thread that started it)."""
+        if self._thread is None or QThread.currentThread() is not self._thread:
+            return None
+        return raise_current_thread("the tablet thread")
 
     def stop_thread(self) -> None:
         """Close, bring the server back to the application's thread and end its thread."""

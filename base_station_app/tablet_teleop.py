@@ -9,10 +9,12 @@ alerts, the tablet panel), never on the command's path.
 
 One owner, one lock. The arbiter's tablet state and the sending of ``tablet_vel`` are guarded
 by ``lock``; the controller takes the same lock to change what gates the tablet (the e-stop,
-the selected robot) and to stop the tablet's driving. So:
+the permissions, the selected robot and whether it is online: everything ``refusal()`` and
+``estop()`` read) and to stop the tablet's driving. So:
 
 * **the e-stop wins**: once the controller has latched it under the lock, no speed command is
-  forwarded; one forwarded just before is followed by the explicit zero;
+  forwarded; one forwarded just before is followed by the explicit zero (likewise a withdrawn
+  permission);
 * **no command lost or reordered**: commands are forwarded one at a time, in arrival order, by
   one thread;
 * **a stalled tablet gets its zero**: the watchdog is a single-shot `QTimer` in the tablet

@@ -143,6 +143,8 @@ def _run(tmp: Path, n_samples: int, secure: bool = False) -> dict[str, Any]:
     config.write_text(DAEMON_YAML.format(robot=ROBOT), encoding="utf-8")
     log_path = tmp / "daemon.log"
     cmd = [sys.executable, "-m", "robot_daemon.main", "--sim", "--config", str(config)]
+    if os.environ.get("TELEOP_TRACE"):  # diagnostic: per-hop stamps (bench/_hop_trace.py)
+        cmd[1:3] = [str(Path(__file__).with_name("_hop_trace.py")), "daemon"]
     cmd += ["--robot-id", ROBOT, "--listen", endpoint, "--auto-localise"]
     if keys is not None:
         cmd += ["--security", str(keys)]
@@ -210,6 +212,12 @@ def _measure(
     from interbot_link import LinkSecurity, session_config
 
     app = QApplication.instance() or QApplication([sys.argv[0]])
+    trace_dir = os.environ.get("TELEOP_TRACE")
+    if trace_dir:
+        _trace = importlib.util.spec_from_file_location("interbot_hop_trace", Path(__file__).with_name("_hop_trace.py"))  # fmt: skip
+        hop_trace = importlib.util.module_from_spec(_trace)  # type: ignore[arg-type]
+        _trace.loader.exec_module(hop_trace)  # type: ignore[union-attr]
+        hop_trace.install_station(Path(trace_dir) / "station.json")
     loop = QEventLoop()
 
     def wait_until(done: Callable[[], bool], timeout_s: float, what: str) -> None:
@@ -348,6 +356,9 @@ def _measure(
             station_session.close()
         app.processEvents()
 
+    if trace_dir:
+        samples = {"result": result, "arrived": [[k[0], k[1], t] for k, t in arrived.items()]}
+        (Path(trace_dir) / "samples.json").write_text(json.dumps(samples), encoding="utf-8")
     written = {(lin, ang): t for lin, ang, t in result["written"]}
     total, tcp_in, to_mux = [], [], []
     for lin, ang, t_mux in result["observed"]:

@@ -144,3 +144,37 @@ def test_a_thread_call_runs_in_the_owner_thread_and_returns_or_raises(qapp) -> N
         thread.quit()
         thread.wait()
     assert call.run(lambda: 42) == 42  # the thread ended: called directly
+
+
+def test_withdrawing_teleop_permission_wins_over_a_tablet_that_keeps_driving(
+    qtbot, linked, station, robot, tablet_factory
+) -> None:
+    """The permission the tablet thread checks is written under the speed path's lock: once
+    `set_permission` returns, nothing more is forwarded, and the zero comes last."""
+    t = handshake(qtbot, tablet_factory)
+    sending = threading.Event()
+    sending.set()
+    k = [0]
+
+    def drive() -> None:  # a tablet at ~200 Hz, each command its own value
+        while sending.is_set():
+            k[0] += 1
+            t.sock.sendall(json.dumps({"speed": {"linear": 0.0, "angular": 0.001 * k[0]}}).encode())
+            time.sleep(0.005)
+
+    driver = threading.Thread(target=drive, daemon=True)
+    driver.start()
+    try:
+        assert busy_wait(lambda: len(tablet_vels(robot)) >= 5)
+        station.set_permission("teleop", False)  # the Qt thread, while commands keep arriving
+        assert not station.arbiter.tablet_forwarding
+        qtbot.wait(500)
+        assert not station.arbiter.tablet_forwarding and station.arbiter.tablet_speed is None
+    finally:
+        sending.clear()
+        driver.join(2.0)
+    qtbot.wait(200)
+    sent = tablet_vels(robot)
+    assert sent[-1] == (0.0, 0.0) and sent.count((0.0, 0.0)) == 1
+    errors = [e["message"] for e in t.of("error")]
+    assert sum("does not allow teleop" in m for m in errors) == 1  # told once per stream

@@ -80,6 +80,11 @@ def test_unit_runs_the_daemon_as_a_notify_service(unit: dict[str, dict[str, list
     assert one("ProtectHome") == "yes"
     writable = one("ReadWritePaths").split()
     assert writable and all(p.startswith("/var/") for p in writable)
+    # Issue 14: the command threads may use SCHED_FIFO at COMMAND_PRIORITY, and no higher.
+    from interbot_link.command_priority import COMMAND_PRIORITY
+
+    assert one("RestrictRealtime") == "no"
+    assert int(one("LimitRTPRIO")) == COMMAND_PRIORITY
     # Serial ports and the camera are devices: the unit must not hide /dev.
     assert service.get("PrivateDevices", ["no"]) == ["no"]
     assert unit["Install"]["WantedBy"] == ["multi-user.target"]

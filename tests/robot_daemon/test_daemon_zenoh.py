@@ -31,6 +31,7 @@ from interbot_core.topics import (
     Twist,
 )
 from interbot_link import RobotLink, StateMessage, StationLink, open_session
+from interbot_link.command_priority import is_realtime
 from robot_daemon.config import DaemonConfig, SimSettings, ZenohSettings
 from robot_daemon.daemon import Daemon, DaemonOptions
 from robot_daemon.systemd_notify import SystemdNotifier
@@ -45,6 +46,8 @@ class Rig:
     station: StationLink
     stop: threading.Event
     close_station: Callable[[], None]
+    link: RobotLink
+    loop_thread: threading.Thread
     seen: dict[Topic, object] = field(default_factory=dict)
 
     def latest(self, topic: Topic) -> object | None:
@@ -86,7 +89,7 @@ def rig(free_tcp_port: Callable[[], int], wait_until: Callable[..., None]) -> It
         wait_until(lambda: ROBOT in station.robots, 10.0, "the robot's liveliness token")
         station.select_robot(ROBOT)
         try:
-            yield Rig(daemon, station, stop, station_side.close)
+            yield Rig(daemon, station, stop, station_side.close, link, thread)
         finally:
             station_side.close()
             stop.set()
@@ -141,6 +144,37 @@ def test_goal_in_route_done_pose_out(rig: Rig, wait_until: Callable[..., None]) 
     goal = route.waypoints[-1]
     assert isinstance(final, PoseMsg)
     assert abs(final.x - goal[0]) < 0.6 and abs(final.y - goal[1]) < 0.6
+
+
+def test_commands_are_applied_on_the_real_time_callback_thread_where_allowed(
+    rig: Rig, wait_until: Callable[..., None]
+) -> None:
+    """Issue 14's tail: the link's zenoh callback thread applies motion commands itself, at
+    real-time priority when the OS allows it (and says so either way); the loop does not."""
+    applied_on: list[int] = []
+    real_apply = rig.daemon.apply_motion
+
+    def apply(link: object, commands: list[object]) -> None:
+        applied_on.append(threading.get_native_id())
+        real_apply(link, commands)  # type: ignore[arg-type]
+
+    rig.daemon.apply_motion = apply  # type: ignore[method-assign]
+
+    def driving() -> bool:
+        rig.station.send_station_vel(Twist(0.1, 0.0))
+        return rig.daemon.stack.last_output.source == "Base Station"
+
+    wait_until(driving, 10.0, "station_vel to win the mux")
+    outcome = rig.link.callback_priority
+    assert outcome is not None and rig.daemon.command_priority is outcome
+    loop = rig.loop_thread.native_id
+    assert applied_on and loop not in applied_on  # not the loop thread
+    assert len(set(applied_on)) == 1  # one callback thread, in arrival order
+    if outcome.realtime:
+        assert "real-time priority" in outcome.text and is_realtime(applied_on[0])
+    else:
+        assert "not permitted" in outcome.text and not is_realtime(applied_on[0])
+    assert loop is not None and not is_realtime(loop)  # the loop keeps normal priority
 
 
 def test_emergency_stop_latches_until_released(rig: Rig, wait_until: Callable[..., None]) -> None:

@@ -1,0 +1,110 @@
+"""Real-time scheduling for the threads that carry commands (issue 14: the teleop latency tail).
+
+Why. Per-hop time stamps of the teleop bench (``bench/_hop_trace.py``) beside the kernel's
+scheduler trace (``perf sched``) showed where the slowest samples lost their milliseconds: a
+thread on the command path (the station's tablet thread, the daemon's zenoh callback thread
+or its command thread) had been woken and was ready to run, but both cores were busy: with the
+simulator's ray casting, the localiser, the station's drawing, or other programs. Under the
+normal scheduler such a thread may wait for the running one's slice to end, a scheduler tick
+at a time (4 ms at HZ=250): 2-4 ms per hop, several hops per command. The threads do little per
+command (0.1-0.3 ms), so under ``SCHED_FIFO`` they preempt that bulk work at once and give the
+CPU back within a fraction of a millisecond. This is the usual split on robots (ros2_control's
+real-time control thread, the rest at normal priority).
+
+Why it is safe. Each of these threads blocks on a socket or a queue and does bounded work per
+message (the tablet's input policy, the link's bounded queues); the kernel's real-time
+throttling (``sched_rt_runtime_us``, 95 % by default) keeps the rest of the machine running
+even if one spun. ``SCHED_RESET_ON_FORK``: threads they start begin at normal priority. The
+priority is low (`COMMAND_PRIORITY`): above every normal thread, below the kernel's own.
+
+Only where the OS allows it: root, ``CAP_SYS_NICE``, or ``RLIMIT_RTPRIO`` >= the priority
+(systemd ``LimitRTPRIO=``, ``/etc/security/limits.conf`` ``rtprio``; docs/deploy.md). Otherwise
+the thread stays at normal priority, which works as before, and the caller says so once.
+Python's GIL still serialises the threads of one process: a command thread waits for the GIL
+as before (at most ``sys.getswitchinterval()`` while another thread runs Python code).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from dataclasses import dataclass
+
+COMMAND_PRIORITY = 10
+"""SCHED_FIFO priority (1-99) of the command threads: the kernel's own threads use 50 and 99."""
+
+
+@dataclass(frozen=True)
+class PriorityOutcome:
+    """What `raise_current_thread` got: ``realtime`` True under SCHED_FIFO; ``text`` says it."""
+
+    realtime: bool
+    text: str
+
+
+def _rtprio_limit() -> str:
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_RTPRIO)
+    except (ImportError, AttributeError, OSError):
+        return "unknown"
+    return "unlimited" if soft == resource.RLIM_INFINITY else str(soft)
+
+
+def raise_current_thread(what: str, priority: int = COMMAND_PRIORITY) -> PriorityOutcome:
+    """Put the calling thread under SCHED_FIFO at ``priority``, if the OS allows it.
+
+    ``what`` names the thread in the outcome's text (e.g. "the tablet thread"). Never raises
+    for lack of permission: the thread then keeps its normal priority and the outcome says why.
+    """
+    if not 1 <= priority <= 99:
+        raise ValueError(f"real-time priority must be in 1..99, got {priority!r}")
+    if not hasattr(os, "sched_setscheduler") or not hasattr(os, "SCHED_FIFO"):
+        return PriorityOutcome(False, f"{what}: normal priority (no real-time scheduling here)")
+    policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)
+    try:
+        # Linux: pid 0 is the calling thread, not the whole process.
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+    except OSError as exc:
+        return PriorityOutcome(
+            False,
+            f"{what}: normal priority, real-time scheduling not permitted ({exc.strerror}; "
+            f"RLIMIT_RTPRIO {_rtprio_limit()}): commands may wait for a busy CPU "
+            "(docs/deploy.md, LimitRTPRIO)",
+        )
+    return PriorityOutcome(True, f"{what}: real-time priority {priority} (SCHED_FIFO)")
+
+
+def is_realtime(tid: int = 0) -> bool:
+    """True if thread ``tid`` (0: the calling thread) runs under SCHED_FIFO or SCHED_RR."""
+    if not hasattr(os, "sched_getscheduler"):
+        return False
+    policy = os.sched_getscheduler(tid) & ~getattr(os, "SCHED_RESET_ON_FORK", 0)
+    return policy in (os.SCHED_FIFO, os.SCHED_RR)
+
+
+class ThreadRaiser:
+    """Raises each thread that calls it once (for callbacks on threads we do not create, such
+    as zenoh's callback threads); remembers the outcome of the first."""
+
+    def __init__(self, what: str, priority: int = COMMAND_PRIORITY) -> None:
+        self._what = what
+        self._priority = priority
+        self._done: set[int] = set()
+        self._lock = threading.Lock()
+        self.outcome: PriorityOutcome | None = None
+
+    def __call__(self) -> PriorityOutcome | None:
+        """Raise the calling thread if not yet done; its outcome the first time, else None."""
+        tid = threading.get_native_id()
+        if tid in self._done:  # the common case: one set lookup, no lock
+            return None
+        with self._lock:
+            if tid in self._done:
+                return None
+            self._done.add(tid)
+        outcome = raise_current_thread(self._what, self._priority)
+        if self.outcome is None:
+            self.outcome = outcome
+        return outcome
