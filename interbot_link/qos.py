@@ -2,7 +2,13 @@
 
 Must-arrive topics (stop, pause, route, goal, initial pose, config, stop release, route
 progress, status) use congestion control BLOCK: a full transmit queue makes the sender wait
-instead of dropping the message. All commands share one priority so that zenoh keeps their
+instead of dropping the message. So do the velocity commands (station_vel, tablet_vel; issue
+14): zenoh's DROP discards the message being sent, the newest, once the queue (two batches per
+priority, and every express message is a batch) has stayed full for 1 ms; a burst of key
+commands while the transmit thread waited for a busy CPU lost about one in ten under load
+(20 bursts of 50, load 17), and the last one lost can be the release's zero. Waiting a few
+milliseconds for the queue is better than a robot that keeps the old speed until the
+multiplexer's timeout. All commands share one priority so that zenoh keeps their
 order on the link (stop, then stop release, arrive in that order). Streams use DROP: a late
 scan is worth less than the next one.
 """
@@ -28,7 +34,8 @@ class Qos:
 def qos_for(topic: Topic) -> Qos:
     """The publisher QoS of ``topic``."""
     spec = TOPIC_SPECS[topic]
-    congestion = zenoh.CongestionControl.BLOCK if spec.must_arrive else zenoh.CongestionControl.DROP
+    block = spec.must_arrive or spec.command  # every command, the velocity streams too
+    congestion = zenoh.CongestionControl.BLOCK if block else zenoh.CongestionControl.DROP
     if spec.command:
         return Qos(congestion, zenoh.Priority.INTERACTIVE_HIGH, express=True)
     if topic in (Topic.MAP, Topic.IMAGE):

@@ -378,7 +378,8 @@ def test_subscribed_counts_only_other_sessions(pair: Pair) -> None:
     wait_until(lambda: pair.robot.subscribed(Topic.IMAGE))
 
 
-def test_must_arrive_commands_travel_with_congestion_control_block(pair: Pair) -> None:
+def test_every_command_travels_with_congestion_control_block(pair: Pair) -> None:
+    """Velocity commands too (issue 14): DROP discarded the newest of a burst under load."""
     pair.select()
     seen: list[tuple[str, zenoh.CongestionControl]] = []
     probe = pair.robot_session.declare_subscriber(
@@ -391,7 +392,33 @@ def test_must_arrive_commands_travel_with_congestion_control_block(pair: Pair) -
     finally:
         probe.undeclare()
     assert seen[0] == (key(ROBOT, Topic.STOP), zenoh.CongestionControl.BLOCK)
-    assert seen[-1] == (key(ROBOT, Topic.STATION_VEL), zenoh.CongestionControl.DROP)
+    assert seen[-1] == (key(ROBOT, Topic.STATION_VEL), zenoh.CongestionControl.BLOCK)
+
+
+def test_a_burst_of_key_commands_arrives_whole_and_in_order(pair: Pair) -> None:
+    """Bursts of station_vel sent back to back (keys pressed and released fast, under load):
+    every command reaches the robot's link, in order. With DROP, 212 of 2000 were lost in 40
+    bursts of 50 at load 17 (the newest of each burst first)."""
+    pair.select()
+    wait_until(lambda: pair.station.send_stop(Lock(False)))
+    pair.robot.wait_commands(2.0)
+    pair.robot.poll_commands()
+    sent = [round(1e-4 * k, 6) for k in range(1, 501)]
+    for k, angular in enumerate(sent):
+        pair.station.send_station_vel(Twist(0.0, angular))
+        if k % 50 == 49:
+            time.sleep(0.01)
+    got: list[float] = []
+
+    def all_arrived() -> bool:
+        pair.robot.wait_commands(0.1)
+        got.extend(
+            c.message.angular for c in pair.robot.poll_commands() if isinstance(c.message, Twist)
+        )
+        return len(got) >= len(sent)
+
+    wait_until(all_arrived, 10.0)
+    assert got == sent
 
 
 def test_a_station_started_before_the_robot_finds_it() -> None:
