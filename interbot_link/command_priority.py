@@ -20,6 +20,8 @@ priority is low (`COMMAND_PRIORITY`): above every normal thread, below the kerne
 Only where the OS allows it: root, ``CAP_SYS_NICE``, or ``RLIMIT_RTPRIO`` >= the priority
 (systemd ``LimitRTPRIO=``, ``/etc/security/limits.conf`` ``rtprio``; docs/deploy.md). Otherwise
 the thread stays at normal priority, which works as before, and the caller says so once.
+``INTERBOT_REALTIME=0`` in the environment keeps every thread at normal priority (to compare,
+or on a machine where a real-time thread is not wanted).
 Python's GIL still serialises the threads of one process: a command thread waits for the GIL
 as before (at most ``sys.getswitchinterval()`` while another thread runs Python code).
 """
@@ -32,6 +34,8 @@ from dataclasses import dataclass
 
 COMMAND_PRIORITY = 10
 """SCHED_FIFO priority (1-99) of the command threads: the kernel's own threads use 50 and 99."""
+DISABLE_VARIABLE = "INTERBOT_REALTIME"
+"""``INTERBOT_REALTIME=0``: no real-time priority for any thread."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +64,8 @@ def raise_current_thread(what: str, priority: int = COMMAND_PRIORITY) -> Priorit
     """
     if not 1 <= priority <= 99:
         raise ValueError(f"real-time priority must be in 1..99, got {priority!r}")
+    if os.environ.get(DISABLE_VARIABLE, "1") == "0":
+        return PriorityOutcome(False, f"{what}: normal priority ({DISABLE_VARIABLE}=0)")
     if not hasattr(os, "sched_setscheduler") or not hasattr(os, "SCHED_FIFO"):
         return PriorityOutcome(False, f"{what}: normal priority (no real-time scheduling here)")
     policy = os.SCHED_FIFO | getattr(os, "SCHED_RESET_ON_FORK", 0)

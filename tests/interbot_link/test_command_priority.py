@@ -111,3 +111,10 @@ def test_thread_raiser_raises_each_thread_once(monkeypatch: pytest.MonkeyPatch) 
     assert other is not None  # another thread is raised too
     assert len(calls) == 2 and calls[0] != calls[1]
     assert raiser.outcome == first  # the first outcome is kept for the log
+
+
+def test_interbot_realtime_0_keeps_normal_priority(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("INTERBOT_REALTIME", "0")
+    outcome, realtime = in_thread(lambda: (cp.raise_current_thread("the tablet thread"), cp.is_realtime()))  # fmt: skip
+    assert not outcome.realtime and not realtime
+    assert outcome.text == "the tablet thread: normal priority (INTERBOT_REALTIME=0)"
