@@ -8,11 +8,9 @@ while it is open, and answers the query ``interbot/<robot_id>/state`` with a sna
 latest state (the map, pose, route progress ...), so a station that joins late gets the map.
 
 The thread zenoh calls `RobotLink._on_sample` on (zenoh-python's own Python thread for this
-subscriber, not a network thread) is raised to real-time priority on its first sample, where
-the OS allows it (`interbot_link.command_priority`). After queuing a motion or stop command it
-calls the motion listener (`set_motion_listener`), through which the daemon applies the
-command on that same thread: one thread wake-up and one GIL hand-over fewer than a separate
-command thread (issue 14).
+subscriber) is raised to real-time priority on its first sample, where the OS allows it
+(`interbot_link.command_priority`): a stop or a speed command is queued the moment it arrives,
+even while the robot's loop and other programs keep both cores busy.
 """
 
 from __future__ import annotations
@@ -132,7 +130,6 @@ class RobotLink:
         self._capacity = queue_capacity
         self._notify = notify
         self._raise_thread = ThreadRaiser("the robot link's command callback thread")
-        self._motion_listener: Callable[[], None] | None = None
         self._snapshot: dict[Topic, bytes] = {}
         self._closed = False
         self.decode_errors: Counter[str] = Counter()
@@ -172,7 +169,6 @@ class RobotLink:
             return
         item = (str(sample.key_expr), sample.payload.to_bytes())
         name = item[0].rsplit("/", 1)[-1]
-        fast = name in PRIORITY_TOPICS or name in MOTION_TOPICS
         with self._cond:
             if name in PRIORITY_TOPICS:
                 if len(self._priority) >= PRIORITY_CAPACITY:
@@ -188,15 +184,6 @@ class RobotLink:
             self._cond.notify_all()
         if self._notify is not None:
             self._notify()
-        listener = self._motion_listener
-        if fast and listener is not None:
-            listener()
-
-    def set_motion_listener(self, listener: Callable[[], None] | None) -> None:
-        """Call ``listener()`` on the zenoh callback thread after each motion or stop command
-        is queued (None: stop calling). The daemon applies the motion lanes there
-        (`poll_commands(motion=True)`); it must not raise and should not block for long."""
-        self._motion_listener = listener
 
     def _on_query(self, query: zenoh.Query) -> None:
         """Runs on a zenoh thread: reply with the stored, already encoded state."""

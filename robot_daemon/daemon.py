@@ -2,15 +2,16 @@
 
 One thread runs everything that decides (thesis Fig. 4.5 in one loop): it takes the commands
 the zenoh callbacks queued (`RobotLink.poll_commands`), steps the stack, and publishes state at
-fixed rates. The motion commands (`interbot_link.robot.MOTION_TOPICS`: teleoperation, pause,
-stop, stop release) do not wait for it (issue 14): the link's zenoh callback thread applies
-them to the multiplexer and the motors the moment they arrive (`RobotLink.set_motion_listener`)
-and publishes the new ``mux`` output, at real-time priority where the OS allows it
-(`interbot_link.command_priority`). Applying them there rather than in a command thread of its
-own spares each command a thread wake-up and a GIL hand-over, which the bench's per-hop time
-stamps showed in the latency tail. Both threads meet only under `RobotStack.motion_lock`, so
-the e-stop latch, the stale-input zero and the collision monitor apply to every output,
-whichever thread computed it. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
+fixed rates. A second, the command thread (issue 14), takes only the motion commands
+(`interbot_link.robot.MOTION_TOPICS`: teleoperation, pause, stop, stop release) and applies them
+to the multiplexer and the motors the moment they arrive, and publishes the new ``mux``
+output: a command never waits for a pass's localiser, planner or simulator work. The command
+thread and the link's zenoh callback thread run at real-time priority where the OS allows it
+(`interbot_link.command_priority`): the bench's per-hop time stamps showed commands waiting for
+a busy core, a scheduler tick at a time, behind the simulator, the localiser or other programs.
+Both
+threads meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero
+and the collision monitor apply to every output, whichever thread computed it. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
 as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
 service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh session closed.
 """
@@ -60,7 +61,7 @@ from interbot_core.topics import (
 from interbot_core.topological_map import TopologicalMap, TopologicalMapError, load_topological_map
 from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
-from interbot_link.command_priority import PriorityOutcome
+from interbot_link.command_priority import PriorityOutcome, raise_current_thread
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.device_health import DeviceHealth
@@ -86,6 +87,7 @@ SLOW_PASS = 0.1  # [s] a pass longer than this is logged: commands waited that l
 SLOW_PASS_LOG_PERIOD = 10.0  # [s] wall time between two such log lines
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
 SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
+COMMAND_WAIT = 0.1  # [s] the command thread re-checks for a stop this often when idle
 
 
 @dataclass(frozen=True)
@@ -210,8 +212,7 @@ class Daemon:
         self.now = 0.0  # [s] daemon time: simulated in sim mode
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
         self.slow_passes = 0  # passes longer than SLOW_PASS (commands waited)
-        self._command_priority: PriorityOutcome | None = None  # see command_priority
-        self._serving = False  # motion commands are applied only while `run` serves
+        self.command_priority: PriorityOutcome | None = None  # the command thread's scheduling
         self._slow_logged = -SLOW_PASS_LOG_PERIOD
         if options.auto_localise:
             self.stack.set_initial_pose(self.start_pose, 0.0)
@@ -380,9 +381,11 @@ class Daemon:
     def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
         """Run until ``stop`` is set."""
         link.publish_map(self.grid)
-        self._serving = True
-        link.set_motion_listener(lambda: self.apply_queued_motion(link))
-        self.apply_queued_motion(link)  # what came before the listener was set
+        done = threading.Event()  # the command thread stops with the loop, however it ends
+        commands = threading.Thread(
+            target=self._command_loop, args=(link, done), name="motion-commands", daemon=True
+        )
+        commands.start()
         notifier.ready(f"robot {self.config.robot_id} serving")
         logger.info("daemon ready: %s", self.config.summary())
         next_tick = time.monotonic()
@@ -392,36 +395,30 @@ class Daemon:
                 # Sleep until the next pass, or until a (non-motion) command arrives.
                 link.wait_commands(max(0.0, next_tick - time.monotonic()), motion=False)
         finally:
-            link.set_motion_listener(None)
-            with self.stack.motion_lock:  # a command being applied now finishes first
-                self._serving = False  # ... and none is applied after the zero below
+            done.set()
+            commands.join(2.0)
             # Every way out (stop, exception, KeyboardInterrupt) leaves the motors at zero.
             self._motors_to_zero()
             self.backend.close()
             self._search_thread.shutdown(wait=False, cancel_futures=True)
             notifier.stopping()
 
-    @property
-    def command_priority(self) -> PriorityOutcome | None:
-        """How the thread that applies motion commands is scheduled (None before the first)."""
-        return self._command_priority
+    def _command_loop(self, link: RobotLink, done: threading.Event) -> None:
+        """The command thread: motion commands to the multiplexer and motors as they arrive.
 
-    def apply_queued_motion(self, link: RobotLink) -> None:
-        """Apply the motion and stop commands the link has queued (its zenoh callback thread).
-
-        Taking them and applying them is one step under the motion lock, so commands are
-        applied in arrival order even if two threads called this at once.
-        """
-        with self.stack.motion_lock:
-            if self._serving:
-                if self._command_priority is None:
-                    self._command_priority = link.callback_priority
+        At real-time priority where the OS allows it (`interbot_link.command_priority`): it
+        preempts the simulator, the localiser and the planner the moment a command arrives."""
+        outcome = raise_current_thread("the daemon's command thread")
+        self.command_priority = outcome
+        logger.log(logging.INFO if outcome.realtime else logging.WARNING, "%s", outcome.text)
+        while not done.is_set():
+            if link.wait_commands(COMMAND_WAIT, motion=True):
                 self.apply_motion(link, link.poll_commands(motion=True))
 
     def apply_motion(self, link: RobotLink, commands: list[Command]) -> None:
         """Apply teleoperation / pause / stop commands and send the new output to the motors.
 
-        Stamped with the loop's latest time (at most one pass old): the callback thread never
+        Stamped with the loop's latest time (at most one pass old): the command thread never
         advances the simulator. The output is computed and published under the motion lock, so
         ``mux`` samples leave in the order the outputs were made.
         """

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from unittest import mock
 
@@ -22,15 +21,9 @@ from robot_daemon.systemd_notify import SystemdNotifier
 class RecordingLink:
     """Enough of `RobotLink` for the loop: commands in, everything published recorded."""
 
-    callback_priority = None  # no zenoh callback thread here
-
     def __init__(self, commands: list[Command] | None = None) -> None:
         self.commands = list(commands or [])
         self.statuses: list[Status] = []
-        self.motion_listener: Callable[[], None] | None = None
-
-    def set_motion_listener(self, listener: Callable[[], None] | None) -> None:
-        self.motion_listener = listener
 
     def poll_commands(self, motion: bool | None = None) -> list[Command]:
         """The lanes as `RobotLink` splits them: motion (with stop) or the rest, or all."""
@@ -73,7 +66,7 @@ def test_start_latched_is_the_default_and_validated(tmp_path: Path) -> None:
 
 
 def test_a_started_daemon_does_not_move_until_released(daemon: Daemon) -> None:
-    # Motion commands are applied on the link's callback thread (`apply_motion`), the loop's passes
+    # Motion commands are applied by the command thread (`apply_motion`), the loop's passes
     # keep the output; both go through the stop latch.
     link = RecordingLink([Command(Topic.STATION_VEL, Twist(0.3, 0.0))])
     daemon.apply_motion(link, link.poll_commands(motion=True))  # type: ignore[arg-type]
@@ -148,14 +141,9 @@ class LaneLink(RecordingLink):
         self.muxes: list[object] = []
 
     def push(self, *commands: Command) -> None:
-        """Queue ``commands`` and call the motion listener, as `RobotLink`'s zenoh callback
-        thread does (the calling thread plays that thread)."""
         with self.cond:
             self.commands.extend(commands)
             self.cond.notify_all()
-        fast = {Topic(t) for t in MOTION_TOPICS | PRIORITY_TOPICS}
-        if self.motion_listener is not None and any(c.topic in fast for c in commands):
-            self.motion_listener()
 
     def poll_commands(self, motion: bool | None = None) -> list[Command]:
         with self.cond:
@@ -175,9 +163,8 @@ class LaneLink(RecordingLink):
 
 
 def test_motion_commands_reach_the_motors_while_the_localiser_runs_and_the_stop_wins() -> None:
-    """Issue 14: the link's callback thread applies teleoperation and the stop at once, while
-    the loop thread is inside a long localiser pass; every output goes through the collision
-    monitor."""
+    """Issue 14: the command thread applies teleoperation and the stop at once, while the loop
+    thread is inside a long localiser pass; every output goes through the collision monitor."""
     daemon = Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions(auto_localise=True))
     motors: list[tuple[float, float]] = []
     real_set = daemon.backend.set_cmd_vel
@@ -229,8 +216,3 @@ def test_motion_commands_reach_the_motors_while_the_localiser_runs_and_the_stop_
         loop.join(10.0)
     assert not loop.is_alive()
     assert motors[-1] == (0.0, 0.0) and (0.0, 0.5) not in motors
-    # After the loop ended (motors zeroed) no command is applied, even one already queued.
-    assert link.motion_listener is None
-    link.push(Command(Topic.STOP_RELEASE, StopRelease("station")), Command(Topic.TABLET_VEL, Twist(0.0, 0.4)))  # fmt: skip
-    daemon.apply_queued_motion(link)  # type: ignore[arg-type]
-    assert motors[-1] == (0.0, 0.0) and (0.0, 0.4) not in motors
