@@ -30,7 +30,6 @@ import yaml
 from base_station_app.station_config import StationConfig
 from base_station_app.tablet_session import TabletPermissions
 from interbot_core import schema
-from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -97,23 +96,10 @@ class StationSettingsStore:
 
     def load(self) -> StationFile:
         """The file's settings; raises `StationFileError` naming the file and the key."""
-        try:
-            text = self.path.read_text(encoding="utf-8")
-        except FileNotFoundError:
+        if not self.path.exists():
             return StationFile()
-        except OSError as exc:
-            raise StationFileError(f"{self.path}: cannot read the station file: {exc}") from None
-        try:
-            raw = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise StationFileError(f"{self.path}: invalid YAML: {exc}") from None
-        try:
-            file = schema.convert(raw or {}, StationFile, "")
-            schema.check_all(file)
-        except SchemaError as exc:
-            raise StationFileError(f"{self.path}: {exc.key_message()}") from None
-        except StationFileError as exc:
-            raise StationFileError(f"{self.path}: {exc}") from None
+        raw = schema.read_yaml(self.path, StationFileError, "station file")
+        file = schema.load(raw or {}, StationFile, "", str(self.path), StationFileError)
         self._security = file.security
         return file
 

@@ -23,6 +23,8 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from interbot_core import schema
+
 # Cell values, as in nav_msgs/OccupancyGrid.
 FREE = 0
 OCCUPIED = 100
@@ -205,12 +207,7 @@ def _require(meta: dict[str, Any], key: str, source: Path) -> Any:
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
     """Load a map_server YAML file and its image into an `OccupancyGrid`."""
     yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(yaml_path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise MapLoadError(f"{yaml_path}: cannot read map file ({exc.strerror})") from exc
-    except yaml.YAMLError as exc:
-        raise MapLoadError(f"{yaml_path}: invalid YAML ({exc})") from exc
+    meta = schema.read_yaml(yaml_path, MapLoadError, "map file")
     if not isinstance(meta, dict):
         raise MapLoadError(f"{yaml_path}: expected a mapping of map_server keys")
     image_name = _require(meta, "image", yaml_path)
