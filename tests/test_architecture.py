@@ -325,8 +325,6 @@ def test_the_new_rules_catch_violations(tmp_path: Path) -> None:
 ENTRY_MODULES = {
     # console scripts: pyproject.toml [project.scripts] (checked below)
     "interbot_cli.screens": "`python -m` child of the demo launcher (asks Qt for the screens)",
-    "robot_daemon.hardware.emulators.hokuyo_emulator": "`python -m`: a laser on a pty",
-    "robot_daemon.hardware.emulators.roboteq_emulator": "`python -m`: a motor controller on a pty",
     **{
         f"robot_daemon.scenarios.{name}": "`interbot scenario NAME` (imported by name)"
         for name in ("kidnap", "latency", "mission", "odometry", "teleop", "tour")

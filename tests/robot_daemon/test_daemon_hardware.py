@@ -21,8 +21,8 @@ import yaml
 from interbot_core.laser_scan import LaserScan
 from interbot_core.topics import Battery, StopRelease, Topic, Twist
 from interbot_link import StateMessage, StationLink, open_session
-from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
-from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
+from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
+from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 ROBOT = "hwbot"
 pytestmark = pytest.mark.timeout(60)
