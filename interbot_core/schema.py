@@ -273,7 +273,8 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
     if bound is not None:
         return _bound_problem(value, _member_for(info, value), path, unit)
     expected = form or _expected(info, unit)
-    return SchemaError("type", path, f"{path} must be {expected}, got {describe(value)}")
+    where = path or "the document"
+    return SchemaError("type", path, f"{where} must be {expected}, got {describe(value)}")
 
 
 def _join(root: str, tokens: Sequence[str | int]) -> str:
@@ -387,7 +388,9 @@ def _expected(info: mi.Type, unit: str = "") -> str:
         return "one of " + ", ".join(map(str, info.values))
     if isinstance(info, mi.StructType | mi.DataclassType):
         return "an object with keys " + ", ".join(f.encode_name for f in info.fields)
-    if isinstance(info, mi.VarTupleType | mi.ListType | mi.TupleType):
+    if isinstance(info, mi.TupleType):
+        return f"an array of {len(info.item_types)} elements"
+    if isinstance(info, mi.VarTupleType | mi.ListType):
         return "an array"
     if isinstance(info, mi.DictType):
         return "an object"
