@@ -434,6 +434,3 @@ class CollisionMonitor:
 
     def fresh(self, now: float) -> bool:
         return now - self._stamp <= self.config.source_timeout
-
-    def active_zones(self) -> list[str]:
-        return [z.config.name for z in self._zones if z.active]
