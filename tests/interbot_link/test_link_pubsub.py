@@ -389,12 +389,12 @@ def test_a_burst_of_key_commands_arrives_whole_and_in_order(pair: Pair) -> None:
     every command reaches the robot's link, in order. With DROP, 212 of 2000 were lost in 40
     bursts of 50 at load 17 (the newest of each burst first)."""
     pair.select()
-    wait_until(lambda: pair.station.send_stop(Lock(False)))
+    wait_until(lambda: pair.station.send(Topic.STOP, Lock(False)))
     pair.robot.wait_commands(2.0)
     pair.robot.poll_commands()
     sent = [round(1e-4 * k, 6) for k in range(1, 501)]
     for k, angular in enumerate(sent):
-        pair.station.send_station_vel(Twist(0.0, angular))
+        pair.station.send(Topic.STATION_VEL, Twist(0.0, angular))
         if k % 50 == 49:
             time.sleep(0.01)
     got: list[float] = []
