@@ -1,10 +1,19 @@
 """Diagnostic: per-hop time stamps of the teleop bench's commands (``TELEOP_TRACE=DIR``).
 
+    TELEOP_TRACE=/tmp/trace interbot bench --only teleop --json
+    python bench/_hop_trace.py report /tmp/trace     # every hop's p50 / p99, the slowest 3 %
+
 Not part of any program: `bench_teleop` installs it in its station process and runs the
 daemon through ``python bench/_hop_trace.py daemon ARGS...`` when ``TELEOP_TRACE`` names a
 directory. It wraps (monkeypatches) the functions on the command path and the daemon's long
-loop sections, stamping ``time.monotonic()`` (CLOCK_MONOTONIC: one clock for the machine),
-and writes ``<DIR>/<role>.json`` at exit. Spans: (name, key, t_start, t_end, thread).
+loop sections, stamping ``time.monotonic()`` (CLOCK_MONOTONIC: one clock for the machine, the
+one ``perf sched record -k CLOCK_MONOTONIC`` can use too), and writes ``<DIR>/<role>.json``
+(spans: name, key, t_start, t_end, thread) and ``<role>.tids.json`` (thread ids) at exit.
+A ``probe`` thread records when a thread that slept 2 ms woke 1.5 ms late or more.
+
+Experiment knobs (issue 14's investigation): ``TELEOP_TRACE_RT=1`` puts the command-path
+threads under SCHED_FIFO from here (``TELEOP_TRACE_RT_ZENOH=0``: not zenoh's rx/tx threads),
+``TELEOP_TRACE_SWITCH=S`` sets ``sys.setswitchinterval(S)`` in the station and the daemon.
 """
 
 from __future__ import annotations

@@ -42,6 +42,9 @@ back). ``clock_period_ms_*`` is the station's own `PeriodStats` of clock() perio
     .venv/bin/interbot bench --only teleop --secure --json   # issue 15: TLS everywhere
     .venv/bin/interbot bench --only teleop --busy-core --json  # issue 14: one core kept busy
 
+``TELEOP_TRACE=DIR`` adds per-hop time stamps inside the station and the daemon
+(``bench/_hop_trace.py``; ``python bench/_hop_trace.py report DIR`` prints each hop's p50 / p99).
+
 With ``--busy-core`` (figures ``teleop_busy_*``) another process spins on one core for the whole
 measurement (``python -c "while True: pass"``), as on an operator's laptop running something
 else. ``TELEOP_SAMPLES=N`` changes the number of samples (300; ``--quick`` 20).
