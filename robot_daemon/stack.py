@@ -326,6 +326,16 @@ class RobotStack:
         return self.relocalisation.state(self.localiser.state, self.last_scan_time)
 
     @property
+    def reported_localisation(self) -> str:
+        """The state the station and tablet are told (`interbot_core.topics.POSE_STATES`):
+        the localisation state, and ``turning`` while a search turns the robot in place
+        (`look_around`), so a person sees why it rotates."""
+        state = self.localisation_state
+        if state is LocaliserState.SEARCHING and self.look_around.turning:
+            return "turning"
+        return state.value
+
+    @property
     def pose_covariance(self) -> npt.NDArray[np.float64]:
         """3x3 covariance of `pose` (base_link x, y, yaw in ``map``), from the localiser's
         laser-pose covariance through ``base = laser ⊕ mount⁻¹``; zeros while unset."""
