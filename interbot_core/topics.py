@@ -241,8 +241,8 @@ class PoseMsg(JsonMessage, frozen=True):
     ``covariance``: 3x3 of (x [m], y [m], yaw [rad]), row-major (ROS's
     ``PoseWithCovariance`` restricted to the plane), or empty when not reported.
     ``x, y, yaw`` mean nothing when the state is unset, or when a search (searching, turning)
-    runs before the robot had any pose (start-up): then the covariance is empty too
-    (`known`).
+    runs before the robot had any pose (start-up): then the confidence is 0 and the covariance
+    empty (`known`).
     """
 
     x: Coord
@@ -265,7 +265,8 @@ class PoseMsg(JsonMessage, frozen=True):
         """Whether ``x, y, yaw`` are a pose (see the class docstring)."""
         if self.state == "unset":
             return False
-        return bool(self.covariance) or self.state not in ("searching", "turning")
+        searching = self.state in ("searching", "turning")
+        return not (searching and self.confidence == 0.0 and not self.covariance)
 
     @property
     def sigmas(self) -> tuple[float, float, float] | None:
