@@ -445,6 +445,10 @@ class RobotStack:
         since = reloc.relocaliser.since if searching else None
         yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
         was_turning = self.look_around.turning
+        if searching and not was_turning and reloc.relocaliser.ripening:
+            # A place is being confirmed standing: turning now would make every other place
+            # block it (`Relocaliser._decide`); turn only if it does not settle.
+            return
         angular = self.look_around.update(since, yaw, self._motion_blocker(now), now)
         reloc.relocaliser.turning = angular is not None
         if angular is not None:

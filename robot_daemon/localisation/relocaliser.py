@@ -295,6 +295,10 @@ class Relocaliser:
         self._view_checks = 0  # view verifications left on this scan
         # Set by the stack while it turns the robot in place to look around (`look_around`).
         self.turning = False
+        # The best place is still being confirmed over its first scans (`accept_scans`,
+        # `accept_s`) with nothing against it yet: the stack waits before it turns, since
+        # while turning every other verified place blocks acceptance (`_decide`).
+        self.ripening = False
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -343,9 +347,11 @@ class Relocaliser:
         self._last_proof = -math.inf
         self._search_best = None
         self._views = []
+        self.ripening = False
 
     def stop(self) -> None:
         self._active = False
+        self.ripening = False
         self._candidates = []
         self._region = None
         self._pending = None
@@ -762,11 +768,15 @@ class Relocaliser:
     def _decide(self, now: float) -> Pose2D | None:
         cfg = self.config
         alive = [c for c in self._candidates if c.streak > 0]
+        self.ripening = False
         if not alive:
             return None
         alive.sort(key=lambda c: -c.quality)
         best = alive[0]
-        if best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9:
+        self.ripening = (
+            best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9
+        )
+        if self.ripening:
             return None
         # Every candidate still tracked counts, even one that failed the last scan: a place
         # that passes one scan and fails the next is still a look-alike.
