@@ -812,6 +812,7 @@ class Relocaliser:
         if not trusted:
             self.last_failure = "look-alike places (search not exhaustive)"
             self._want_proof = True
+            self.ripening = True  # a search with the larger budget may settle it standing
             return None
         logger.info(
             "relocalised at (%.2f, %.2f, %.2f) after %.2f s (%s; quality %.2f, %d candidate(s))",
