@@ -15,13 +15,13 @@ UNSET = "—"
 
 
 def position_text(pose: PoseMsg | None) -> str:
-    if pose is None or pose.state == "unset":
+    if pose is None or not pose.known:
         return UNSET
     return f"x {pose.x:.2f} m, y {pose.y:.2f} m"
 
 
 def orientation_text(pose: PoseMsg | None) -> str:
-    if pose is None or pose.state == "unset":
+    if pose is None or not pose.known:
         return UNSET
     return f"{math.degrees(pose.yaw):.1f}° ({pose.yaw:.3f} rad)"
 
@@ -32,6 +32,7 @@ LOCALISATION_TEXT = {
     "degraded": "DEGRADED (uncertain: driving slowly)",
     "lost": "LOST",
     "searching": "searching (global localisation)",
+    "turning": "searching (global localisation): turning to find my position…",
     "unset": "initial pose not set",
 }
 

@@ -263,7 +263,7 @@ class QtMapView(pg.PlotWidget):
     def _draw_robot(self) -> None:
         state = self._controller.selected.state
         pose_msg = state.pose
-        if pose_msg is None or pose_msg.state == "unset":
+        if pose_msg is None or not pose_msg.known:
             self.robot_item.setData([], [])
             self.scan_item.setData([], [])
             return

@@ -42,7 +42,7 @@ class Health(enum.StrEnum):
 
     OFFLINE = "offline"  # liveliness token gone (or never seen)
     STOPPED = "stopped"  # its multiplexer reports the emergency-stop lock
-    LOST = "lost"  # the localiser is lost, searching, or has no pose yet
+    LOST = "lost"  # the localiser is lost, searching (or turning to), or has no pose yet
     DEGRADED = "degraded"  # the localiser (or the robot) says it is degraded
     OK = "ok"
 
@@ -207,7 +207,7 @@ class RobotMirror:
         if state.estop_engaged:
             return Health.STOPPED
         loc = state.localisation
-        if loc in ("lost", "unset", "searching"):
+        if loc in ("lost", "unset", "searching", "turning"):
             return Health.LOST
         if loc == "degraded":
             return Health.DEGRADED
@@ -216,7 +216,7 @@ class RobotMirror:
     def view(self, selected: bool, names: dict[int, str]) -> RobotView:
         """A snapshot for the map and the robot list."""
         msg = self.state.pose
-        pose = None if msg is None or msg.state == "unset" else Pose2D(msg.x, msg.y, msg.yaw)
+        pose = None if msg is None or not msg.known else Pose2D(msg.x, msg.y, msg.yaw)
         plan = self.state.plan
         points = plan.points if plan is not None and self.route is not None else ()
         health = self.health

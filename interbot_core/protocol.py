@@ -603,7 +603,7 @@ class Permissions(Message, frozen=True):
     requests: bool
 
 
-LocalisationState = Literal["unset", "ok", "degraded", "lost", "searching"]
+LocalisationState = Literal["unset", "ok", "degraded", "lost", "searching", "turning"]
 LOCALISATION_STATES: Final = typing.get_args(LocalisationState)
 
 

@@ -229,7 +229,7 @@ class StopRelease(JsonMessage, frozen=True):
     stamp: Stamp = 0.0
 
 
-POSE_STATES: Final = ("unset", "ok", "degraded", "lost", "searching")
+POSE_STATES: Final = ("unset", "ok", "degraded", "lost", "searching", "turning")
 PoseState = Annotated[str, schema.one_of(*POSE_STATES)]
 
 
@@ -237,9 +237,13 @@ class PoseMsg(JsonMessage, frozen=True):
     """The localiser's pose in the ``map`` frame.
 
     ``state``: unset (no initial pose), ok, degraded (tracking, but uncertain or the last
-    scans disagree with the map: drive slowly), lost, searching (global localisation).
+    scans disagree with the map: drive slowly), lost, searching (global localisation), turning
+    (searching while it turns in place to see more: `robot_daemon.localisation.look_around`).
     ``covariance``: 3x3 of (x [m], y [m], yaw [rad]), row-major (ROS's
     ``PoseWithCovariance`` restricted to the plane), or empty when not reported.
+    ``x, y, yaw`` mean nothing when the state is unset, or when a search (searching, turning)
+    runs before the robot had any pose (start-up): then the confidence is 0 and the covariance
+    empty (`known`).
     """
 
     x: Coord
@@ -256,6 +260,14 @@ class PoseMsg(JsonMessage, frozen=True):
             raise MessageValueError("PoseMsg.covariance must be a list of 0 or 9 numbers")
         if cov and min(cov[0], cov[4], cov[8]) < 0.0:
             raise MessageValueError("PoseMsg.covariance: the diagonal must be >= 0")
+
+    @property
+    def known(self) -> bool:
+        """Whether ``x, y, yaw`` are a pose (see the class docstring)."""
+        if self.state == "unset":
+            return False
+        searching = self.state in ("searching", "turning")
+        return not (searching and self.confidence == 0.0 and not self.covariance)
 
     @property
     def sigmas(self) -> tuple[float, float, float] | None:

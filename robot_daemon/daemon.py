@@ -296,9 +296,9 @@ class Daemon:
             pose = stack.pose
             estimate = stack.last_estimate
             confidence = estimate.confidence if estimate is not None else 0.0
-            state = stack.localisation_state.value
-            if pose is None:
-                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, "unset", 0.0))
+            state = stack.reported_localisation
+            if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
+                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, state, 0.0))
             else:
                 cov = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
                 link.publish_pose(

@@ -326,6 +326,16 @@ class RobotStack:
         return self.relocalisation.state(self.localiser.state, self.last_scan_time)
 
     @property
+    def reported_localisation(self) -> str:
+        """The state the station and tablet are told (`interbot_core.topics.POSE_STATES`):
+        the localisation state, and ``turning`` while a search turns the robot in place
+        (`look_around`), so a person sees why it rotates."""
+        state = self.localisation_state
+        if state is LocaliserState.SEARCHING and self.look_around.turning:
+            return "turning"
+        return state.value
+
+    @property
     def pose_covariance(self) -> npt.NDArray[np.float64]:
         """3x3 covariance of `pose` (base_link x, y, yaw in ``map``), from the localiser's
         laser-pose covariance through ``base = laser ⊕ mount⁻¹``; zeros while unset."""
@@ -435,6 +445,10 @@ class RobotStack:
         since = reloc.relocaliser.since if searching else None
         yaw = self.last_odometry.pose.yaw if self.last_odometry is not None else None
         was_turning = self.look_around.turning
+        if searching and not was_turning and reloc.relocaliser.ripening:
+            # A place is being confirmed standing: turning now would make every other place
+            # block it (`Relocaliser._decide`); turn only if it does not settle.
+            return
         angular = self.look_around.update(since, yaw, self._motion_blocker(now), now)
         reloc.relocaliser.turning = angular is not None
         if angular is not None:

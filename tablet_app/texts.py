@@ -83,6 +83,8 @@ def activity_text(room_name: Callable[[int], str], session: TabletSession) -> st
         return QCoreApplication.translate("TabletTexts", "I do not know where I am")
     if s.localisation == "searching":
         return QCoreApplication.translate("TabletTexts", "Finding my position…")
+    if s.localisation == "turning":
+        return QCoreApplication.translate("TabletTexts", "Turning to find my position…")
     goal = room_name(s.goal.room) if s.goal is not None else None
     state = s.activity
     if state == "navigating":

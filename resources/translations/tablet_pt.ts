@@ -483,6 +483,16 @@
         <translation>Não sei onde estou</translation>
     </message>
     <message>
+        <location filename="../../tablet_app/texts.py" line="85" />
+        <source>Finding my position…</source>
+        <translation>A procurar a minha posição…</translation>
+    </message>
+    <message>
+        <location filename="../../tablet_app/texts.py" line="87" />
+        <source>Turning to find my position…</source>
+        <translation>A rodar para encontrar a minha posição…</translation>
+    </message>
+    <message>
         <location filename="../../tablet_app/texts.py" line="88" />
         <source>On my way to %1</source>
         <translation>A caminho de %1</translation>

@@ -65,6 +65,7 @@ import numpy.typing as npt
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.localisation.expected_scan import BeamAgreement, ExpectedScan
 from robot_daemon.localisation.global_search import (
     GlobalSearch,
     GlobalSearchConfig,
@@ -146,6 +147,18 @@ class RelocaliserConfig:
     view_span_rad: float = math.pi
     view_margin: float = 0.03
     view_win_fraction: float = 0.8
+    # Expected scans (`expected_scan`): a look-alike within ``margin`` no longer blocks when,
+    # on the current scan, the best place explains explain_match more of the beams (ending
+    # on the walls it expects) *and* the look-alike needs explain_long more of them to pass
+    # through its walls. People only shorten beams, so they cannot fake the second.
+    explain: bool = True
+    explain_match: float = 0.15
+    explain_long: float = 0.1
+    # ... and the other way round, a veto: the best place is never accepted while another
+    # tracked place needs explain_veto_long fewer beams through its walls (a clean look-alike
+    # outscores a cluttered truth on end points, over a whole turn too: ISR kidnap seed 3,
+    # truth 0.74-0.95 with 1 % long beams, a corridor 29 m away 0.93-0.96 with 10-13 %).
+    explain_veto_long: float = 0.05
 
     def __post_init__(self) -> None:
         checks: list[tuple[str, float, float, float]] = [
@@ -188,6 +201,9 @@ class RelocaliserConfig:
             ("view_span_rad", self.view_span_rad, 0.0, 4.0 * math.pi),
             ("view_margin", self.view_margin, 0.0, 1.0),
             ("view_win_fraction", self.view_win_fraction, 0.0, 1.0),
+            ("explain_match", self.explain_match, 0.0, 1.0),
+            ("explain_long", self.explain_long, 0.0, 1.0),
+            ("explain_veto_long", self.explain_veto_long, 0.0, 1.0),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -252,6 +268,9 @@ class Relocaliser:
         self.search_engine = search or GlobalSearch(grid, cfg.search)
         self._grid = grid
         self._dist = self.search_engine.fine_distance
+        self.expected_scan = ExpectedScan(grid)
+        self._scan: LaserScan | None = None  # the scan being decided on
+        self._agreement: dict[int, BeamAgreement] = {}  # per candidate (id) on that scan
         self._blocked_dist = self.search_engine.fine_blocked_distance
         self._candidates: list[Candidate] = []
         self._active = False
@@ -276,6 +295,10 @@ class Relocaliser:
         self._view_checks = 0  # view verifications left on this scan
         # Set by the stack while it turns the robot in place to look around (`look_around`).
         self.turning = False
+        # The best place is still being confirmed over its first scans (`accept_scans`,
+        # `accept_s`) with nothing against it yet: the stack waits before it turns, since
+        # while turning every other verified place blocks acceptance (`_decide`).
+        self.ripening = False
         self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
@@ -324,9 +347,11 @@ class Relocaliser:
         self._last_proof = -math.inf
         self._search_best = None
         self._views = []
+        self.ripening = False
 
     def stop(self) -> None:
         self._active = False
+        self.ripening = False
         self._candidates = []
         self._region = None
         self._pending = None
@@ -368,6 +393,8 @@ class Relocaliser:
         if points.shape[0] < cfg.search.min_points:
             self.last_failure = "too few laser returns"
             return None
+        self._scan = scan
+        self._agreement = {}
         self._reverify(points, now)
         self._view_checks = cfg.view_checks_per_scan
         done = self._collect("search")
@@ -610,15 +637,24 @@ class Relocaliser:
             self._travel_m = 0.0
         self._exhaustive = exhaustive
         self._search_best = None
+        above: list[Pose2D] = []  # better-ranked places that failed verification
+        first = True  # no place verified yet in this result
         for rank, hyp in enumerate(result.hypotheses[: cfg.verify_hypotheses]):
             v = self.verify(points, hyp.pose.compose(moved))
             if not self._verified(v):
                 if v.impossible >= cfg.exclude_impossible:
                     self._exclude(hyp.pose.compose(moved), now)
+                elif first:
+                    above.append(v.pose)
                 continue
             # A win: the search's own best place, verified. When the search's best fails the
-            # check (people in front of it, say) nobody wins: it may still be the truth.
-            win = int(rank == 0)
+            # check (people in front of it, say) nobody wins: it may still be the truth;
+            # unless this place explains the scan's beams clearly better than every place
+            # ranked above it (`_explains_better`: people cannot make beams long).
+            win = int(rank == 0) or int(
+                first and all(self._explains_better(v.pose, p) for p in above)
+            )
+            first = False
             dup = self._duplicate_of(v.pose)
             if dup is not None:
                 dup.wins += win  # already tracked (its re-verification keeps it current)
@@ -677,14 +713,70 @@ class Relocaliser:
             and float(np.mean(diff >= 0.0)) >= cfg.view_win_fraction
         )
 
+    def _beams(self, cand: Candidate) -> BeamAgreement | None:
+        """The current scan against the map's prediction at ``cand`` (once per scan)."""
+        if self._scan is None:
+            return None
+        key = id(cand)
+        if key not in self._agreement:
+            self._agreement[key] = self.expected_scan.agreement(self._scan, cand.pose)
+        return self._agreement[key]
+
+    def _explains_better(self, pose: Pose2D, other: Pose2D) -> bool:
+        """`_out_explained` for two laser poses on the current scan (not cached)."""
+        if not self.config.explain or self._scan is None:
+            return False
+        b = self.expected_scan.agreement(self._scan, pose)
+        o = self.expected_scan.agreement(self._scan, other)
+        return self._clearly_better(b, o)
+
+    def _clearly_better(self, b: BeamAgreement, o: BeamAgreement) -> bool:
+        cfg = self.config
+        if b.beams == 0 or o.beams == 0:
+            return False
+        return o.match <= b.match - cfg.explain_match and o.long >= b.long + cfg.explain_long
+
+    def _out_explained(self, best: Candidate, other: Candidate) -> bool:
+        """Whether ``best`` explains the current scan's beams clearly better than ``other``:
+        ``explain_match`` more of them end on its walls, and ``other`` needs ``explain_long``
+        more of them to pass through walls it has (`expected_scan`)."""
+        cfg = self.config
+        if not cfg.explain:
+            return False
+        b, o = self._beams(best), self._beams(other)
+        if b is None or o is None:
+            return False
+        return self._clearly_better(b, o)
+
+    def _vetoed(self, best: Candidate) -> bool:
+        """Whether another tracked place (verified on this scan or not) needs clearly fewer
+        of the current scan's beams to pass through its walls than ``best`` does."""
+        cfg = self.config
+        if not cfg.explain:
+            return False
+        b = self._beams(best)
+        if b is None or b.beams == 0:
+            return False
+        for other in self._candidates:
+            if other is best:
+                continue
+            o = self._beams(other)
+            if o is not None and o.beams and o.long <= b.long - cfg.explain_veto_long:
+                return True
+        return False
+
     def _decide(self, now: float) -> Pose2D | None:
         cfg = self.config
         alive = [c for c in self._candidates if c.streak > 0]
+        self.ripening = False
         if not alive:
             return None
         alive.sort(key=lambda c: -c.quality)
         best = alive[0]
-        if best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9:
+        self.ripening = (
+            best.streak < cfg.accept_scans or now - best.first_seen < cfg.accept_s - 1e-9
+        )
+        if self.ripening:
             return None
         # Every candidate still tracked counts, even one that failed the last scan: a place
         # that passes one scan and fails the next is still a look-alike.
@@ -696,9 +788,17 @@ class Relocaliser:
             if other is best:
                 continue
             near = other.quality >= best.quality - cfg.margin
+            # The expected scan may clear a near look-alike; not a place that blocks only
+            # because the robot turns (the truth behind clutter fits far worse than a clean
+            # look-alike, and only the turn may show it).
             if (near or self.turning) and not self._outseen(best, other):
+                if near and self._out_explained(best, other):
+                    continue
                 self.last_failure = "look-alike places"
                 return None
+        if self._vetoed(best):
+            self.last_failure = "another place explains the beams better"
+            return None
         if best is not self._search_best:
             # The last search ranked another place first, which failed verification (people
             # in front of it, clutter): it may be the truth, so nothing is accepted now.
@@ -712,6 +812,7 @@ class Relocaliser:
         if not trusted:
             self.last_failure = "look-alike places (search not exhaustive)"
             self._want_proof = True
+            self.ripening = True  # a search with the larger budget may settle it standing
             return None
         logger.info(
             "relocalised at (%.2f, %.2f, %.2f) after %.2f s (%s; quality %.2f, %d candidate(s))",

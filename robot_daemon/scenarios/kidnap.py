@@ -18,7 +18,12 @@ simulator's ground truth (metrics only; nothing of it reaches the robot):
 
 A kidnap not resolved within ``WINDOW_S`` is resolved by the operator (the true pose is set) so
 the run goes on. ``--cold-start`` instead starts the robot ``COLD_STARTS`` times with its pose
-unset at random free poses and reports the same figures (``detected`` is then every trial).
+unset at random free poses and reports the same figures (``detected`` is then every trial). The
+robot is switched on and given its task at once: a route to a place at least ``MIN_KIDNAP_M``
+away, sent at power-on (the operator's tour), so it serves a command and may look around
+(`look_around`); it cannot drive before it knows where it is. Every time is from power-on
+(simulated time 0, pose unset). ``commanded=False`` (`run_cold_starts`) leaves it idle instead:
+nobody asked it to move, so it searches standing still.
 """
 
 from __future__ import annotations
@@ -232,8 +237,9 @@ def _start_pose(run: KidnapRun, options: ScenarioOptions) -> Pose2D | None:
 
 
 def run_cold_starts(
-    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS
+    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS, commanded: bool = True
 ) -> _Tally:
+    """``count`` power-ons at random free poses; ``commanded``: a route is given at power-on."""
     rng = np.random.default_rng(options.seed)
     run = KidnapRun(options, topo, rng)
     from interbot_core.occupancy_grid import load_map
@@ -245,6 +251,11 @@ def run_cold_starts(
         start = Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
         system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
         record = KidnapRecord(standing=True)
+        if commanded:
+            # Drawn from its own stream, so the start poses are those of an idle run.
+            goal_rng = np.random.default_rng([options.seed, k, 16])
+            goal = KidnapRun(options, topo, goal_rng).target(system, start)
+            system.stack.set_route(RouteMsg(1, ((goal.x, goal.y, goal.yaw),)), system.now)
         _watch(system, record, system.now)
         tally.records.append(record)
         logger.info("cold start %d at %s: %s", k, start, record)
@@ -265,6 +276,8 @@ def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
             "map": str(options.map_yaml),
             "targets": "topological nodes" if topo is not None else "random free poses",
             "cold_start": cold,
+            # cold starts: a route is given at power-on (the robot serves a command)
+            "commanded": cold,
             "people": options.people,
             "seed": options.seed,
         }

@@ -49,5 +49,6 @@ def test_localisation_line_names_every_state_and_shows_the_sigmas() -> None:
         "DEGRADED (uncertain: driving slowly) (confidence 0.80), ±10 cm, ±2.0°"
     )
     assert localisation_text("ok", PoseMsg(1.0, 2.0, 0.0)) == "localised (confidence 1.00)"
-    for state in ("unset", "ok", "degraded", "lost", "searching"):
+    for state in ("unset", "ok", "degraded", "lost", "searching", "turning"):
         assert localisation_text(state, None) != state  # every agreed state has words
+    assert "turning to find my position" in localisation_text("turning", None)

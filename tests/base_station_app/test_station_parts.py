@@ -83,6 +83,9 @@ def test_health_names_the_state_colour(topo: TopologicalMap) -> None:
     assert m.health is Health.DEGRADED
     m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="searching"))
     assert m.health is Health.LOST
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="turning"))
+    assert m.health is Health.LOST
+    m.state.apply(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="searching"))
     m.state.apply(Topic.MUX, MuxMsg(None, active_locks=("Emergency Stop",)))
     assert m.health is Health.STOPPED
     m.online = False
@@ -174,6 +177,27 @@ def test_tablet_feed_says_changes_only_and_nothing_stale_while_offline(
     m.pose_settling_until = 1.0  # an initial pose was just sent: "lost" is stale
     assert p.Localisation("lost") not in feed.messages(m, 0.4, True, ready)
     assert p.Localisation("lost") in feed.messages(m, 1.1, True, ready)
+
+
+def test_a_start_up_search_reaches_the_tablet_as_such_with_no_pose_drawn(
+    topo: TopologicalMap,
+) -> None:
+    """Issue 16: switched on with its pose unset, the robot searches (and turns, when it has a
+    task) before it has any pose: the tablet hears "turning", not "unset" (no "Help me!"
+    banner), and the station draws no robot at the message's meaningless (0, 0)."""
+    from interbot_core import protocol as p
+
+    m = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    m.online = True
+    feed = TabletFeed()
+    ready = p.StatusInfo("idle", "idle")
+    m.state.apply(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, state="turning", confidence=0.0))
+    out = feed.messages(m, 0.0, True, ready)
+    assert p.Localisation("turning") in out
+    assert not any(isinstance(msg, (p.InitialPose, p.Pose)) for msg in out)
+    assert m.view(True, {}).pose is None and m.health is Health.LOST
+    m.state.apply(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, state="unset", confidence=0.0))
+    assert p.InitialPose(False) in feed.messages(m, 0.1, True, ready)  # search gave up
 
 
 def test_a_robots_messages_land_in_its_mirror_which_says_what_to_act_on(

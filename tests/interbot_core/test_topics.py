@@ -378,8 +378,20 @@ def test_pose_covariance_and_degraded_state_round_trip_and_are_validated() -> No
     assert decode(Topic.POSE, encode(Topic.POSE, msg)) == msg
     assert msg.sigmas == pytest.approx((0.1, 0.3, 0.02))
     assert PoseMsg(0.0, 0.0, 0.0).sigmas is None  # older senders: no covariance
-    for state in ("unset", "ok", "degraded", "lost", "searching"):
+    for state in ("unset", "ok", "degraded", "lost", "searching", "turning"):
         assert PoseMsg(0.0, 0.0, 0.0, state=state).state == state
+
+
+def test_a_pose_is_known_unless_unset_or_a_search_before_any_pose() -> None:
+    """A start-up search (issue 16) has no pose yet: the daemon sends it with no covariance."""
+    cov = (0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.001)
+    assert not PoseMsg(0.0, 0.0, 0.0, state="unset").known
+    for state in ("searching", "turning"):
+        assert not PoseMsg(0.0, 0.0, 0.0, state=state, confidence=0.0).known
+        assert PoseMsg(1.0, 2.0, 0.0, state=state, covariance=cov).known  # after a kidnap
+        assert PoseMsg(1.0, 2.0, 0.0, state=state).known  # older senders: no covariance
+    for state in ("ok", "degraded", "lost"):
+        assert PoseMsg(1.0, 2.0, 0.0, state=state).known  # older senders: no covariance
     for bad in ((0.0,) * 4, (-1.0,) + (0.0,) * 8, (math.nan,) * 9, (2e6,) + (0.0,) * 8):
         with pytest.raises(MessageValueError, match="covariance"):
             PoseMsg(0.0, 0.0, 0.0, covariance=bad)

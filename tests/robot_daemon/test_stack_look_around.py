@@ -108,3 +108,18 @@ def test_no_turning_while_a_help_me_pose_is_checked() -> None:
     assert found, stack.relocalisation.relocaliser.last_failure  # the room settles it
     assert all(out == (0.0, 0.0) for out in outputs)
     assert stack.look_around.turns_started == 0
+
+
+def test_the_robot_reports_turning_while_it_turns_to_find_itself() -> None:
+    """What the station and tablet are told (`RobotStack.reported_localisation`): searching
+    while it stands, turning while the look-around turns it, ok once found."""
+    system = _system()
+    stack = system.stack
+    system.step()
+    stack.relocalise(system.now)
+    assert stack.reported_localisation == "searching"
+    assert system.run_until(lambda: stack.look_around.turning, 3.0)
+    assert stack.reported_localisation == "turning"
+    assert stack.localisation_state is LocaliserState.SEARCHING  # the stack's own state
+    assert system.run_until(lambda: stack.localisation_state is LocaliserState.OK, 15.0)
+    assert stack.reported_localisation == "ok"

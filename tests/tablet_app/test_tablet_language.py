@@ -213,3 +213,26 @@ def test_an_outcome_already_shown_changes_language_with_its_room_name(
         qtbot.waitUntil(lambda: window.status_label.text() == "Cheguei a Gabinete.")
     finally:
         window.languages.set_language("en")
+
+
+def test_the_robot_turning_to_find_itself_is_said_in_both_languages(qapp: Any) -> None:
+    """Issue 16: the robot reports ``turning`` while a search turns it in place; the tablet
+    says so (not only "Finding my position…"), in English and Portuguese."""
+    from interbot_core.protocol import Localisation
+    from tablet_app.tablet_session import TabletSession
+    from tablet_app.texts import activity_text
+    from tablet_app.translations import LanguageSwitcher
+
+    session = TabletSession(room_xy=lambda room: None, home_room=0)
+    session.on_connected()
+    session.on_localisation(Localisation("searching"))
+    assert activity_text(str, session) == "Finding my position…"
+    session.on_localisation(Localisation("turning"))
+    assert activity_text(str, session) == "Turning to find my position…"
+    assert not session.lost  # no "Help me!" while it is still finding itself
+    languages = LanguageSwitcher()
+    assert languages.set_language("pt")
+    try:
+        assert activity_text(str, session) == "A rodar para encontrar a minha posição…"
+    finally:
+        languages.set_language("en")
