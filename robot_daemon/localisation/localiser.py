@@ -70,6 +70,7 @@ from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
 from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
+from robot_daemon.localisation.odometry_yaw_bias import OdometryYawBias, OdometryYawBiasConfig
 from robot_daemon.localisation.scan_matcher import (
     MatchResult,
     ScanMatcher,
@@ -103,6 +104,7 @@ class LocaliserConfig:
     matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)
     dynamic_map: DynamicMapConfig = field(default_factory=DynamicMapConfig)
     odometry_scale: OdometryScaleConfig = field(default_factory=OdometryScaleConfig)
+    odometry_yaw_bias: OdometryYawBiasConfig = field(default_factory=OdometryYawBiasConfig)
     max_range_m: float = 30.0  # beams beyond are ignored
     hit_tolerance_m: float = 0.10  # an end point this close to the map counts as a hit
     lost_confidence: float = 0.35  # a scan below this hit fraction is bad
@@ -293,6 +295,7 @@ class Localiser:
         self._first_match = True
         self._cov = np.zeros((3, 3))
         self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
+        self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
     # ------------------------------------------------------------------ inputs
@@ -365,6 +368,7 @@ class Localiser:
         self._first_match = True  # ... from several starts (`_match_from_starts`)
         self._odom_at_scan = self._odom
         self.scale.reset_cross()
+        self.yaw_bias.reset_cross()
         self.dynamic.reset_streaks()
 
     def on_odometry(self, odom_pose: Pose2D, now: float) -> None:
@@ -381,13 +385,14 @@ class Localiser:
             return self._last
         cfg = self.config
         raw_step = self._odometry_step()
-        step = self.scale.scaled(raw_step)
+        step = self.yaw_bias.corrected(self.scale.scaled(raw_step))
         predicted = self._pose.compose(step)
         cov_pred = self.scale.predict(
             self._pose, raw_step, step, self._propagate(self._pose, step, self._cov)
         )
+        cov_pred = self.yaw_bias.predict(self._pose, step, cov_pred)
         if self._state is LocaliserState.LOST:
-            self.scale.keep_prediction()
+            self._keep_odometry_prediction()
             self._pose, self._cov = predicted, cov_pred
             self._last = LocaliserEstimate(
                 predicted, LocaliserState.LOST, 0.0, 0.0, now, 0.0, cov_pred, 0.0, "lost"
@@ -400,7 +405,7 @@ class Localiser:
         if points.shape[0] < 10:
             pose, cov, confidence, score = predicted, cov_pred, 0.0, 0.0
             reason = "too few beams"
-            self.scale.keep_prediction()
+            self._keep_odometry_prediction()
         else:
             sxy = math.sqrt(max(cov_pred[0, 0], cov_pred[1, 1]))
             syaw = math.sqrt(cov_pred[2, 2])
@@ -423,11 +428,13 @@ class Localiser:
                 pose, cov = predicted, cov_pred
                 reason = "match rejected (inconsistent with odometry)"
                 self._full_search = True
-                self.scale.keep_prediction()
+                self._keep_odometry_prediction()
             else:
                 pose, cov = fused
                 self._full_search = False
-                self.scale.update(cov_pred, cov, _pose_difference(pose, predicted))
+                correction = _pose_difference(pose, predicted)
+                self.scale.update(cov_pred, cov, correction)
+                self.yaw_bias.update(cov_pred, cov, correction)
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
@@ -453,6 +460,11 @@ class Localiser:
             pose, state, confidence, score, now, impossible, cov, certainty, reason
         )
         return self._last
+
+    def _keep_odometry_prediction(self) -> None:
+        """No pose update this scan: the odometry's scale and drift keep their predictions."""
+        self.scale.keep_prediction()
+        self.yaw_bias.keep_prediction()
 
     def _update_state(
         self, bad_reason: str, cov: FloatArray, now: float, confidence: float, impossible: float

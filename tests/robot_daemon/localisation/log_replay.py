@@ -39,7 +39,7 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.mapping import grid_from_scans
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.localisation.scan_matcher import ScanMatcherConfig, subsample_points
 
 REVISIT_RADIUS_M = 1.0  # [m] a scan revisits the map when its pose is this close to a mapping pose
 if TYPE_CHECKING:  # the records come from the caller (tests and bench/bench_reallogs.py)
@@ -64,6 +64,11 @@ class ScanOutcome:
     nees: float  # eᵀ P⁻¹ e with e = (dx, dy, dyaw) (3 dof: mean 3 if P is calibrated)
     seconds: float  # time in Localiser.on_scan by the injected clock (0 without one)
     odometry_error_m: float  # dead reckoning alone from the run's start
+    # How the logged pose itself sits in the map (`reference_check`): the distance [m] from it
+    # to the scan's own best fit in the map near it, and whether the estimate fits the scan to
+    # the map at least as well as the logged pose does.
+    reference_offset_m: float = math.nan
+    estimate_fits_better: bool = False
 
     @property
     def silent(self) -> bool:
@@ -89,6 +94,39 @@ def map_of(records: Sequence[LaserRecord]) -> OccupancyGrid:
     if not records:
         raise LogReplayError("no scans to build a map from")
     return grid_from_scans([r.scan for r in records], [r.pose for r in records], MAP_RESOLUTION)
+
+
+def map_fit(loc: Localiser, points: np.ndarray, pose: Pose2D) -> float:
+    """Mean likelihood ``M`` of the end points at ``pose`` on the matcher's finest level (its
+    score: 1 when every end point lies on a mapped surface)."""
+    level = loc.matcher.levels[0]
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    xs = pose.x + c * points[:, 0] - s * points[:, 1]
+    ys = pose.y + s * points[:, 0] + c * points[:, 1]
+    return float(np.mean(level.value(xs, ys))) if points.size else 0.0
+
+
+def reference_check(loc: Localiser, record: LaserRecord, estimate: Pose2D) -> tuple[float, bool]:
+    """How far the logged pose is from the map's own best fit of its scan, and whether the
+    estimate explains the scan at least as well as the logged pose.
+
+    The logged poses are a SLAM estimate, and the revisit method's map comes from an earlier
+    pass whose poses have errors of their own: where the two disagree, no localiser can be
+    nearer the logged pose than that. The scan is matched (every level, coarse to fine: a basin
+    of a few decimetres) from the logged pose: the distance to that optimum is the *reference
+    offset* of the scan. Scans
+    along a featureless corridor have no sharp optimum, so the offset there also holds the
+    matcher's slack; the offsets' RMS is an indication of the floor, not a correction. Neither
+    figure feeds the localiser or changes the error figures.
+    """
+    points = subsample_points(
+        record.scan.points(loc.config.max_range_m), loc.matcher.config.max_points
+    )
+    if points.shape[0] < 10:
+        return math.nan, False
+    optimum = loc.matcher.match(points, record.pose).pose
+    better = map_fit(loc, points, estimate) >= map_fit(loc, points, record.pose)
+    return optimum.distance_to(record.pose), better
 
 
 def replay_run(
@@ -142,6 +180,7 @@ def replay_run(
             nees = float(e @ np.linalg.solve(est.covariance, e))
         except np.linalg.LinAlgError:
             nees = math.inf
+        offset, fits_better = reference_check(loc, cur, est.pose)
         out.append(
             ScanOutcome(
                 float(math.hypot(e[0], e[1])),
@@ -150,6 +189,8 @@ def replay_run(
                 nees,
                 seconds,
                 run[0].pose.compose(odom).distance_to(cur.pose),
+                offset,
+                fits_better,
             )
         )
         if est.state is LocaliserState.LOST and reinit_lost:
@@ -175,7 +216,10 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     scan, whatever its state), ``ok_rms_m`` and ``ok_max_m`` (scans reported ok),
     ``lost_scans``, ``degraded_scans``, ``silent_failures``, ``nees_mean`` and
     ``nees_within_95`` (fraction of scans not lost whose error lies in the covariance's 95 %
-    ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99`` and ``odometry_only_rms_m``.
+    ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99`` and ``odometry_only_rms_m``;
+    and, on the reference itself (`reference_check`), ``reference_offset_rms_m`` (logged pose
+    to the scan's best fit in the map near it) and ``estimate_fits_better`` (fraction of scans
+    whose estimate fits the scan to the map at least as well as the logged pose).
     """
     if not outcomes:
         raise LogReplayError("no scans were localised")
@@ -185,6 +229,7 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     tracked = [o for o in outcomes if o.state is not LocaliserState.LOST]
     nees = np.array([o.nees for o in tracked]) if tracked else np.array([math.nan])
     ms = np.array([o.seconds for o in outcomes]) * 1e3
+    offsets = np.array([o.reference_offset_m for o in outcomes])
     return {
         "scans": float(err.size),
         "rms_m": float(np.sqrt(np.mean(err**2))),
@@ -202,6 +247,10 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
         "ms_median": float(np.median(ms)),
         "ms_p99": float(np.percentile(ms, 99)),
         "odometry_only_rms_m": float(np.sqrt(np.mean([o.odometry_error_m**2 for o in outcomes]))),
+        "reference_offset_rms_m": float(np.sqrt(np.nanmean(offsets**2)))
+        if np.isfinite(offsets).any()
+        else math.nan,
+        "estimate_fits_better": float(np.mean([o.estimate_fits_better for o in outcomes])),
     }
 
 

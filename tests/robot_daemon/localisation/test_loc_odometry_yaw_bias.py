@@ -1,0 +1,75 @@
+"""The odometry's heading drift per metre, learnt online (`odometry_yaw_bias`, issue 12).
+
+Odometry whose heading drifts 0.02 rad per metre, fused with matches that fix the heading, must
+teach the filter a drift near -0.02 rad/m (the correction to add); with the drift learnt, a
+stretch without matches is crossed on the corrected heading. Off by default (see the module).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from interbot_core.geometry import Pose2D
+from robot_daemon.localisation.odometry_yaw_bias import (
+    OdometryYawBias,
+    OdometryYawBiasConfig,
+    OdometryYawBiasConfigError,
+)
+
+DRIFT = 0.02  # [rad/m] odometry heading error per metre
+
+
+def _drive(bias: OdometryYawBias, steps: int, measured: bool, yaw0: float = 0.0) -> float:
+    """Drive straight 0.5 m a step; the odometry turns DRIFT per metre that the robot does not.
+    Each step the heading is measured with 0.002 rad sigma (``measured``) or not at all.
+    Returns the heading error [rad] at the end."""
+    truth_yaw, est_yaw = yaw0, yaw0
+    cov = np.diag([0.01**2, 0.01**2, 0.002**2])
+    info = np.diag([1e-6, 1e-6, 1.0 / 0.002**2])  # the match fixes the heading only
+    for _ in range(steps):
+        raw = Pose2D(0.5, 0.0, DRIFT * 0.5)
+        step = bias.corrected(raw)
+        cov_pred = bias.predict(Pose2D(0.0, 0.0, est_yaw), step, cov + np.diag([1e-6] * 3))
+        pred_yaw = est_yaw + step.yaw
+        if not measured:
+            bias.keep_prediction()
+            est_yaw, cov = pred_yaw, cov_pred
+            continue
+        post = np.linalg.inv(np.linalg.inv(cov_pred) + info)
+        innovation = np.array([0.0, 0.0, truth_yaw - pred_yaw])
+        correction = post @ (info @ innovation)
+        bias.update(cov_pred, post, correction)
+        est_yaw, cov = pred_yaw + correction[2], post
+    return est_yaw - truth_yaw
+
+
+def test_the_drift_is_learnt_where_matches_fix_the_heading() -> None:
+    bias = OdometryYawBias(OdometryYawBiasConfig(enabled=True))
+    _drive(bias, 40, measured=True)
+    assert bias.value == pytest.approx(-DRIFT, abs=0.003)
+    assert math.sqrt(bias.var) < 0.005
+
+
+def test_a_blind_stretch_is_crossed_on_the_learnt_drift() -> None:
+    learnt = OdometryYawBias(OdometryYawBiasConfig(enabled=True))
+    _drive(learnt, 40, measured=True)
+    error_learnt = _drive(learnt, 10, measured=False)  # 5 m without a match
+    error_raw = _drive(OdometryYawBias(OdometryYawBiasConfig(enabled=True)), 10, measured=False)
+    assert abs(error_raw) == pytest.approx(DRIFT * 5.0, rel=0.01)
+    assert abs(error_learnt) < 0.2 * abs(error_raw)
+
+
+def test_off_by_default_it_changes_nothing() -> None:
+    bias = OdometryYawBias()
+    step = Pose2D(0.5, 0.1, 0.02)
+    cov = np.diag([1e-4, 2e-4, 3e-4])
+    assert bias.corrected(step) == step
+    assert bias.predict(Pose2D(1.0, 2.0, 0.3), step, cov) is cov
+
+
+def test_invalid_configuration_names_the_field() -> None:
+    with pytest.raises(OdometryYawBiasConfigError, match="sigma"):
+        OdometryYawBiasConfig(sigma=-1.0)
