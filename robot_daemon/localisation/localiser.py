@@ -135,6 +135,15 @@ class LocaliserConfig:
     # error), so at most match_effective_points of them count as independent.
     match_sigma_m: float = 0.09
     match_effective_points: float = 40.0
+    # The building is not its map: walls drawn or mapped a few centimetres off, rooms moved
+    # (issue 12: sigma 3-5 cm), and one wall model for every map. That error is common to all
+    # the beams of a scan and to every scan in the same room, so no number of beams or scans
+    # averages it away: it is added to the covariance the localiser reports (not to the
+    # filter's own, which weighs scan against odometry), a floor under the reported
+    # uncertainty (`reported_covariance`). Calibrated on the realistic tour (NEES per degree
+    # of freedom about 1, `runner.Metrics`).
+    map_sigma_m: float = 0.03
+    map_sigma_rad: float = 0.003
     initial_sigma_m: float = 0.3  # a person's initial pose (issue 12: up to 0.3 m, 10 degrees)
     initial_sigma_rad: float = 0.17
     slide_test_m: float = 0.3  # shift testing the information along the weakest direction
@@ -198,6 +207,8 @@ class LocaliserConfig:
             ("odom_walk_rad", self.odom_walk_rad, 0.0, 10.0),
             ("match_sigma_m", self.match_sigma_m, 1e-3, 5.0),
             ("match_effective_points", self.match_effective_points, 1.0, 1e5),
+            ("map_sigma_m", self.map_sigma_m, 0.0, 1.0),
+            ("map_sigma_rad", self.map_sigma_rad, 0.0, 0.5),
             ("initial_sigma_m", self.initial_sigma_m, 1e-3, 100.0),
             ("initial_sigma_rad", self.initial_sigma_rad, 1e-4, math.pi),
             ("gate_chi2", self.gate_chi2, 1.0, 1e6),
@@ -309,8 +320,22 @@ class Localiser:
 
     @property
     def covariance(self) -> FloatArray:
-        """3x3 covariance of the latest pose estimate (x, y, yaw); zeros while unset."""
-        return self._cov.copy()
+        """3x3 covariance of the latest pose estimate (x, y, yaw) as reported
+        (`reported_covariance`); zeros while unset."""
+        if self._pose is None:
+            return self._cov.copy()
+        return self.reported_covariance(self._cov)
+
+    def reported_covariance(self, cov: FloatArray) -> FloatArray:
+        """The filter's covariance plus the map's own error: ``P + diag(σ_map², σ_map²,
+        σ_map,ψ²)`` (``map_sigma_m``, ``map_sigma_rad``). The filter's ``P`` is what the scans
+        and odometry tell it, as if the map were the building; the floor is what they cannot
+        tell it (a room that stands 5 cm off its map fits the scans perfectly 5 cm off)."""
+        cfg = self.config
+        out: FloatArray = cov + np.diag(
+            [cfg.map_sigma_m**2, cfg.map_sigma_m**2, cfg.map_sigma_rad**2]
+        )
+        return out
 
     @property
     def current_pose(self) -> Pose2D | None:
@@ -390,7 +415,15 @@ class Localiser:
             self.scale.keep_prediction()
             self._pose, self._cov = predicted, cov_pred
             self._last = LocaliserEstimate(
-                predicted, LocaliserState.LOST, 0.0, 0.0, now, 0.0, cov_pred, 0.0, "lost"
+                predicted,
+                LocaliserState.LOST,
+                0.0,
+                0.0,
+                now,
+                0.0,
+                self.reported_covariance(cov_pred),
+                0.0,
+                "lost",
             )
             return self._last
 
@@ -445,12 +478,13 @@ class Localiser:
             if not reason and cfg.map_update and confidence >= cfg.map_update_min_confidence:
                 self._update_map(points, pose, now)
         self._pose, self._cov = pose, cov
-        state = self._update_state(reason, cov, now, confidence, impossible)
-        certainty = 0.0 if state is LocaliserState.LOST else self._certainty(cov)
+        reported = self.reported_covariance(cov)  # what the state and certainty judge
+        state = self._update_state(reason, reported, now, confidence, impossible)
+        certainty = 0.0 if state is LocaliserState.LOST else self._certainty(reported)
         if not reason and state is LocaliserState.DEGRADED:
-            reason = self._weak_reason(cov, confidence) or "recovering"
+            reason = self._weak_reason(reported, confidence) or "recovering"
         self._last = LocaliserEstimate(
-            pose, state, confidence, score, now, impossible, cov, certainty, reason
+            pose, state, confidence, score, now, impossible, reported, certainty, reason
         )
         return self._last
 
