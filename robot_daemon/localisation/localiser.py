@@ -26,6 +26,13 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   used where they do not; its uncertainty makes the covariance along a featureless corridor
   grow linearly with the distance, as a systematic scale error does (Infinite Corridor log,
   whole-log RMS 0.80 m -> 4.5 cm).
+* **The map's own error in the reported covariance** (`Localiser.reported_covariance`): the
+  filter's ``P`` says how well scans and odometry pin the pose *on the map*; a building stands
+  a few centimetres off its map (rooms moved, one wall model for every map), an error common to
+  every beam and every scan in a room that no amount of them averages away. The reported
+  covariance, the state and the certainty use ``P + diag(map_sigma_m², map_sigma_m²,
+  map_sigma_rad²)``; the filter keeps ``P``. Calibrated so the realistic tour's NEES per degree
+  of freedom is about 1 (`robot_daemon.scenarios.map_echo`, `runner.Metrics`).
 * **Confidence.** The fraction of the matched end points lying within ``hit_tolerance_m`` of an
   occupied map cell, reported with Hector's score (mean ``M``); ``certainty`` is the
   probability, under ``P``, of an error within ``tolerance_m`` and ``tolerance_rad``.
