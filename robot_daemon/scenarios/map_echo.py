@@ -34,6 +34,9 @@ from robot_daemon.localisation.scan_matcher import ScanMatcher
 from robot_daemon.sim.laser_sim import LaserConfig, RayCaster
 from robot_daemon.sim.world import World
 
+NEAR_M = 0.3  # [m] the perfect matcher's fit is searched this close to the truth (issue 12's
+# silent-failure bound: a localiser farther off is wrong, whatever the map)
+
 
 class MapEcho:
     """The perfect matcher's pose for a robot standing at a true pose (see the module doc)."""
@@ -79,19 +82,21 @@ class MapEcho:
 
     def reference(self, truth: Pose2D) -> Pose2D:
         """base_link pose a perfect matcher gives on the map for a robot truly at ``truth``:
-        the best fit of the noise-free scan near the truth, matched from the truth starting on
-        each level (the finest alone may stop short of an optimum 5-10 cm away; a coarse start
-        reaches it), the best score wins."""
+        the best fit of the noise-free scan near the truth. Matched from the truth starting on
+        the finest level and on the next (the finest alone may stop short of an optimum 5-10 cm
+        away); the best score among the results within ``NEAR_M`` of the truth wins (a coarse
+        start may slide a corridor's length to a look-alike: not the map's error at this
+        place, a matcher's), else the finest level's."""
         points = self.noise_free_points(truth)
         start = truth.compose(self._mount)
         if points.shape[0] < 10:
             return truth
-        best = None
-        for level in range(len(self._matcher.levels)):
+        best = self._matcher.match(points, start, 0)
+        for level in range(1, min(2, len(self._matcher.levels))):
             result = self._matcher.match(points, start, level)
-            if best is None or result.score > best.score:
+            near = result.pose.distance_to(start) <= NEAR_M
+            if near and result.score > best.score:
                 best = result
-        assert best is not None
         return best.pose.compose(self._mount_inv)
 
 
