@@ -47,6 +47,7 @@ from interbot_core.topological_map import TopologicalMap, load_topological_map
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO, LocaliserSettings
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.scenarios.map_echo import NEAR_M as ECHO_NEAR_M
 from robot_daemon.scenarios.map_echo import MapEcho, nees, pose_error
 from robot_daemon.sim.laser_sim import LaserConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -144,6 +145,8 @@ class Metrics:
     own_errors: list[float] = field(default_factory=list)
     own_heading_errors: list[float] = field(default_factory=list)
     own_worst: tuple[float, float, float] = (0.0, math.nan, math.nan)
+    echo_unmatched: int = 0  # samples where the perfect matcher slid > ECHO_NEAR_M (left out)
+    _echo_world: list[float] = field(default_factory=list)  # world-frame errors, same samples
     # NEES of the reported covariance against the truth, per ok sample: (x, y, yaw) and x, y.
     nees_pose: list[float] = field(default_factory=list)
     nees_position: list[float] = field(default_factory=list)
@@ -200,9 +203,13 @@ class Metrics:
     def _sample_echo(self, estimate: Pose2D, truth: Pose2D) -> None:
         assert self.echo is not None
         ref = self.echo.reference(truth)
+        if ref.distance_to(truth) > ECHO_NEAR_M:
+            self.echo_unmatched += 1  # the reference match itself slid away: no reference
+            return
         self.echo_errors.append(ref.distance_to(truth))
         own = estimate.distance_to(ref)
         self.own_errors.append(own)
+        self._echo_world.append(estimate.distance_to(truth))
         self.own_heading_errors.append(abs(angle_diff(estimate.yaw, ref.yaw)))
         if own > self.own_worst[0]:
             self.own_worst = (own, truth.x, truth.y)
@@ -244,7 +251,7 @@ class Metrics:
             return {}
         echo = np.asarray(self.echo_errors)
         own = np.asarray(self.own_errors)
-        world = np.asarray(self.loc_errors[:: self.echo_every])[: echo.size]
+        world = np.asarray(self._echo_world)
         heading = np.asarray(self.own_heading_errors)
 
         def rms(a: np.ndarray) -> float:
@@ -252,6 +259,7 @@ class Metrics:
 
         return {
             "loc_echo_samples": int(echo.size),
+            "loc_echo_unmatched": self.echo_unmatched,
             "loc_sub_rms_m": rms(world),
             "loc_echo_rms_m": rms(echo),
             "loc_echo_max_m": round(float(echo.max()), 4),
