@@ -55,6 +55,12 @@ _KEYS = {
     "distance_m": "tour_distance_m",
     "mean_speed_mps": "tour_mean_speed_mps",
     "min_clearance_m": "tour_min_clearance_m",
+    # The error split (`robot_daemon.scenarios.map_echo`; realistic worlds only): the map's own
+    # error where the robot was, the localiser's relative to it; the covariance's NEES per dof.
+    "loc_echo_rms_m": "tour_loc_echo_rms_m",
+    "loc_own_rms_m": "tour_loc_own_rms_m",
+    "loc_own_max_m": "tour_loc_own_max_m",
+    "loc_nees_per_dof": "tour_loc_nees_per_dof",
 }
 
 
@@ -71,6 +77,8 @@ def _figures(options: ScenarioOptions, prefix: str) -> dict[str, Any]:
         figures = tour.run(options).figures
     out: dict[str, Any] = {}
     for name, key in _KEYS.items():
+        if name not in figures:  # the error split: not in the ideal world (world = map)
+            continue
         out[key if prefix == "tour" else f"{prefix}_{key.removeprefix('tour_')}"] = float(
             figures[name]
         )

@@ -11,6 +11,8 @@ does not inflate (it is what a quiet machine's real-time factor would be).
 
 from __future__ import annotations
 
+from typing import Any
+
 from interbot_core.supervisor import GuidedTour, TaskFinished, TourStopReached
 from robot_daemon.localisation.localiser import LocaliserState
 from robot_daemon.scenarios.runner import (
@@ -80,6 +82,29 @@ def run(options: ScenarioOptions) -> ScenarioResult:
             f"({figures['cpu_realtime_factor']:.1f}x per CPU second)",
             f"world: {figures['world']}; silent localisation failures (ok but > 0.3 m or "
             f"10 deg off): {figures['loc_silent_failures']} of the 10 Hz samples",
+            *_error_lines(figures),
         ]
     )
     return ScenarioResult("tour", table, figures)
+
+
+def _error_lines(figures: dict[str, Any]) -> list[str]:
+    """The world-frame error split into the map's own and the localiser's (`map_echo`), and
+    the covariance's honesty (NEES per degree of freedom: 1 when honest)."""
+    lines = []
+    if "loc_echo_rms_m" in figures:
+        f = figures
+        lines.append(
+            f"error split on {figures['loc_echo_samples']} samples: world frame RMS "
+            f"{f['loc_sub_rms_m'] * 100:.1f} cm = map's own (a perfect matcher on this map) RMS "
+            f"{f['loc_echo_rms_m'] * 100:.1f} / max {f['loc_echo_max_m'] * 100:.1f} cm + "
+            f"localiser's own RMS {f['loc_own_rms_m'] * 100:.1f} / max "
+            f"{f['loc_own_max_m'] * 100:.1f} cm"
+        )
+    if "loc_nees_per_dof" in figures:
+        lines.append(
+            f"covariance: NEES per dof {figures['loc_nees_per_dof']} (x, y, yaw), "
+            f"{figures['loc_nees_position_per_dof']} (x, y); 1 when honest; "
+            f"{figures['loc_inside_95'] * 100:.0f} % inside the 95 % region"
+        )
+    return lines

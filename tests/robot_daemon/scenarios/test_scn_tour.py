@@ -70,6 +70,27 @@ def test_short_realistic_tour_is_never_silently_lost(short_tour: dict[str, Any])
     assert short_tour["min_clearance_m"] > 0.0
 
 
+def test_short_realistic_tour_splits_its_error_into_the_map_s_and_the_localiser_s(
+    short_tour: dict[str, Any],
+) -> None:
+    """The world-frame error over the reference's samples is at most the map's own error (a
+    perfect matcher's, `map_echo`) plus the localiser's relative to it (RMS: Minkowski); the
+    realistic world moves rooms by centimetres, so the map's share is not zero."""
+    f = short_tour
+    assert f["loc_echo_samples"] >= 0.1 * f["duration_s"]  # one every 0.5 s while ok
+    assert f["loc_sub_rms_m"] <= f["loc_echo_rms_m"] + f["loc_own_rms_m"] + 1e-4
+    assert f["loc_echo_rms_m"] > 0.005
+    assert f["loc_own_max_m"] < 0.3 and f["loc_echo_max_m"] < 0.3
+
+
+def test_short_realistic_tour_covariance_is_honest(short_tour: dict[str, Any]) -> None:
+    """The reported covariance covers the error against the truth: NEES per degree of
+    freedom near 1 (over 2: too confident), most samples inside the 95 % region."""
+    assert 0.1 < short_tour["loc_nees_per_dof"] < 2.0
+    assert short_tour["loc_nees_position_per_dof"] < 2.0
+    assert short_tour["loc_inside_95"] > 0.8
+
+
 @pytest.mark.realdata
 @pytest.mark.parametrize("name", sorted(REAL_GRAPHS))
 def test_real_building_graph_is_drivable(name: str, shared_data: Path) -> None:
