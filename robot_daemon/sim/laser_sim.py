@@ -150,16 +150,23 @@ class RayCaster:
         self._last_walls = None
 
     def cast_walls(
-        self, origin_x: float, origin_y: float, angles: FloatArray, max_range: float
+        self,
+        origin_x: float,
+        origin_y: float,
+        angles: FloatArray,
+        max_range: float,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Distance [m] along each world-frame angle to the first blocked cell; inf if none."""
+        """Distance [m] along each world-frame angle to the first blocked cell; inf if none.
+
+        ``trig``: ``(cos(angles), sin(angles))`` if the caller has them.
+        """
         w = self.world
         res = w.resolution
         field = w.ray_step_flat
         width = w.padded_width
         n = angles.size
-        cos = np.cos(angles)
-        sin = np.sin(angles)
+        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
         u0, v0 = w.to_padded_cells(origin_x, origin_y)
         u0f, v0f = float(u0), float(v0)
         max_t = max_range / res
@@ -176,17 +183,18 @@ class RayCaster:
         # have step 0 in ``field`` (see World), so a beam that hit stays put; finished beams
         # are dropped every few iterations, which costs fewer numpy calls than every time.
         tail = max(_TAIL_BEAMS, n // 8)
-        u = np.full(n, u0f)
-        v = np.full(n, v0f)
+        # Position u + i v and direction cos + i sin as complex numbers: one numpy call moves
+        # both coordinates. s * (c + i d) = s c + i s d exactly (the cross terms are 0 * x).
+        uv = np.full(n, complex(u0f, v0f))
+        direction = cs + 1j * sn
         flat = np.empty(n, dtype=np.intp)
         s = np.empty(n, dtype=field.dtype)
         iteration = 0
         while idx.size > tail:
-            np.add(v.astype(np.intp) * width, u.astype(np.intp), out=flat)
+            np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
             np.take(field, flat, out=s)
             t += s
-            u += s * cs
-            v += s * sn
+            uv += s * direction
             iteration += 1
             if iteration % _COMPACT_EVERY == 0:
                 hit = s == 0.0
@@ -197,9 +205,10 @@ class RayCaster:
                         hit_idx.append(idx[hits])
                         hit_t.append(t[hits])
                     keep = ~done
-                    idx, t, u, v, cs, sn = idx[keep], t[keep], u[keep], v[keep], cs[keep], sn[keep]
+                    idx, t, uv, direction = idx[keep], t[keep], uv[keep], direction[keep]
                     flat = np.empty(idx.size, dtype=np.intp)
                     s = np.empty(idx.size, dtype=field.dtype)
+        cs, sn = direction.real, direction.imag
         # Phase 2: the few grazing beams left march in dense chunks of fine samples, then jump
         # by the safe step at the chunk's end (fewer numpy calls per unit of distance).
         offsets = np.arange(_TAIL_CHUNK, dtype=np.float64) * RAY_FINE_STEP
@@ -250,12 +259,14 @@ class RayCaster:
         angles: FloatArray,
         circles: FloatArray,
         increasing: bool | None = None,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
         """Range [m] to the nearest circle along each angle (inf if none) and its index (-1).
 
         With increasing ``angles`` (a scan's; ``increasing=None`` checks) each circle is
         intersected only with the beams of its angular window (`_angle_window`), with the
-        same arithmetic per beam; otherwise with every beam.
+        same arithmetic per beam; otherwise with every beam. ``trig``: ``(cos(angles),
+        sin(angles))`` if the caller has them.
         """
         n = angles.size
         if circles.size == 0:
@@ -272,7 +283,7 @@ class RayCaster:
             which = t.argmin(axis=1)
             best = t[np.arange(n), which]
             return best, np.where(np.isfinite(best), which, -1)
-        cos, sin = np.cos(angles), np.sin(angles)
+        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
         best = np.full(n, np.inf)
         nearest = np.full(n, -1, dtype=np.intp)
         for j in range(circles.shape[0]):
@@ -298,6 +309,7 @@ class RayCaster:
         angles: FloatArray,
         return_angle: float,
         increasing: bool | None = None,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
         """Range [m] to the first glass pane that reflects each beam back (inf if none).
 
@@ -311,7 +323,7 @@ class RayCaster:
         best = np.full(n, np.inf)
         if not self.world.glass:
             return best
-        cx, cy = np.cos(angles), np.sin(angles)
+        cx, cy = trig if trig is not None else (np.cos(angles), np.sin(angles))
         threshold = math.cos(return_angle)
         windowed = _increasing(angles) if increasing is None else increasing
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -354,18 +366,19 @@ class RayCaster:
         normal; other beams see through them. ``increasing``: whether ``angles`` increase
         strictly (None: check).
         """
+        trig = (np.cos(angles), np.sin(angles))  # once for walls, panes and people
         key = (origin_x, origin_y, max_range, self.world.version)
         last = self._last_walls
         if last is not None and last[0] == key and np.array_equal(last[1], angles):
             ranges = last[2].copy()
         else:
-            ranges = self.cast_walls(origin_x, origin_y, angles, max_range)
+            ranges = self.cast_walls(origin_x, origin_y, angles, max_range, trig)
             self._last_walls = (key, angles.copy(), ranges.copy())
         if self.world.glass:
-            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, increasing)
+            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, increasing, trig)
             ranges = np.minimum(ranges, np.where(pane <= max_range, pane, np.inf))
         if circles is not None and circles.size:
-            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, increasing)
+            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, increasing, trig)
             ranges = np.minimum(ranges, np.where(people <= max_range, people, np.inf))
         return ranges
 
