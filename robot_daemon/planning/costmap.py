@@ -5,7 +5,8 @@ map (occupied *and* unknown cells are lethal; with ``allow_unknown``, as Nav2's 
 default, unknown cells are traversable at the highest non-lethal cost) and obstacles the laser sees within
 ``obstacle_max_range`` are inflated "to mark all the areas where the robot's position is not
 valid". Live obstacles are marked for ``obstacle_persistence`` seconds and cleared earlier when a
-later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does.
+later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does;
+only the beam samples that can fall in a live mark are computed (`_live_clearing_samples`).
 
 Inflation follows Nav2's ``InflationLayer`` (navigation2/nav2_costmap_2d/inflation_layer.hpp)::
 

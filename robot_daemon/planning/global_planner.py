@@ -12,7 +12,9 @@ step costs at least its length) is run as Dijkstra on the *reduced* costs
 ``w'(u, v) = w(u, v) - h(u) + h(v) >= 0`` (the potential-function view of A*, Hart, Nilsson and
 Raphael 1968; Johnson 1977): the compiled ``scipy.sparse.csgraph.dijkstra`` then expands nodes in
 A*'s order, and its ``limit`` argument stops the search at an f-value bound that grows fourfold
-until the goal is reached, so only A*'s ellipse around the straight line is explored.
+until the goal is reached, so only A*'s ellipse around the straight line is explored; the graph
+itself is built only on the box that holds that ellipse (`_search_box`), with the nodes in the
+same order, so the search and its ties are those on the whole grid.
 
 Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
 takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
