@@ -16,6 +16,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import zenoh
 
@@ -24,6 +25,9 @@ from base_station_app.station_file import StationSettingsStore
 from interbot_core.screen_layout import LayoutError, parse_geometry
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
 from interbot_link import LinkError, LinkSecurity, session_config
+
+if TYPE_CHECKING:
+    from PySide6.QtCore import QSettings
 
 logger = logging.getLogger(__name__)
 
@@ -54,6 +58,24 @@ class StationSession:
             session, self.session = self.session, None
             session.close()
             logger.info("zenoh session closed")
+
+
+def migrate_qsettings(store: StationSettingsStore, qsettings: QSettings | None = None) -> None:
+    """Move the ``config/*`` and ``tablet/*`` QSettings of a station from before the station
+    file into the file (`station_file.migrate_legacy`), log what moved, then remove them. A file
+    that cannot be read or written raises `StationFileError` and the old values stay."""
+    from PySide6.QtCore import QSettings
+
+    qsettings = qsettings if qsettings is not None else QSettings("Interbot", "BaseStation")
+    keys = [k for k in qsettings.allKeys() if k.startswith(station_file.LEGACY_PREFIXES)]
+    if not keys:
+        return
+    old = {legacy_key: qsettings.value(legacy_key) for legacy_key in keys}
+    for note in station_file.migrate_legacy(store, old):
+        logger.warning("old station setting %s", note)
+    for legacy_key in keys:
+        qsettings.remove(legacy_key)
+    qsettings.sync()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -137,6 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     settings = StationSettingsStore(args.config or station_file.default_path())
     try:
+        migrate_qsettings(settings)
         saved = settings.load()
     except station_file.StationFileError as exc:
         sys.stderr.write(f"interbot-base-station: {exc}\n")

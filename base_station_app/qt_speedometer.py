@@ -38,10 +38,6 @@ class QtSpeedometer(QWidget):
             self._value = value
             self.update()
 
-    def set_maximum(self, maximum: float) -> None:
-        self._maximum = max(1e-6, maximum)
-        self.update()
-
     def sizeHint(self) -> QSize:
         return QSize(160, 130)
 

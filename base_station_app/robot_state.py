@@ -41,6 +41,23 @@ class LogEntry:
     text: str
 
 
+# The attribute that keeps the newest message of each state topic, and the message's type.
+_SLOTS: dict[Topic, tuple[str, type]] = {
+    Topic.POSE: ("pose", PoseMsg),
+    Topic.ODOM: ("odom", Odom),
+    Topic.CMD_VEL: ("cmd_vel", Twist),
+    Topic.SCAN: ("scan", LaserScan),
+    Topic.MAP: ("grid", OccupancyGrid),
+    Topic.IMAGE: ("image", ImageMsg),
+    Topic.BATTERY: ("battery", Battery),
+    Topic.MUX: ("mux", MuxMsg),
+    Topic.ROUTE_PROGRESS: ("progress", RouteProgress),
+    Topic.STATUS: ("status", Status),
+    Topic.SAFETY: ("safety", SafetyMsg),
+    Topic.PLAN: ("plan", PlanMsg),
+}
+
+
 class RobotState:
     """Newest state of the selected robot (None until first received)."""
 
@@ -93,39 +110,20 @@ class RobotState:
 
     def apply(self, topic: Topic, message: object) -> None:
         """Store one decoded message of ``topic``."""
-        if topic is Topic.POSE and isinstance(message, PoseMsg):
-            self.pose = message
+        slot = _SLOTS.get(topic)
+        if slot is None or not isinstance(message, slot[1]):
+            logger.debug("ignored %s message %r", topic, type(message).__name__)
+            return
+        setattr(self, slot[0], message)
+        if isinstance(message, PoseMsg):
             if message.state == "ok":
                 self.poses.add(message.stamp, Pose2D(message.x, message.y, message.yaw))
             else:
                 self.poses.clear()
-        elif topic is Topic.ODOM and isinstance(message, Odom):
-            self.odom = message
-        elif topic is Topic.CMD_VEL and isinstance(message, Twist):
-            self.cmd_vel = message
-        elif topic is Topic.SCAN and isinstance(message, LaserScan):
-            self.scan = message
-        elif topic is Topic.MAP and isinstance(message, OccupancyGrid):
-            self.grid = message
+        elif isinstance(message, OccupancyGrid):
             self.map_version += 1
-        elif topic is Topic.IMAGE and isinstance(message, ImageMsg):
-            self.image = message
+        elif isinstance(message, ImageMsg):
             self.image_version += 1
-        elif topic is Topic.BATTERY and isinstance(message, Battery):
-            self.battery = message
-        elif topic is Topic.MUX and isinstance(message, MuxMsg):
-            self.mux = message
-        elif topic is Topic.ROUTE_PROGRESS and isinstance(message, RouteProgress):
-            self.progress = message
-        elif topic is Topic.STATUS and isinstance(message, Status):
-            self.status = message
-        elif topic is Topic.SAFETY and isinstance(message, SafetyMsg):
-            self.safety = message
-        elif topic is Topic.PLAN and isinstance(message, PlanMsg):
-            self.plan = message
-        else:
-            logger.debug("ignored %s message %r", topic, type(message).__name__)
-            return
         self.version += 1
 
     def add_log(self, now: float, level: str, text: str) -> None:

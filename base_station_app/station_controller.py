@@ -1071,23 +1071,17 @@ class StationController(QObject):
         The tablet is bound to the selected robot: its tasks go to that robot's queue.
         """
         if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)
-            self._on_tablet_speed(msg, self.clock())
+            self.tablet_teleop.on_speed(msg)  # the same path, stamped when it runs
             return
         now = self.clock()
         kind = permission_for(msg)  # type: ignore[arg-type]
         why = self.tablet_policy.refusal(kind, self.robot_online, self.estop_latched)
-        if why is not None:
-            if not (isinstance(msg, p.Speed) and self.arbiter.stop_told):
-                self.tablet.send(p.ErrorReport("not_permitted", why))  # once per 10 Hz stream
-            if isinstance(msg, p.Speed):
-                self.arbiter.stop_told = True
-            if not isinstance(msg, p.Speed):
-                self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
+        if why is not None:  # (a refused speed is told once per stream, in tablet_teleop.py)
+            self.tablet.send(p.ErrorReport("not_permitted", why))
+            self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
             self.alert_rules.on_refused(why, now)
             return
-        if isinstance(msg, p.Speed):
-            self._on_tablet_speed(msg, now)
-        elif isinstance(msg, p.Goal):
+        if isinstance(msg, p.Goal):
             self.submit(GoTo(msg.node), from_tablet=True)
         elif isinstance(msg, p.Home):
             self.submit(GoHome(), from_tablet=True)
@@ -1138,8 +1132,3 @@ class StationController(QObject):
             return
         self.log("warning", "tablet: stop")
         self.stop_motion("the tablet")
-
-    def _on_tablet_speed(self, msg: p.Speed, now: float) -> None:
-        """A speed command handed to this thread (a caller other than the tablet server):
-        the same path as in the tablet thread, stamped with the clock when it runs."""
-        self.tablet_teleop.on_speed(msg)

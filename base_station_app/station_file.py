@@ -21,8 +21,9 @@ from __future__ import annotations
 import logging
 import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar, Final
 
 import msgspec
 import yaml
@@ -30,7 +31,6 @@ import yaml
 from base_station_app.station_config import StationConfig
 from base_station_app.tablet_session import TabletPermissions
 from interbot_core import schema
-from interbot_core.schema import SchemaError
 
 logger = logging.getLogger(__name__)
 
@@ -38,6 +38,10 @@ HEADER = (
     "# Interbot Base Station configuration (docs/station_config.md). The station rewrites\n"
     "# 'config' and 'tablet' when the operator applies a change; 'security' is only read.\n"
 )
+
+
+LEGACY_PREFIXES: Final = ("config/", "tablet/")
+"""QSettings keys of stations from before the station file (`migrate_legacy` moves them)."""
 
 
 class StationFileError(ValueError):
@@ -97,23 +101,10 @@ class StationSettingsStore:
 
     def load(self) -> StationFile:
         """The file's settings; raises `StationFileError` naming the file and the key."""
-        try:
-            text = self.path.read_text(encoding="utf-8")
-        except FileNotFoundError:
+        if not self.path.exists():
             return StationFile()
-        except OSError as exc:
-            raise StationFileError(f"{self.path}: cannot read the station file: {exc}") from None
-        try:
-            raw = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise StationFileError(f"{self.path}: invalid YAML: {exc}") from None
-        try:
-            file = schema.convert(raw or {}, StationFile, "")
-            schema.check_all(file)
-        except SchemaError as exc:
-            raise StationFileError(f"{self.path}: {exc.key_message()}") from None
-        except StationFileError as exc:
-            raise StationFileError(f"{self.path}: {exc}") from None
+        raw = schema.read_yaml(self.path, StationFileError, "station file")
+        file = schema.load(raw or {}, StationFile, "", str(self.path), StationFileError)
         self._security = file.security
         return file
 
@@ -130,3 +121,55 @@ class StationSettingsStore:
             os.replace(out.name, self.path)
         except OSError as exc:
             raise StationFileError(f"{self.path}: cannot save the settings: {exc}") from None
+
+
+def _legacy_value(section: str, value: object) -> object:
+    """A QSettings value as the file's type: QSettings gives back strings ("0.7", "true")."""
+    if section == "tablet":
+        truth = {"true": True, "1": True, "false": False, "0": False}
+        return truth.get(str(value).lower(), value)
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return value
+
+
+def migrate_legacy(store: StationSettingsStore, legacy: Mapping[str, object]) -> list[str]:
+    """Move the QSettings values of stations from before the station file (``config/NAME``,
+    ``tablet/KIND``) into the file, once, and return one line per value for the log.
+
+    A key the file already sets keeps the file's value; a value that is invalid, or a name the
+    file does not know, is dropped (the old station ignored those too). Raises
+    `StationFileError` when the file is invalid or cannot be written: the caller then keeps the
+    old values for the next start.
+    """
+    store.load()  # the security section, kept as read; refuses an invalid file
+    raw: Any = (
+        schema.read_yaml(store.path, StationFileError, "station file")
+        if (store.path.exists())
+        else {}
+    )
+    sections: dict[str, dict[str, object]] = {
+        name: dict((raw or {}).get(name) or {}) for name in ("config", "tablet")
+    }
+    types: dict[str, type[msgspec.Struct]] = {"config": StationConfig, "tablet": TabletSection}
+    notes = []
+    for key, value in sorted(legacy.items()):
+        section, _, name = key.partition("/")
+        if section not in sections:
+            continue
+        if name in sections[section]:
+            notes.append(f"{key} = {value!r} dropped: {store.path} sets {section}.{name}")
+            continue
+        candidate = _legacy_value(section, value)
+        try:
+            schema.convert({name: candidate}, types[section], section)
+        except schema.SchemaError as exc:
+            notes.append(f"{key} = {value!r} dropped: {exc.key_message()}")
+            continue
+        sections[section][name] = candidate
+        notes.append(f"{key} = {value!r} moved to {store.path} as {section}.{name}")
+    if any(" moved to " in note for note in notes):
+        file = schema.load(sections, StationFile, "", str(store.path), StationFileError)
+        store.save(file.config, file.tablet.permissions())
+    return notes

@@ -101,10 +101,6 @@ class TeleopArbiter:
         return True
 
     # ------------------------------------------------------------------ the station's keys
-    @property
-    def keys_active(self) -> bool:
-        return self.keys.active
-
     def keys_command(self, stopped: bool) -> tuple[float, float] | None:
         """The held command to repeat, or None (nothing held, or the stop is latched)."""
         return self.keys.command() if self.keys.active and not stopped else None

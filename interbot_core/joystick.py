@@ -15,6 +15,11 @@ from __future__ import annotations
 
 import logging
 import math
+from typing import Annotated, ClassVar
+
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -23,20 +28,41 @@ class JoystickError(ValueError):
     """Invalid joystick geometry or limits."""
 
 
+Pixels = Annotated[float, Meta(ge=-schema.FINITE, le=schema.FINITE, extra={"unit": "px"})]
+
+
+def _at_least(low: float, unit: str) -> Meta:
+    return Meta(ge=low, le=schema.FINITE, extra={"unit": unit})
+
+
+class _Geometry(schema.Declared, frozen=True):
+    ROOT: ClassVar[str] = "joystick"
+    ERROR: ClassVar[type[Exception]] = JoystickError
+    center_x: Pixels
+    center_y: Pixels
+    radius: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "px"})]
+
+
+class _Limits(schema.Declared, frozen=True):
+    ROOT: ClassVar[str] = "joystick"
+    ERROR: ClassVar[type[Exception]] = JoystickError
+    linear_max: Annotated[float, _at_least(0.0, "m/s")]
+    angular_max: Annotated[float, _at_least(0.0, "rad/s")]
+
+
+class _Pressed(schema.Declared, frozen=True):
+    ROOT: ClassVar[str] = "joystick.pressed"
+    ERROR: ClassVar[type[Exception]] = JoystickError
+    x: Pixels
+    y: Pixels
+
+
 def _check_geometry(center_x: float, center_y: float, radius: float) -> None:
-    if not (math.isfinite(center_x) and math.isfinite(center_y)):
-        raise JoystickError(f"joystick centre must be finite, got ({center_x!r}, {center_y!r})")
-    if not math.isfinite(radius) or radius <= 0.0:
-        raise JoystickError(f"joystick radius must be finite and > 0 px, got {radius!r}")
+    _Geometry(center_x, center_y, radius)
 
 
 def _check_limits(linear_max: float, angular_max: float) -> None:
-    if not math.isfinite(linear_max) or linear_max < 0.0:
-        raise JoystickError(f"joystick linear_max must be finite and >= 0 m/s, got {linear_max!r}")
-    if not math.isfinite(angular_max) or angular_max < 0.0:
-        raise JoystickError(
-            f"joystick angular_max must be finite and >= 0 rad/s, got {angular_max!r}"
-        )
+    _Limits(linear_max, angular_max)
 
 
 def _clamp_unit(value: float) -> float:
@@ -60,8 +86,7 @@ def joystick_command(
     """
     _check_geometry(center_x, center_y, radius)
     _check_limits(linear_max, angular_max)
-    if not (math.isfinite(pressed_x) and math.isfinite(pressed_y)):
-        raise JoystickError(f"pressed point must be finite, got ({pressed_x!r}, {pressed_y!r})")
+    _Pressed(pressed_x, pressed_y)
     u = (center_x - pressed_x) / radius  # + when pressed left of centre: turn left
     v = (center_y - pressed_y) / radius  # + when pressed above centre: forward
     norm = math.hypot(u, v)
@@ -134,8 +159,7 @@ class JoystickState:
         return self.command
 
     def press(self, x: float, y: float) -> tuple[float, float]:
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise JoystickError(f"pressed point must be finite, got ({x!r}, {y!r})")
+        _Pressed(x, y)
         self._pressed_at = (float(x), float(y))
         return self.command
 

@@ -17,11 +17,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Literal
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
 import yaml
+from msgspec import Meta
+
+from interbot_core import schema
 
 # Cell values, as in nav_msgs/OccupancyGrid.
 FREE = 0
@@ -196,49 +200,28 @@ def write_pgm(path: str | Path, image: npt.NDArray[np.uint8]) -> None:
     Path(path).write_bytes(header + image.tobytes())
 
 
-def _require(meta: dict[str, Any], key: str, source: Path) -> Any:
-    if key not in meta:
-        raise MapLoadError(f"{source}: missing key '{key}'")
-    return meta[key]
+class MapServerYaml(msgspec.Struct, frozen=True):
+    """The keys of a ROS map_server YAML file that this loader reads (others are ignored, as
+    map_server ignores them); ``mode`` must be ``trinary``, the only mode read here."""
+
+    image: Annotated[str, Meta(min_length=1)]
+    resolution: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+    origin: tuple[schema.Finite, schema.Finite, schema.Finite]
+    negate: bool | Annotated[int, Meta(ge=0, le=1)] = 0
+    occupied_thresh: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.65
+    free_thresh: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.196
+    mode: Literal["trinary"] = "trinary"
 
 
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
     """Load a map_server YAML file and its image into an `OccupancyGrid`."""
     yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(yaml_path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise MapLoadError(f"{yaml_path}: cannot read map file ({exc.strerror})") from exc
-    except yaml.YAMLError as exc:
-        raise MapLoadError(f"{yaml_path}: invalid YAML ({exc})") from exc
-    if not isinstance(meta, dict):
-        raise MapLoadError(f"{yaml_path}: expected a mapping of map_server keys")
-    image_name = _require(meta, "image", yaml_path)
-    resolution = _require(meta, "resolution", yaml_path)
-    origin = _require(meta, "origin", yaml_path)
-    negate = meta.get("negate", 0)
-    occ_t = meta.get("occupied_thresh", 0.65)
-    free_t = meta.get("free_thresh", 0.196)
-    mode = meta.get("mode", "trinary")
-    if not isinstance(image_name, str):
-        raise MapLoadError(f"{yaml_path}: 'image' must be a file name")
-    numbers_ok = all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in (resolution, occ_t, free_t)
-    )
-    if not numbers_ok:
-        raise MapLoadError(f"{yaml_path}: resolution and thresholds must be numbers")
-    if (
-        not isinstance(origin, list)
-        or len(origin) != 3
-        or not all(isinstance(v, int | float) and math.isfinite(v) for v in origin)
-    ):
-        raise MapLoadError(f"{yaml_path}: 'origin' must be [x, y, yaw] numbers, got {origin!r}")
-    if not 0.0 <= free_t < occ_t <= 1.0:
+    raw = schema.read_yaml(yaml_path, MapLoadError, "map file")
+    meta = schema.load(raw, MapServerYaml, "", str(yaml_path), MapLoadError)
+    occ_t, free_t, origin = meta.occupied_thresh, meta.free_thresh, meta.origin
+    if not free_t < occ_t:
         raise MapLoadError(f"{yaml_path}: need 0 <= free_thresh < occupied_thresh <= 1")
-    if mode != "trinary":
-        raise MapLoadError(f"{yaml_path}: mode '{mode}' not supported (only 'trinary')")
-    if negate not in (0, 1, True, False):
-        raise MapLoadError(f"{yaml_path}: 'negate' must be 0 or 1")
+    image_name, resolution, negate = meta.image, meta.resolution, meta.negate
     image_path = (yaml_path.parent / image_name).resolve()
     image = read_pgm(image_path)
     if negate:

@@ -36,9 +36,9 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import yaml
 from scipy import ndimage
 
+from interbot_core import schema
 from interbot_core.occupancy_grid import FREE, OccupancyGrid
 from interbot_core.topological_map import (
     TopologicalMap,
@@ -217,13 +217,8 @@ def load_room_map(path: str | Path, topo: TopologicalMap | None = None) -> RoomM
     """The rooms of a topological-map YAML file (``topo``: the map already loaded from it)."""
     if topo is None:
         topo = load_topological_map(path)
-    source = str(path)
-    try:
-        raw = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        raise RoomMapError(f"{source}: cannot read the rooms: {exc}") from exc
-    rooms = room_map(topo, raw)
-    logger.info("rooms of %s: %d rooms", source, len(rooms.rooms))
+    rooms = room_map(topo, schema.read_yaml(path, RoomMapError, "rooms"))
+    logger.info("rooms of %s: %d rooms", path, len(rooms.rooms))
     return rooms
 
 

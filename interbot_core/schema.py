@@ -18,6 +18,9 @@ what msgspec leaves to its users:
   message checked on construction, with a `Declared.check` hook for rules across fields.
 * `parse_json` parses JSON text refusing NaN, bad UTF-8 and duplicate keys (msgspec keeps the
   last of duplicates); `one_of` declares a str field with fixed choices.
+* `read_yaml` reads a YAML file and `load` converts it (or one of its sections) to its
+  declaration, each raising the caller's error type prefixed with the file's name; `checked`
+  validates one argument against a declared type (a watchdog's ceiling, a route's tolerance).
 
 Units go in ``Meta(extra={"unit": "m/s"})`` and appear in messages. ``FINITE`` is the bound
 that makes a float field refuse NaN and ±inf (msgspec has no ``allow_inf_nan`` switch).
@@ -35,9 +38,11 @@ import typing
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
+from pathlib import Path
 from typing import Any, Final, Literal
 
 import msgspec
+import yaml
 from msgspec import inspect as mi
 
 FINITE: Final = sys.float_info.max
@@ -104,6 +109,48 @@ def convert(data: object, type_: type[T], root: str, *, strict: bool = True) -> 
 def decoding() -> bool:
     """True inside `convert`: the Struct being built comes from msgspec, already checked."""
     return _DECODING.get()
+
+
+def checked(value: object, type_: Any, path: str, error: type[Exception] = ValueError) -> Any:
+    """``value`` converted to the declared ``type_`` (``Annotated[float, Meta(gt=0)]`` ...);
+    a mismatch raises ``error`` naming ``path``, the value and what is allowed."""
+    try:
+        return convert(value, type_, path)
+    except SchemaError as exc:
+        raise error(exc.message) from None
+
+
+# --------------------------------------------------------------------------------------------
+# Files
+# --------------------------------------------------------------------------------------------
+
+
+def read_yaml(path: str | Path, error: type[Exception], what: str) -> Any:
+    """The parsed YAML of the ``what`` file at ``path``. An unreadable file or invalid YAML
+    raises ``error`` naming the file: "robot.yaml: cannot read the robot configuration (No such
+    file or directory)", "robot.yaml: invalid YAML (...)"."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise error(f"{path}: invalid YAML ({exc})") from None
+
+
+def load(data: object, type_: type[T], root: str, source: str, error: type[Exception]) -> T:
+    """``data`` (parsed YAML) as ``type_``, its fields checked and its `Declared.check` rules
+    run; a problem raises ``error`` as "SOURCE: ROOT.key ..." (an unknown field is an unknown
+    key, see `SchemaError.key_message`)."""
+    try:
+        value = convert(data, type_, root)
+        check_all(value)
+    except SchemaError as exc:
+        raise error(f"{source}: {exc.key_message()}") from None
+    except error as exc:
+        raise error(f"{source}: {exc}") from None
+    return value
 
 
 # --------------------------------------------------------------------------------------------
@@ -226,7 +273,8 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
     if bound is not None:
         return _bound_problem(value, _member_for(info, value), path, unit)
     expected = form or _expected(info, unit)
-    return SchemaError("type", path, f"{path} must be {expected}, got {describe(value)}")
+    where = path or "the document"
+    return SchemaError("type", path, f"{where} must be {expected}, got {describe(value)}")
 
 
 def _join(root: str, tokens: Sequence[str | int]) -> str:
@@ -340,7 +388,9 @@ def _expected(info: mi.Type, unit: str = "") -> str:
         return "one of " + ", ".join(map(str, info.values))
     if isinstance(info, mi.StructType | mi.DataclassType):
         return "an object with keys " + ", ".join(f.encode_name for f in info.fields)
-    if isinstance(info, mi.VarTupleType | mi.ListType | mi.TupleType):
+    if isinstance(info, mi.TupleType):
+        return f"an array of {len(info.item_types)} elements"
+    if isinstance(info, mi.VarTupleType | mi.ListType):
         return "an array"
     if isinstance(info, mi.DictType):
         return "an object"

@@ -38,9 +38,14 @@ import enum
 import logging
 import math
 from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
+from interbot_core.topics import Tolerance, YawTolerance
 from interbot_core.topological_map import TopologicalMap, TopologicalMapError
 
 logger = logging.getLogger(__name__)
@@ -209,26 +214,18 @@ Event = (
 # ---------------------------------------------------------------------- configuration and state
 
 
-@dataclass(frozen=True)
-class SupervisorConfig:
-    """Goal tolerances (thesis Table 6.3) sent with each route, and the request time-out."""
+class SupervisorConfig(schema.Declared, frozen=True):
+    """Goal tolerances (thesis Table 6.3) sent with each route (declared as the route message
+    declares them), and the request time-out; a bad value raises ValueError naming it."""
 
-    approach_tolerance: float = DEFAULT_APPROACH_TOLERANCE  # [m] intermediate goals
-    goal_tolerance: float = DEFAULT_GOAL_TOLERANCE  # [m] final goal position
-    yaw_tolerance: float = DEFAULT_YAW_TOLERANCE  # [rad] final goal heading
-    request_timeout: float = 120.0  # [s] wait for an answer at the request room
+    ROOT: ClassVar[str] = "SupervisorConfig"
+    ERROR: ClassVar[type[Exception]] = ValueError
 
-    def __post_init__(self) -> None:
-        for name in ("approach_tolerance", "goal_tolerance", "yaw_tolerance", "request_timeout"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f"SupervisorConfig.{name} must be a number, got {value!r}")
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"SupervisorConfig.{name} must be finite and > 0, got {value!r}")
-        if self.yaw_tolerance > math.pi:
-            raise ValueError(
-                f"SupervisorConfig.yaw_tolerance must be <= pi rad, got {self.yaw_tolerance!r}"
-            )
+    approach_tolerance: Tolerance = DEFAULT_APPROACH_TOLERANCE  # intermediate goals
+    goal_tolerance: Tolerance = DEFAULT_GOAL_TOLERANCE  # final goal position
+    yaw_tolerance: YawTolerance = DEFAULT_YAW_TOLERANCE  # final goal heading
+    # wait for an answer at the request room
+    request_timeout: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})] = 120.0
 
 
 class SupervisorState(enum.StrEnum):

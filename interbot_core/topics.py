@@ -171,6 +171,7 @@ Text = Annotated[str, Meta(max_length=MAX_TEXT)]
 RouteId = Annotated[int, Meta(ge=0, le=ROUTE_ID_MAX)]
 NodeId = Annotated[int, Meta(ge=0, le=2**31 - 1)]
 Tolerance = Annotated[float, Meta(ge=1e-3, le=100.0, extra={"unit": "m"})]
+YawTolerance = Annotated[float, Meta(ge=1e-3, le=math.pi, extra={"unit": "rad"})]
 Variance = Annotated[float, Meta(ge=-MAX_POSE_VARIANCE, le=MAX_POSE_VARIANCE)]
 SafetyDistance = Annotated[float, Meta(ge=0.0, le=MAX_SAFETY_DISTANCE, extra={"unit": "m"})]
 
@@ -291,7 +292,7 @@ class RouteMsg(JsonMessage, frozen=True):
     node_ids: Annotated[tuple[NodeId, ...], Meta(max_length=MAX_LIST_LENGTH)] = ()
     approach_tolerance: Tolerance = 0.7
     goal_tolerance: Tolerance = 0.25
-    yaw_tolerance: Annotated[float, Meta(ge=1e-3, le=math.pi, extra={"unit": "rad"})] = 0.25
+    yaw_tolerance: YawTolerance = 0.25
 
     def check(self) -> None:
         if len(self.node_ids) not in (0, len(self.waypoints)):

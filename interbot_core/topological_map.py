@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import msgspec
-import yaml
 from msgspec import Meta
 
 from interbot_core import schema
@@ -216,14 +215,7 @@ def load_topological_map(path: str | Path) -> TopologicalMap:
     """Load and validate a topological-map YAML file; ``map`` is required and resolved."""
     source = str(path)
     file_path = Path(path)
-    try:
-        text = file_path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise TopologicalMapError(f"{source}: cannot read topological map: {exc}") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise TopologicalMapError(f"{source}: invalid YAML: {exc}") from exc
+    data = schema.read_yaml(path, TopologicalMapError, "topological map")
     if isinstance(data, Mapping) and data.get("map") is None:
         raise TopologicalMapError(
             f"{source}: missing 'map' (the occupancy-grid YAML this map belongs to)"

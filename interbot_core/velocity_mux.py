@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
-import yaml
 from msgspec import Meta
 
 from interbot_core import schema
@@ -304,15 +303,7 @@ def parse_mux_config(data: Mapping[str, Any], source: str = "<mux config>") -> M
 
 def load_mux_config(path: str | Path) -> MuxConfig:
     """Read a twist_mux YAML file (see ``resources/config/twist_mux.yaml``)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise MuxConfigError(f"{path}: cannot read mux config: {exc.strerror}") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise MuxConfigError(f"{path}: not valid YAML: {exc}") from exc
+    data = schema.read_yaml(path, MuxConfigError, "mux config")
     config = parse_mux_config(data, str(path))
     logger.info(
         "mux config %s: inputs %s; locks %s; latching %s",

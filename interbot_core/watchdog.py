@@ -16,25 +16,30 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
 
+Ceiling = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})]
+Time = Annotated[float, Meta(ge=-schema.FINITE, le=schema.FINITE, extra={"unit": "s"})]
+Period = Annotated[float, Meta(ge=0.0, le=schema.FINITE, extra={"unit": "s"})]
+Capacity = Annotated[int, Meta(ge=1, le=100_000_000)]
+Percent = Annotated[float, Meta(ge=0.0, le=100.0)]
+
+
 def _check_ceiling(ceiling_s: float) -> float:
-    if isinstance(ceiling_s, bool) or not isinstance(ceiling_s, int | float):
-        raise ValueError(f"watchdog ceiling must be a number of seconds, got {ceiling_s!r}")
-    if not math.isfinite(ceiling_s) or ceiling_s <= 0.0:
-        raise ValueError(f"watchdog ceiling must be finite and > 0 s, got {ceiling_s!r}")
-    return float(ceiling_s)
+    return float(schema.checked(ceiling_s, Ceiling, "watchdog.ceiling_s"))
 
 
 def _check_now(now: float) -> float:
-    if not math.isfinite(now):
-        raise ValueError(f"watchdog time must be finite seconds, got {now!r}")
-    return float(now)
+    return float(schema.checked(now, Time, "watchdog.now"))
 
 
 class LatencyWatchdog:
@@ -104,8 +109,7 @@ class PeriodStats:
     """
 
     def __init__(self, capacity: int = 10_000) -> None:
-        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
-            raise ValueError(f"PeriodStats capacity must be an integer >= 1, got {capacity!r}")
+        schema.checked(capacity, Capacity, "PeriodStats.capacity")
         self._buffer = np.zeros(capacity, dtype=np.float64)
         self._next = 0
         self._count = 0
@@ -128,8 +132,7 @@ class PeriodStats:
 
     def add_period(self, period: float) -> None:
         """Add one period [s] (finite, >= 0); the oldest is dropped when the window is full."""
-        if not math.isfinite(period) or period < 0.0:
-            raise ValueError(f"period must be finite and >= 0 s, got {period!r}")
+        period = schema.checked(period, Period, "PeriodStats.period")
         self._buffer[self._next] = period
         self._next = (self._next + 1) % self._buffer.size
         self._count = min(self._count + 1, self._buffer.size)
@@ -168,8 +171,7 @@ class PeriodStats:
 
     def percentile(self, q: float) -> float:
         """The ``q``-th percentile (0..100, linear interpolation) [s]; NaN when empty."""
-        if not 0.0 <= q <= 100.0:
-            raise ValueError(f"percentile must be in 0..100, got {q!r}")
+        q = schema.checked(q, Percent, "PeriodStats.percentile")
         return float(np.percentile(self._window(), q)) if self._count else math.nan
 
     def count_above(self, threshold: float) -> int:

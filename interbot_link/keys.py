@@ -149,10 +149,7 @@ class KeyStore:
             raise KeysError(
                 f"{self.dir} is not an Interbot key directory (no {INVENTORY}); {SETUP_HINT}"
             )
-        try:
-            raw = yaml.safe_load(inventory.read_text(encoding="utf-8"))
-        except (OSError, yaml.YAMLError) as exc:
-            raise KeysError(f"cannot read {inventory}: {exc}") from None
+        raw = schema.read_yaml(inventory, KeysError, "key inventory")
         if not isinstance(raw, dict) or not isinstance(raw.get("members"), dict):
             raise KeysError(f"{inventory}: expected a mapping with 'members'")
         self.members: dict[str, Member] = {}

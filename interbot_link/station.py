@@ -30,17 +30,8 @@ from interbot_core.topics import (
     COMMAND_TOPICS,
     STATE_TOPICS,
     TOPIC_SPECS,
-    ConfigMsg,
-    GoalMsg,
-    InitialPose,
-    Lock,
-    Relocalise,
-    RouteCancel,
-    RouteMsg,
-    StopRelease,
     Topic,
     TopicError,
-    Twist,
     decode,
     decode_snapshot,
     encode,
@@ -357,39 +348,6 @@ class StationLink:
         publisher.put(encode(topic, message))
         status = publisher.matching_status  # a MatchingStatus in 1.10 (the stub says bool)
         return bool(getattr(status, "matching", status))
-
-    def send_station_vel(self, twist: Twist) -> bool:
-        return self.send(Topic.STATION_VEL, twist)
-
-    def send_tablet_vel(self, twist: Twist) -> bool:
-        return self.send(Topic.TABLET_VEL, twist)
-
-    def send_pause(self, lock: Lock) -> bool:
-        return self.send(Topic.PAUSE_NAV, lock)
-
-    def send_stop(self, lock: Lock) -> bool:
-        return self.send(Topic.STOP, lock)
-
-    def send_stop_release(self, release: StopRelease) -> bool:
-        return self.send(Topic.STOP_RELEASE, release)
-
-    def send_route(self, route: RouteMsg) -> bool:
-        return self.send(Topic.ROUTE, route)
-
-    def send_goal(self, goal: GoalMsg) -> bool:
-        return self.send(Topic.GOAL, goal)
-
-    def send_route_cancel(self, cancel: RouteCancel) -> bool:
-        return self.send(Topic.ROUTE_CANCEL, cancel)
-
-    def send_initial_pose(self, pose: InitialPose) -> bool:
-        return self.send(Topic.INITIAL_POSE, pose)
-
-    def send_relocalise(self, request: Relocalise) -> bool:
-        return self.send(Topic.RELOCALISE, request)
-
-    def send_config(self, config: ConfigMsg) -> bool:
-        return self.send(Topic.CONFIG, config)
 
     # ------------------------------------------------------------------ lifetime
 

@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
 import msgspec
-import yaml
 from msgspec import Meta
 
 from interbot_core import schema
@@ -280,10 +279,5 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
 
 def load_config(path: str | Path) -> DaemonConfig:
     path = Path(path)
-    try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read configuration ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: invalid YAML ({exc})") from None
+    raw = schema.read_yaml(path, ConfigError, "configuration")
     return parse_config(raw, str(path), path.parent)

@@ -16,30 +16,33 @@ Time is passed in (``now``, monotonic seconds).
 from __future__ import annotations
 
 import logging
-import math
 from collections import OrderedDict, deque
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
+
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class BackoffConfig:
+Delay = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})]
+
+
+class BackoffConfig(schema.Declared, frozen=True):
     """Reconnect delays [s]: ``initial``, multiplied by ``factor`` after each failure, capped."""
 
-    initial: float = 0.5
-    maximum: float = 5.0
-    factor: float = 2.0
+    ROOT: ClassVar[str] = "backoff"
+    ERROR: ClassVar[type[Exception]] = ValueError
+    initial: Delay = 0.5
+    maximum: Delay = 5.0
+    factor: Annotated[float, Meta(ge=1.0, le=schema.FINITE)] = 2.0
 
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.initial) and self.initial > 0.0):
-            raise ValueError(f"backoff initial delay must be > 0 s, got {self.initial!r}")
-        if not (math.isfinite(self.maximum) and self.maximum >= self.initial):
+    def check(self) -> None:
+        if self.maximum < self.initial:
             raise ValueError(
-                f"backoff maximum must be >= initial ({self.initial} s), got {self.maximum!r}"
+                f"backoff.maximum ({self.maximum} s) must be >= initial ({self.initial} s)"
             )
-        if not (math.isfinite(self.factor) and self.factor >= 1.0):
-            raise ValueError(f"backoff factor must be >= 1, got {self.factor!r}")
 
 
 class ReconnectBackoff:
@@ -59,21 +62,14 @@ class ReconnectBackoff:
         self._next = self.config.initial
 
 
-@dataclass(frozen=True)
-class LatencyConfig:
+class LatencyConfig(schema.Declared, frozen=True):
     """``window`` pongs averaged; ``pong_timeout`` [s] and ``ceiling`` [s] decide "lossy"."""
 
-    window: int = 10
-    pong_timeout: float = 1.0
-    ceiling: float = 0.5
-
-    def __post_init__(self) -> None:
-        if isinstance(self.window, bool) or not isinstance(self.window, int) or self.window < 1:
-            raise ValueError(f"latency window must be an int >= 1, got {self.window!r}")
-        for name in ("pong_timeout", "ceiling"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"latency {name} must be > 0 s, got {value!r}")
+    ROOT: ClassVar[str] = "latency"
+    ERROR: ClassVar[type[Exception]] = ValueError
+    window: Annotated[int, Meta(ge=1, le=10_000)] = 10
+    pong_timeout: Delay = 1.0
+    ceiling: Delay = 0.5
 
 
 class LatencyMonitor:

@@ -98,9 +98,60 @@ def test_no_test_doubles_in_product_packages() -> None:
         str(p.relative_to(REPO))
         for package in PRODUCT_PACKAGES
         for p in (REPO / package).rglob("*.py")
-        if p.stem.startswith(("fake_", "stub_", "mock_")) or p.stem.endswith(("_fake", "_stub"))
+        if is_test_double(p)
     ]
     assert doubles == []
+
+
+def is_test_double(path: Path) -> bool:
+    """A fake, stub or mock module, or a device emulator (tests/robot_daemon/hardware/emulators)."""
+    stem = path.stem
+    return stem.startswith(("fake_", "stub_", "mock_")) or stem.endswith(
+        ("_fake", "_stub", "_emulator")
+    )
+
+
+# Issue 13: every YAML file is read by `interbot_core.schema.read_yaml` (one wording for "cannot
+# read" / "invalid YAML", naming the file) and converted by its declaration. These may parse YAML
+# themselves: the helper, and the collision monitor's Nav2 polygon, a YAML string *inside* a file.
+YAML_PARSERS = {"interbot_core/schema.py", "robot_daemon/safety/collision_monitor.py"}
+
+
+def yaml_parse_calls(path: Path) -> list[int]:
+    """Lines of ``path`` that call ``yaml.safe_load`` / ``yaml.load`` / ``yaml.full_load``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return [
+        node.lineno
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Attribute)
+        and node.func.attr in {"safe_load", "load", "full_load", "unsafe_load"}
+        and ast.unparse(node.func.value) == "yaml"
+    ]
+
+
+def test_yaml_files_are_read_through_the_schema_helper() -> None:
+    offenders = [
+        f"{p.relative_to(REPO)}:{line}"
+        for package in PRODUCT_PACKAGES
+        for p in sorted((REPO / package).rglob("*.py"))
+        if str(p.relative_to(REPO)) not in YAML_PARSERS
+        for line in yaml_parse_calls(p)
+    ]
+    assert offenders == [], "read YAML files with interbot_core.schema.read_yaml"
+
+
+def test_yaml_and_test_double_rules_catch_violations(tmp_path: Path) -> None:
+    loader = tmp_path / "loader.py"
+    loader.write_text(
+        "import yaml\nx = yaml.safe_load(open('a.yaml'))\ny = yaml.safe_dump({})\n"
+        "z = yaml.load(t, Loader=yaml.SafeLoader)\n",
+        encoding="utf-8",
+    )
+    assert yaml_parse_calls(loader) == [2, 4]
+    assert is_test_double(Path("robot_daemon/hardware/hokuyo_emulator.py"))
+    assert is_test_double(Path("tablet_app/fake_station.py"))
+    assert not is_test_double(Path("robot_daemon/hardware/hokuyo_driver.py"))
 
 
 # Issue 13/14: "no widget holds robot or task state". Widgets (qt_*.py, the main window) reach
@@ -325,8 +376,6 @@ def test_the_new_rules_catch_violations(tmp_path: Path) -> None:
 ENTRY_MODULES = {
     # console scripts: pyproject.toml [project.scripts] (checked below)
     "interbot_cli.screens": "`python -m` child of the demo launcher (asks Qt for the screens)",
-    "robot_daemon.hardware.emulators.hokuyo_emulator": "`python -m`: a laser on a pty",
-    "robot_daemon.hardware.emulators.roboteq_emulator": "`python -m`: a motor controller on a pty",
     **{
         f"robot_daemon.scenarios.{name}": "`interbot scenario NAME` (imported by name)"
         for name in ("kidnap", "latency", "mission", "odometry", "teleop", "tour")

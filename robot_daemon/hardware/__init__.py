@@ -4,5 +4,6 @@ RoboteQ motor controller (serial command protocol), Logitech USB camera (OpenCV)
 
 Protocol framing lives in pure modules (`scip`, `roboteq`) tested without serial ports; the
 drivers (`hokuyo_driver`, `roboteq_driver`, `camera`) own the I/O and are tested against the
-emulators in `robot_daemon.hardware.emulators` on pseudo-terminals.
+emulators in `tests/robot_daemon/hardware/emulators/` on pseudo-terminals (test doubles,
+not shipped).
 """

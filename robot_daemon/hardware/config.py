@@ -22,7 +22,6 @@ import msgspec
 from msgspec import Meta
 
 from interbot_core import schema
-from interbot_core.schema import SchemaError
 from robot_daemon.hardware.roboteq import DriveGeometry
 
 
@@ -129,7 +128,4 @@ class HardwareConfig(_Section, frozen=True):
         cls, raw: Mapping[str, Any] | None, source: str = "robot.yaml"
     ) -> HardwareConfig:
         """Validate the ``hardware:`` mapping; errors are prefixed with ``source``."""
-        try:
-            return schema.convert(raw or {}, cls, "hardware")
-        except SchemaError as exc:
-            raise HardwareConfigError(f"{source}: {exc.key_message()}") from None
+        return schema.load(raw or {}, cls, "hardware", source, HardwareConfigError)

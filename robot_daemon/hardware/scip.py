@@ -3,7 +3,7 @@
 Reference: Hokuyo "URG Series Communication Protocol Specification SCIP 2.0" and the
 UTM-30LX(-EW) protocol sheet; the facts used here are summarised in shared/FIELD_NOTES.md
 ("Devices"). No I/O in this module: the driver (`hokuyo_driver`) and the emulator
-(`emulators.hokuyo_emulator`) both build on it, and it is tested without a serial port.
+(`tests/robot_daemon/hardware/emulators/hokuyo_emulator.py`) both build on it, and it is tested without a serial port.
 
 Framing. A command is two letters, parameters and LF. A reply is the echo of the command, a
 status line (two characters and a sum, e.g. ``00P``; ``99b`` in streamed scans), then data lines

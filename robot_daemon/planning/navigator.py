@@ -29,9 +29,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.topics import Tolerance, YawTolerance
 from robot_daemon.planning.bottleneck import free_width, widest_way
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.costmap import LETHAL, Costmap
@@ -147,25 +149,21 @@ class Navigator:
     ) -> None:
         """Drive through ``poses``: intermediate goals count as reached within
         ``approach_tolerance`` [m]; the last within ``goal_xy_tol`` [m] and ``goal_yaw_tol``
-        [rad]. Tolerances default to the configuration's."""
+        [rad]. Tolerances default to the configuration's; given ones are declared as the
+        route message declares them."""
         if not poses:
             raise ValueError("set_route needs at least one pose")
         tolerances = (
-            ("approach_tolerance", approach_tolerance, self.config.approach_tolerance),
-            ("goal_xy_tol", goal_xy_tol, self.config.goal_xy_tolerance),
-            ("goal_yaw_tol", goal_yaw_tol, self.config.goal_yaw_tolerance),
+            ("approach_tolerance", approach_tolerance, self.config.approach_tolerance, Tolerance),
+            ("goal_xy_tol", goal_xy_tol, self.config.goal_xy_tolerance, Tolerance),
+            ("goal_yaw_tol", goal_yaw_tol, self.config.goal_yaw_tolerance, YawTolerance),
         )
-        values = []
-        for name, value, default in tolerances:
-            chosen = default if value is None else float(value)
-            if not (math.isfinite(chosen) and chosen > 0.0):
-                raise PlannerConfigError(
-                    f"set_route {name} must be a finite number > 0, got {value!r}"
-                )
-            values.append(chosen)
-        if values[2] > math.pi:
-            raise PlannerConfigError(f"set_route goal_yaw_tol must be <= pi, got {values[2]!r}")
-        self._approach_tolerance, self._xy_tolerance, self._yaw_tolerance = values
+        self._approach_tolerance, self._xy_tolerance, self._yaw_tolerance = (
+            default
+            if value is None
+            else schema.checked(value, type_, f"set_route.{name}", PlannerConfigError)
+            for name, value, default, type_ in tolerances
+        )
         self._goals = tuple(poses)
         self._index = 0
         self._state = NavState.PLANNING

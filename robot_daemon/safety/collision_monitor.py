@@ -44,7 +44,6 @@ from msgspec import Meta
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
-from interbot_core.schema import SchemaError
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     PolygonError,
@@ -99,14 +98,7 @@ def check_points(where: str, points: Points) -> None:
 
 def convert_section(data: object, type_: type[T], root: str, source: str) -> T:
     """``data`` as ``type_`` (checked, rules run); errors say ``source: root.key ...``."""
-    try:
-        value = schema.convert(data, type_, root)
-        schema.check_all(value)
-    except SchemaError as exc:
-        raise SafetyConfigError(f"{source}: {exc.key_message()}") from None
-    except SafetyConfigError as exc:
-        raise SafetyConfigError(f"{source}: {exc}") from None
-    return value
+    return schema.load(data, type_, root, source, SafetyConfigError)
 
 
 def parse_points(value: object) -> object:
@@ -442,6 +434,3 @@ class CollisionMonitor:
 
     def fresh(self, now: float) -> bool:
         return now - self._stamp <= self.config.source_timeout
-
-    def active_zones(self) -> list[str]:
-        return [z.config.name for z in self._zones if z.active]

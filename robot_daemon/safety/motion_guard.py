@@ -25,8 +25,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.velocity_mux import MuxOutput
@@ -52,11 +51,7 @@ DEFAULT_SAFETY_YAML = (
 
 def load_safety_config(path: Path | str) -> MotionGuardConfig:
     """Parse and validate the safety YAML (sections ``collision_monitor``, ``assisted_teleop``)."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        raise SafetyConfigError(f"cannot read {path}: {exc}") from None
+    data = schema.read_yaml(path, SafetyConfigError, "safety configuration")
     if not isinstance(data, dict) or "collision_monitor" not in data:
         raise SafetyConfigError(f"{path}: needs a 'collision_monitor' section")
     unknown = set(data) - {"collision_monitor", "assisted_teleop"}

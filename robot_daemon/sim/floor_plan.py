@@ -30,7 +30,6 @@ from typing import Annotated, Any
 
 import msgspec
 import numpy as np
-import yaml
 from msgspec import Meta
 
 from interbot_core import schema
@@ -401,15 +400,7 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
 def load_floor_plan(path: str | Path) -> FloorPlan:
     """Read and validate a floor-plan YAML file."""
     source = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise FloorPlanError(f"{source}: cannot read floor plan ({exc.strerror})") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise FloorPlanError(f"{source}: invalid YAML ({exc})") from exc
-    plan = parse_floor_plan(data, source)
+    plan = parse_floor_plan(schema.read_yaml(path, FloorPlanError, "floor plan"), source)
     logger.info(
         "loaded floor plan %s: %d rooms, %d corridors, %d nodes",
         source,

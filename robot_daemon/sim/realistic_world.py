@@ -36,11 +36,14 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated, ClassVar
 
 import cv2
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from interbot_core.topological_map import TopologicalMap
 from robot_daemon.sim.floor_plan import (
@@ -69,45 +72,34 @@ class WorldVariationError(ValueError):
     """A world-variation parameter is out of range; the message names it."""
 
 
-@dataclass(frozen=True)
-class WorldVariation:
+def _metres(low: float, high: float) -> Meta:
+    return Meta(ge=low, le=high, extra={"unit": "m"})
+
+
+Count = Annotated[int, Meta(ge=0, le=200)]
+Clearance = Annotated[float, _metres(0.0, 5.0)]
+
+
+class WorldVariation(schema.Declared, frozen=True):
     """How far the simulated building departs from the map (defaults: issue 12's figures)."""
 
-    resolution: float = 0.02  # [m] cell of the world's drawing
-    wall_sigma: float = 0.035  # [m] room / wall displacement, per axis (~5 cm in 2-D)
-    warp_length: float = 4.0  # [m] lattice of the displacement field (grid sources)
-    boxes: int = 6
-    chairs: int = 6
-    corridor_items: int = 4
-    tables_moved: int = 1
-    doors_closed: int = 1
-    doors_opened: int = 1
-    glass_panels: int = 2
-    route_clearance: float = 0.65  # [m] clutter keeps this far from topological arcs
-    node_clearance: float = 1.0  # [m] clutter keeps this far from topological nodes
+    ROOT: ClassVar[str] = "WorldVariation"
+    ERROR: ClassVar[type[Exception]] = WorldVariationError
 
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.resolution) and 0.005 <= self.resolution <= 0.05):
-            raise WorldVariationError("WorldVariation.resolution must be in [0.005, 0.05] m")
-        if not (math.isfinite(self.wall_sigma) and 0.0 <= self.wall_sigma <= 0.2):
-            raise WorldVariationError("WorldVariation.wall_sigma must be in [0, 0.2] m")
-        if not (math.isfinite(self.warp_length) and 0.5 <= self.warp_length <= 50.0):
-            raise WorldVariationError("WorldVariation.warp_length must be in [0.5, 50] m")
-        for name in (
-            "boxes",
-            "chairs",
-            "corridor_items",
-            "tables_moved",
-            "doors_closed",
-            "doors_opened",
-            "glass_panels",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, int) and 0 <= value <= 200):
-                raise WorldVariationError(f"WorldVariation.{name} must be an integer in [0, 200]")
-        for name in ("route_clearance", "node_clearance"):
-            if not 0.0 <= getattr(self, name) <= 5.0:
-                raise WorldVariationError(f"WorldVariation.{name} must be in [0, 5] m")
+    resolution: Annotated[float, _metres(0.005, 0.05)] = 0.02  # cell of the world's drawing
+    # room / wall displacement, per axis (~5 cm in 2-D)
+    wall_sigma: Annotated[float, _metres(0.0, 0.2)] = 0.035
+    # lattice of the displacement field (grid sources)
+    warp_length: Annotated[float, _metres(0.5, 50.0)] = 4.0
+    boxes: Count = 6
+    chairs: Count = 6
+    corridor_items: Count = 4
+    tables_moved: Count = 1
+    doors_closed: Count = 1
+    doors_opened: Count = 1
+    glass_panels: Count = 2
+    route_clearance: Clearance = 0.65  # clutter keeps this far from topological arcs
+    node_clearance: Clearance = 1.0  # clutter keeps this far from topological nodes
 
 
 @dataclass(frozen=True)

@@ -132,14 +132,6 @@ class WifiLink:
                 return index
         return None
 
-    def zone_at(self, x: float, y: float) -> LossyZone | None:
-        index = self._zone_at(x, y)
-        return None if index is None else self.config.zones[index]
-
-    @property
-    def in_bad_state(self) -> bool:
-        return self._bad
-
     def send(self, now: float, payload: Any, position: Sequence[float] = (0.0, 0.0)) -> Delivery:
         """Queue ``payload`` sent at ``now`` [s] from ``position`` [m]; returns its fate."""
         if not math.isfinite(now) or now < self._last_sent:
@@ -176,7 +168,3 @@ class WifiLink:
             out.append(heapq.heappop(self._queue)[2])
         self.delivered_count += len(out)
         return out
-
-    @property
-    def in_flight(self) -> int:
-        return len(self._queue)

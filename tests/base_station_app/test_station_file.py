@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from base_station_app.station_config import RANGES, StationConfig
-from base_station_app.station_file import StationFileError, StationSettingsStore
+from base_station_app.station_file import StationFileError, StationSettingsStore, migrate_legacy
 from base_station_app.tablet_session import TabletPermissions
 
 REPO = Path(__file__).resolve().parents[2]
@@ -88,7 +88,7 @@ def test_panel_ranges_come_from_the_declaration() -> None:
 
 def qsettings_keys(path: Path) -> set[str]:
     """The keys ``path`` reads or writes with QSettings ``value``/``setValue`` (on ``s``,
-    ``settings`` or ``self.settings``, the names the station gives its QSettings)."""
+    ``settings``, ``self.settings`` or ``qsettings``, the names the station gives its QSettings)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     keys = set()
     for node in ast.walk(tree):
@@ -96,7 +96,7 @@ def qsettings_keys(path: Path) -> set[str]:
             isinstance(node, ast.Call)
             and isinstance(node.func, ast.Attribute)
             and node.func.attr in {"value", "setValue"}
-            and ast.unparse(node.func.value) in {"s", "settings", "self.settings"}
+            and ast.unparse(node.func.value) in {"s", "settings", "self.settings", "qsettings"}
             and node.args
         ):
             arg = node.args[0]
@@ -109,7 +109,9 @@ def qsettings_keys(path: Path) -> set[str]:
 
 # QSettings holds what is not configuration (docs/station_config.md): the window, and the robot
 # the operator commanded last (a remembered choice, as a recent-files list; --robot overrides it).
-QSETTINGS_ALLOWED = {"window/geometry", "window/state", "ROBOT_KEY"}
+# ``legacy_key``: `main.migrate_qsettings` reads the old config/* and tablet/* keys once, to move
+# them into the station file and remove them.
+QSETTINGS_ALLOWED = {"window/geometry", "window/state", "ROBOT_KEY", "legacy_key"}
 
 
 def test_qsettings_hold_window_state_and_the_last_robot_only() -> None:
@@ -121,3 +123,67 @@ def test_qsettings_rule_catches_a_behaviour_setting(tmp_path: Path) -> None:
     bad = tmp_path / "main_window.py"
     bad.write_text('s.setValue(f"config/{name}", v)\nx = s.value("tablet/tours")\n')
     assert qsettings_keys(bad) - QSETTINGS_ALLOWED == {"f'config/{name}'", "tablet/tours"}
+
+
+def test_old_qsettings_values_move_into_the_file_once(tmp_path: Path) -> None:
+    """A station from before the station file kept config/* and tablet/* in QSettings: the
+    first start moves them into the file (the file's own keys win), logs each, removes them."""
+    from PySide6.QtCore import QSettings
+
+    from base_station_app.main import migrate_qsettings
+
+    path = tmp_path / "station.yaml"
+    path.write_text("security: {identity: desk2}\nconfig: {goal_tolerance: 0.4}\n")
+    old = QSettings(str(tmp_path / "BaseStation.conf"), QSettings.Format.IniFormat)
+    for key, value in {
+        "config/latency_ceiling": 0.3,
+        "config/goal_tolerance": 0.9,  # the file sets it: the file wins
+        "config/teleop_linear_max": 7.0,  # out of range: dropped, as the old station did
+        "tablet/tours": False,
+        "window/geometry": b"kept",
+        "fleet/robot": "r2",
+    }.items():
+        old.setValue(key, value)
+    old.sync()
+    store = StationSettingsStore(path)
+    migrate_qsettings(store, old)
+    file = store.load()
+    assert file.config.latency_ceiling == 0.3
+    assert file.config.goal_tolerance == 0.4
+    assert file.config.teleop_linear_max == StationConfig().teleop_linear_max
+    assert file.tablet.permissions() == TabletPermissions(tours=False)
+    assert file.security.identity == "desk2"
+    assert sorted(old.allKeys()) == ["fleet/robot", "window/geometry"]
+    before = path.read_text(encoding="utf-8")
+    migrate_qsettings(store, old)  # once: nothing left to move, the file is not touched
+    assert path.read_text(encoding="utf-8") == before
+
+
+def test_migration_notes_say_what_moved_and_what_was_dropped(tmp_path: Path) -> None:
+    store = StationSettingsStore(tmp_path / "station.yaml")
+    notes = migrate_legacy(
+        store,
+        {"config/yaw_tolerance": "0.5", "tablet/goals": "maybe", "config/speed": "1", "x/y": 1},
+    )
+    assert notes == [
+        "config/speed = '1' dropped: unknown key 'config.speed' (allowed: "
+        + ", ".join(StationConfig.__struct_fields__)
+        + ")",
+        f"config/yaw_tolerance = '0.5' moved to {store.path} as config.yaw_tolerance",
+        "tablet/goals = 'maybe' dropped: tablet.goals must be true or false, got 'maybe'",
+    ]
+    assert store.load().config.yaw_tolerance == 0.5
+
+
+def test_an_invalid_station_file_keeps_the_old_values(tmp_path: Path) -> None:
+    from PySide6.QtCore import QSettings
+
+    from base_station_app.main import migrate_qsettings
+
+    path = tmp_path / "station.yaml"
+    path.write_text("colour: red\n")
+    old = QSettings(str(tmp_path / "BaseStation.conf"), QSettings.Format.IniFormat)
+    old.setValue("config/latency_ceiling", 0.3)
+    with pytest.raises(StationFileError, match="unknown key 'colour'"):
+        migrate_qsettings(StationSettingsStore(path), old)
+    assert old.allKeys() == ["config/latency_ceiling"]

@@ -39,13 +39,15 @@ def test_outside_is_clamped_radially_to_the_edge() -> None:
 
 
 def test_validation() -> None:
-    with pytest.raises(JoystickError, match="radius"):
+    with pytest.raises(JoystickError, match=r"joystick\.radius = 0\.0 px is outside the allowed"):
         joystick_command(0, 0, 1, 1, 0.0, 1, 1)
-    with pytest.raises(JoystickError, match="linear_max"):
+    with pytest.raises(
+        JoystickError, match=r"joystick\.linear_max = -1 m/s is outside .*\[0, inf\)"
+    ):
         joystick_command(0, 0, 1, 1, 1.0, -1, 1)
-    with pytest.raises(JoystickError, match="angular_max"):
+    with pytest.raises(JoystickError, match=r"joystick\.angular_max must be a finite number"):
         joystick_command(0, 0, 1, 1, 1.0, 1, math.nan)
-    with pytest.raises(JoystickError, match="pressed point"):
+    with pytest.raises(JoystickError, match=r"joystick\.pressed\.x must be a finite number \[px\]"):
         joystick_command(0, 0, math.inf, 1, 1.0, 1, 1)
     assert joystick_command(0, 0, 0, -1, 1.0, 0.0, 0.0) == (0.0, 0.0)
 

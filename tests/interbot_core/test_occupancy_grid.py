@@ -67,11 +67,26 @@ def test_map_server_thresholds_and_negate(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("resolution: 0.1\norigin: [0, 0, 0]\n", "missing key 'image'"),
-        ("image: t.pgm\nresolution: 0.1\norigin: [0, 0]\n", "origin"),
-        ("image: t.pgm\nresolution: -1\norigin: [0, 0, 0]\n", "resolution"),
+        (
+            "resolution: 0.1\norigin: [0, 0, 0]\n",
+            r"bad\.yaml: image is missing \(the document needs image, resolution, origin\)",
+        ),
+        (
+            "image: t.pgm\nresolution: 0.1\norigin: [0, 0]\n",
+            r"origin must be an array of 3 elements, got \[0, 0\]",
+        ),
+        ("image: t.pgm\nresolution: 0.1\norigin: [0, .nan, 0]\n", r"origin\[1\] must be a finite"),
+        ("image: t.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 2\n", r"negate = 2 is outside"),
+        ("[1, 2]\n", r"the document must be an object with keys image, resolution, origin"),
+        (
+            "image: t.pgm\nresolution: -1\norigin: [0, 0, 0]\n",
+            r"resolution = -1 m is outside the allowed range \(0, inf\) m",
+        ),
         ("image: nope.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n", "cannot read"),
-        ("image: t.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nmode: scale\n", "mode"),
+        (
+            "image: t.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nmode: scale\n",
+            r"mode must be one of trinary; got 'scale'",
+        ),
         ("[1, 2", "invalid YAML"),
     ],
 )

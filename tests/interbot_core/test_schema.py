@@ -208,3 +208,57 @@ def test_any_decoded_value_is_accepted_or_refused_with_a_protocol_or_topic_error
         topics.decode(spec.topic, payload)
     except topics.TopicDecodeError as exc:
         assert str(exc)
+
+
+class _FileError(Exception):
+    pass
+
+
+class _Section(schema.Declared, frozen=True):
+    ROOT = "section"
+    ERROR = _FileError
+    low: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.0
+    high: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 2.0
+
+    def check(self) -> None:
+        if self.low > self.high:
+            raise _FileError(f"section.low ({self.low}) must be <= section.high ({self.high})")
+
+
+def test_read_yaml_names_the_file_and_what_it_is(tmp_path) -> None:
+    good = tmp_path / "good.yaml"
+    good.write_text("section: {low: 0.5}\n", encoding="utf-8")
+    assert schema.read_yaml(good, _FileError, "test file") == {"section": {"low": 0.5}}
+    with pytest.raises(_FileError, match=r"nope\.yaml: cannot read the test file \(No such file"):
+        schema.read_yaml(tmp_path / "nope.yaml", _FileError, "test file")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("section: [1\n", encoding="utf-8")
+    with pytest.raises(_FileError, match=r"bad\.yaml: invalid YAML \(while parsing"):
+        schema.read_yaml(bad, _FileError, "test file")
+
+
+def test_load_prefixes_the_source_to_field_rule_and_unknown_key_errors() -> None:
+    loaded = schema.load({"low": 0.5}, _Section, "section", "f.yaml", _FileError)
+    assert (loaded.low, loaded.high) == (0.5, 2.0)
+    cases = {
+        "low": (
+            {"low": 11},
+            r"^f\.yaml: section\.low = 11 m is outside the allowed range \[0, 10\] m$",
+        ),
+        "rule": ({"low": 3.0}, r"^f\.yaml: section\.low \(3\.0\) must be <= section\.high"),
+        "unknown": ({"wide": 1}, r"^f\.yaml: unknown key 'section\.wide' \(allowed: low, high\)"),
+    }
+    for data, message in cases.values():
+        with pytest.raises(_FileError, match=message):
+            schema.load(data, _Section, "section", "f.yaml", _FileError)
+
+
+def test_checked_validates_one_argument_against_its_declared_type() -> None:
+    seconds = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})]
+    assert schema.checked(2, seconds, "dog.ceiling_s") == 2.0
+    with pytest.raises(ValueError, match=r"dog\.ceiling_s = 0 s is outside the allowed range"):
+        schema.checked(0, seconds, "dog.ceiling_s")
+    with pytest.raises(_FileError, match=r"dog\.ceiling_s must be a finite number \[s\], got nan"):
+        schema.checked(math.nan, seconds, "dog.ceiling_s", _FileError)
+    with pytest.raises(ValueError, match=r"dog\.ceiling_s must be a number \[s\], got True"):
+        schema.checked(True, seconds, "dog.ceiling_s")

@@ -433,10 +433,16 @@ def test_unreachable_goal_finishes_with_reason() -> None:
 
 
 def test_config_and_planner_validation(topo: TopologicalMap) -> None:
-    with pytest.raises(ValueError, match="request_timeout must be finite and > 0"):
+    with pytest.raises(
+        ValueError, match=r"request_timeout = 0\.0 s is outside the allowed range \(0, inf\) s"
+    ):
         SupervisorConfig(request_timeout=0.0)
-    with pytest.raises(ValueError, match="yaw_tolerance must be <= pi"):
+    with pytest.raises(
+        ValueError, match=r"yaw_tolerance = 7\.0 rad is outside the allowed range \[0\.001, 3\.14"
+    ):
         SupervisorConfig(yaw_tolerance=7.0)
+    with pytest.raises(ValueError, match=r"goal_tolerance must be a number \[m\], got True"):
+        SupervisorConfig(goal_tolerance=True)
     other = load_topological_map(FIXTURE)
     with pytest.raises(ValueError, match="different topological map"):
         Supervisor(topo, RoutePlanner(other))

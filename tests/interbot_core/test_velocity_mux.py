@@ -337,7 +337,7 @@ def test_parse_name_defaults_to_topic_and_ros2_form() -> None:
         ),
         ("locks: []\n", "no 'topics:' list"),
         ("topics: [a]\n", r"topics\[0\] must be a mapping"),
-        ("topics: {{\n", "not valid YAML"),
+        ("topics: {{\n", "invalid YAML"),
         ("topic:\n  - {topic: a, timeout: 0.5, priority: 3}\n", "unknown top-level keys"),
         (
             "topics:\n  - {topic: a, timeout: 0.5, priority: 3}\n"

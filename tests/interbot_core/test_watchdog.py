@@ -38,13 +38,19 @@ def test_ceiling_changes_at_run_time_and_is_validated() -> None:
     dog.ceiling_s = 0.2
     assert dog.ceiling_s == 0.2
     assert dog.expired(0.3)
-    for bad in (0.0, -1.0, math.nan, math.inf):
-        with pytest.raises(ValueError, match="finite and > 0"):
+    out_of_range = r"watchdog\.ceiling_s = -?[01]\.0 s is outside the allowed range \(0, inf\) s"
+    not_finite = r"watchdog\.ceiling_s must be a finite number \[s\], got (nan|inf)"
+    for bad, message in ((0.0, out_of_range), (-1.0, out_of_range), (math.nan, not_finite)):
+        with pytest.raises(ValueError, match=message):
             dog.ceiling_s = bad
-        with pytest.raises(ValueError, match="finite and > 0"):
+        with pytest.raises(ValueError, match=message):
             LatencyWatchdog(bad)
+    with pytest.raises(ValueError, match=not_finite):
+        LatencyWatchdog(math.inf)
+    with pytest.raises(ValueError, match=r"watchdog\.ceiling_s must be a number \[s\], got '1'"):
+        LatencyWatchdog("1")  # type: ignore[arg-type]
     assert dog.ceiling_s == 0.2
-    with pytest.raises(ValueError, match="finite"):
+    with pytest.raises(ValueError, match=r"watchdog\.now must be a finite number \[s\]"):
         dog.feed(math.nan)
 
 
@@ -109,11 +115,17 @@ def test_period_stats_empty_and_invalid() -> None:
     assert math.isnan(stats.mean()) and math.isnan(stats.std()) and math.isnan(stats.percentile(5))
     assert stats.summary(0.2).count == 0
     assert stats.count_above(0.0) == 0
-    with pytest.raises(ValueError, match="finite and >= 0"):
+    with pytest.raises(
+        ValueError, match=r"period = -0\.1 s is outside the allowed range \[0, inf\) s"
+    ):
         stats.add_period(-0.1)
-    with pytest.raises(ValueError, match=r"0\.\.100"):
+    with pytest.raises(
+        ValueError, match=r"percentile = 101 is outside the allowed range \[0, 100\]"
+    ):
         stats.percentile(101)
-    with pytest.raises(ValueError, match="capacity"):
+    with pytest.raises(
+        ValueError, match=r"PeriodStats\.capacity = 0 is outside the allowed range 1\.\."
+    ):
         PeriodStats(capacity=0)
 
 

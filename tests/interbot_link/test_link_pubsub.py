@@ -148,19 +148,8 @@ def test_commands_reach_poll_commands_in_order(pair: Pair) -> None:
         (Topic.INITIAL_POSE, InitialPose(1.0, 2.0, -0.5)),
         (Topic.CONFIG, ConfigMsg({"max_linear": 0.4})),
     ]
-    senders = {
-        Topic.STATION_VEL: pair.station.send_station_vel,
-        Topic.TABLET_VEL: pair.station.send_tablet_vel,
-        Topic.PAUSE_NAV: pair.station.send_pause,
-        Topic.STOP: pair.station.send_stop,
-        Topic.STOP_RELEASE: pair.station.send_stop_release,
-        Topic.ROUTE: pair.station.send_route,
-        Topic.GOAL: pair.station.send_goal,
-        Topic.INITIAL_POSE: pair.station.send_initial_pose,
-        Topic.CONFIG: pair.station.send_config,
-    }
     for topic, message in sent:
-        assert senders[topic](message) is True  # a robot subscriber matched
+        assert pair.station.send(topic, message) is True  # a robot subscriber matched
     received: list[tuple[Topic, object]] = []
 
     def collect() -> bool:
@@ -183,12 +172,12 @@ def test_stop_is_never_dropped_and_never_waits_behind_a_full_queue(pair: Pair) -
 
     def full() -> bool:  # velocity commands may be dropped on the way (DROP): send until full
         for i in range(200):
-            pair.station.send_station_vel(Twist(0.1, 0.0, float(i)))
+            pair.station.send(Topic.STATION_VEL, Twist(0.1, 0.0, float(i)))
         return pair.robot.overflow > 0
 
     wait_until(full, 20.0)
-    pair.station.send_stop(Lock(True, 9999.0))
-    pair.station.send_stop_release(StopRelease("tester", 10000.0))
+    pair.station.send(Topic.STOP, Lock(True, 9999.0))
+    pair.station.send(Topic.STOP_RELEASE, StopRelease("tester", 10000.0))
     wait_until(lambda: len(pair.robot._priority) == 2, 10.0)
     commands = pair.robot.poll_commands()
     assert [c.topic for c in commands[:2]] == [Topic.STOP, Topic.STOP_RELEASE]
@@ -313,7 +302,7 @@ def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
     station_raw.put(key(ROBOT, Topic.ROUTE), b'{"route_id": 1, "waypoints": []}')
     station_raw.put(key(ROBOT, Topic.STOP), b"\x00garbage")
     station_raw.put(key(ROBOT, Topic.POSE), b'{"x": 0, "y": 0, "yaw": 0}')  # not a command
-    pair.station.send_stop(Lock(True))
+    pair.station.send(Topic.STOP, Lock(True))
     commands: list[object] = []
 
     def collect() -> bool:
@@ -335,7 +324,7 @@ def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
 
 def test_sending_without_a_robot_or_after_close_fails_clearly(pair: Pair) -> None:
     with pytest.raises(NoRobotSelectedError, match="select_robot"):
-        pair.station.send_stop(Lock(True))
+        pair.station.send(Topic.STOP, Lock(True))
     pair.station.select_robot(None)
     assert pair.station.selected is None
     pair.robot.close()
@@ -350,7 +339,7 @@ def test_sending_without_a_robot_or_after_close_fails_clearly(pair: Pair) -> Non
 def test_a_command_to_a_robot_that_is_gone_reports_no_match(pair: Pair) -> None:
     pair.select()
     pair.robot.close()
-    wait_until(lambda: not pair.station.send_stop(Lock(True)))
+    wait_until(lambda: not pair.station.send(Topic.STOP, Lock(True)))
 
 
 def test_callbacks_run_off_the_caller_thread_and_notify(pair: Pair) -> None:
@@ -385,8 +374,8 @@ def test_must_arrive_commands_travel_with_congestion_control_block(pair: Pair) -
         robot_wildcard(ROBOT), lambda s: seen.append((str(s.key_expr), s.congestion_control))
     )
     try:
-        wait_until(lambda: pair.station.send_stop(Lock(True)))
-        pair.station.send_station_vel(Twist(0.1, 0.0))
+        wait_until(lambda: pair.station.send(Topic.STOP, Lock(True)))
+        pair.station.send(Topic.STATION_VEL, Twist(0.1, 0.0))
         wait_until(lambda: len(seen) >= 2)
     finally:
         probe.undeclare()

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from interbot_core.topics import Lock
+from interbot_core.topics import Lock, Topic
 from interbot_link import RobotLink, StationLink, open_session
 from interbot_link.router import open_router, router_config
 from interbot_link.session import LinkConfigError
@@ -85,7 +85,7 @@ def test_five_robots_one_station_through_the_router(
                 return "Emergency Stop" in robots[robot_id].daemon.stack.last_output.active_locks
 
             def send_stop() -> bool:
-                station.send_stop(Lock(True))
+                station.send(Topic.STOP, Lock(True))
                 return stopped("bot2")
 
             wait_until(send_stop, 10.0, "bot2's emergency stop")

@@ -104,7 +104,7 @@ def test_station_commands_and_watches_through_the_secure_router(
         wait_until(lambda: ROBOT in station.robots)
         station.select_robot(ROBOT)
         wait_until(lambda: link.subscribed(Topic.POSE))
-        wait_until(lambda: station.send_stop(Lock(True)))
+        wait_until(lambda: station.send(Topic.STOP, Lock(True)))
         link.wait_commands(2.0)
         assert Topic.STOP in {c.topic for c in link.poll_commands()}
         link.publish_pose(PoseMsg(1.0, 2.0, 0.5))

@@ -170,7 +170,7 @@ def test_station_commands_and_sees_state_over_mutual_tls(
         wait_until(lambda: ROBOT in st.robots)
         st.select_robot(ROBOT)
         wait_until(lambda: link.subscribed(Topic.POSE))
-        wait_until(lambda: st.send_stop(Lock(True)))
+        wait_until(lambda: st.send(Topic.STOP, Lock(True)))
         link.wait_commands(2.0)
         assert [c.topic for c in link.poll_commands()][:1] == [Topic.STOP]
         link.publish_pose(PoseMsg(1.0, 2.0, 0.5))

@@ -21,8 +21,8 @@ import yaml
 from interbot_core.laser_scan import LaserScan
 from interbot_core.topics import Battery, StopRelease, Topic, Twist
 from interbot_link import StateMessage, StationLink, open_session
-from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
-from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
+from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
+from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 ROBOT = "hwbot"
 pytestmark = pytest.mark.timeout(60)
@@ -98,8 +98,8 @@ def test_station_drives_emulated_hardware_through_the_daemon(
 
                 def wheels_turn() -> bool:
                     # As a station does on connecting: release the robot's start latch.
-                    station.send_stop_release(StopRelease("test station"))
-                    station.send_station_vel(Twist(0.2, 0.0))
+                    station.send(Topic.STOP_RELEASE, StopRelease("test station"))
+                    station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
                     left, right = roboteq.applied_rpm
                     return left != 0.0 and right != 0.0
 
@@ -110,7 +110,7 @@ def test_station_drives_emulated_hardware_through_the_daemon(
                 assert abs(left - 382.0) < 20.0 and abs(right - 382.0) < 20.0
 
                 def moved() -> bool:
-                    station.send_station_vel(Twist(0.2, 0.0))
+                    station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
                     c = roboteq.counts()
                     return abs(c[0] - counts0[0]) > 1000 and abs(c[1] - counts0[1]) > 1000
 
@@ -128,7 +128,7 @@ def test_station_drives_emulated_hardware_through_the_daemon(
                 assert isinstance(scan, LaserScan) and len(scan.ranges) == 1081
                 assert isinstance(battery, Battery) and 20.0 < battery.voltage < 35.0
 
-                station.send_station_vel(Twist(0.2, 0.0))  # still moving when SIGTERM comes
+                station.send(Topic.STATION_VEL, Twist(0.2, 0.0))  # still moving when SIGTERM comes
                 assert roboteq.applied_rpm != (0.0, 0.0)
                 proc.send_signal(signal.SIGTERM)
                 assert proc.wait(15.0) == 0

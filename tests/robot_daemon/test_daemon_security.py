@@ -145,13 +145,13 @@ def test_rogue_peers_never_move_the_robot_nor_release_the_stop(
     def driving() -> bool:
         # The robot starts latched (issue 11): the operator's station releases it, as a real
         # station does on connecting, then drives.
-        station.send_stop(Lock(False))
-        station.send_stop_release(StopRelease("operator"))
-        station.send_station_vel(Twist(0.2, 0.0))
+        station.send(Topic.STOP, Lock(False))
+        station.send(Topic.STOP_RELEASE, StopRelease("operator"))
+        station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
         return rig.daemon.stack.last_output.source == "Base Station"
 
     wait_until(driving, 20.0, "the operator's station to drive")
-    station.send_stop(Lock(True))
+    station.send(Topic.STOP, Lock(True))
     wait_until(lambda: not _moving(rig), 5.0, "the emergency stop")
 
     attackers = {
@@ -171,8 +171,8 @@ def test_rogue_peers_never_move_the_robot_nor_release_the_stop(
                 assert "Emergency Stop" in out.active_locks, f"{who} released the stop"
     assert rig.daemon.stack.route is None or rig.daemon.stack.route.route_id != 99
 
-    station.send_stop(Lock(False))  # the operator's own release: intent off, then release
-    station.send_stop_release(StopRelease("operator"))
+    station.send(Topic.STOP, Lock(False))  # the operator's own release: intent off, then release
+    station.send(Topic.STOP_RELEASE, StopRelease("operator"))
     wait_until(driving, 20.0, "the operator to drive again after releasing the stop")
 
 

@@ -96,7 +96,7 @@ def rig(free_tcp_port: Callable[[], int], wait_until: Callable[..., None]) -> It
 
 def _localise_at_home(rig: Rig, wait_until: Callable[..., None]) -> None:
     home = rig.daemon.start_pose
-    rig.station.send_initial_pose(InitialPose(home.x, home.y, home.yaw))
+    rig.station.send(Topic.INITIAL_POSE, InitialPose(home.x, home.y, home.yaw))
 
     def localised() -> bool:
         pose = rig.latest(Topic.POSE)
@@ -118,7 +118,7 @@ def test_goal_in_route_done_pose_out(rig: Rig, wait_until: Callable[..., None]) 
     assert pose is None or (isinstance(pose, PoseMsg) and pose.state == "unset")
     _localise_at_home(rig, wait_until)
     route = _short_route(rig)
-    assert rig.station.send_route(route)
+    assert rig.station.send(Topic.ROUTE, route)
 
     def planned() -> bool:
         plan = rig.latest(Topic.PLAN)
@@ -145,19 +145,19 @@ def test_goal_in_route_done_pose_out(rig: Rig, wait_until: Callable[..., None]) 
 
 def test_emergency_stop_latches_until_released(rig: Rig, wait_until: Callable[..., None]) -> None:
     def driving() -> bool:
-        rig.station.send_station_vel(Twist(0.2, 0.0))
+        rig.station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
         return rig.daemon.stack.last_output.source == "Base Station"
 
     wait_until(driving, 10.0, "station_vel to win the mux")
-    rig.station.send_stop(Lock(True))
-    rig.station.send_stop(Lock(False))  # a false value does not release a latched stop
+    rig.station.send(Topic.STOP, Lock(True))
+    rig.station.send(Topic.STOP, Lock(False))  # a false value does not release a latched stop
     for _ in range(20):
-        rig.station.send_station_vel(Twist(0.2, 0.0))
+        rig.station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
         time.sleep(0.02)
     out = rig.daemon.stack.last_output
     assert (out.linear, out.angular, out.source) == (0.0, 0.0, None)
     assert "Emergency Stop" in out.active_locks
-    rig.station.send_stop_release(StopRelease("test operator"))
+    rig.station.send(Topic.STOP_RELEASE, StopRelease("test operator"))
     wait_until(driving, 10.0, "station_vel to drive again after the release")
 
 
@@ -165,7 +165,7 @@ def test_station_loss_mid_route_still_finishes_the_route(
     rig: Rig, wait_until: Callable[..., None]
 ) -> None:
     _localise_at_home(rig, wait_until)
-    rig.station.send_route(_short_route(rig))
+    rig.station.send(Topic.ROUTE, _short_route(rig))
     wait_until(
         lambda: (r := rig.daemon.stack.route) is not None and r.state == "active",
         10.0,
@@ -184,7 +184,7 @@ def test_teleop_from_a_vanished_station_stops_within_the_mux_timeout(
     rig: Rig, wait_until: Callable[..., None]
 ) -> None:
     def driving() -> bool:
-        rig.station.send_station_vel(Twist(0.3, 0.1))
+        rig.station.send(Topic.STATION_VEL, Twist(0.3, 0.1))
         return rig.daemon.stack.last_output.linear > 0.0
 
     wait_until(driving, 10.0, "teleoperation to drive")

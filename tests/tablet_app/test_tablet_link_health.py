@@ -18,11 +18,18 @@ def test_backoff_doubles_from_half_a_second_to_five_and_resets() -> None:
 
 
 @pytest.mark.parametrize(
-    "kwargs", [{"initial": 0.0}, {"initial": 2.0, "maximum": 1.0}, {"factor": 0.5}]
+    ("kwargs", "message"),
+    [
+        ({"initial": 0.0}, r"backoff\.initial = 0\.0 s is outside the allowed range \(0, inf\) s"),
+        ({"initial": 2.0, "maximum": 1.0}, r"backoff\.maximum \(1\.0 s\) must be >= initial"),
+        ({"factor": 0.5}, r"backoff\.factor = 0\.5 is outside the allowed range \[1, inf\)"),
+    ],
 )
-def test_backoff_config_rejects_nonsense(kwargs: dict[str, float]) -> None:
-    with pytest.raises(ValueError, match="backoff"):
+def test_backoff_config_rejects_nonsense(kwargs: dict[str, float], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
         BackoffConfig(**kwargs)
+    with pytest.raises(ValueError, match=r"latency\.window = 0 is outside the allowed range 1\.\."):
+        LatencyConfig(window=0)
 
 
 @settings(max_examples=100)

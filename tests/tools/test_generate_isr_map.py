@@ -293,7 +293,7 @@ def test_disconnected_graph_is_rejected(raw_plan: dict[str, Any]) -> None:
 
 
 def test_load_floor_plan_names_a_missing_file(tmp_path: Path) -> None:
-    with pytest.raises(FloorPlanError, match=r"nope\.yaml: cannot read floor plan"):
+    with pytest.raises(FloorPlanError, match=r"nope\.yaml: cannot read the floor plan"):
         load_floor_plan(tmp_path / "nope.yaml")
 
 

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
-from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
+from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
+from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 3.0) -> bool:

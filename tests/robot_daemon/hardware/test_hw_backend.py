@@ -10,9 +10,9 @@ import numpy as np
 
 from robot_daemon.backend import RobotBackend
 from robot_daemon.hardware.config import HardwareConfig
-from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
-from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 from robot_daemon.hardware.hardware_backend import HardwareBackend
+from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
+from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 Until = Callable[..., bool]
 

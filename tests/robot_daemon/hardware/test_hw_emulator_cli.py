@@ -14,12 +14,12 @@ import serial
     ("module", "request_bytes", "reply_prefix"),
     [
         (
-            "robot_daemon.hardware.emulators.hokuyo_emulator",
+            "tests.robot_daemon.hardware.emulators.hokuyo_emulator",
             b"PP\n",
             b"PP\n00P\nMODL:UTM-30LX-EW;I\n",
         ),
         (
-            "robot_daemon.hardware.emulators.roboteq_emulator",
+            "tests.robot_daemon.hardware.emulators.roboteq_emulator",
             b"^ECHOF 1\r?V\r",
             b"^ECHOF 1\r+\rV=120:296:5000\r",
         ),

@@ -13,8 +13,8 @@ import serial
 
 from robot_daemon.hardware import scip
 from robot_daemon.hardware.config import LaserConfig
-from robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
 from robot_daemon.hardware.hokuyo_driver import HokuyoDriver
+from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
 
 Until = Callable[..., bool]
 

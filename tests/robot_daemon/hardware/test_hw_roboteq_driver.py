@@ -10,8 +10,8 @@ import pytest
 import serial
 
 from robot_daemon.hardware.config import MotorsConfig
-from robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 from robot_daemon.hardware.roboteq_driver import RoboteqDriver
+from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 Until = Callable[..., bool]
 

@@ -268,3 +268,19 @@ def test_defaults_are_the_thesis_values() -> None:
         PlannerConfig(goal_yaw_tolerance=4.0)
     with pytest.raises(PlannerConfigError, match="inflation_radius"):
         PlannerConfig(inflation_radius=0.2)
+
+
+def test_route_tolerances_are_checked_as_the_route_message_declares_them() -> None:
+    nav = Navigator(two_rooms())
+    goal = [Pose2D(6.0, 2.5, 0.0)]
+    cases = (
+        ({"approach_tolerance": 0.0}, r"set_route\.approach_tolerance = 0\.0 m is outside"),
+        ({"goal_xy_tol": math.nan}, r"set_route\.goal_xy_tol must be a finite number \[m\]"),
+        ({"goal_yaw_tol": 4.0}, r"set_route\.goal_yaw_tol = 4\.0 rad is outside the allowed"),
+    )
+    for arguments, message in cases:
+        with pytest.raises(PlannerConfigError, match=message):
+            nav.set_route(goal, now=0.0, **arguments)
+        assert nav.state is NavState.IDLE  # a refused route changes nothing
+    nav.set_route(goal, approach_tolerance=1, goal_xy_tol=0.3, now=0.0)
+    assert nav.state is NavState.PLANNING

@@ -61,7 +61,7 @@ def record_daemon_run(directory: Path, endpoint: str) -> Path:
                 _wait_until(lambda: ROBOT in station.robots, 10.0, "the robot")
                 station.select_robot(ROBOT)
                 home = daemon.start_pose
-                station.send_initial_pose(InitialPose(home.x, home.y, home.yaw))
+                station.send(Topic.INITIAL_POSE, InitialPose(home.x, home.y, home.yaw))
 
                 def localised() -> bool:
                     pose = station.poll_state().get(Topic.POSE)
@@ -70,9 +70,9 @@ def record_daemon_run(directory: Path, endpoint: str) -> Path:
                 _wait_until(localised, 10.0, "localised")
                 assert daemon.topo is not None
                 node = daemon.topo.node(1).pose
-                station.send_route(RouteMsg(5, ((node.x, node.y, node.yaw),), (1,)))
+                station.send(Topic.ROUTE, RouteMsg(5, ((node.x, node.y, node.yaw),), (1,)))
                 _wait_until(lambda: daemon.now > 6.0, 20.0, "6 s of robot time")
-                station.send_stop(Lock(True))
+                station.send(Topic.STOP, Lock(True))
                 _wait_until(lambda: daemon.stack.last_output.active_locks, 10.0, "the stop")
                 station.close()
         finally:

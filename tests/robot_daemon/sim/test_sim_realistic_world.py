@@ -114,10 +114,18 @@ def test_warped_grid_moves_walls_by_about_sigma() -> None:
 
 
 def test_variation_is_validated() -> None:
-    with pytest.raises(WorldVariationError, match="resolution"):
+    with pytest.raises(
+        WorldVariationError,
+        match=r"WorldVariation\.resolution = 0\.2 m is outside the allowed range \[0\.005, 0\.05\] m",
+    ):
         WorldVariation(resolution=0.2)
-    with pytest.raises(WorldVariationError, match="boxes"):
+    with pytest.raises(
+        WorldVariationError,
+        match=r"WorldVariation\.boxes = -1 is outside the allowed range 0\.\.200",
+    ):
         WorldVariation(boxes=-1)
+    with pytest.raises(WorldVariationError, match=r"WorldVariation\.chairs must be an integer"):
+        WorldVariation(chairs=1.5)  # type: ignore[arg-type]
 
 
 def _box_room() -> OccupancyGrid:

@@ -13,7 +13,7 @@ is destroyed, recreated behind the same link later, device reset).
 
 Run stand-alone for the daemon::
 
-    python -m robot_daemon.hardware.emulators.hokuyo_emulator --pty [--link /tmp/ttyHOKUYO]
+    python -m tests.robot_daemon.hardware.emulators.hokuyo_emulator --pty [--link /tmp/ttyHOKUYO]
 
 prints the port to open and serves until Ctrl-C.
 """
@@ -33,7 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_daemon.hardware import scip
-from robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
+from tests.robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
 
 logger = logging.getLogger(__name__)
 

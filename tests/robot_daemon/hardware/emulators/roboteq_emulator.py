@@ -15,7 +15,7 @@ to the watchdog timeout" — both channels resume, then the new command applies 
 
 Fault injection: `fault_flags`, `send_garbage`, `drop_replies`, `unplug`.
 
-Run stand-alone: ``python -m robot_daemon.hardware.emulators.roboteq_emulator --pty``.
+Run stand-alone: ``python -m tests.robot_daemon.hardware.emulators.roboteq_emulator --pty``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import logging
 import threading
 from pathlib import Path
 
-from robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
+from tests.robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
 
 logger = logging.getLogger(__name__)
 
