@@ -56,15 +56,66 @@ def test_ray_field_is_float32_holding_the_float64_steps() -> None:
     assert np.array_equal(world.ray_step_flat.astype(np.float64), step.astype(np.float64).ravel())
 
 
-def test_walls_with_the_float32_field_equal_the_float64_field() -> None:
+def walls_reference(
+    world: World, x: float, y: float, angles: np.ndarray, max_t: float
+) -> np.ndarray:
+    """Sphere tracing as it was written before the speed work: float64 steps, separate u and v
+    arrays, every beam in phase 1 until few are left, then chunks of fine samples [cells]."""
+    field = world.ray_step_flat.astype(np.float64)
+    width = world.padded_width
+    u0, v0 = (float(c) for c in world.to_padded_cells(x, y))
+    n = angles.size
+    idx, t = np.arange(n), np.zeros(n)
+    cs, sn = np.cos(angles), np.sin(angles)
+    u, v = np.full(n, u0), np.full(n, v0)
+    hits: dict[int, float] = {}
+    iteration = 0
+    while idx.size > max(64, n // 8):
+        s = field[v.astype(np.intp) * width + u.astype(np.intp)]
+        t += s
+        u += s * cs
+        v += s * sn
+        iteration += 1
+        if iteration % 3 == 0:
+            done = (s == 0.0) | (t > max_t)
+            hit = (s == 0.0) & (t <= max_t)
+            hits.update(zip(idx[hit].tolist(), t[hit], strict=True))
+            keep = ~done
+            idx, t, u, v, cs, sn = idx[keep], t[keep], u[keep], v[keep], cs[keep], sn[keep]
+    offsets = np.arange(96) * 0.5
+    while idx.size:
+        ts = t[:, None] + offsets[None, :]
+        flat = (v0 + ts * sn[:, None]).astype(np.intp) * width + (u0 + ts * cs[:, None]).astype(
+            np.intp
+        )
+        s = field[np.clip(flat, 0, field.size - 1)]
+        first = (s == 0.0).argmax(axis=1)
+        rows = np.arange(idx.size)
+        blocked = s[rows, first] == 0.0
+        t_hit = ts[rows, first]
+        ok = blocked & (t_hit <= max_t)
+        hits.update(zip(idx[ok].tolist(), t_hit[ok], strict=True))
+        keep = ~blocked & (ts[:, -1] <= max_t)
+        idx, t, cs, sn = idx[keep], (ts[:, -1] + s[:, -1])[keep], cs[keep], sn[keep]
+    result = np.full(n, np.inf)
+    result[list(hits)] = list(hits.values())
+    return result
+
+
+def test_walls_equal_the_sphere_tracing_before_the_speed_work() -> None:
     rng = np.random.default_rng(11)
-    wide = World(WORLD.grid, WORLD.obstacles, WORLD.glass)
-    wide.ray_step_flat = wide.ray_step_flat.astype(np.float64)
     beams = LaserConfig().beam_angles()
+    caster = RayCaster(WORLD)
     for x, y, yaw in _poses(rng, 40):
-        fast = RayCaster(WORLD).cast_walls(x, y, beams + yaw, 30.0)
-        ref = RayCaster(wide).cast_walls(x, y, beams + yaw, 30.0)
-        assert np.array_equal(fast, ref)
+        angles = beams + yaw
+        fast = caster.cast_walls(x, y, angles, 30.0)
+        t_hit = walls_reference(WORLD, x, y, angles, 30.0 / WORLD.resolution)
+        hit = np.isfinite(t_hit)
+        assert np.array_equal(np.isfinite(fast), hit)
+        cos, sin = np.cos(angles[hit]), np.sin(angles[hit])
+        u0, v0 = (float(c) for c in WORLD.to_padded_cells(x, y))
+        refined = caster._refine(u0, v0, cos, sin, t_hit[hit]) * WORLD.resolution
+        assert np.array_equal(fast[hit], np.where(refined > 30.0, np.inf, refined))
 
 
 def test_people_windows_equal_every_beam() -> None:
