@@ -5,7 +5,8 @@ map (occupied *and* unknown cells are lethal; with ``allow_unknown``, as Nav2's 
 default, unknown cells are traversable at the highest non-lethal cost) and obstacles the laser sees within
 ``obstacle_max_range`` are inflated "to mark all the areas where the robot's position is not
 valid". Live obstacles are marked for ``obstacle_persistence`` seconds and cleared earlier when a
-later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does.
+later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does;
+only the beam samples that can fall in a live mark are computed (`_live_clearing_samples`).
 
 Inflation follows Nav2's ``InflationLayer`` (navigation2/nav2_costmap_2d/inflation_layer.hpp)::
 
@@ -38,6 +39,9 @@ from interbot_core.occupancy_grid import OccupancyGrid
 logger = logging.getLogger(__name__)
 
 CLEARING_BEAM_SPACING = math.radians(0.5)  # [rad] clearing uses beams at least this far apart
+_WINDOW_MARGIN = 1e-6  # [rad] beyond a cell's exact angular extent, far above rounding
+
+FloatArray = npt.NDArray[np.float64]
 
 LETHAL = 254
 INSCRIBED = 253
@@ -226,9 +230,14 @@ class Costmap:
         reach = np.minimum(ranges[clear], cfg.raytrace_max_range) - self.resolution
         beam_angles = angles[clear] + origin.yaw
         if reach.size and float(reach.max()) > 0.0:
-            self._clear_cells(
-                *_clearing_samples(origin.x, origin.y, beam_angles, reach, self.resolution)
-            )
+            if scan.angle_increment > 0:
+                self._clear_cells(
+                    *self._live_clearing_samples(now, origin.x, origin.y, beam_angles, reach)
+                )
+            else:
+                self._clear_cells(
+                    *_clearing_samples(origin.x, origin.y, beam_angles, reach, self.resolution)
+                )
         # Marking: endpoints within obstacle_max_range.
         mark = valid & (ranges <= cfg.obstacle_max_range)
         px, py = ranges[mark] * np.cos(angles[mark]), ranges[mark] * np.sin(angles[mark])
@@ -236,6 +245,72 @@ class Costmap:
         rows, cols = self.grid.world_to_cell(wx, wy)
         ok = self.grid.in_bounds(rows, cols)
         self._mark(rows[ok], cols[ok], now, now + cfg.obstacle_persistence)
+
+    def _live_clearing_samples(
+        self, now: float, x: float, y: float, angles: npt.NDArray[np.float64], reach: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The clearing samples (`_clearing_samples`) that may land in a live mark.
+
+        Clearing a cell without a live mark changes nothing at ``now`` or later (a dead mark
+        stays dead; time does not go back in the stack), and a scan's ~25 000 samples meet a
+        few hundred live cells. A sample ``t_k`` along beam ``b`` lies in the cell of centre
+        ``c`` only if ``|t_k - |c - o|| <= h`` and the beam passes within ``h`` of ``c``
+        (``h`` = half the cell's diagonal), i.e. its angle is within ``asin(h / |c - o|)`` of the
+        bearing of ``c``. Those (beam, k) pairs, with a margin, are computed with the very
+        arithmetic of `_clearing_samples`; ``angles`` must increase.
+        """
+        res = self.resolution
+        g = self.grid
+        reach_max = float(reach.max())
+        t = np.arange(0.0, reach_max, res)
+        empty = np.zeros(0)
+        # Live cells within reach of the origin, inside the boxes of the unexpired marks.
+        boxes = [b for b in self._mark_boxes if b[0] > now]
+        if not boxes:
+            return empty, empty
+        row_o, col_o = math.floor((y - g.origin_y) / res), math.floor((x - g.origin_x) / res)
+        k = math.ceil(reach_max / res) + 2
+        r0 = max(row_o - k, min(b[1] for b in boxes), 0)
+        r1 = min(row_o + k + 1, max(b[2] for b in boxes), g.height)
+        c0 = max(col_o - k, min(b[3] for b in boxes), 0)
+        c1 = min(col_o + k + 1, max(b[4] for b in boxes), g.width)
+        if r0 >= r1 or c0 >= c1:
+            return empty, empty
+        live = np.flatnonzero(self._marked_until[r0:r1, c0:c1] > now)
+        if live.size == 0:
+            return empty, empty
+        rows, cols = np.divmod(live, c1 - c0)
+        dx = g.origin_x + (cols + c0 + 0.5) * res - x
+        dy = g.origin_y + (rows + r0 + 0.5) * res - y
+        rho = np.hypot(dx, dy)
+        h = res * math.sqrt(0.5)
+        # The beams' angular window around each cell; cells about the origin take every beam.
+        half = np.arcsin(np.minimum(h / np.maximum(rho, 2.0 * h), 0.5)) + _WINDOW_MARGIN
+        half[rho <= 2.0 * h] = 2.0 * math.pi
+        first = float(angles[0]) - half
+        centre = first + np.mod(np.arctan2(dy, dx) - first, 2.0 * math.pi)
+        k_lo = np.maximum(np.floor((rho - h) / res).astype(np.int64) - 1, 0)
+        k_hi = np.minimum(np.ceil((rho + h) / res).astype(np.int64) + 2, t.size)  # exclusive
+        # A window may also wrap past the end of the scan into the next turn.
+        wrap = np.flatnonzero(centre + 2.0 * math.pi - half <= angles[-1])
+        if wrap.size:
+            centre = np.concatenate((centre, centre[wrap] + 2.0 * math.pi))
+            half = np.concatenate((half, half[wrap]))
+            k_lo = np.concatenate((k_lo, k_lo[wrap]))
+            k_hi = np.concatenate((k_hi, k_hi[wrap]))
+        lo = np.searchsorted(angles, centre - half)
+        n_beams = np.maximum(np.searchsorted(angles, centre + half, side="right") - lo, 0)
+        # (beam, k) candidates: each window's beams, each with the window's k range.
+        cell = np.repeat(np.arange(lo.size), n_beams)
+        beam = np.arange(cell.size) + np.repeat(lo - (np.cumsum(n_beams) - n_beams), n_beams)
+        kk = k_lo[cell][:, None] + np.arange(max(int((k_hi - k_lo).max()), 0))[None, :]
+        counts = np.searchsorted(t, reach, side="left")  # samples with t_k < reach
+        real = (kk < k_hi[cell][:, None]) & (kk < counts[beam][:, None])
+        beam = np.broadcast_to(beam[:, None], kk.shape)[real]
+        tk = t[kk[real]]
+        xs = x + np.cos(angles)[beam] * tk
+        ys = y + np.sin(angles)[beam] * tk
+        return xs, ys
 
     def _clear_cells(self, xs: npt.NDArray[np.float64], ys: npt.NDArray[np.float64]) -> None:
         """Forget the live marks of the cells holding map-frame points (xs, ys) [m]."""

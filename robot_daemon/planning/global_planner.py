@@ -12,7 +12,9 @@ step costs at least its length) is run as Dijkstra on the *reduced* costs
 ``w'(u, v) = w(u, v) - h(u) + h(v) >= 0`` (the potential-function view of A*, Hart, Nilsson and
 Raphael 1968; Johnson 1977): the compiled ``scipy.sparse.csgraph.dijkstra`` then expands nodes in
 A*'s order, and its ``limit`` argument stops the search at an f-value bound that grows fourfold
-until the goal is reached, so only A*'s ellipse around the straight line is explored.
+until the goal is reached, so only A*'s ellipse around the straight line is explored; the graph
+itself is built only on the box that holds that ellipse (`_search_box`), with the nodes in the
+same order, so the search and its ties are those on the whole grid.
 
 Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
 takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
@@ -40,7 +42,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from interbot_core import schema
 from interbot_core.occupancy_grid import OccupancyGrid
-from robot_daemon.planning.costmap import INSCRIBED, LETHAL
+from robot_daemon.planning.costmap import INSCRIBED, LETHAL, MAX_NON_LETHAL
 
 logger = logging.getLogger(__name__)
 
@@ -50,6 +52,7 @@ _OFFSETS = np.array(
     [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)], dtype=np.int64
 )
 _STEP = np.hypot(_OFFSETS[:, 0], _OFFSETS[:, 1])
+MAX_TRAVERSABLE = float(MAX_NON_LETHAL)  # the dearest cell a path may cross
 
 
 class PlanningError(RuntimeError):
@@ -192,6 +195,10 @@ def astar_cells(
 
     Cells of cost >= 253 are not traversable. Raises :class:`NoPathError` when the goal cannot
     be reached; start and goal must be traversable.
+
+    Each search with an f-bound ``limit`` builds the graph only on the box that can hold a node
+    within the bound (`_search_box`); the nodes keep their order, so the search, ties included,
+    is the one on the whole grid.
     """
     h, w = costs.shape
     for name, (r, c) in (("start", start), ("goal", goal)):
@@ -199,18 +206,26 @@ def astar_cells(
             raise PlanningError(f"{name} cell {(r, c)} is outside the grid or not traversable")
     if start == goal:
         return [start], 0.0
-    graph_parts = _reduced_cost_graph(costs, goal, cost_weight)
-    reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp = graph_parts
-    goal_p = (goal[0] + 1, goal[1] + 1)
-    graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size, nodes.size))
-    s = int(compact[(start[0] + 1) * wp + start[1] + 1])
-    g = int(compact[goal_p[0] * wp + goal_p[1]])
-    h_start = float(heuristic[s])
+    dr = float(abs(start[0] - goal[0]))
+    dc = float(abs(start[1] - goal[1]))
+    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # octile_grid's arithmetic
     # Reduced distance to the goal = path cost - h(start): the detour beyond the straight line.
     limit = max(0.5 * h_start, 20.0)
     reached, previous_limit = -1, 0.0
-    max_edge = float(reduced.max(initial=0.0))
+    # No edge is dearer than this (the exhaustion test below only needs an upper bound).
+    max_edge = SQRT2 * (1.0 + MAX_TRAVERSABLE / cost_weight) + SQRT2
+    box: tuple[int, int, int, int] | None = None
     while True:
+        wanted = _search_box(costs.shape, start, goal, h_start + limit)
+        if wanted != box:
+            box = wanted
+            r0, r1, c0, c1 = box
+            sub = costs[r0:r1, c0:c1]
+            graph_parts = _reduced_cost_graph(sub, (goal[0] - r0, goal[1] - c0), cost_weight)
+            reduced, neighbour_compact, indptr, nodes, compact, _, wp = graph_parts
+            graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size,) * 2)
+            s = int(compact[(start[0] - r0 + 1) * wp + start[1] - c0 + 1])
+            g = int(compact[(goal[0] - r0 + 1) * wp + goal[1] - c0 + 1])
         dist, pred = dijkstra(graph, indices=s, return_predecessors=True, limit=limit)
         if math.isfinite(dist[g]) or limit == math.inf:
             break
@@ -227,9 +242,30 @@ def astar_cells(
     chain.reverse()
     cells_flat = nodes[np.asarray(chain)]
     rows, cols = np.divmod(cells_flat, wp)
-    cells = [(int(r) - 1, int(c) - 1) for r, c in zip(rows, cols, strict=True)]
+    cells = [(int(r) - 1 + r0, int(c) - 1 + c0) for r, c in zip(rows, cols, strict=True)]
     total = float(dist[g]) + h_start  # undo the potential: cost = reduced + h(s) - h(g), h(g)=0
     return cells, total
+
+
+def _search_box(
+    shape: tuple[int, ...], start: tuple[int, int], goal: tuple[int, int], bound: float
+) -> tuple[int, int, int, int]:
+    """(row0, row1, col0, col1) of the cells a search with f-bound ``bound`` [cells] can reach
+    or relax, clipped to the grid (all of it for an infinite bound).
+
+    A node n within the bound has ``octile(s, n) + octile(n, g) <= bound`` (a path is at least
+    its octile length), and ``octile >= |d_row|``, so ``|r - r_s| + |r - r_g| <= bound``:
+    ``r`` lies within ``(bound - |r_s - r_g|) / 2`` of the segment [r_s, r_g]; the same for
+    columns. One more cell holds the neighbours the search relaxes, one more is for rounding.
+    """
+    if not math.isfinite(bound):
+        return 0, shape[0], 0, shape[1]
+    box = []
+    for axis in (0, 1):
+        low, high = sorted((start[axis], goal[axis]))
+        slack = math.ceil(max(bound - (high - low), 0.0) / 2.0) + 2
+        box += [max(low - slack, 0), min(high + slack + 1, shape[axis])]
+    return box[0], box[1], box[2], box[3]
 
 
 def path_cost(

@@ -35,14 +35,16 @@ import logging
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from interbot_core.geometry import Pose2D, wrap_angle
 from robot_daemon.planning.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
 
 # Weights of the objective's terms.
 W_PROGRESS = 1.0
@@ -92,9 +94,9 @@ class ObstacleField:
         if idx.size == 0:
             self.distance: npt.NDArray[np.float64] = np.full((self.n, self.n), np.inf)
         else:
-            free = np.ones((self.n, self.n), dtype=bool)
-            free[idx[:, 1], idx[:, 0]] = False  # [row = y, col = x]
-            self.distance = ndimage.distance_transform_edt(free, sampling=resolution)
+            free = np.ones((self.n, self.n), dtype=np.uint8)
+            free[idx[:, 1], idx[:, 0]] = 0  # [row = y, col = x]
+            self.distance = exact_distance_transform(free, resolution)
         # The distance with a border of inf cells, flat: `lookup` clips indices to the border
         # instead of masking the points outside (one gather).
         bordered = np.full((self.n + 2, self.n + 2), np.inf)
@@ -106,14 +108,32 @@ class ObstacleField:
         col = np.floor((np.asarray(x) + self.half_size) / self.resolution).astype(np.int64)
         row = np.floor((np.asarray(y) + self.half_size) / self.resolution).astype(np.int64)
         # Cell k of the grid is k + 1 of the bordered one; anything outside lands on the border.
-        np.clip(col, -1, self.n, out=col)
-        np.clip(row, -1, self.n, out=row)
+        # minimum/maximum in place: np.clip's wrapper costs more than the clipping.
+        np.minimum(col, self.n, out=col)
+        np.maximum(col, -1, out=col)
+        np.minimum(row, self.n, out=row)
+        np.maximum(row, -1, out=row)
         row += 1
         row *= self.n + 2
         row += col
         row += 1
         result: npt.NDArray[np.float64] = self._bordered.take(row)
         return result
+
+
+def exact_distance_transform(free: npt.NDArray[np.uint8], resolution: float) -> FloatArray:
+    """Euclidean distance [m] from each cell centre to the nearest zero cell's centre.
+
+    OpenCV's exact transform (``DIST_MASK_PRECISE``, Felzenszwalb & Huttenlocher 2012) is about
+    three times faster than ``scipy.ndimage.distance_transform_edt`` on a local planner's grid,
+    but float32: squaring and rounding recovers the integer squared distance in cells exactly
+    (well under 2**24), and ``sqrt(k) * resolution`` in float64 equals scipy's result to a
+    unit or two in the last place (scipy sums the squared metric offsets instead).
+    """
+    cells = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    squared = np.rint(np.square(cells, dtype=np.float64))
+    distance: FloatArray = np.sqrt(squared) * resolution
+    return distance
 
 
 def rollout(
@@ -227,20 +247,17 @@ class DWAPlanner:
         v_hi = max(v_lo, min(v_cap, v0 + dv))
         w_lo = max(-c.max_angular_speed, w0 - dw)
         w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
-        vs, ws = np.meshgrid(
-            np.linspace(v_lo, v_hi, c.v_samples),
-            np.linspace(w_lo, w_hi, c.w_samples),
-            indexing="ij",
-        )
-        v_s, w_s = vs.ravel(), ws.ravel()
+        # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
+        v_s = np.repeat(np.linspace(v_lo, v_hi, c.v_samples), c.w_samples)
+        w_s = np.tile(np.linspace(w_lo, w_hi, c.w_samples), c.v_samples)
         times = _times(c)
         th = w_s[:, None] * times[None, :]
         cos_t, sin_t = np.cos(th), np.sin(th)
         x, y, th = _rollout_with_trig(v_s, times, th, sin_t, cos_t)
-        d = field.lookup(
-            x[..., None] + cos_t[..., None] * offsets, y[..., None] + sin_t[..., None] * offsets
-        )
-        traj_clearance = d.reshape(len(v_s), -1).min(axis=1) - radius
+        # Circle centres as (circle, trajectory, step): the long axes innermost, for numpy.
+        off = offsets[:, None, None]
+        d = field.lookup(x[None] + cos_t[None] * off, y[None] + sin_t[None] * off)
+        traj_clearance = d.min(axis=(0, 2)) - radius
         admissible = traj_clearance > margin
         count = int(admissible.sum())
         if count == 0:

@@ -144,18 +144,29 @@ class RayCaster:
 
     def __init__(self, world: World) -> None:
         self.world = world
+        # The last `cast` call's walls: a robot standing still (a tour stop, a rotation's
+        # end) casts the same beams from the same point again, which the walls answer alike.
+        self._last_walls: tuple[tuple[float, float, float, int], FloatArray, FloatArray] | None
+        self._last_walls = None
 
     def cast_walls(
-        self, origin_x: float, origin_y: float, angles: FloatArray, max_range: float
+        self,
+        origin_x: float,
+        origin_y: float,
+        angles: FloatArray,
+        max_range: float,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Distance [m] along each world-frame angle to the first blocked cell; inf if none."""
+        """Distance [m] along each world-frame angle to the first blocked cell; inf if none.
+
+        ``trig``: ``(cos(angles), sin(angles))`` if the caller has them.
+        """
         w = self.world
         res = w.resolution
         field = w.ray_step_flat
         width = w.padded_width
         n = angles.size
-        cos = np.cos(angles)
-        sin = np.sin(angles)
+        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
         u0, v0 = w.to_padded_cells(origin_x, origin_y)
         u0f, v0f = float(u0), float(v0)
         max_t = max_range / res
@@ -172,17 +183,18 @@ class RayCaster:
         # have step 0 in ``field`` (see World), so a beam that hit stays put; finished beams
         # are dropped every few iterations, which costs fewer numpy calls than every time.
         tail = max(_TAIL_BEAMS, n // 8)
-        u = np.full(n, u0f)
-        v = np.full(n, v0f)
+        # Position u + i v and direction cos + i sin as complex numbers: one numpy call moves
+        # both coordinates. s * (c + i d) = s c + i s d exactly (the cross terms are 0 * x).
+        uv = np.full(n, complex(u0f, v0f))
+        direction = cs + 1j * sn
         flat = np.empty(n, dtype=np.intp)
-        s = np.empty(n)
+        s = np.empty(n, dtype=field.dtype)
         iteration = 0
         while idx.size > tail:
-            np.add(v.astype(np.intp) * width, u.astype(np.intp), out=flat)
+            np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
             np.take(field, flat, out=s)
             t += s
-            u += s * cs
-            v += s * sn
+            uv += s * direction
             iteration += 1
             if iteration % _COMPACT_EVERY == 0:
                 hit = s == 0.0
@@ -193,9 +205,10 @@ class RayCaster:
                         hit_idx.append(idx[hits])
                         hit_t.append(t[hits])
                     keep = ~done
-                    idx, t, u, v, cs, sn = idx[keep], t[keep], u[keep], v[keep], cs[keep], sn[keep]
+                    idx, t, uv, direction = idx[keep], t[keep], uv[keep], direction[keep]
                     flat = np.empty(idx.size, dtype=np.intp)
-                    s = np.empty(idx.size)
+                    s = np.empty(idx.size, dtype=field.dtype)
+        cs, sn = direction.real, direction.imag
         # Phase 2: the few grazing beams left march in dense chunks of fine samples, then jump
         # by the safe step at the chunk's end (fewer numpy calls per unit of distance).
         offsets = np.arange(_TAIL_CHUNK, dtype=np.float64) * RAY_FINE_STEP
@@ -205,7 +218,7 @@ class RayCaster:
                 u0f + ts * cs[:, None]
             ).astype(np.intp)
             # Samples past the first blocked one may leave the grid: clip (they are ignored).
-            s = field[np.clip(flat, 0, field.size - 1)]
+            s = field.take(flat, mode="clip")
             blocked = s == 0.0
             first = blocked.argmax(axis=1)
             any_blocked = blocked[np.arange(idx.size), first]
@@ -241,53 +254,100 @@ class RayCaster:
 
     @staticmethod
     def cast_circles(
-        origin_x: float, origin_y: float, angles: FloatArray, circles: FloatArray
+        origin_x: float,
+        origin_y: float,
+        angles: FloatArray,
+        circles: FloatArray,
+        increasing: bool | None = None,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
-        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1)."""
+        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1).
+
+        With increasing ``angles`` (a scan's; ``increasing=None`` checks) each circle is
+        intersected only with the beams of its angular window (`_angle_window`), with the
+        same arithmetic per beam; otherwise with every beam. ``trig``: ``(cos(angles),
+        sin(angles))`` if the caller has them.
+        """
         n = angles.size
         if circles.size == 0:
             return np.full(n, np.inf), np.full(n, -1, dtype=np.intp)
         dx = circles[:, 0] - origin_x
         dy = circles[:, 1] - origin_y
-        b = np.cos(angles)[:, None] * dx[None, :] + np.sin(angles)[:, None] * dy[None, :]
-        c = (dx * dx + dy * dy - circles[:, 2] ** 2)[None, :]
-        disc = b * b - c
-        with np.errstate(invalid="ignore"):
-            t = b - np.sqrt(disc)
-        t = np.where((disc >= 0) & (b > 0), np.where(c < 0, 0.0, t), np.inf)
-        which = t.argmin(axis=1)
-        best = t[np.arange(n), which]
-        return best, np.where(np.isfinite(best), which, -1)
+        c = dx * dx + dy * dy - circles[:, 2] ** 2
+        if not (_increasing(angles) if increasing is None else increasing):
+            b = np.cos(angles)[:, None] * dx[None, :] + np.sin(angles)[:, None] * dy[None, :]
+            disc = b * b - c[None, :]
+            with np.errstate(invalid="ignore"):
+                t = b - np.sqrt(disc)
+            t = np.where((disc >= 0) & (b > 0), np.where(c[None, :] < 0, 0.0, t), np.inf)
+            which = t.argmin(axis=1)
+            best = t[np.arange(n), which]
+            return best, np.where(np.isfinite(best), which, -1)
+        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
+        best = np.full(n, np.inf)
+        nearest = np.full(n, -1, dtype=np.intp)
+        for j in range(circles.shape[0]):
+            distance = math.hypot(dx[j], dy[j])
+            # Inside the circle every beam ahead hits it at 0; outside, a beam meets it only
+            # within asin(r / distance) of the bearing to its centre.
+            half = math.pi if c[j] < 0 else math.asin(min(1.0, circles[j, 2] / distance))
+            for lo, hi in _angle_window(angles, math.atan2(dy[j], dx[j]), half):
+                b = cos[lo:hi] * dx[j] + sin[lo:hi] * dy[j]
+                disc = b * b - c[j]
+                with np.errstate(invalid="ignore"):
+                    t = b - np.sqrt(disc)
+                t = np.where((disc >= 0) & (b > 0), 0.0 if c[j] < 0 else t, np.inf)
+                closer = t < best[lo:hi]  # strict: the first circle wins a tie, as argmin
+                best[lo:hi][closer] = t[closer]
+                nearest[lo:hi][closer] = j
+        return best, nearest
 
     def cast_glass(
-        self, origin_x: float, origin_y: float, angles: FloatArray, return_angle: float
+        self,
+        origin_x: float,
+        origin_y: float,
+        angles: FloatArray,
+        return_angle: float,
+        increasing: bool | None = None,
+        trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
         """Range [m] to the first glass pane that reflects each beam back (inf if none).
 
         Slab test per axis-aligned pane: entry at ``t = max(t_x, t_y)`` over the near faces;
         the face entered is the one of the larger; it reflects when the beam is within
-        ``return_angle`` of that face's normal (``|cos| >= cos(return_angle)``).
+        ``return_angle`` of that face's normal (``|cos| >= cos(return_angle)``). With
+        increasing ``angles`` (``increasing=None`` checks) only the beams within the pane's
+        angular extent are tested.
         """
         n = angles.size
         best = np.full(n, np.inf)
         if not self.world.glass:
             return best
-        cx, cy = np.cos(angles), np.sin(angles)
+        cx, cy = trig if trig is not None else (np.cos(angles), np.sin(angles))
         threshold = math.cos(return_angle)
+        windowed = _increasing(angles) if increasing is None else increasing
         with np.errstate(divide="ignore", invalid="ignore"):
             inv_x, inv_y = 1.0 / cx, 1.0 / cy
             for x0, y0, x1, y1 in self.world.glass:
-                tx0, tx1 = (x0 - origin_x) * inv_x, (x1 - origin_x) * inv_x
-                ty0, ty1 = (y0 - origin_y) * inv_y, (y1 - origin_y) * inv_y
-                tx_near, tx_far = np.minimum(tx0, tx1), np.maximum(tx0, tx1)
-                ty_near, ty_far = np.minimum(ty0, ty1), np.maximum(ty0, ty1)
-                t_in = np.fmax(tx_near, ty_near)
-                t_out = np.fmin(tx_far, ty_far)
-                hit = (t_in <= t_out) & (t_in > 0)
-                # Normal of the entered face: x-face if tx_near is the later entry.
-                cos_incidence = np.where(tx_near >= ty_near, np.abs(cx), np.abs(cy))
-                reflect = hit & (cos_incidence >= threshold)
-                best = np.where(reflect & (t_in < best), t_in, best)
+                windows = [(0, n)]
+                if windowed and not (x0 <= origin_x <= x1 and y0 <= origin_y <= y1):
+                    windows = _box_windows(angles, origin_x, origin_y, (x0, y0, x1, y1))
+                for lo, hi in windows:
+                    ix, iy = inv_x[lo:hi], inv_y[lo:hi]
+                    tx0, tx1 = (x0 - origin_x) * ix, (x1 - origin_x) * ix
+                    ty0, ty1 = (y0 - origin_y) * iy, (y1 - origin_y) * iy
+                    tx_near, tx_far = np.minimum(tx0, tx1), np.maximum(tx0, tx1)
+                    ty_near, ty_far = np.minimum(ty0, ty1), np.maximum(ty0, ty1)
+                    t_in = np.fmax(tx_near, ty_near)
+                    t_out = np.fmin(tx_far, ty_far)
+                    hit = (t_in <= t_out) & (t_in > 0)
+                    # Normal of the entered face: x-face if tx_near is the later entry.
+                    cos_incidence = np.where(
+                        tx_near >= ty_near, np.abs(cx[lo:hi]), np.abs(cy[lo:hi])
+                    )
+                    reflect = hit & (cos_incidence >= threshold)
+                    part = best[lo:hi]
+                    part[...] = np.where(reflect & (t_in < part), t_in, part)
         return best
 
     def cast(
@@ -298,18 +358,27 @@ class RayCaster:
         max_range: float,
         circles: FloatArray | None = None,
         glass_return_angle: float = 0.0,
+        increasing: bool | None = None,
     ) -> FloatArray:
         """Noise-free range [m] to walls or people along each world-frame angle; inf if none.
 
         Glass panes (``World.glass``) return only beams within ``glass_return_angle`` of their
-        normal; other beams see through them.
+        normal; other beams see through them. ``increasing``: whether ``angles`` increase
+        strictly (None: check).
         """
-        ranges = self.cast_walls(origin_x, origin_y, angles, max_range)
+        trig = (np.cos(angles), np.sin(angles))  # once for walls, panes and people
+        key = (origin_x, origin_y, max_range, self.world.version)
+        last = self._last_walls
+        if last is not None and last[0] == key and np.array_equal(last[1], angles):
+            ranges = last[2].copy()
+        else:
+            ranges = self.cast_walls(origin_x, origin_y, angles, max_range, trig)
+            self._last_walls = (key, angles.copy(), ranges.copy())
         if self.world.glass:
-            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle)
+            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, increasing, trig)
             ranges = np.minimum(ranges, np.where(pane <= max_range, pane, np.inf))
         if circles is not None and circles.size:
-            people, _ = self.cast_circles(origin_x, origin_y, angles, circles)
+            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, increasing, trig)
             ranges = np.minimum(ranges, np.where(people <= max_range, people, np.inf))
         return ranges
 
@@ -379,6 +448,7 @@ class LaserSim:
             c.range_max,
             circles,
             c.glass_return_angle,
+            increasing=c.angle_increment > 0,  # beam_angles() + yaw
         )
         ranges = true.copy()
         if c.mixed_pixel_probability > 0:
@@ -401,3 +471,45 @@ class LaserSim:
             range_max=c.range_max,
             ranges=ranges.astype(np.float32),
         )
+
+
+# Beam windows: a margin [rad] beyond a target's exact angular extent, far above rounding.
+_WINDOW_MARGIN = 1e-6
+
+
+def _increasing(angles: FloatArray) -> bool:
+    """Whether ``angles`` increase strictly (a scan's beams do), so windows can be searched."""
+    return angles.size > 1 and bool(np.all(angles[1:] > angles[:-1]))
+
+
+def _angle_window(angles: FloatArray, bearing: float, half: float) -> list[tuple[int, int]]:
+    """Index ranges ``[lo, hi)`` of the increasing ``angles`` within ``half`` (+ a margin) of
+    ``bearing``, modulo a full turn."""
+    half += _WINDOW_MARGIN
+    if half >= math.pi:
+        return [(0, angles.size)]
+    first = float(angles[0]) - half
+    centre = first + (bearing - first) % (2.0 * math.pi)  # the first turn at or after `first`
+    windows = []
+    while centre - half <= angles[-1]:
+        lo = int(np.searchsorted(angles, centre - half, side="left"))
+        hi = int(np.searchsorted(angles, centre + half, side="right"))
+        if hi > lo:
+            windows.append((lo, hi))
+        centre += 2.0 * math.pi
+    return windows
+
+
+def _box_windows(
+    angles: FloatArray, x: float, y: float, box: tuple[float, float, float, float]
+) -> list[tuple[int, int]]:
+    """`_angle_window` of the beams from (x, y), outside the box, that can meet the box: its
+    corners span less than half a turn, around the bearing of its centre."""
+    x0, y0, x1, y1 = box
+    mid = math.atan2((y0 + y1) / 2 - y, (x0 + x1) / 2 - x)
+    half = max(
+        abs(math.remainder(math.atan2(cy - y, cx - x) - mid, 2.0 * math.pi))
+        for cx in (x0, x1)
+        for cy in (y0, y1)
+    )
+    return _angle_window(angles, mid, half)

@@ -7,10 +7,14 @@ included) and the same local-planner distances.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
+import pytest
 from scipy import ndimage
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
@@ -19,10 +23,17 @@ from robot_daemon.planning.costmap import Costmap, _clearing_samples
 from robot_daemon.planning.global_planner import (
     _OFFSETS,
     _STEP,
+    NoPathError,
     _reduced_cost_graph,
+    astar_cells,
     octile_distance,
 )
-from robot_daemon.planning.local_planner import ObstacleField, _rollout_with_trig, rollout
+from robot_daemon.planning.local_planner import (
+    ObstacleField,
+    _rollout_with_trig,
+    exact_distance_transform,
+    rollout,
+)
 
 
 def clearing_reference(
@@ -160,3 +171,125 @@ def test_rollout_with_the_callers_trig_equals_rollout() -> None:
     fast = _rollout_with_trig(v, times, theta, np.sin(theta), np.cos(theta))
     for a, b in zip(fast, rollout(v, w, times), strict=True):
         assert np.array_equal(a, b)
+
+
+def astar_reference(
+    costs: np.ndarray, start: tuple[int, int], goal: tuple[int, int], cost_weight: float
+) -> tuple[list[tuple[int, int]], float]:
+    """A* on the graph of the whole grid, built once (the search before `_search_box`)."""
+    if start == goal:
+        return [start], 0.0
+    reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp = _reduced_cost_graph(
+        costs, goal, cost_weight
+    )
+    graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size, nodes.size))
+    s = int(compact[(start[0] + 1) * wp + start[1] + 1])
+    g = int(compact[(goal[0] + 1) * wp + goal[1] + 1])
+    h_start = float(heuristic[s])
+    limit = max(0.5 * h_start, 20.0)
+    reached, previous_limit = -1, 0.0
+    max_edge = float(reduced.max(initial=0.0))
+    while True:
+        dist, pred = dijkstra(graph, indices=s, return_predecessors=True, limit=limit)
+        if math.isfinite(dist[g]) or limit == math.inf:
+            break
+        now_reached = int(np.count_nonzero(np.isfinite(dist)))
+        if now_reached == reached and limit - previous_limit > max_edge:
+            break
+        reached, previous_limit = now_reached, limit
+        limit = limit * 4.0 if limit < 4.0 * h_start + 100.0 else math.inf
+    if not math.isfinite(dist[g]):
+        raise NoPathError("no path")
+    chain = [g]
+    while chain[-1] != s:
+        chain.append(int(pred[chain[-1]]))
+    rows, cols = np.divmod(nodes[np.asarray(chain[::-1])], wp)
+    return [(int(r) - 1, int(c) - 1) for r, c in zip(rows, cols, strict=True)], float(
+        dist[g]
+    ) + h_start
+
+
+def _maze(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """Free floor (cost 0, ties everywhere), inflated bands, walls with gaps, a closed room."""
+    costs = np.zeros(shape, dtype=np.uint8)
+    h, w = shape
+    for _ in range(int(rng.integers(2, 7))):
+        if rng.random() < 0.5:
+            r = int(rng.integers(0, h))
+            costs[r, :] = 254
+            gap = int(rng.integers(0, w - 3))
+            costs[r, gap : gap + int(rng.integers(0, 4))] = 0
+        else:
+            c = int(rng.integers(0, w))
+            costs[:, c] = 254
+            gap = int(rng.integers(0, h - 3))
+            costs[gap : gap + int(rng.integers(0, 4)), c] = 0
+    soft = rng.random(shape) < 0.1
+    costs[soft & (costs == 0)] = rng.choice(np.array([40, 128, 252], dtype=np.uint8))
+    if rng.random() < 0.3:  # a closed room: no path into it
+        costs[5:15, 5] = costs[5:15, 15] = costs[5, 5:16] = costs[15, 5:16] = 254
+    return costs
+
+
+def test_astar_on_the_search_box_equals_the_whole_grid_search() -> None:
+    rng = np.random.default_rng(5)
+    outcomes = {"path": 0, "none": 0, "detour": 0}
+    for _ in range(150):
+        shape = (int(rng.integers(20, 90)), int(rng.integers(20, 140)))
+        costs = _maze(rng, shape)
+        free = np.argwhere(costs < 253)
+        start, goal = (tuple(int(v) for v in free[rng.integers(0, free.shape[0])]) for _ in "sg")
+        try:
+            ref = astar_reference(costs, start, goal, 100.0)
+        except NoPathError:
+            outcomes["none"] += 1
+            with pytest.raises(NoPathError):
+                astar_cells(costs, start, goal, 100.0)
+            continue
+        assert astar_cells(costs, start, goal, 100.0) == ref  # cells (ties included), cost
+        outcomes["path"] += 1
+        dr, dc = abs(start[0] - goal[0]), abs(start[1] - goal[1])
+        octile = max(dr, dc) + (math.sqrt(2.0) - 1.0) * min(dr, dc)
+        outcomes["detour"] += ref[1] - octile > max(0.5 * octile, 20.0)  # a second round
+    assert min(outcomes.values()) > 3, outcomes
+
+
+class _ForwardClearing(Costmap):
+    """`Costmap` clearing with every sample of every clearing beam (`_clearing_samples`)."""
+
+    def _live_clearing_samples(
+        self, now: float, x: float, y: float, angles: np.ndarray, reach: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        return _clearing_samples(x, y, angles, reach, self.resolution)
+
+
+def test_clearing_only_near_live_marks_leaves_the_same_live_obstacles() -> None:
+    rng = np.random.default_rng(6)
+    fast, ref = Costmap(_room_grid()), _ForwardClearing(_room_grid())
+    now = 0.0
+    pose = Pose2D(3.0, 1.0, 0.0)
+    for k in range(80):
+        now += float(rng.uniform(0.05, 0.3))
+        if k % 10 == 0:  # a jump; otherwise a short drive
+            pose = Pose2D(*rng.uniform((0.0, -1.0, -3.0), (6.0, 3.5, 3.0)))
+        else:
+            pose = Pose2D(pose.x + 0.05, pose.y + 0.02, pose.yaw + 0.03)
+        scan = _scan(rng)
+        if k % 4 == 0:  # a person close to the laser: wide angular windows
+            ranges = scan.ranges.copy()
+            ranges[500:560] = rng.uniform(0.05, 0.3, 60)
+            scan = dataclasses.replace(scan, ranges=ranges)
+        for costmap in (fast, ref):
+            costmap.update(now, pose, scan, Pose2D(0.2, 0.0, 0.0))
+        for when in (now, now + 0.5, now + 1.9):
+            assert np.array_equal(fast.live_obstacles(when), ref.live_obstacles(when))
+        assert np.array_equal(fast.costs(now), ref.costs(now))
+
+
+def test_exact_distance_transform_equals_scipy_to_the_last_places() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        free = (rng.random((56, 56)) > rng.uniform(0.002, 0.3)).astype(np.uint8)
+        free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = 0
+        ref = ndimage.distance_transform_edt(free.astype(bool), sampling=0.05)
+        np.testing.assert_allclose(exact_distance_transform(free, 0.05), ref, rtol=4e-16, atol=0)
