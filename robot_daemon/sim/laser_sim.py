@@ -25,7 +25,9 @@ return closer than ``range_min`` reports ``-inf``. Consumers use ``LaserScan.val
 
 Ray casting (sphere tracing, Hart, "Sphere tracing", The Visual Computer 12(10), 1996). All beams
 advance together, in grid-cell units, by the safe step stored per cell by ``World`` (the distance
-to the nearest blocked cell minus sqrt(2), or a fine step of half a cell when that is smaller):
+to the nearest blocked cell minus sqrt(2), or a fine step of half a cell when that is smaller;
+a beam that clips a blocked cell's corner for less than that step may pass it, a map-discretisation
+error of the same order as the cells themselves, tested against an exact grid traversal):
 
     t_{k+1} = t_k + step(cell(o + t_k d)),   stop when cell(o + t_k d) is blocked or t_k > r_max.
 
