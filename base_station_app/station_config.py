@@ -54,9 +54,6 @@ class StationConfig(schema.Declared, frozen=True):
     # tablet speed commands older than this are discarded
     latency_ceiling: Annotated[float, _within(0.05, 1.0, "s")] = 0.5
 
-    def to_dict(self) -> dict[str, float]:
-        return msgspec.structs.asdict(self)
-
     def supervisor_config(self, request_timeout: float = 120.0) -> SupervisorConfig:
         return SupervisorConfig(
             approach_tolerance=self.approach_tolerance,

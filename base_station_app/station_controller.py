@@ -24,6 +24,8 @@ The parts it composes (issue 13: each named after what it owns, Qt-free and unit
 * `Fleet` (fleet.py) - a `RobotMirror` (robot_mirror.py) per robot: its state, supervisor (queue,
   tour, pause, requests), route mirror and must-arrive state; which robot is commanded, and the
   start-up choice (``--robot``, the saved choice, else ask when there are several: issue 14);
+* `FleetLink` (fleet_link.py) - sending to the robots, the operator's stop intent and the other
+  state every robot must hear until it has (re-sent on every clock while pending);
 * `TeleopArbiter` (teleop_arbiter.py) - the station's keys and the tablet's joystick, freshness;
 * `TabletPolicy` (tablet_policy.py) - what the tablet may do and which tasks it owns;
 * `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
@@ -75,6 +77,7 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.fleet import Ask, Fleet, Select, Waiting
+from base_station_app.fleet_link import FleetLink
 from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
@@ -118,20 +121,18 @@ from interbot_core.supervisor import (
     TourStopReached,
 )
 from interbot_core.topics import (
-    AssistMsg,
     ConfigMsg,
     InitialPose,
     Lock,
     Relocalise,
     RouteCancel,
     RouteProgress,
-    StopRelease,
     Topic,
     Twist,
 )
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import PeriodStats
-from interbot_link import LinkError, RobotAppeared, RobotLeft, StateMessage, StationLink
+from interbot_link import RobotAppeared, RobotLeft, StateMessage, StationLink
 from interbot_link.fleet_watch import FleetWatch
 
 logger = logging.getLogger(__name__)
@@ -141,8 +142,6 @@ Clock = Callable[[], float]
 #: [s] after an initial pose is sent, the robot's "unset"/"lost" is not passed on to the tablet
 #: (the localiser applies the pose at its next scan, well within this at 10-40 Hz).
 INITIAL_POSE_SETTLE_S = 2.0
-#: [s] while the operator's stop is engaged and a robot reports none, re-send it this often.
-STOP_REASSERT_S = 0.5
 
 
 def random_route_id() -> int:
@@ -214,7 +213,6 @@ class StationController(QObject):
         self._request_timeout = self.config.supervisor_config().request_timeout
         self.rooms = load_room_map(topo_path, topo) if topo_path is not None else room_map(topo)
         self.static_map = self._load_static_map()
-        self.estop_latched = False
         # One status log for the station, whichever robot is selected: every mirror's
         # `RobotState` shares it (the state panel and tests read ``state.log``).
         self.status_log = RobotState().log
@@ -237,12 +235,16 @@ class StationController(QObject):
         self._permissions_sent: p.Permissions | None = None
         self._last_clock: float | None = None
         self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
-        self.station_assist = False  # assisted teleoperation of station_vel (issue 17)
-        self._closed = False
-
-        self.link: StationLink | None = StationLink(session) if session is not None else None
-        self.watch: FleetWatch | None = FleetWatch(session) if session is not None else None
         self._log_requested.connect(self.log)
+        # Sending to the robots and what each must hear: the stop, config, assist (fleet_link.py).
+        self.robot_link = FleetLink(
+            StationLink(session) if session is not None else None,
+            FleetWatch(session) if session is not None else None,
+            self.fleet,
+            clock,
+            self._log_requested.emit,  # also from the tablet thread: queued to ours
+            ConfigMsg(self.config.planner_params()),
+        )
         # The tablet server and its speed path live in their own thread from `start` on (no
         # parent: they move there); their signals reach this object's slots queued.
         self.tablet = TabletServer(
@@ -293,7 +295,7 @@ class StationController(QObject):
             self.config.supervisor_config(self._request_timeout),
         )
         mirror.state.log = self.status_log
-        if self.estop_latched:
+        if hasattr(self, "robot_link") and self.estop_latched:  # (the first is made before)
             mirror.supervisor.hold_queue()  # nothing queued there yet: no events to act on
         return mirror
 
@@ -315,6 +317,24 @@ class StationController(QObject):
     def robots(self) -> dict[str, bool]:
         """Robot id -> present, for every robot seen."""
         return {r: m.online for r, m in sorted(self.fleet.mirrors.items())}
+
+    @property
+    def link(self) -> StationLink | None:
+        return self.robot_link.link
+
+    @property
+    def watch(self) -> FleetWatch | None:
+        return self.robot_link.watch
+
+    @property
+    def estop_latched(self) -> bool:
+        """The operator's stop, for every robot (owned by `FleetLink`)."""
+        return self.robot_link.estop_latched
+
+    @property
+    def station_assist(self) -> bool:
+        """The station's assisted teleoperation of ``station_vel`` (issue 17)."""
+        return self.robot_link.assist
 
     @property
     def tablet_watchdog(self) -> QTimer:
@@ -343,7 +363,7 @@ class StationController(QObject):
 
     def shutdown(self) -> None:
         """Stop timers, stop the robot if teleoperated, close the tablet and the link (idempotent)."""
-        if self._closed:
+        if self.robot_link.closed:
             return
         self.clock_timer.stop()
         self.frame_timer.stop()
@@ -353,13 +373,10 @@ class StationController(QObject):
             if self.arbiter.keys.active:
                 self.arbiter.keys.release_all()
                 self._send(Topic.STATION_VEL, Twist(0.0, 0.0, stamp=self.clock()))
-            self._closed = True
+            self.robot_link.closed = True
         self.tablet.stop_thread()
         with self.tablet_teleop.lock:
-            if self.watch is not None:
-                self.watch.close()
-            if self.link is not None:
-                self.link.close()
+            self.robot_link.close()
         logger.info("station controller shut down")
 
     def _load_static_map(self) -> OccupancyGrid | None:
@@ -388,36 +405,8 @@ class StationController(QObject):
 
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
-        """Send to the selected robot (False: nobody received it).
-
-        Also called in the tablet thread (the tablet's speed, under ``tablet_teleop.lock``):
-        a failure is logged through a signal, queued to this object's thread from there."""
-        link = self.link
-        if link is None or link.selected is None or self._closed:
-            return False
-        try:
-            return link.send(topic, message)
-        except LinkError as exc:
-            self._log_requested.emit("error", f"cannot send {topic}: {exc}")
-            return False
-
-    def _send_to(self, mirror: RobotMirror, topic: Topic, message: object) -> bool:
-        """Send to ``mirror``'s robot: the selected one through the link, others watched."""
-        if mirror is self.fleet.selected:
-            return self._send(topic, message)
-        robot_id, watch = mirror.robot_id, self.watch
-        if robot_id is None or watch is None or self._closed or robot_id not in watch.watched:
-            return False
-        try:
-            return watch.send(robot_id, topic, message)
-        except LinkError as exc:
-            self._log_for(mirror, "error", f"cannot send {topic}: {exc}")
-            return False
-
-    def _sync_watch(self) -> None:
-        """Watch every robot seen except the selected one (followed by the link)."""
-        if self.watch is not None and not self._closed:
-            self.watch.set_watched(set(self.fleet.mirrors) - {self.selected_robot or ""})
+        """Send to the selected robot (also called in the tablet thread: `_send_tablet_twist`)."""
+        return self.robot_link.send(topic, message)
 
     def select_robot(self, robot_id: str | None) -> None:
         """Command ``robot_id`` from now on; every robot keeps its own queue and route.
@@ -442,7 +431,7 @@ class StationController(QObject):
         switched: list[tuple[RobotMirror, RobotMirror]] = []
         self.tablet_teleop.stop("robot switched", then=lambda: switched.append(switch()))
         old, new = switched[0]
-        self._sync_watch()
+        self.robot_link.sync_watch()
         now = self.clock()
         new.state.scan = None  # no stale laser drawn from a robot followed lightly until now
         new.state.image = None
@@ -460,43 +449,14 @@ class StationController(QObject):
         self._resend_pending(new)
 
     def _resend_pending(self, mirror: RobotMirror | None = None) -> None:
-        """Must-arrive state that found no subscriber (robot not yet linked, or restarted)."""
-        mirror = mirror if mirror is not None else self.fleet.selected
-        if mirror.stop_assert_pending:
-            self._assert_stop_intent(mirror)
-        if mirror.config_pending:
-            mirror.config_pending = not self._send_to(
-                mirror, Topic.CONFIG, ConfigMsg(self.config.planner_params())
-            )
-        if mirror.assist_pending:
-            msg = AssistMsg("station_vel", self.station_assist, stamp=self.clock())
-            mirror.assist_pending = not self._send_to(mirror, Topic.TELEOP_ASSIST, msg)
-
-    def _assert_stop_intent(self, mirror: RobotMirror | None = None) -> None:
-        """Tell a robot the operator's stop: engaged (re-sent) or released (its start latch)."""
-        mirror = mirror if mirror is not None else self.fleet.selected
-        now = self.clock()
-        if not self.estop_latched and not mirror.commanded and mirror.robot_id is not None:
-            # Never commanded from here: its start latch stays until the operator selects it.
-            mirror.stop_assert_pending = False
-            return
-        if self.estop_latched:
-            delivered = self._send_to(mirror, Topic.STOP, Lock(True, stamp=now))
-        else:
-            delivered = self._send_to(mirror, Topic.STOP, Lock(False, stamp=now)) and self._send_to(
-                mirror, Topic.STOP_RELEASE, StopRelease("base station (on connection)", stamp=now)
-            )
-        mirror.stop_sent_at = now
-        mirror.stop_assert_pending = not delivered
+        """Must-arrive state (stop intent, config, assist) to ``mirror`` (default: selected)."""
+        self.robot_link.resend_pending(mirror if mirror is not None else self.fleet.selected)
 
     def set_station_assist(self, enabled: bool) -> None:
         """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
         if enabled == self.station_assist:
             return
-        self.station_assist = enabled
-        for mirror in self.fleet.all():
-            mirror.assist_pending = True
-            self._resend_pending(mirror)
+        self.robot_link.set_assist(enabled)
         self.log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
         self.assist_changed.emit(enabled)
 
@@ -578,7 +538,7 @@ class StationController(QObject):
             with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
                 mirror.online = True
             self.log("info", f"robot {event.robot_id} is online")
-            self._sync_watch()
+            self.robot_link.sync_watch()
             if self.link is not None and event.robot_id != self.selected_robot:
                 self.link.request_state(event.robot_id)  # watched: ask its route, as below
             if self.selected_robot == event.robot_id and self.link is not None:
@@ -616,26 +576,14 @@ class StationController(QObject):
         self._last_clock = now
         self._choose_robot()
         for mirror in self.fleet.all():
-            self._resend_pending(mirror)
-            self._check_robot_stop(now, mirror)
+            self.robot_link.resend_pending(mirror)
+            self.robot_link.check_stop(now, mirror)
             for lost in mirror.due_losses(now):
                 self._route_lost(lost, mirror)
         self._speed_section(now)
         self._pose_section(now)
         self._communication_section(now)
         self.clocked.emit()
-
-    def _check_robot_stop(self, now: float, mirror: RobotMirror) -> None:
-        """The operator's stop is engaged but a robot reports none: say it again."""
-        if (
-            self.estop_latched
-            and mirror.state.estop_engaged is False
-            and now - mirror.stop_sent_at >= STOP_REASSERT_S
-        ):
-            self._log_for(
-                mirror, "warning", "the robot reports no emergency stop: sending it again"
-            )
-            self._assert_stop_intent(mirror)
 
     def _speed_section(self, now: float) -> None:
         """The station's own teleoperation, repeated while held (the operator is present).
@@ -758,7 +706,7 @@ class StationController(QObject):
             if event.node is not None:
                 self._tablet_send(mirror, p.GoalStatus(event.node, True, False))
         elif isinstance(event, PauseNavigation):
-            self._send_to(mirror, Topic.PAUSE_NAV, Lock(event.paused, stamp=self.clock()))
+            self.robot_link.send_to(mirror, Topic.PAUSE_NAV, Lock(event.paused, stamp=self.clock()))
             self._log_for(
                 mirror, "info", "navigation paused" if event.paused else "navigation resumed"
             )
@@ -807,7 +755,7 @@ class StationController(QObject):
             goal_tolerance=cfg.goal_tolerance,
             yaw_tolerance=cfg.yaw_tolerance,
         )
-        mirror.route_sent(self._send_to(mirror, Topic.ROUTE, msg))
+        mirror.route_sent(self.robot_link.send_to(mirror, Topic.ROUTE, msg))
         self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
         self.route_sent.emit(msg)
 
@@ -815,7 +763,8 @@ class StationController(QObject):
         """Tell the robot to drop the route in progress (``route_cancel``)."""
         self._log_for(mirror, "info", f"route cancelled: {reason}")
         route_id = mirror.drop_route()
-        self._send_to(mirror, Topic.ROUTE_CANCEL, RouteCancel(route_id, reason, stamp=self.clock()))
+        cancel = RouteCancel(route_id, reason, stamp=self.clock())
+        self.robot_link.send_to(mirror, Topic.ROUTE_CANCEL, cancel)
 
     # ================================================================== operator commands
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:
@@ -909,12 +858,12 @@ class StationController(QObject):
         self.arbiter.keys.release_all()
         with self.tablet_teleop.lock:  # from here on no tablet command is forwarded
             was = self.estop_latched
-            self.estop_latched = True
+            self.robot_link.estop_latched = True
         self._stop_tablet_speed("emergency stop")
         for mirror in self.fleet.all():
             # waiting tasks wait for "Resume queue"
             self._handle(mirror.supervisor.hold_queue(), mirror)
-            self._assert_stop_intent(mirror)
+            self.robot_link.assert_stop_intent(mirror)
         if self.selected.stop_assert_pending:
             self.log("error", "robot unreachable: the stop is kept and sent when it reconnects")
         if not was:
@@ -937,10 +886,10 @@ class StationController(QObject):
         if not self.estop_latched:
             return
         with self.tablet_teleop.lock:
-            self.estop_latched = False
+            self.robot_link.estop_latched = False
             self.arbiter.stop_told = False
         for mirror in self.fleet.all():
-            self._assert_stop_intent(mirror)
+            self.robot_link.assert_stop_intent(mirror)
         self.log("info", "emergency stop released")
         self.estop_changed.emit(False)
 
@@ -975,9 +924,7 @@ class StationController(QObject):
                 config.latency_ceiling, config.teleop_linear_max, config.teleop_angular_max
             )
         self.tablet_teleop.set_ceiling(config.latency_ceiling)
-        for mirror in self.fleet.all():
-            mirror.config_pending = True
-            self._resend_pending(mirror)
+        self.robot_link.set_config(ConfigMsg(config.planner_params()))
         self._save_settings()
         self.config_changed.emit(config)
 

@@ -28,7 +28,7 @@ import struct
 import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Annotated, Any, Final, TypeVar
+from typing import Annotated, Final, TypeVar
 
 import msgspec
 import numpy as np
@@ -201,10 +201,6 @@ class Checked(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
 
 class JsonMessage(Checked, frozen=True):
     """A message sent as one JSON object of its fields."""
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON object (tuples become lists)."""
-        return _JSON_DECODER.decode(encode_json(self))  # type: ignore[no-any-return]
 
 
 class Twist(JsonMessage, frozen=True):
@@ -455,7 +451,6 @@ class SafetyMsg(JsonMessage, frozen=True):
 
 
 _JSON_ENCODER: Final = msgspec.json.Encoder()
-_JSON_DECODER: Final = msgspec.json.Decoder()
 
 
 def encode_json(message: JsonMessage) -> bytes:

@@ -174,9 +174,11 @@ STATE_OWNERS = {
     "LatencyWatchdog",
     "StationLink",
     "FleetWatch",
+    "FleetLink",
 }
 STATION_QT_FREE = (
     "fleet.py",
+    "fleet_link.py",
     "robot_mirror.py",
     "teleop_arbiter.py",
     "tablet_policy.py",
@@ -223,6 +225,43 @@ def test_state_rule_catches_a_widget_that_imports_a_supervisor(tmp_path: Path) -
     bad = tmp_path / "qt_bad.py"
     bad.write_text("from interbot_core.supervisor import GoTo, Supervisor\n", encoding="utf-8")
     assert imported_names(bad) & STATE_OWNERS == {"Supervisor"}
+
+
+# Issue 11/13: the operator's stop intent has one owner on the station, `FleetLink`: it alone
+# sends ``stop`` / ``stop_release`` (to every robot, re-sent until heard), so no other part can
+# release a robot's latch or forget to re-assert the stop.
+STOP_TOPICS = {"Topic.STOP", "Topic.STOP_RELEASE"}
+
+
+def stop_topic_uses(path: Path) -> list[int]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return [
+        node.lineno
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Attribute) and ast.unparse(node) in STOP_TOPICS
+    ]
+
+
+def test_only_the_fleet_link_sends_the_operators_stop() -> None:
+    offenders = [
+        f"{p.relative_to(REPO)}:{line}"
+        for p in package_files("base_station_app")
+        if p.name != "fleet_link.py"
+        for line in stop_topic_uses(p)
+    ]
+    assert offenders == [], "send the stop through FleetLink (base_station_app/fleet_link.py)"
+    assert stop_topic_uses(REPO / "base_station_app" / "fleet_link.py")  # the rule still looks
+
+
+def test_stop_owner_rule_catches_a_second_sender(tmp_path: Path) -> None:
+    bad = tmp_path / "controller.py"
+    bad.write_text(
+        "from interbot_core.topics import Lock, Topic\n"
+        "link.send(Topic.STOP, Lock(False))\nlink.send(Topic.STOP_RELEASE, r)\n"
+        "link.send(Topic.PAUSE_NAV, Lock(True))\n",
+        encoding="utf-8",
+    )
+    assert stop_topic_uses(bad) == [2, 3]
 
 
 # ---------------------------------------------------------------------- one owner for each rule

@@ -13,7 +13,6 @@ Example (every key optional)::
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,14 +31,6 @@ class RecordingConfigError(ValueError):
     """Invalid ``recording:`` settings; the message names the key and the allowed range."""
 
 
-def _number(key: str, value: Any, low: float, high: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise RecordingConfigError(f"recording: '{key}' must be a number, got {value!r}")
-    if not low <= value <= high:
-        raise RecordingConfigError(f"recording: '{key}' = {value} is outside [{low}, {high}]")
-    return float(value)
-
-
 @dataclass(frozen=True)
 class RecordingConfig:
     """Where and how the daemon records (sizes in bytes, durations in seconds)."""
@@ -52,19 +43,12 @@ class RecordingConfig:
     queue: int = 2048
 
     def __post_init__(self) -> None:
-        _number("max_file_mb", self.max_file_bytes / MB, 0.01, 1 << 20)
-        _number("max_file_minutes", self.max_file_seconds / 60.0, 0.01, 24 * 60)
-        _number("max_total_mb", self.max_total_bytes / MB, 0.02, 1 << 24)
-        _number("queue", self.queue, 16, 1 << 20)
+        # Each value's range is declared in `RecordingSection`; this rule spans two of them.
         if self.max_total_bytes < 2 * self.max_file_bytes:
             raise RecordingConfigError(
                 f"recording: 'max_total_mb' ({self.max_total_bytes / MB:g}) must be at least "
                 f"twice 'max_file_mb' ({self.max_file_bytes / MB:g}): one file is being written "
                 "while the older ones are kept"
-            )
-        if not isinstance(self.camera, bool):
-            raise RecordingConfigError(
-                f"recording: 'camera' must be true or false, got {self.camera!r}"
             )
 
     @classmethod

@@ -22,7 +22,6 @@ from foxglove.messages import (
     Pose,
     PosesInFrame,
     Quaternion,
-    RawImage,
     Timestamp,
     Vector2,
     Vector3,
@@ -149,19 +148,3 @@ def path_with_headings(points: Sequence[tuple[float, float]]) -> list[tuple[floa
 
 def jpeg_message(t: float, jpeg: bytes) -> CompressedImage:
     return CompressedImage(timestamp=stamp(t), frame_id=CAMERA_FRAME, data=jpeg, format="jpeg")
-
-
-def raw_image_message(t: float, rgb: np.ndarray) -> RawImage:
-    """An (H, W, 3) uint8 RGB frame as ``rgb8``."""
-    if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
-        raise ValueError(f"raw image must be (H, W, 3) uint8, got {rgb.shape} {rgb.dtype}")
-    height, width = rgb.shape[:2]
-    return RawImage(
-        timestamp=stamp(t),
-        frame_id=CAMERA_FRAME,
-        width=width,
-        height=height,
-        encoding="rgb8",
-        step=width * 3,
-        data=np.ascontiguousarray(rgb).tobytes(),
-    )

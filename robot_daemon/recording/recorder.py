@@ -38,7 +38,6 @@ from foxglove.channels import (
     GridChannel,
     LaserScanChannel,
     PosesInFrameChannel,
-    RawImageChannel,
 )
 from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
@@ -69,7 +68,7 @@ CHUNK_BYTES = 512 * 1024  # MCAP chunk (uncompressed): the file grows in steps o
 
 # Channel names: Foxglove's conventions (ROS-like topic paths).
 TF, MAP, SCAN, ROUTE, PLANNED_PATH = "/tf", "/map", "/scan", "/route", "/planned_path"
-CAMERA_JPEG, CAMERA_RAW = "/camera/image/compressed", "/camera/image"
+CAMERA_JPEG = "/camera/image/compressed"
 COMMANDS = "/commands"
 JSON_STATE_TOPICS = {
     spec.topic: f"/{spec.topic.value}"
@@ -332,10 +331,6 @@ class Recorder:
         """The planner's current global path (map frame)."""
         self._offer(("path", now, tuple(points)))
 
-    def raw_image(self, rgb: np.ndarray, now: float) -> None:
-        if self.camera:
-            self._offer(("raw_image", now, rgb))
-
     @property
     def port(self) -> int | None:
         return int(self.server.port) if self.server is not None else None
@@ -486,13 +481,6 @@ class Recorder:
                 fc.path_message(t, points),
                 now,
                 latch=True,
-            )
-        elif kind == "raw_image":
-            self._log(
-                CAMERA_RAW,
-                lambda: RawImageChannel(CAMERA_RAW, context=ctx),
-                fc.raw_image_message(t, item[2]),
-                now,
             )
         else:
             raise ValueError(f"unknown recorder item {kind!r}")
