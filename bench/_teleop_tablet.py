@@ -12,6 +12,11 @@ drawn delayed the *observer's* time stamp and the *tablet's* write as well as th
 real tablet and a real robot are other machines. Time stamps are ``time.monotonic()``
 (CLOCK_MONOTONIC: one clock for every process on the machine), so the station's arrival
 stamps taken in the bench process split each sample.
+
+The observer's zenoh callback thread runs at the command threads' real-time priority where the
+OS allows it (`interbot_link.command_priority`, as the station's tablet thread and the daemon's
+command threads do): it is the instrument, and its own wait for a busy CPU is not the robot's
+latency. ``INTERBOT_REALTIME=0`` turns it off with the rest.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import zenoh
 
 from interbot_core.topics import MuxMsg, Topic, decode, key
 from interbot_link import LinkSecurity, session_config
+from interbot_link.command_priority import ThreadRaiser
 
 
 def speed_value(i: int) -> tuple[float, float]:
@@ -67,6 +73,7 @@ class MuxWatch:
         self.seen: set[str] = set()
         self.stamp = 0.0
         self.hit = threading.Event()
+        self.raise_thread = ThreadRaiser("the bench's mux observer")
 
     def expect(self, value: tuple[float, float]) -> None:
         with self.lock:
@@ -76,6 +83,7 @@ class MuxWatch:
 
     def on_sample(self, sample: zenoh.Sample) -> None:
         stamp = time.monotonic()  # first, before any decoding
+        self.raise_thread()  # once per callback thread (see the module docstring)
         msg = decode(Topic.MUX, sample.payload.to_bytes())
         if not isinstance(msg, MuxMsg):
             return
