@@ -51,6 +51,10 @@ class LookAroundConfig:
     angular_speed: float = 0.5
     max_turn_rad: float = 2.0 * math.pi  # at most one full turn per attempt
     start_after_s: float = 0.5  # [s] undecided this long before turning
+    # Turning, but odometry shows less than stall_rad of rotation over stall_s: the robot
+    # cannot turn (wedged, the collision monitor holds it); stop commanding and say so.
+    stall_s: float = 3.0
+    stall_rad: float = 0.1
 
     def __post_init__(self) -> None:
         if not isinstance(self.enabled, bool):
@@ -61,6 +65,8 @@ class LookAroundConfig:
             ("angular_speed", self.angular_speed, 0.05, 1.0),
             ("max_turn_rad", self.max_turn_rad, 0.0, 2.0 * math.pi),
             ("start_after_s", self.start_after_s, 0.0, 600.0),
+            ("stall_s", self.stall_s, 0.1, 600.0),
+            ("stall_rad", self.stall_rad, 0.0, math.pi),
         ]
         for name, value, low, high in checks:
             if not (math.isfinite(value) and low <= value <= high):
@@ -79,6 +85,7 @@ class LookAround:
         self._done = False  # this attempt's turn is over (full turn, or stopped by someone)
         self._last_yaw: float | None = None
         self.turned_rad = 0.0  # odometry rotation in this attempt
+        self._progress = (0.0, 0.0)  # (time, turned_rad) when the turn last made progress
         self.turns_started = 0  # (for figures and tests)
         self.end_reason = ""
 
@@ -131,10 +138,21 @@ class LookAround:
         if self.turned_rad >= cfg.max_turn_rad:
             self._finish("one full turn done")
             return None
+        if self._turning:
+            since, turned = self._progress
+            if self.turned_rad - turned >= cfg.stall_rad:
+                self._progress = (now, self.turned_rad)
+            elif now - since >= cfg.stall_s:
+                # Commanded but not turning (Willow cold start seed 1, trial 7: wedged 0.45 m
+                # from walls, "turning" for 29 s without moving): never report a turn that
+                # does not happen.
+                self._finish(f"the robot does not turn ({math.degrees(self.turned_rad):.0f}°)")
+                return None
         if not self._turning:
             if now - searching_since < cfg.start_after_s or odom_yaw is None:
                 return None
             self._turning = True
+            self._progress = (now, self.turned_rad)
             self.turns_started += 1
             logger.info("search undecided: turning in place to see more")
         return cfg.angular_speed

@@ -93,8 +93,40 @@ def test_disabled_never_turns() -> None:
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("angular_speed", 0.0), ("angular_speed", 3.0), ("max_turn_rad", 7.0), ("start_after_s", -1)],
+    [
+        ("angular_speed", 0.0),
+        ("angular_speed", 3.0),
+        ("max_turn_rad", 7.0),
+        ("start_after_s", -1),
+        ("stall_s", 0.0),
+        ("stall_rad", -0.1),
+    ],
 )
 def test_config_out_of_range_is_refused_naming_the_field(field: str, value: float) -> None:
     with pytest.raises(LookAroundConfigError, match=field):
         LookAroundConfig(**{field: value})  # type: ignore[arg-type]
+
+
+def test_a_turn_that_does_not_happen_is_ended_and_said() -> None:
+    """Commanded but the odometry heading does not move (wedged, held by the collision
+    monitor): after ``stall_s`` the policy stops commanding and says why, rather than
+    report "turning" for the rest of the search."""
+    cfg = LookAroundConfig(angular_speed=0.5, start_after_s=0.5, stall_s=3.0)
+    look = LookAround(cfg)
+    commands: list[float | None] = []
+    now = 0.0
+    for _ in range(100):
+        commands.append(look.update(0.0, 0.2, None, now))  # the heading never changes
+        now = round(now + DT, 9)
+    turning = [k for k, w in enumerate(commands) if w is not None]
+    assert turning and turning[0] == 5
+    assert (turning[-1] - turning[0]) * DT == pytest.approx(cfg.stall_s, abs=2 * DT)
+    assert not look.turning and "does not turn" in look.end_reason
+    assert commands[-1] is None  # and it does not start again in this attempt
+
+
+def test_a_slow_but_real_turn_is_not_taken_for_a_stall() -> None:
+    look = LookAround(LookAroundConfig(angular_speed=0.05, stall_s=3.0, stall_rad=0.1))
+    commands, _, yaw = _run(look, 20.0)
+    assert look.turning and commands[-1] == pytest.approx(0.05)
+    assert yaw > 0.8

@@ -16,6 +16,7 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import UNKNOWN, OccupancyGrid
+from robot_daemon.localisation.expected_scan import BeamAgreement
 from robot_daemon.localisation.global_search import (
     GlobalSearch,
     GlobalSearchConfig,
@@ -24,7 +25,7 @@ from robot_daemon.localisation.global_search import (
     SearchResult,
 )
 from robot_daemon.localisation.localiser import Localiser
-from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
+from robot_daemon.localisation.relocaliser import Candidate, Relocaliser, RelocaliserConfig
 from tests.robot_daemon.localisation.synthetic_office import rasterise, square, utm_scan
 
 ROOM = np.vstack(
@@ -305,6 +306,34 @@ def test_a_look_alike_that_only_differs_behind_the_robot_is_told_apart_by_turnin
     assert accepted == [] and reloc.last_failure == "look-alike places"
 
 
+def test_a_quarter_turn_is_enough_to_tell_the_look_alike_behind_the_robot() -> None:
+    """The laser's blind sector is a quarter turn: once the turn has covered it (and the
+    cabinet room won on the views since), it decides, well before half a turn; the rule
+    still needs that quarter turn, not fewer views."""
+    in_cabinet_room = Pose2D(3.0 + TWIN_SHIFT, 2.5, 0.0)
+    reloc, accepted = _turning(in_cabinet_room, 0.05, 130)
+    assert accepted, reloc.last_failure
+    when, pose = accepted[0]
+    assert pose.distance_to(in_cabinet_room) < 0.05
+    quarter = 0.1 * (0.5 * math.pi / 0.05)  # [s] a quarter turn at 0.5 rad/s
+    assert quarter <= when <= quarter + 1.5  # not before the blind sector was seen
+    # With the old half-turn rule it would have waited for twice as much turning.
+    reloc, accepted = _turning(in_cabinet_room, 0.05, round(quarter / 0.1) - 2)
+    assert accepted == [] and reloc.last_failure == "look-alike places"
+
+
+def test_a_look_alike_blocking_a_place_being_confirmed_lets_the_stack_turn_at_once() -> None:
+    """While the best place is confirmed over its first scans the stack waits (``ripening``)
+    before it turns, but not when a look-alike near in quality has been tracked over
+    ``early_turn_scans`` scans: standing will not clear it, the turn may."""
+    reloc, _ = _run(ROOM, (6.0, 5.0), Pose2D(2.0, 1.5, 0.4), 3)
+    assert reloc.ripening  # one place: confirm it standing
+    reloc, _ = _run(TWINS, (TWIN_SHIFT + 6.0, 5.0), Pose2D(2.0, 1.5, 0.4), 1)
+    assert reloc.ripening  # the twin is seen on one scan only so far
+    reloc, _ = _run(TWINS, (TWIN_SHIFT + 6.0, 5.0), Pose2D(2.0, 1.5, 0.4), 3)
+    assert len(reloc.candidates) == 2 and not reloc.ripening
+
+
 # Twin rooms, but the second one's map has a partition in the middle of the room (a wall the
 # world does not have there). From the first room, the beams ahead end on the far wall of
 # either room (their end points fit both alike, and the localiser's see-through rule forgives
@@ -343,3 +372,79 @@ def test_a_look_alike_whose_walls_the_beams_would_cross_does_not_block() -> None
     reloc, accepted = _partitioned(CONFIG)
     assert accepted, reloc.last_failure
     assert accepted[0][1].distance_to(Pose2D(2.0, 1.5, 0.1)) < 0.05
+
+
+class ScriptedBeams:
+    """Expected-scan agreement on the partitioned twins, scripted: the first room explains
+    the beams (none through its walls), the twin does not (a fifth through its partition);
+    on the scans in ``veto_scans`` it is the other way round (a heading where the first
+    room's beams pass an opening the map has closed, say)."""
+
+    def __init__(self, veto_scans: set[int]) -> None:
+        self.veto_scans = veto_scans
+        self.scan = 0
+
+    def agreement(self, scan: object, pose: Pose2D) -> BeamAgreement:
+        first_room = pose.x < TWIN_SHIFT
+        vetoed = self.scan in self.veto_scans
+        if first_room:
+            return BeamAgreement(0.9, 0.08 if vetoed else 0.0, 180)
+        return BeamAgreement(0.6, 0.0 if vetoed else 0.2, 180)
+
+
+def _scripted_beams(veto_scans: set[int], scans: int = 30) -> tuple[Relocaliser, list]:
+    grid = rasterise(TWINS_BUT_PARTITION, size=(TWIN_SHIFT + 6.0, 5.0))
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG)
+    beams = ScriptedBeams(veto_scans)
+    reloc.expected_scan = beams  # type: ignore[assignment]
+    reloc.start(0.0, "test")
+    rng = np.random.default_rng(7)
+    laser = Pose2D(2.0, 1.5, 0.1)
+    accepted: list[tuple[float, Pose2D]] = []
+    for k in range(scans):
+        now = 0.1 * (k + 1)
+        beams.scan = k
+        reloc.on_odometry(Pose2D(0.0, 0.0, 0.0))
+        pose = reloc.on_scan(utm_scan(TWINS, laser, now, rng), now)
+        if pose is not None:
+            accepted.append((now, pose))
+            break
+    return reloc, accepted
+
+
+def test_a_veto_by_the_beams_holds_for_the_attempt_not_only_its_scan() -> None:
+    """Once another tracked place has needed clearly fewer beams through its walls than the
+    best one, the best is not accepted on a later scan that happens not to show it (a turn
+    passes many headings that tell the two places nothing): it stays undecided while that
+    place is tracked. Without the veto scan the same place is accepted."""
+    reloc, accepted = _scripted_beams(set())
+    assert accepted and accepted[0][1].distance_to(Pose2D(2.0, 1.5, 0.1)) < 0.05
+    reloc, accepted = _scripted_beams({2})
+    assert accepted == [], accepted
+    assert reloc.last_failure == "another place explains the beams better"
+    assert any(c.pose.x > TWIN_SHIFT for c in reloc.candidates)  # the twin is still tracked
+
+
+def _outseen(best_views: list[float], other_views: list[float], step_rad: float = 0.35) -> bool:
+    """`Relocaliser._outseen` on views kept every ``step_rad`` of turning."""
+    grid = rasterise(ROOM, size=(6.0, 5.0))
+    reloc = Relocaliser(grid, Localiser(grid), CONFIG)
+    n = len(best_views)
+    reloc._views = [(np.zeros((0, 2)), Pose2D(0.0, 0.0, step_rad * k)) for k in range(n)]
+    place = Pose2D(2.0, 1.5, 0.0)
+    best = Candidate(place, best_views[-1], 0.0, view_quality=list(best_views))
+    other = Candidate(place, other_views[-1], 0.0, view_quality=list(other_views))
+    return reloc._outseen(best, other)
+
+
+def test_a_place_better_from_every_heading_of_a_quarter_turn_outweighs_a_look_alike() -> None:
+    """Over a quarter turn, a place that fits better on *every* view needs only half the
+    margin (ISR: the truth 1.00 from every heading, a look-alike 62 m away 0.95-0.99); one
+    that loses a view needs the full margin; a twin (equal everywhere) never outweighs."""
+    assert _outseen([1.0] * 6, [0.98] * 6)  # 0.02 better on every view
+    assert not _outseen([1.0] * 6, [0.99] * 6)  # 0.01: below even the unanimous margin
+    assert not _outseen([1.0] * 6, [1.0] * 6)  # twins stay ambiguous
+    lost_one = [0.98] * 5 + [1.01]  # 0.012 better on average, but worse on one view
+    assert not _outseen([1.0] * 6, lost_one)
+    assert _outseen([1.0] * 6, [0.95] * 5 + [1.01])  # the full margin with one view lost
+    assert not _outseen([1.0] * 4, [0.9] * 4)  # 1.05 rad: the blind sector not yet seen
