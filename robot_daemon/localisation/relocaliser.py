@@ -46,9 +46,9 @@ every mode alive until the data removes all but one):
    a winner consistent over the turn, not on one scan.
 5. **Beams through walls** (`expected_scan`) are evidence people cannot fake: once another
    tracked place has needed clearly fewer of a scan's beams through its walls than the best
-   one, the best is not accepted while that place is tracked (the veto is kept for the
-   attempt, not judged on the current scan alone: a turn passes many headings that tell two
-   places nothing, and one of them must not clear a place the beams have spoken against).
+   one, that best place is not accepted for the rest of the attempt (the veto is not judged
+   on the current scan alone: a turn passes many headings that tell two places nothing, and
+   one of them must not clear a place the beams have spoken against).
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
@@ -256,10 +256,6 @@ class Candidate:
     scan_quality: float = 0.0  # quality on the last scan, verified or not
     # quality on each view kept since it was found (the last entries of Relocaliser's views)
     view_quality: list[float] = field(default_factory=list)
-    # Places that needed clearly fewer beams through their walls than this one on some scan
-    # while it was the best (`Relocaliser._vetoed`): that evidence is kept, not only the
-    # current scan's.
-    vetoed_by: list[Candidate] = field(default_factory=list, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -305,6 +301,9 @@ class Relocaliser:
         self._travel_m = 0.0  # since the last search that was not exhaustive
         self._last_background = -math.inf
         self._exclusions: list[tuple[Pose2D, float]] = []  # (laser pose shown wrong, until)
+        # Places (laser poses, moved by odometry) the beams have vetoed in this attempt
+        # (`_note_vetoes`): none of them is accepted before the attempt ends.
+        self._vetoed_places: list[Pose2D] = []
         self._retry = False  # a search set places aside: search again on the next scan
         self._want_proof = False  # a candidate waits for an exhaustive search
         # The candidate the last search ranked first (verified), else None: only it may be
@@ -363,6 +362,7 @@ class Relocaliser:
         self.last_failure = ""
         self._pending = None
         self._exclusions = []
+        self._vetoed_places = []
         self._retry = False
         self._want_proof = False
         self._last_proof = -math.inf
@@ -377,6 +377,7 @@ class Relocaliser:
         self._region = None
         self._pending = None
         self._exclusions = []
+        self._vetoed_places = []
         self._views = []
 
     def status(self, now: float) -> RelocaliserStatus:
@@ -403,6 +404,7 @@ class Relocaliser:
             for cand in self._candidates:
                 cand.pose = cand.pose.compose(step)
             self._exclusions = [(pose.compose(step), until) for pose, until in self._exclusions]
+            self._vetoed_places = [pose.compose(step) for pose in self._vetoed_places]
         self._odom = odom_laser
 
     def on_scan(self, scan: LaserScan, now: float) -> Pose2D | None:
@@ -770,31 +772,38 @@ class Relocaliser:
         return self._clearly_better(b, o)
 
     def _note_vetoes(self, best: Candidate) -> None:
-        """Record every other tracked place (verified on this scan or not) that needs clearly
-        fewer of the current scan's beams to pass through its walls than ``best`` does."""
+        """Veto ``best`` for this attempt when another tracked place (verified on this scan or
+        not) needs clearly fewer of the current scan's beams to pass through its walls."""
         cfg = self.config
-        if not cfg.explain or len(self._candidates) < 2:
+        if not cfg.explain or len(self._candidates) < 2 or self._is_vetoed(best.pose):
             return
         b = self._beams(best)
         if b is None or b.beams == 0:
             return
         for other in self._candidates:
-            if other is best or any(v is other for v in best.vetoed_by):
+            if other is best:
                 continue
             o = self._beams(other)
             if o is not None and o.beams and o.long <= b.long - cfg.explain_veto_long:
-                best.vetoed_by.append(other)
+                self._vetoed_places.append(best.pose)
+                return
 
-    def _vetoed(self, best: Candidate) -> bool:
-        """Whether a place still tracked has, on any scan since ``best`` was best, needed
-        clearly fewer beams through its walls than ``best`` (`_note_vetoes`).
+    def _is_vetoed(self, pose: Pose2D) -> bool:
+        """Whether ``pose`` is (a near-duplicate of) a place vetoed in this attempt.
 
-        The evidence is kept over the attempt, not judged on the current scan alone: while
-        the robot turns, most headings show nothing that tells the two apart, and one such
-        scan must not clear a place the beams have already spoken against (ISR kidnap seed 3
-        at 0.8 rad/s: a clean corridor 29 m away, vetoed on 12 scans of the turn, was accepted
-        on the first scan without a veto: 29 m wrong)."""
-        return any(v is c for v in best.vetoed_by for c in self._candidates)
+        The veto is kept for the attempt, not judged on the current scan alone: while the
+        robot turns, most headings show nothing that tells two places apart, and one such
+        scan must not clear a place the beams have already spoken against; nor may the same
+        place, dropped and found again, start afresh (ISR kidnap seed 3 at 0.8 rad/s: a
+        clean corridor 29 m away, vetoed on 12 scans of the turn, was accepted on the first
+        scan without a veto, and with the veto kept per candidate, 25 s in as a new one:
+        29 m wrong both times)."""
+        cfg = self.config
+        return any(
+            v.distance_to(pose) <= cfg.duplicate_xy_m
+            and abs(angle_diff(v.yaw, pose.yaw)) <= cfg.duplicate_yaw_rad
+            for v in self._vetoed_places
+        )
 
     def _decide(self, now: float) -> Pose2D | None:
         cfg = self.config
@@ -837,7 +846,7 @@ class Relocaliser:
                     continue
                 self.last_failure = "look-alike places"
                 return None
-        if self._vetoed(best):
+        if self._is_vetoed(best.pose):
             self.last_failure = "another place explains the beams better"
             return None
         if best is not self._search_best:

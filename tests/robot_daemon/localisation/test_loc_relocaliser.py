@@ -415,8 +415,8 @@ def _scripted_beams(veto_scans: set[int], scans: int = 30) -> tuple[Relocaliser,
 def test_a_veto_by_the_beams_holds_for_the_attempt_not_only_its_scan() -> None:
     """Once another tracked place has needed clearly fewer beams through its walls than the
     best one, the best is not accepted on a later scan that happens not to show it (a turn
-    passes many headings that tell the two places nothing): it stays undecided while that
-    place is tracked. Without the veto scan the same place is accepted."""
+    passes many headings that tell the two places nothing): it stays undecided for the rest
+    of the attempt. Without the veto scan the same place is accepted."""
     reloc, accepted = _scripted_beams(set())
     assert accepted and accepted[0][1].distance_to(Pose2D(2.0, 1.5, 0.1)) < 0.05
     reloc, accepted = _scripted_beams({2})
