@@ -461,7 +461,8 @@ class RobotStack:
                 self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)  # stop turning at once
             reason = self.look_around.end_reason
             if reason:
-                self._event(now, "info", f"stopped turning ({reason})")
+                level = "warning" if self.look_around.stalled else "info"
+                self._event(now, level, f"stopped turning ({reason})")
 
     def _autonomy_blocker(self, now: float) -> str | None:
         """Why the planner may not drive now, or None."""

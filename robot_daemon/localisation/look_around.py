@@ -88,6 +88,7 @@ class LookAround:
         self._progress = (0.0, 0.0)  # (time, turned_rad) when the turn last made progress
         self.turns_started = 0  # (for figures and tests)
         self.end_reason = ""
+        self.stalled = False  # this attempt's turn was ended because the robot did not turn
 
     @property
     def turning(self) -> bool:
@@ -101,6 +102,7 @@ class LookAround:
         self._last_yaw = None
         self.turned_rad = 0.0
         self.end_reason = ""
+        self.stalled = False
 
     def update(
         self,
@@ -147,6 +149,7 @@ class LookAround:
                 # from walls, "turning" for 29 s without moving): never report a turn that
                 # does not happen.
                 self._finish(f"the robot does not turn ({math.degrees(self.turned_rad):.0f}°)")
+                self.stalled = True
                 return None
         if not self._turning:
             if now - searching_since < cfg.start_after_s or odom_yaw is None:

@@ -121,7 +121,7 @@ def test_a_turn_that_does_not_happen_is_ended_and_said() -> None:
     turning = [k for k, w in enumerate(commands) if w is not None]
     assert turning and turning[0] == 5
     assert (turning[-1] - turning[0]) * DT == pytest.approx(cfg.stall_s, abs=2 * DT)
-    assert not look.turning and "does not turn" in look.end_reason
+    assert not look.turning and "does not turn" in look.end_reason and look.stalled
     assert commands[-1] is None  # and it does not start again in this attempt
 
 
