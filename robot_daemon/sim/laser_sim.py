@@ -194,7 +194,7 @@ class RayCaster:
         iteration = 0
         while idx.size > tail:
             np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
-            np.take(field, flat, out=s)
+            field.take(flat, out=s)  # the method: np.take's wrapper costs as much again
             t += s
             uv += s * direction
             iteration += 1
@@ -494,8 +494,8 @@ def _angle_window(angles: FloatArray, bearing: float, half: float) -> list[tuple
     centre = first + (bearing - first) % (2.0 * math.pi)  # the first turn at or after `first`
     windows = []
     while centre - half <= angles[-1]:
-        lo = int(np.searchsorted(angles, centre - half, side="left"))
-        hi = int(np.searchsorted(angles, centre + half, side="right"))
+        lo = int(angles.searchsorted(centre - half, side="left"))
+        hi = int(angles.searchsorted(centre + half, side="right"))
         if hi > lo:
             windows.append((lo, hi))
         centre += 2.0 * math.pi
