@@ -89,7 +89,8 @@ class ObstacleField:
         self.resolution = resolution
         self.n = math.ceil(2.0 * half_size / resolution)
         idx = np.floor((pts + half_size) / resolution).astype(np.int64)
-        inside = np.all((idx >= 0) & (idx < self.n), axis=1)
+        ok = (idx >= 0) & (idx < self.n)
+        inside = ok[:, 0] & ok[:, 1]  # np.all(ok, axis=1), without a reduction over pairs
         idx = idx[inside]
         if idx.size == 0:
             self.distance: npt.NDArray[np.float64] = np.full((self.n, self.n), np.inf)
