@@ -249,7 +249,9 @@ class RayCaster:
         ts = t0[:, None] + (t_hit - t0)[:, None] * frac[None, :]
         u = (u0 + ts * cs[:, None]).astype(np.intp)
         v = (v0 + ts * sn[:, None]).astype(np.intp)
-        blocked = w.ray_step_flat[v * w.padded_width + u] == 0.0
+        v *= w.padded_width
+        v += u
+        blocked = w.ray_step_flat.take(v) == 0.0
         first = blocked.argmax(axis=1)  # the last sample (t_hit) is always blocked
         refined: FloatArray = ts[np.arange(ts.shape[0]), first]
         return refined
