@@ -201,9 +201,10 @@ class RayCaster:
             if iteration % _COMPACT_EVERY == 0:
                 hit = s == 0.0
                 done = hit | (t > max_t)
-                if done.any():
+                # np.count_nonzero: the cheapest test (ndarray.any goes through a Python wrapper).
+                if np.count_nonzero(done):
                     hits = hit & (t <= max_t)
-                    if hits.any():
+                    if np.count_nonzero(hits):
                         hit_idx.append(idx[hits])
                         hit_t.append(t[hits])
                     keep = ~done
@@ -226,7 +227,7 @@ class RayCaster:
             any_blocked = blocked[np.arange(idx.size), first]
             t_hit = ts[np.arange(idx.size), first]
             hits = any_blocked & (t_hit <= max_t)
-            if hits.any():
+            if np.count_nonzero(hits):
                 hit_idx.append(idx[hits])
                 hit_t.append(t_hit[hits])
             t_next = ts[:, -1] + s[:, -1]
