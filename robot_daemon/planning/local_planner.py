@@ -106,20 +106,28 @@ class ObstacleField:
 
     def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Distance at robot-frame points; outside the grid counts as far from everything."""
-        col = np.floor((np.asarray(x) + self.half_size) / self.resolution).astype(np.int64)
-        row = np.floor((np.asarray(y) + self.half_size) / self.resolution).astype(np.int64)
+        col = self._cells(x)
+        row = self._cells(y)
         # Cell k of the grid is k + 1 of the bordered one; anything outside lands on the border.
         # minimum/maximum in place: np.clip's wrapper costs more than the clipping.
         np.minimum(col, self.n, out=col)
         np.maximum(col, -1, out=col)
         np.minimum(row, self.n, out=row)
         np.maximum(row, -1, out=row)
-        row += 1
         row *= self.n + 2
         row += col
-        row += 1
+        row += self.n + 3  # (row + 1) * (n + 2) + col + 1
         result: npt.NDArray[np.float64] = self._bordered.take(row)
         return result
+
+
+    def _cells(self, coordinate: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        """``floor((coordinate + half_size) / resolution)``, in place on one temporary."""
+        u = np.add(coordinate, self.half_size, dtype=np.float64)
+        u /= self.resolution
+        np.floor(u, out=u)
+        cells: npt.NDArray[np.int64] = u.astype(np.int64)
+        return cells
 
 
 def exact_distance_transform(free: npt.NDArray[np.uint8], resolution: float) -> FloatArray:
