@@ -120,7 +120,6 @@ class ObstacleField:
         result: npt.NDArray[np.float64] = self._bordered.take(row)
         return result
 
-
     def _cells(self, coordinate: npt.ArrayLike) -> npt.NDArray[np.int64]:
         """``floor((coordinate + half_size) / resolution)``, in place on one temporary."""
         u = np.add(coordinate, self.half_size, dtype=np.float64)
