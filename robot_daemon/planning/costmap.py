@@ -298,15 +298,16 @@ class Costmap:
             half = np.concatenate((half, half[wrap]))
             k_lo = np.concatenate((k_lo, k_lo[wrap]))
             k_hi = np.concatenate((k_hi, k_hi[wrap]))
-        lo = np.searchsorted(angles, centre - half)
-        n_beams = np.maximum(np.searchsorted(angles, centre + half, side="right") - lo, 0)
+        lo = angles.searchsorted(centre - half)  # methods: without np.searchsorted's wrapper
+        n_beams = np.maximum(angles.searchsorted(centre + half, side="right") - lo, 0)
         # (beam, k) candidates: each window's beams, each with the window's k range.
         cell = np.repeat(np.arange(lo.size), n_beams)
         beam = np.arange(cell.size) + np.repeat(lo - (np.cumsum(n_beams) - n_beams), n_beams)
         kk = k_lo[cell][:, None] + np.arange(max(int((k_hi - k_lo).max()), 0))[None, :]
-        counts = np.searchsorted(t, reach, side="left")  # samples with t_k < reach
-        real = (kk < k_hi[cell][:, None]) & (kk < counts[beam][:, None])
-        beam = np.broadcast_to(beam[:, None], kk.shape)[real]
+        counts = t.searchsorted(reach, side="left")  # samples with t_k < reach
+        real = kk < np.minimum(k_hi[cell], counts[beam])[:, None]
+        # Each candidate's beam, row by row (what masking the broadcast beams gives, faster).
+        beam = np.repeat(beam, np.count_nonzero(real, axis=1))
         tk = t[kk[real]]
         xs = x + np.cos(angles)[beam] * tk
         ys = y + np.sin(angles)[beam] * tk

@@ -194,16 +194,17 @@ class RayCaster:
         iteration = 0
         while idx.size > tail:
             np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
-            np.take(field, flat, out=s)
+            field.take(flat, out=s)  # the method: np.take's wrapper costs as much again
             t += s
             uv += s * direction
             iteration += 1
             if iteration % _COMPACT_EVERY == 0:
                 hit = s == 0.0
                 done = hit | (t > max_t)
-                if done.any():
+                # np.count_nonzero: the cheapest test (ndarray.any goes through a Python wrapper).
+                if np.count_nonzero(done):
                     hits = hit & (t <= max_t)
-                    if hits.any():
+                    if np.count_nonzero(hits):
                         hit_idx.append(idx[hits])
                         hit_t.append(t[hits])
                     keep = ~done
@@ -226,7 +227,7 @@ class RayCaster:
             any_blocked = blocked[np.arange(idx.size), first]
             t_hit = ts[np.arange(idx.size), first]
             hits = any_blocked & (t_hit <= max_t)
-            if hits.any():
+            if np.count_nonzero(hits):
                 hit_idx.append(idx[hits])
                 hit_t.append(t_hit[hits])
             t_next = ts[:, -1] + s[:, -1]
@@ -249,7 +250,9 @@ class RayCaster:
         ts = t0[:, None] + (t_hit - t0)[:, None] * frac[None, :]
         u = (u0 + ts * cs[:, None]).astype(np.intp)
         v = (v0 + ts * sn[:, None]).astype(np.intp)
-        blocked = w.ray_step_flat[v * w.padded_width + u] == 0.0
+        v *= w.padded_width
+        v += u
+        blocked = w.ray_step_flat.take(v) == 0.0
         first = blocked.argmax(axis=1)  # the last sample (t_hit) is always blocked
         refined: FloatArray = ts[np.arange(ts.shape[0]), first]
         return refined
@@ -494,8 +497,8 @@ def _angle_window(angles: FloatArray, bearing: float, half: float) -> list[tuple
     centre = first + (bearing - first) % (2.0 * math.pi)  # the first turn at or after `first`
     windows = []
     while centre - half <= angles[-1]:
-        lo = int(np.searchsorted(angles, centre - half, side="left"))
-        hi = int(np.searchsorted(angles, centre + half, side="right"))
+        lo = int(angles.searchsorted(centre - half, side="left"))
+        hi = int(angles.searchsorted(centre + half, side="right"))
         if hi > lo:
             windows.append((lo, hi))
         centre += 2.0 * math.pi

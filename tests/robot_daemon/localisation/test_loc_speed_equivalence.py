@@ -8,12 +8,13 @@ poses and scans of the synthetic office, including rays and points that leave th
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from interbot_core.geometry import Pose2D
-from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import subsample_points
@@ -122,6 +123,55 @@ def test_fast_impossible_trace_equals_the_plain_loop(depth: float) -> None:
                 ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
                 assert np.array_equal(mask, ref_mask)
                 assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+
+
+def test_fast_impossible_trace_equals_the_plain_loop_from_off_the_map() -> None:
+    """A laser off the map or on its border (the clipped lookup) and rays that leave it along
+    an axis (the exit parameters' parallel case) trace as the plain loop does."""
+    rng = np.random.default_rng(7)
+    grid = _holed_office()
+    loc = Localiser(grid)
+    scan = utm_scan(OFFICE_BOXES, Pose2D(10.0, 5.0, 0.3), 0.0, rng)
+    points = loc._scan_points(scan)
+    axis = np.array([[8.0, 0.0], [0.0, 8.0], [-8.0, 0.0], [0.0, -8.0], [3.0, 0.0]])
+    poses = [
+        Pose2D(-1.0, 5.0, 0.0),  # west of the map, looking in
+        Pose2D(21.0, 5.0, math.pi),  # east
+        Pose2D(10.0, -0.7, math.pi / 2),  # south
+        Pose2D(0.0, 0.0, 0.0),  # the corner cell
+        Pose2D(-0.025, 5.0, 0.0),  # in the border's cells
+        Pose2D(0.01, 9.99, -0.8),
+        Pose2D(1.0, 5.0, 0.0),
+        Pose2D(1.0, 5.0, math.pi / 2),
+    ]
+    for pose in poses:
+        for pts in (points, axis):
+            mask, crossing = loc._trace_impossible(pts, pose)
+            ref_mask, ref_crossing = trace_impossible_reference(loc, pts, pose)
+            assert np.array_equal(mask, ref_mask)
+            assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+
+
+def test_fast_impossible_trace_equals_the_plain_loop_on_the_isr_map() -> None:
+    """The tour's map (its rays run 30 m down corridors and off the map's edges)."""
+    grid = load_map(Path(__file__).resolve().parents[3] / "maps" / "isr_floor0.yaml")
+    loc = Localiser(grid)
+    rng = np.random.default_rng(8)
+    free = np.argwhere(grid.cells == FREE)
+    angles = np.linspace(-2.35, 2.35, 400)
+    for k in rng.choice(free.shape[0], 30, replace=False):
+        row, col = free[k]
+        pose = Pose2D(
+            grid.origin_x + (col + rng.uniform()) * grid.resolution,
+            grid.origin_y + (row + rng.uniform()) * grid.resolution,
+            float(rng.uniform(-math.pi, math.pi)),
+        )
+        ranges = rng.uniform(0.5, 30.0, angles.size)  # many beams through walls, off the map
+        points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+        mask, crossing = loc._trace_impossible(points, pose)
+        ref_mask, ref_crossing = trace_impossible_reference(loc, points, pose)
+        assert np.array_equal(mask, ref_mask)
+        assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
 def test_fast_distance_to_map_equals_the_masked_lookup() -> None:

@@ -293,3 +293,34 @@ def test_exact_distance_transform_equals_scipy_to_the_last_places() -> None:
         free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = 0
         ref = ndimage.distance_transform_edt(free.astype(bool), sampling=0.05)
         np.testing.assert_allclose(exact_distance_transform(free, 0.05), ref, rtol=4e-16, atol=0)
+
+
+def test_local_plans_follow_a_new_configuration_of_the_same_planner() -> None:
+    """The footprint circles and rollout times are kept per configuration (speed): a planner
+    given a longer robot and a longer horizon plans as a new planner with them does."""
+    from robot_daemon.planning.config import PlannerConfig
+    from robot_daemon.planning.local_planner import DWAPlanner
+
+    rng = np.random.default_rng(11)
+    points = rng.uniform(-1.5, 1.5, (60, 2))
+    points = points[np.hypot(points[:, 0], points[:, 1]) > 0.6]
+    path = np.column_stack((np.linspace(0.0, 3.0, 30), 0.3 * np.sin(np.linspace(0.0, 3.0, 30))))
+    planner = DWAPlanner(PlannerConfig())
+    field = planner.make_field(points)
+    first = planner.compute(Pose2D(0.0, 0.0, 0.0), (0.2, 0.0), path, field, 0.1)
+    longer = PlannerConfig().replace(robot_length=0.9, sim_time=2.0)
+    planner.config = longer
+    changed = planner.compute(Pose2D(0.0, 0.0, 0.0), (0.2, 0.0), path, field, 0.1)
+    fresh = DWAPlanner(longer).compute(Pose2D(0.0, 0.0, 0.0), (0.2, 0.0), path, field, 0.1)
+    assert changed == fresh
+    assert planner.footprint_clearance(field, 0.1, 0.0, 0.2) == DWAPlanner(
+        longer
+    ).footprint_clearance(field, 0.1, 0.0, 0.2)
+    assert changed != first or changed.clearance != first.clearance
+
+
+def test_two_axis_minimum_of_the_rollouts_equals_numpys() -> None:
+    """`DWAPlanner.compute` takes the minimum over circles, then steps (speed)."""
+    d = np.random.default_rng(12).uniform(0.0, 2.0, (3, 231, 15))
+    d[1, 5, 7] = np.inf
+    assert np.array_equal(d.min(axis=0).min(axis=1), d.min(axis=(0, 2)))
