@@ -16,7 +16,9 @@ stamps taken in the bench process split each sample.
 The observer's zenoh callback thread runs at the command threads' real-time priority where the
 OS allows it (`interbot_link.command_priority`, as the station's tablet thread and the daemon's
 command threads do): it is the instrument, and its own wait for a busy CPU is not the robot's
-latency. ``INTERBOT_REALTIME=0`` turns it off with the rest.
+latency. ``INTERBOT_REALTIME=0`` turns it off with the rest. So do its zenoh network threads
+(`NamedThreadRaiser`, as the station and the daemon raise theirs), looked for before the first
+sample and after every sample (outside the timed interval).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ import zenoh
 
 from interbot_core.topics import MuxMsg, Topic, decode, key
 from interbot_link import LinkSecurity, session_config
-from interbot_link.command_priority import ThreadRaiser
+from interbot_link.command_priority import NamedThreadRaiser, ThreadRaiser
 
 
 def speed_value(i: int) -> tuple[float, float]:
@@ -121,6 +123,8 @@ def main(config: dict[str, Any]) -> dict[str, Any]:
     tablet.setblocking(False)
     print("connected", flush=True)  # the bench waits for this line before it starts timing
     time.sleep(config.get("settle_s", 1.0))  # the station's connect-time messages go by
+    network = NamedThreadRaiser("the bench observer's zenoh threads")
+    network.scan()
     rng = np.random.default_rng(config["seed"])
     written: list[tuple[float, float, float]] = []  # (linear, angular, t_write)
     observed: list[tuple[float, float, float]] = []  # (linear, angular, t_mux)
@@ -141,6 +145,7 @@ def main(config: dict[str, Any]) -> dict[str, Any]:
                 with watch.lock:
                     why = " | ".join(sorted(watch.seen)) or "no mux output"
                 reasons[why] = reasons.get(why, 0) + 1
+            network.scan()  # zenoh may have started another network thread
     finally:
         subscriber.undeclare()
         tablet.close()
