@@ -9,10 +9,11 @@ output: a command never waits for a pass's localiser, planner or simulator work.
 thread and the link's zenoh callback thread run at real-time priority where the OS allows it
 (`interbot_link.command_priority`): the bench's per-hop time stamps showed commands waiting for
 a busy core, a scheduler tick at a time, behind the simulator, the localiser or other programs.
-Both
-threads meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero
-and the collision monitor apply to every output, whichever thread computed it. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
-as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
+So do zenoh's own network threads, which read the commands and send the mux output (the loop
+looks for them every second: zenoh starts them as links come up). The loop and the command
+thread meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero and
+the collision monitor apply to every output, whichever thread computed it. Time is the
+monotonic clock, or simulated time running ``realtime_factor`` times as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
 service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh session closed.
 """
 
@@ -428,7 +429,11 @@ class Daemon:
     def _raise_network_threads(self) -> None:
         """zenoh's network threads to the command threads' priority (as zenoh starts them);
         the first outcome is logged, a refusal as a warning."""
-        outcome = self.network_threads.scan()
+        try:
+            outcome = self.network_threads.scan()
+        except Exception:  # a priority is never worth the loop: say it and drive on
+            logger.exception("could not look for zenoh's network threads")
+            return
         if outcome is not None:
             logger.log(logging.INFO if outcome.realtime else logging.WARNING, "%s", outcome.text)
 
