@@ -1,7 +1,8 @@
-"""Issue 14's tail, fifth session: the station gives zenoh's network threads (which send the
-tablet's commands) the tablet thread's real-time priority where the OS allows it, looks for
-them every second while its timers run (zenoh starts them lazily), and says what it got in the
-status log, where the operator sees a refusal."""
+"""Issue 14's tail, fifth session: the station gives zenoh's transmit threads (which send the
+tablet's commands) the tablet thread's real-time priority where the OS allows it, and not its
+receiving threads (display data); it looks for them every second while its timers run (zenoh
+starts them lazily) and says what it got in the status log, where the operator sees a
+refusal."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import zenoh
 
 from base_station_app.station_controller import NETWORK_THREAD_SCAN_MS, StationController
 from interbot_link import session_config
-from interbot_link.command_priority import ZENOH_THREADS, is_realtime, raise_current_thread
+from interbot_link.command_priority import TASK_DIR, is_realtime, raise_current_thread
 
 pytestmark = pytest.mark.skipif(
     not hasattr(os, "sched_setscheduler"), reason="no POSIX real-time scheduling here"
@@ -29,6 +30,7 @@ def granted() -> bool:
     return box[0]
 
 
+@pytest.mark.skipif(not TASK_DIR.is_dir(), reason="no /proc/self/task (not Linux)")
 def test_the_station_raises_zenohs_threads_and_says_so(linked: StationController) -> None:
     station = linked
     try:
@@ -36,8 +38,8 @@ def test_the_station_raises_zenohs_threads_and_says_so(linked: StationController
         outcome = station.network_threads.outcome
         assert outcome is not None
         names = set(station.network_threads.raised.values())
-        assert any(n.startswith("tx-") for n in names)  # the thread that sends the commands
-        assert all(n.startswith(ZENOH_THREADS) for n in names)
+        # Only the threads that send the commands; the receiving ones bring display data.
+        assert names and all(n.startswith("tx-") for n in names)
         texts = [e.text for e in station.selected.state.log]
         assert outcome.text in texts and "the station's zenoh threads" in outcome.text
         assert outcome.realtime == granted()
