@@ -13,7 +13,8 @@ A ``probe`` thread records when a thread that slept 2 ms woke 1.5 ms late or mor
 
 Experiment knobs (issue 14's investigation): ``TELEOP_TRACE_RT=1`` puts the command-path
 threads under SCHED_FIFO from here (``TELEOP_TRACE_RT_ZENOH=0``: not zenoh's rx/tx threads),
-``TELEOP_TRACE_SWITCH=S`` sets ``sys.setswitchinterval(S)`` in the station and the daemon.
+``TELEOP_TRACE_SWITCH=S`` sets ``sys.setswitchinterval(S)`` in the station and the daemon
+(``TELEOP_TRACE_SWITCH_ROLE=station`` or ``daemon``: in that one only).
 """
 
 from __future__ import annotations
@@ -108,14 +109,14 @@ def _twist_key(payload: bytes) -> float | None:
         return None
 
 
-def _switch_interval() -> None:
+def _switch_interval(role: str) -> None:
     value = os.environ.get("TELEOP_TRACE_SWITCH")
-    if value:
+    if value and os.environ.get("TELEOP_TRACE_SWITCH_ROLE", role) == role:
         sys.setswitchinterval(float(value))
 
 
 def install_daemon(out: Path) -> None:
-    _switch_interval()
+    _switch_interval("daemon")
     from interbot_link import robot as robot_mod
     from robot_daemon import daemon as daemon_mod
     from robot_daemon import stack as stack_mod
@@ -180,7 +181,7 @@ def install_daemon(out: Path) -> None:
 
 
 def install_station(out: Path) -> None:
-    _switch_interval()
+    _switch_interval("station")
     from interbot_core.topics import Topic
     from interbot_link import station as station_mod
     from interbot_qt import qt_tcp_connection as conn_mod

@@ -16,7 +16,9 @@ stamps taken in the bench process split each sample.
 The observer's zenoh callback thread runs at the command threads' real-time priority where the
 OS allows it (`interbot_link.command_priority`, as the station's tablet thread and the daemon's
 command threads do): it is the instrument, and its own wait for a busy CPU is not the robot's
-latency. ``INTERBOT_REALTIME=0`` turns it off with the rest.
+latency. ``INTERBOT_REALTIME=0`` turns it off with the rest. So do its zenoh network threads
+(`NamedThreadRaiser`, as the station and the daemon raise theirs), looked for before the first
+sample and after every sample (outside the timed interval).
 """
 
 from __future__ import annotations
@@ -35,12 +37,25 @@ import zenoh
 
 from interbot_core.topics import MuxMsg, Topic, decode, key
 from interbot_link import LinkSecurity, session_config
-from interbot_link.command_priority import ThreadRaiser
+from interbot_link.command_priority import NamedThreadRaiser, ThreadRaiser
+
+ANGULAR_MIN, ANGULAR_MAX = 0.1, 0.7
+"""[rad/s] the commands' turn rates: under the robot multiplexer's tablet limit
+(``max_angular: 1.0`` in interbot_mux.yaml), which scales a faster command down: the mux would
+then never carry the exact speed and the sample would time out. (The first 1,200-sample run
+turned up to 2.5 rad/s: every sample from the 451st on timed out, 2 s each.)"""
+MAX_CONSECUTIVE_MISSES = 10
+"""So many samples in a row not seen at the mux: the run stops and says why (no long hang)."""
 
 
-def speed_value(i: int) -> tuple[float, float]:
-    """The ``i``-th distinct command: turn on the spot, alternating direction, growing rate."""
-    return 0.0, round((-1.0) ** i * (0.1 + 0.002 * i), 6)
+def speed_value(i: int, n_samples: int = 300) -> tuple[float, float]:
+    """The ``i``-th of ``n_samples`` distinct commands: turn on the spot, alternating
+    direction, the rate growing from `ANGULAR_MIN` by 2 mrad/s (finer for more than 300
+    samples, so that every one stays at most `ANGULAR_MAX`)."""
+    if not 0 <= i < n_samples:
+        raise ValueError(f"sample index {i} outside 0..{n_samples - 1}")
+    step = min(0.002, (ANGULAR_MAX - ANGULAR_MIN) / n_samples)
+    return 0.0, round((-1.0) ** i * (ANGULAR_MIN + step * i), 6)
 
 
 def tls_tablet(raw: socket.socket, fingerprint: str, token: str) -> socket.socket:
@@ -121,15 +136,19 @@ def main(config: dict[str, Any]) -> dict[str, Any]:
     tablet.setblocking(False)
     print("connected", flush=True)  # the bench waits for this line before it starts timing
     time.sleep(config.get("settle_s", 1.0))  # the station's connect-time messages go by
+    network = NamedThreadRaiser("the bench observer's zenoh threads")
+    network.scan()
     rng = np.random.default_rng(config["seed"])
     written: list[tuple[float, float, float]] = []  # (linear, angular, t_write)
     observed: list[tuple[float, float, float]] = []  # (linear, angular, t_mux)
     reasons: dict[str, int] = {}
+    misses = 0  # in a row
+    aborted = ""
     try:
         for i in range(config["samples"]):
             time.sleep(int(rng.integers(0, 101)) / 1000.0)  # a random phase against clock()
             drain(tablet)
-            value = speed_value(i)
+            value = speed_value(i, config["samples"])
             frame = json.dumps({"speed": {"linear": value[0], "angular": value[1]}}).encode()
             watch.expect(value)
             t_write = time.monotonic()
@@ -137,15 +156,21 @@ def main(config: dict[str, Any]) -> dict[str, Any]:
             written.append((*value, t_write))
             if watch.hit.wait(config["timeout_s"]):
                 observed.append((*value, watch.stamp))
+                misses = 0
             else:
                 with watch.lock:
                     why = " | ".join(sorted(watch.seen)) or "no mux output"
                 reasons[why] = reasons.get(why, 0) + 1
+                misses += 1
+                if misses >= MAX_CONSECUTIVE_MISSES:
+                    aborted = f"{misses} samples in a row not seen at the mux (last: {why})"
+                    break
+            network.scan()  # zenoh may have started another network thread
     finally:
         subscriber.undeclare()
         tablet.close()
         session.close()
-    return {"written": written, "observed": observed, "miss_reasons": reasons}
+    return {"written": written, "observed": observed, "miss_reasons": reasons, "aborted": aborted}
 
 
 if __name__ == "__main__":

@@ -47,7 +47,12 @@ back). ``clock_period_ms_*`` is the station's own `PeriodStats` of clock() perio
 
 With ``--busy-core`` (figures ``teleop_busy_*``) another process spins on one core for the whole
 measurement (``python -c "while True: pass"``), as on an operator's laptop running something
-else. ``TELEOP_SAMPLES=N`` changes the number of samples (300; ``--quick`` 20).
+else. ``TELEOP_SAMPLES=N`` (1..5000) changes the number of samples (300; ``--quick`` 20): a
+longer run turns at finer steps of rate, every command under the multiplexer's tablet limit
+(a scaled-down command never reaches the mux exactly); 10 samples in a row not seen at the mux
+stop the run with the reason. The tablet process's output goes to a file, not a pipe: its
+final JSON line outgrows a pipe's 64 KiB from about 600 samples on, and a child blocked
+writing to a pipe nobody reads never exits (the first 1,200-sample run "hung" that way).
 
 The simulated world has no people (``people: 0``): the command turns the robot on the spot, and
 a person walking by put the collision monitor's slowdown on the mux output, which then never
@@ -81,7 +86,9 @@ common = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
 _spec.loader.exec_module(common)  # type: ignore[union-attr]
 
 ROBOT = "benchbot"
-SAMPLES = int(os.environ.get("TELEOP_SAMPLES", "300"))
+SAMPLES_VARIABLE = "TELEOP_SAMPLES"
+DEFAULT_SAMPLES = 300
+MAX_SAMPLES = 5000
 QUICK_SAMPLES = 20
 SAMPLE_TIMEOUT_S = 2.0  # a speed not seen at the mux by then counts as missed
 STARTUP_TIMEOUT_S = 40.0
@@ -111,9 +118,21 @@ def run(quick: bool = False, secure: bool = False, busy_core: bool = False) -> d
         tempfile.TemporaryDirectory(prefix="interbot-bench-") as tmp,
         busy_process(busy_core),
     ):
-        out = _run(Path(tmp), QUICK_SAMPLES if quick else SAMPLES, secure)
+        out = _run(Path(tmp), QUICK_SAMPLES if quick else samples_from_env(), secure)
     prefix = "teleop_" + ("tls_" if secure else "") + ("busy_" if busy_core else "")
     return {k.replace("teleop_", prefix, 1): v for k, v in out.items()}
+
+
+def samples_from_env() -> int:
+    """``TELEOP_SAMPLES`` (1..5000), else 300; anything else is refused, naming the value."""
+    text = os.environ.get(SAMPLES_VARIABLE, str(DEFAULT_SAMPLES))
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= MAX_SAMPLES:
+        raise BenchTeleopError(f"{SAMPLES_VARIABLE}={text!r}: give a whole number of samples in 1..{MAX_SAMPLES}")  # fmt: skip
+    return n
 
 
 @contextlib.contextmanager
@@ -251,7 +270,7 @@ def _measure(
     station_session = None
     controller: StationController | None = None
     window = None
-    client: subprocess.Popen[str] | None = None
+    client: subprocess.Popen[bytes] | None = None
     arrived: dict[tuple[float, float], float] = {}  # speed -> decoded in the tablet thread
     try:
         topo = load_topological_map(common.ISR_TOPO)
@@ -328,13 +347,14 @@ def _measure(
             "token": token,
         }
         helper = Path(__file__).with_name("_teleop_tablet.py")
-        client = subprocess.Popen(
-            [sys.executable, str(helper), json.dumps(config)],
-            cwd=common.REPO,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
+        client_out, client_err = tmp / "tablet.out", tmp / "tablet.err"
+        with client_out.open("w") as out_file, client_err.open("w") as err_file:
+            client = subprocess.Popen(  # to files: a pipe read only at the end would fill up
+                [sys.executable, str(helper), json.dumps(config)],
+                cwd=common.REPO,
+                stdout=out_file,
+                stderr=err_file,
+            )
         wait_until(lambda: controller.tablet.is_connected, 20.0, "the tablet connection")
         controller.clock_periods.clear()
         scan_count[0] = 0
@@ -342,15 +362,18 @@ def _measure(
         budget = 30.0 + n_samples * (0.1 + SAMPLE_TIMEOUT_S)
         wait_until(lambda: client.poll() is not None, budget, "the tablet's samples")
         wall = time.perf_counter() - t0
-        out_text, err_text = client.communicate()
+        out_text = client_out.read_text(encoding="utf-8")
+        err_text = client_err.read_text(encoding="utf-8")
         if client.returncode != 0:
             raise BenchTeleopError(f"bench_teleop: the tablet process failed: {err_text[-2000:]}")
         result = json.loads(out_text.strip().splitlines()[-1])
+        if result.get("aborted"):
+            raise BenchTeleopError(f"bench_teleop: the tablet stopped sampling: {result['aborted']}")  # fmt: skip
         clock = controller.clock_periods.summary(threshold=0.11)
     finally:
         if client is not None and client.poll() is None:
             client.kill()
-            client.communicate()
+            client.wait()
         if window is not None:
             window.close()  # writes its settings to tmp and shuts the controller down
         elif controller is not None:

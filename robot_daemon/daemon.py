@@ -9,10 +9,11 @@ output: a command never waits for a pass's localiser, planner or simulator work.
 thread and the link's zenoh callback thread run at real-time priority where the OS allows it
 (`interbot_link.command_priority`): the bench's per-hop time stamps showed commands waiting for
 a busy core, a scheduler tick at a time, behind the simulator, the localiser or other programs.
-Both
-threads meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero
-and the collision monitor apply to every output, whichever thread computed it. Time is the monotonic clock, or simulated time running ``realtime_factor`` times
-as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
+So do zenoh's own network threads, which read the commands and send the mux output (the loop
+looks for them every second: zenoh starts them as links come up). The loop and the command
+thread meet only under `RobotStack.motion_lock`, so the e-stop latch, the stale-input zero and
+the collision monitor apply to every output, whichever thread computed it. Time is the
+monotonic clock, or simulated time running ``realtime_factor`` times as fast with the simulator. The systemd watchdog is fed from this loop, so a stuck loop gets the
 service restarted. SIGTERM stops it cleanly: motors to zero, link closed, zenoh session closed.
 """
 
@@ -61,7 +62,11 @@ from interbot_core.topics import (
 from interbot_core.topological_map import TopologicalMap, TopologicalMapError, load_topological_map
 from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
-from interbot_link.command_priority import PriorityOutcome, raise_current_thread
+from interbot_link.command_priority import (
+    NamedThreadRaiser,
+    PriorityOutcome,
+    raise_current_thread,
+)
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.device_health import DeviceHealth
@@ -88,6 +93,7 @@ SLOW_PASS_LOG_PERIOD = 10.0  # [s] wall time between two such log lines
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
 SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 COMMAND_WAIT = 0.1  # [s] the command thread re-checks for a stop this often when idle
+NETWORK_THREAD_SCAN = 1.0  # [s] wall time between two looks for new zenoh network threads
 
 
 @dataclass(frozen=True)
@@ -213,6 +219,8 @@ class Daemon:
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
         self.slow_passes = 0  # passes longer than SLOW_PASS (commands waited)
         self.command_priority: PriorityOutcome | None = None  # the command thread's scheduling
+        # zenoh's network threads carry the commands in and the mux output out (issue 14).
+        self.network_threads = NamedThreadRaiser("the daemon's zenoh threads")
         self._slow_logged = -SLOW_PASS_LOG_PERIOD
         if options.auto_localise:
             self.stack.set_initial_pose(self.start_pose, 0.0)
@@ -388,9 +396,12 @@ class Daemon:
         commands.start()
         notifier.ready(f"robot {self.config.robot_id} serving")
         logger.info("daemon ready: %s", self.config.summary())
-        next_tick = time.monotonic()
+        next_tick = next_scan = time.monotonic()
         try:
             while not stop.is_set():
+                if time.monotonic() >= next_scan:
+                    next_scan = time.monotonic() + NETWORK_THREAD_SCAN
+                    self._raise_network_threads()
                 next_tick = self._pass(link, notifier, next_tick)
                 # Sleep until the next pass, or until a (non-motion) command arrives.
                 link.wait_commands(max(0.0, next_tick - time.monotonic()), motion=False)
@@ -414,6 +425,17 @@ class Daemon:
         while not done.is_set():
             if link.wait_commands(COMMAND_WAIT, motion=True):
                 self.apply_motion(link, link.poll_commands(motion=True))
+
+    def _raise_network_threads(self) -> None:
+        """zenoh's network threads to the command threads' priority (as zenoh starts them);
+        the first outcome is logged, a refusal as a warning."""
+        try:
+            outcome = self.network_threads.scan()
+        except Exception:  # a priority is never worth the loop: say it and drive on
+            logger.exception("could not look for zenoh's network threads")
+            return
+        if outcome is not None:
+            logger.log(logging.INFO if outcome.realtime else logging.WARNING, "%s", outcome.text)
 
     def apply_motion(self, link: RobotLink, commands: list[Command]) -> None:
         """Apply teleoperation / pause / stop commands and send the new output to the motors.

@@ -171,6 +171,33 @@ def test_command_threads_run_at_real_time_priority_where_allowed(
     assert loop is not None and not is_realtime(loop)
 
 
+def test_zenoh_network_threads_run_at_real_time_priority_where_allowed(
+    rig: Rig, wait_until: Callable[..., None]
+) -> None:
+    """Issue 14's tail, fifth session: zenoh's own transmit / receive threads carry the commands
+    in and the mux output out; the daemon's loop finds them (zenoh starts them lazily) and
+    gives them the command threads' priority, with the same permission, and says so."""
+
+    def driving() -> bool:
+        rig.station.send(Topic.STATION_VEL, Twist(0.1, 0.0))
+        return rig.daemon.stack.last_output.source == "Base Station"
+
+    wait_until(driving, 10.0, "station_vel to win the mux")
+    network = rig.daemon.network_threads
+    wait_until(lambda: network.outcome is not None, 10.0, "the daemon's look at zenoh's threads")
+    outcome, command = network.outcome, rig.daemon.command_priority
+    assert outcome is not None and command is not None
+    assert outcome.realtime == command.realtime
+    names = set(network.raised.values())
+    assert any(n.startswith("tx-") for n in names) and any(n.startswith("rx-") for n in names)
+    assert all(n.startswith(("tx-", "rx-", "acc-", "net-")) for n in names)
+    if outcome.realtime:
+        assert "the daemon's zenoh threads" in outcome.text
+        assert all(is_realtime(tid) for tid in network.raised)
+    loop = rig.loop_thread.native_id
+    assert loop is not None and not is_realtime(loop)
+
+
 def test_emergency_stop_latches_until_released(rig: Rig, wait_until: Callable[..., None]) -> None:
     def driving() -> bool:
         rig.station.send(Topic.STATION_VEL, Twist(0.2, 0.0))
