@@ -61,7 +61,6 @@ class _FrameReader:
         self.stall_timeout = stall_timeout
         self.buffer = bytearray()
         self.last_rx = clock()
-        self.overflows = 0
 
     def next_frame(self, timeout: float | None = None) -> tuple[bytes, float]:
         """The next reply and the host time its last bytes arrived.
@@ -86,7 +85,6 @@ class _FrameReader:
                 self.last_rx = self.clock()
                 self.buffer += chunk
                 if len(self.buffer) > self.MAX_BUFFER:
-                    self.overflows += 1
                     del self.buffer[: -self.MAX_BUFFER // 2]
 
 
