@@ -81,9 +81,7 @@ class SupervisorEvents:
 
     def log_for(self, mirror: RobotMirror, level: str, text: str) -> None:
         """Log about ``mirror``'s robot; another robot than the selected one is named."""
-        if mirror is not self._fleet.selected:
-            text = f"[{mirror.robot_id or 'no robot'}] {text}"
-        self._notices.log(level, text)
+        self._notices.log(level, self._fleet.about(mirror, text))
 
     def handle(self, events: list[Event], mirror: RobotMirror | None = None) -> None:
         """Act on ``events`` from ``mirror``'s supervisor (default: the selected robot's)."""
