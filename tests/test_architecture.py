@@ -558,3 +558,65 @@ def test_the_decided_in_one_place_rule_catches_a_controller_that_matches_events(
     )
     assert names_used(bad) & SUPERVISOR_EVENT_NAMES == {"TourStopReached"}
     assert names_used(bad) & TABLET_REQUEST_NAMES == {"Goal"}
+
+
+# Issue 14 (the e-stop wins over a tablet command in flight): what gates the tablet thread's
+# speed path - the operator's stop, a robot's online flag, the tablet's permissions: everything
+# `TabletTeleop`'s ``refusal()`` and ``estop()`` read - is written only under a ``lock`` (the
+# speed path's, ``tablet_teleop.lock``), outside constructors. The split keeps these writes in
+# the controller; a part that wrote one without the lock would let a command slip past a stop.
+TABLET_GATES = {"estop_latched", "online", "permissions"}
+
+
+def unlocked_gate_writes(path: Path) -> list[int]:
+    """Lines that assign a tablet gate outside ``with ....lock:`` and outside ``__init__``."""
+    found: list[int] = []
+
+    def visit(node: ast.AST, locked: bool, in_init: bool) -> None:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            in_init = node.name == "__init__"
+        if isinstance(node, ast.With):
+            locked = locked or any(
+                ast.unparse(item.context_expr).endswith(".lock") for item in node.items
+            )
+        targets: list[ast.expr] = []
+        if isinstance(node, ast.Assign):
+            targets = node.targets
+        elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+            targets = [node.target]
+        for target in targets:
+            for t in target.elts if isinstance(target, ast.Tuple) else [target]:
+                gate = isinstance(t, ast.Attribute) and t.attr in TABLET_GATES
+                if gate and not (locked or in_init):
+                    found.append(t.lineno)
+        for child in ast.iter_child_nodes(node):
+            visit(child, locked, in_init)
+
+    visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)), False, False)
+    return found
+
+
+def test_what_gates_the_tablet_is_written_under_the_speed_paths_lock() -> None:
+    offenders = {
+        p.name: lines
+        for p in package_files("base_station_app")
+        if (lines := unlocked_gate_writes(p))
+    }
+    assert offenders == {}, "write the e-stop, online and permissions under tablet_teleop.lock"
+
+
+def test_the_gate_rule_catches_a_write_without_the_lock(tmp_path: Path) -> None:
+    bad = tmp_path / "part.py"
+    bad.write_text(
+        "class Part:\n"
+        "    def __init__(self):\n"
+        "        self.online = False\n"  # a constructor: fine
+        "    def ok(self, link):\n"
+        "        with self.tablet_teleop.lock:\n"
+        "            link.estop_latched = True\n"
+        "    def bad(self, mirror, policy):\n"
+        "        mirror.online = True\n"
+        "        policy.permissions, x = 1, 2\n",
+        encoding="utf-8",
+    )
+    assert unlocked_gate_writes(bad) == [8, 9]
