@@ -77,6 +77,10 @@ class Fleet:
             return self._unselected
         return self.mirrors[self.selected_id]
 
+    def about(self, mirror: RobotMirror, text: str) -> str:
+        """A log line about ``mirror``'s robot: another robot than the selected one is named."""
+        return text if mirror is self.selected else f"[{mirror.robot_id or 'no robot'}] {text}"
+
     def mirror(self, robot_id: str) -> RobotMirror:
         """The mirror of ``robot_id``, created on first use."""
         mirror = self.mirrors.get(robot_id)

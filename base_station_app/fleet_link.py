@@ -49,12 +49,6 @@ class FleetLink:
         self.estop_latched = False  # the operator's stop, for every robot
         self.closed = False  # after shutdown nothing is sent
 
-    def _say(self, mirror: RobotMirror, level: str, text: str) -> None:
-        """Log about ``mirror``'s robot; another robot than the selected one is named."""
-        if mirror is not self._fleet.selected:
-            text = f"[{mirror.robot_id or 'no robot'}] {text}"
-        self._log(level, text)
-
     def send(self, topic: Topic, message: object) -> bool:
         """Send to the selected robot (False: nobody received it)."""
         link = self.link
@@ -76,7 +70,7 @@ class FleetLink:
         try:
             return watch.send(robot_id, topic, message)
         except LinkError as exc:
-            self._say(mirror, "error", f"cannot send {topic}: {exc}")
+            self._log("error", self._fleet.about(mirror, f"cannot send {topic}: {exc}"))
             return False
 
     def sync_watch(self) -> None:
@@ -131,7 +125,8 @@ class FleetLink:
             and mirror.state.estop_engaged is False
             and now - mirror.stop_sent_at >= STOP_REASSERT_S
         ):
-            self._say(mirror, "warning", "the robot reports no emergency stop: sending it again")
+            again = "the robot reports no emergency stop: sending it again"
+            self._log("warning", self._fleet.about(mirror, again))
             self.assert_stop_intent(mirror)
 
     def close(self) -> None:

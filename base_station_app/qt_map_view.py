@@ -108,7 +108,6 @@ class QtMapView(pg.PlotWidget):
         self._press_pos: QPointF | None = None
         self._pick_start: tuple[float, float] | None = None
         self._drawn_key: object = None
-        self._map_version = -1
         self._grid: OccupancyGrid | None = None
         self._create_items()
         self._draw_topology()
@@ -132,7 +131,6 @@ class QtMapView(pg.PlotWidget):
         plot.addItem(self.tour_item)
         self.route_item = pg.PlotCurveItem(pen=pg.mkPen((30, 110, 220), width=3))
         plot.addItem(self.route_item)
-        self._plan_drawn: object = None
         self.waypoints_item = pg.ScatterPlotItem(size=9, pen=pg.mkPen("w"))
         plot.addItem(self.waypoints_item)
         self.goal_item = pg.ScatterPlotItem(

@@ -63,7 +63,6 @@ class RobotState:
 
     def __init__(self, log_capacity: int = 500) -> None:
         self.log: deque[LogEntry] = deque(maxlen=log_capacity)
-        self.log_version = 0
         self.poses = PoseHistory()  # localised poses by robot time, to place each scan
         self.clear()
 
@@ -128,6 +127,5 @@ class RobotState:
 
     def add_log(self, now: float, level: str, text: str) -> None:
         self.log.append(LogEntry(now, level, text))
-        self.log_version += 1
         log = logger.warning if level in ("warning", "error") else logger.info
         log("status: %s", text)

@@ -28,6 +28,10 @@ The parts it composes (issue 13: each named after what it owns, Qt-free and unit
   state every robot must hear until it has (re-sent on every clock while pending);
 * `TeleopArbiter` (teleop_arbiter.py) - the station's keys and the tablet's joystick, freshness;
 * `TabletPolicy` (tablet_policy.py) - what the tablet may do and which tasks it owns;
+* `SupervisorEvents` (supervisor_events.py) - what every robot's supervisor events and the
+  robot's word on its route become: routes sent and cancelled, tour stops, requests shown;
+* `TabletRequests` (tablet_requests.py) - what the tablet's requests become, with its
+  permissions and ownership (its Stop cancels only what it ordered);
 * `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
 
 The selected robot is followed closely by `StationLink` (every topic); the others by a
@@ -82,11 +86,13 @@ from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.station_file import StationFileError, StationSettingsStore
+from base_station_app.supervisor_events import Notices, SupervisorEvents
 from base_station_app.tablet_auth import TabletAuthServer
 from base_station_app.tablet_feed import TabletFeed
 from base_station_app.tablet_policy import TabletPolicy
+from base_station_app.tablet_requests import TabletRequests
 from base_station_app.tablet_server import TabletServer
-from base_station_app.tablet_session import TabletPermissions, describe_task, permission_for
+from base_station_app.tablet_session import TabletPermissions, describe_task
 from base_station_app.tablet_teleop import TabletTeleop
 from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import TeleopArbiter
@@ -95,38 +101,18 @@ from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
-from interbot_core.route_mirror import RouteLost
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
-    Delivery,
     Event,
-    GoalReached,
-    GoHome,
-    GoTo,
-    GuidedTour,
-    IntermediateGoalReached,
-    PauseNavigation,
-    QueueChanged,
-    RequestAccepted,
-    RequestDeclined,
-    RequestShown,
-    RequestTimedOut,
-    RouteCancelled,
-    RouteStarted,
     SupervisorError,
     Task,
-    TaskFinished,
     TaskRejectedError,
-    TaskStarted,
-    TourStopReached,
 )
 from interbot_core.topics import (
     ConfigMsg,
     InitialPose,
-    Lock,
     Relocalise,
     RouteCancel,
-    RouteProgress,
     Topic,
     Twist,
 )
@@ -232,8 +218,6 @@ class StationController(QObject):
             self.tablet_policy.permissions = saved.tablet.permissions()
         self.clock_periods = PeriodStats(5000)
         self.latencies: deque[float] = deque(maxlen=300)
-        self.request_id = 0
-        self._route_ids = route_ids
         self._permissions_sent: p.Permissions | None = None
         self._last_clock: float | None = None
         self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
@@ -267,6 +251,36 @@ class StationController(QObject):
             reply=self.tablet.send,
             latency_ceiling=self.config.latency_ceiling,
             parent=self.tablet,
+        )
+        # What the supervisors' events and the tablet's requests become (Qt-free parts).
+        notices = Notices(
+            self.log,
+            self.tasks_changed.emit,
+            self.paused_changed.emit,
+            self.tour_stop_reached.emit,
+            self.request_shown.emit,
+            self.route_sent.emit,
+        )
+        self.events = SupervisorEvents(
+            self.fleet,
+            self.robot_link,
+            self.tablet.send,
+            self.tablet_policy,
+            self.alerts,
+            notices,
+            self.config,
+            self.names,
+            clock,
+            route_ids,
+        )
+        self.tablet_requests = TabletRequests(
+            self.tablet_policy,
+            self.fleet,
+            self,
+            self.tablet.send,
+            self.alert_rules,
+            self.names,
+            clock,
         )
         self.tablet.speed_received.connect(self.tablet_teleop.on_speed)  # in the tablet thread
         self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
@@ -421,12 +435,6 @@ class StationController(QObject):
         self.selected.state.add_log(self.clock(), level, text)
         self.log_added.emit(level, text)
 
-    def _log_for(self, mirror: RobotMirror, level: str, text: str) -> None:
-        """Log about ``mirror``'s robot; another robot than the selected one is named."""
-        if mirror is not self.fleet.selected:
-            text = f"[{mirror.robot_id or 'no robot'}] {text}"
-        self.log(level, text)
-
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
         """Send to the selected robot (also called in the tablet thread: `_send_tablet_twist`)."""
@@ -511,13 +519,7 @@ class StationController(QObject):
                 for msg in self.watch.poll():
                     self._on_state_message(msg)
             for mirror in self.fleet.all():
-                progress = mirror.route_progress()
-                if progress is None:
-                    continue
-                # The robot judges arrival (issue 13): its progress drives the supervisor.
-                self._handle(mirror.supervisor.robot_progress(progress.index), mirror)
-                if mirror.verdict(progress):
-                    self._robot_verdict(progress, mirror)
+                self.events.robot_progress(mirror)
             self._choose_robot()
         if display:
             self.frame_ready.emit()
@@ -536,24 +538,6 @@ class StationController(QObject):
                 f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
                 f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
             )
-
-    def _route_lost(self, lost: RouteLost, mirror: RobotMirror | None = None) -> None:
-        """Our route is gone on the robot: the task ends; nothing is re-sent."""
-        mirror = mirror if mirror is not None else self.fleet.selected
-        if mirror.lose_route(lost):
-            self._log_for(mirror, "error", lost.reason)
-            self._handle(mirror.supervisor.robot_route_aborted(lost.reason), mirror)
-            self.tasks_changed.emit()
-
-    def _robot_verdict(self, progress: RouteProgress, mirror: RobotMirror) -> None:
-        """The robot finished or gave up the current route: its word settles the task."""
-        if progress.state == "succeeded":
-            self._handle(mirror.supervisor.robot_route_succeeded(self.clock()), mirror)
-        else:
-            self._log_for(
-                mirror, "error", f"robot gave up route {progress.route_id}: {progress.reason}"
-            )
-            self._handle(mirror.supervisor.robot_route_aborted(progress.reason), mirror)
 
     def _on_link_event(self, event: object) -> None:
         now = self.clock()
@@ -587,9 +571,9 @@ class StationController(QObject):
         lost, status = mirror.on_message(event.topic, event.message)
         self.alert_rules.on_message(mirror.robot_id or "?", event.message, self.clock())
         if lost is not None:
-            self._route_lost(lost, mirror)
+            self.events.route_lost(lost, mirror)
         if status is not None:
-            self._log_for(mirror, status.level, f"robot: {status.text}")
+            self.events.log_for(mirror, status.level, f"robot: {status.text}")
 
     # ================================================================== clock()
     def tick(self) -> None:
@@ -603,9 +587,9 @@ class StationController(QObject):
             self.robot_link.resend_pending(mirror)
             self.robot_link.check_stop(now, mirror)
             for lost in mirror.due_losses(now):
-                self._route_lost(lost, mirror)
+                self.events.route_lost(lost, mirror)
         self._speed_section(now)
-        self._pose_section(now)
+        self.events.update_poses(now)
         self._communication_section(now)
         self.clocked.emit()
 
@@ -619,7 +603,7 @@ class StationController(QObject):
         if command is not None:
             self._send(Topic.STATION_VEL, Twist(command[0], command[1], stamp=now))
 
-    def _stop_tablet_speed(self, why: str) -> None:
+    def stop_tablet_speed(self, why: str) -> None:
         """Forget the tablet's command and send one explicit zero if one was forwarded."""
         self.tablet_teleop.stop(why)  # logged by _on_tablet_speed_stopped
 
@@ -657,11 +641,6 @@ class StationController(QObject):
         tablet_id, name = getattr(record, "tablet_id", "?"), getattr(record, "name", "?")
         self.log("info", f"tablet {tablet_id} ({name}) authorised")
 
-    def _pose_section(self, now: float) -> None:
-        """Every robot's supervisor sees its own robot's pose (per-robot supervision)."""
-        for mirror in self.fleet.all():
-            self._handle(mirror.supervisor.update(now, mirror.state.localised_pose), mirror)
-
     def tablet_permissions(self) -> TabletPermissions:
         """What the tablet may do now: the operator's choice, and only what can work."""
         return self.tablet_policy.effective(self.robot_online, self.estop_latched)
@@ -693,103 +672,6 @@ class StationController(QObject):
     def status_text(self) -> str:
         return self.selected.status_text(self.estop_latched)
 
-    # ================================================================== supervisor events
-    def _handle(self, events: list[Event], mirror: RobotMirror | None = None) -> None:
-        mirror = mirror if mirror is not None else self.fleet.selected
-        for event in events:
-            self._handle_one(event, mirror)
-
-    def _tablet_send(self, mirror: RobotMirror, message: p.StationMessage) -> None:
-        """The tablet is bound to the selected robot: it hears of that robot only."""
-        if mirror is self.fleet.selected:
-            self.tablet.send(message)
-
-    def _handle_one(self, event: Event, mirror: RobotMirror) -> None:
-        mirror.on_event(event)
-        if isinstance(event, TaskStarted):
-            self._log_for(mirror, "info", f"task started: {describe_task(event.task, self.names)}")
-            self.tasks_changed.emit()
-        elif isinstance(event, TaskFinished):
-            level = "info" if event.ok else "warning"
-            self._log_for(
-                mirror, level, f"task {describe_task(event.task, self.names)}: {event.reason}"
-            )
-            self.tablet_policy.forget(event.task)
-            self.tasks_changed.emit()
-        elif isinstance(event, QueueChanged):
-            self.tasks_changed.emit()
-        elif isinstance(event, RouteStarted):
-            self._send_route(event, mirror)
-        elif isinstance(event, RouteCancelled):
-            self._cancel_route(event.reason, mirror)
-        elif isinstance(event, IntermediateGoalReached):
-            self._log_for(mirror, "info", f"intermediate goal {event.node} reached")
-        elif isinstance(event, GoalReached):
-            where = self.names.get(event.node, "pose") if event.node is not None else "pose"
-            self._log_for(mirror, "info", f"goal reached: {where}")
-            if event.node is not None:
-                self._tablet_send(mirror, p.GoalStatus(event.node, True, False))
-        elif isinstance(event, PauseNavigation):
-            self.robot_link.send_to(mirror, Topic.PAUSE_NAV, Lock(event.paused, stamp=self.clock()))
-            self._log_for(
-                mirror, "info", "navigation paused" if event.paused else "navigation resumed"
-            )
-            if mirror is self.fleet.selected:
-                self.paused_changed.emit(event.paused)
-        elif isinstance(event, TourStopReached):
-            self._handle(mirror.supervisor.pause(), mirror)  # wait at the stop (§5.3.6)
-            self._log_for(
-                mirror, "info", f"tour stop {event.node} ({event.name}) reached; tour paused"
-            )
-            self._tablet_send(mirror, p.GoalStatus(event.node, True, True))
-            if mirror is self.fleet.selected:
-                self.tour_stop_reached.emit(event)
-            else:
-                self._waiting(mirror, f"at tour stop {event.name}: command it to resume")
-        elif isinstance(event, RequestShown):
-            self.request_id += 1
-            mirror.shown_request = (self.request_id, event)
-            self._tablet_send(
-                mirror, p.ShowRequest(self.request_id, event.text, event.room, event.deliver_to)
-            )
-            self._log_for(
-                mirror, "info", f"request shown at {self.names[event.room]}: {event.text}"
-            )
-            if mirror is self.fleet.selected:
-                self.request_shown.emit(event)
-            else:
-                self._waiting(mirror, f"shows a request at {self.names[event.room]}: command it")
-        elif isinstance(event, RequestAccepted | RequestDeclined | RequestTimedOut):
-            verb = {RequestAccepted: "accepted", RequestDeclined: "declined"}.get(
-                type(event), "timed out"
-            )
-            self._log_for(mirror, "info", f"request '{event.text}' {verb}")
-
-    def _waiting(self, mirror: RobotMirror, text: str) -> None:
-        """A robot the operator does not command needs them: an alert names it."""
-        self.alerts.raise_alert("waiting", mirror.robot_id or "?", text, self.clock())
-
-    def _send_route(self, route: RouteStarted, mirror: RobotMirror) -> None:
-        """Send the supervisor's new route once, to the robot it was planned for."""
-        cfg = self.config
-        msg = mirror.new_route(
-            self._route_ids(),
-            route,
-            approach_tolerance=cfg.approach_tolerance,
-            goal_tolerance=cfg.goal_tolerance,
-            yaw_tolerance=cfg.yaw_tolerance,
-        )
-        mirror.route_sent(self.robot_link.send_to(mirror, Topic.ROUTE, msg))
-        self._log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
-        self.route_sent.emit(msg)
-
-    def _cancel_route(self, reason: str, mirror: RobotMirror) -> None:
-        """Tell the robot to drop the route in progress (``route_cancel``)."""
-        self._log_for(mirror, "info", f"route cancelled: {reason}")
-        route_id = mirror.drop_route()
-        cancel = RouteCancel(route_id, reason, stamp=self.clock())
-        self.robot_link.send_to(mirror, Topic.ROUTE_CANCEL, cancel)
-
     # ================================================================== operator commands
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:
         """Queue a task for the selected robot; False (and a logged reason) if the map rejects it."""
@@ -803,7 +685,7 @@ class StationController(QObject):
         if from_tablet:
             self.tablet_policy.adopt(task)
         self.log("info", f"queued: {describe_task(task, self.names)}")
-        self._handle(events)
+        self.events.handle(events)
         self.tasks_changed.emit()
         return True
 
@@ -813,7 +695,7 @@ class StationController(QObject):
         except SupervisorError as exc:
             self.log("warning", str(exc))
             return False
-        self._handle(events)
+        self.events.handle(events)
         self.tasks_changed.emit()
         return True
 
@@ -836,7 +718,7 @@ class StationController(QObject):
             )
             self.selected.route_mirror.foreign = None
             self.log("warning", f"{who}: cancelled the robot's route")
-        self._stop_tablet_speed(f"stop from {who}")
+        self.stop_tablet_speed(f"stop from {who}")
 
     def move_task(self, index: int, delta: int) -> bool:
         target = index + delta
@@ -851,10 +733,10 @@ class StationController(QObject):
         return self._try(self.selected.supervisor.clear_queue)
 
     def pause(self) -> None:
-        self._handle(self.selected.supervisor.pause())
+        self.events.handle(self.selected.supervisor.pause())
 
     def resume(self) -> None:
-        self._handle(self.selected.supervisor.resume())
+        self.events.handle(self.selected.supervisor.resume())
 
     def tour_resume(self) -> bool:
         """Leave the tour stop: release the pause and drive to the next stop."""
@@ -883,10 +765,10 @@ class StationController(QObject):
         with self.tablet_teleop.lock:  # from here on no tablet command is forwarded
             was = self.estop_latched
             self.robot_link.estop_latched = True
-        self._stop_tablet_speed("emergency stop")
+        self.stop_tablet_speed("emergency stop")
         for mirror in self.fleet.all():
             # waiting tasks wait for "Resume queue"
-            self._handle(mirror.supervisor.hold_queue(), mirror)
+            self.events.handle(mirror.supervisor.hold_queue(), mirror)
             self.robot_link.assert_stop_intent(mirror)
         if self.selected.stop_assert_pending:
             self.log("error", "robot unreachable: the stop is kept and sent when it reconnects")
@@ -903,7 +785,7 @@ class StationController(QObject):
             self.log("warning", "release the emergency stop before resuming the queue")
             return
         if self.selected.supervisor.held:
-            self._handle(self.selected.supervisor.release_queue())
+            self.events.handle(self.selected.supervisor.release_queue())
             self.log("info", "task queue resumed by the operator")
 
     def release_stop(self) -> None:
@@ -940,7 +822,7 @@ class StationController(QObject):
 
     def set_config(self, config: StationConfig) -> None:
         """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robots."""
-        self.config = config
+        self.config = self.events.config = config
         for mirror in self.fleet.all():
             mirror.supervisor.config = config.supervisor_config(self._request_timeout)
         with self.tablet_teleop.lock:
@@ -1001,7 +883,7 @@ class StationController(QObject):
         self.tablet_changed.emit()
 
     def _on_tablet_disconnected(self) -> None:
-        self._stop_tablet_speed("tablet disconnected")
+        self.stop_tablet_speed("tablet disconnected")
         with self.tablet_teleop.lock:
             self.arbiter.watchdog.reset()
         self.log("warning", "tablet disconnected")
@@ -1017,7 +899,7 @@ class StationController(QObject):
         with self.tablet_teleop.lock:  # the tablet thread reads it (TabletTeleop.on_speed)
             policy.permissions = policy.permissions.with_kind(kind, allowed)
             if not policy.permissions.teleop:
-                self._stop_tablet_speed("teleoperation not permitted")
+                self.stop_tablet_speed("teleoperation not permitted")
         self._send_permissions()
         self._save_settings()
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
@@ -1026,91 +908,23 @@ class StationController(QObject):
     @property
     def tablet_task(self) -> Task | None:
         """The selected robot's running task if the tablet ordered it."""
-        task = self.selected.supervisor.current_task
-        return task if self.tablet_policy.owns(task) else None
+        return self.tablet_requests.task
 
     def tablet_task_override(self) -> None:
         """The operator takes the tablet's task over: it continues as a station task."""
-        task = self.tablet_task
-        if task is not None:
-            self.tablet_policy.forget(task)
-            self.tablet.send(p.Cancel("task taken over by the operator"))
-            self.log("info", f"operator took over: {describe_task(task, self.names)}")
+        if self.tablet_requests.override():
             self.tablet_changed.emit()
 
     def tablet_task_stop(self) -> None:
-        """Stop the tablet's task where it is (pause navigation; resume continues it)."""
-        if self.tablet_task is not None:
-            self.pause()
+        self.tablet_requests.stop_task()
 
     def tablet_task_cancel(self) -> None:
-        if self.tablet_task is not None:
-            self.cancel_task()  # tells the tablet: cancelled by the operator
+        self.tablet_requests.cancel_task()
 
-    def on_tablet_message(self, msg: object) -> None:
-        """A validated tablet message: a Supervisor or robot action, subject to permissions.
-
-        The tablet is bound to the selected robot: its tasks go to that robot's queue.
-        """
+    def on_tablet_message(self, msg: p.TabletMessage) -> None:
+        """A validated tablet message: a request (tablet_requests.py) or a speed command."""
         if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)
             self.tablet_teleop.on_speed(msg)  # the same path, stamped when it runs
             return
-        now = self.clock()
-        kind = permission_for(msg)  # type: ignore[arg-type]
-        why = self.tablet_policy.refusal(kind, self.robot_online, self.estop_latched)
-        if why is not None:  # (a refused speed is told once per stream, in tablet_teleop.py)
-            self.tablet.send(p.ErrorReport("not_permitted", why))
-            self.log("warning", f"tablet {type(msg).__name__} refused: {kind} not allowed")
-            self.alert_rules.on_refused(why, now)
-            return
-        if isinstance(msg, p.Goal):
-            self.submit(GoTo(msg.node), from_tablet=True)
-        elif isinstance(msg, p.Home):
-            self.submit(GoHome(), from_tablet=True)
-        elif isinstance(msg, p.Pause):
-            self.pause() if msg.paused else self.resume()
-        elif isinstance(msg, p.Stop):
-            if msg.stop:
-                self._tablet_stop()
-        elif isinstance(msg, p.Tour):
-            if msg.start:
-                self.submit(GuidedTour(), from_tablet=True)
-            elif isinstance(self.selected.supervisor.current_task, GuidedTour):
-                self.tour_end()
-        elif isinstance(msg, p.TourControl):
-            self.tour_resume() if msg.action == "resume" else self.tour_end()
-        elif isinstance(msg, p.RequestFrom):
-            if msg.status:
-                self.submit(Delivery(msg.request, msg.room, msg.deliver_to), from_tablet=True)
-        elif isinstance(msg, p.RequestAnswer):
-            if self.selected.shown_request is not None and self.selected.shown_request[0] == msg.id:
-                self.answer_request(msg.accepted)
-            else:
-                self.tablet.send(p.ErrorReport("unknown_request", f"no request {msg.id} is shown"))
-        elif isinstance(msg, p.InitialPoseRoom):
-            self.set_initial_pose_room(msg.room)
-        elif isinstance(msg, p.Malfunction):
-            self.log("error", f"tablet reports {msg.kind}: {msg.text}")
-            self.alert_rules.on_malfunction(msg.kind, msg.text, now)
+        self.tablet_requests.on_message(msg)
         self.tablet_changed.emit()
-
-    def _tablet_stop(self) -> None:
-        """The tablet's Stop always stops the robot; it cancels only what the tablet ordered.
-
-        An operator's task is paused instead (the robot stops, the task stays the operator's)
-        and the tablet is told why; its own task, a route nobody here owns, or teleoperation
-        is stopped outright.
-        """
-        task = self.selected.supervisor.current_task
-        if task is not None and not self.tablet_policy.owns(task):
-            self.log("warning", "tablet: stop on the operator's task: paused")
-            self.pause()
-            self._stop_tablet_speed("stop from the tablet")
-            self.tablet.send(
-                p.ErrorReport(
-                    "not_owner", "paused: this task was given by the operator, who decides on it"
-                )
-            )
-            return
-        self.log("warning", "tablet: stop")
-        self.stop_motion("the tablet")

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import logging
 from collections import deque
-from dataclasses import dataclass, replace
-from typing import Final
+from typing import ClassVar, Final
 
+import msgspec
+
+from interbot_core import schema
 from interbot_core.protocol import (
     Goal,
     Home,
@@ -34,19 +36,15 @@ logger = logging.getLogger(__name__)
 PERMISSION_KINDS: Final = ("teleop", "goals", "tours", "requests")
 
 
-@dataclass(frozen=True)
-class TabletPermissions:
+class TabletPermissions(schema.Declared, frozen=True):
     """What the tablet may do; everything allowed by default, as in the thesis's tests."""
 
+    ROOT: ClassVar[str] = "TabletPermissions"
+    ERROR: ClassVar[type[Exception]] = ValueError
     teleop: bool = True
     goals: bool = True
     tours: bool = True
     requests: bool = True
-
-    def __post_init__(self) -> None:
-        for kind in PERMISSION_KINDS:
-            if not isinstance(getattr(self, kind), bool):
-                raise ValueError(f"TabletPermissions.{kind} must be a bool")
 
     def allows(self, kind: str | None) -> bool:
         if kind is None:
@@ -57,7 +55,7 @@ class TabletPermissions:
 
     def with_kind(self, kind: str, allowed: bool) -> TabletPermissions:
         self.allows(kind)  # validates the name
-        return replace(self, **{kind: allowed})
+        return msgspec.structs.replace(self, **{kind: allowed})
 
     def to_message(self) -> Permissions:
         return Permissions(self.teleop, self.goals, self.tours, self.requests)

@@ -27,13 +27,11 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
 from functools import cached_property
 from typing import Annotated, ClassVar
 
 import msgspec
 import numpy as np
-import numpy.typing as npt
 from msgspec import Meta
 
 from interbot_core import schema
@@ -53,29 +51,11 @@ class _Declared(schema.Declared, frozen=True):
     ERROR: ClassVar[type[Exception]] = MapViewError
 
     def __post_init__(self) -> None:
-        for name in self.__struct_fields__:  # numpy scalars (grid origins, sizes) as Python's
+        for name in self.__struct_fields__:  # numpy scalars (map origins, sizes) as Python's
             value = getattr(self, name)
             if isinstance(value, np.floating | np.integer):
                 msgspec.structs.force_setattr(self, name, value.item())
         super().__post_init__()
-
-
-class GridFrame(_Declared, frozen=True):
-    """A ROS map_server grid's frame: ``origin`` (x, y[, yaw]) [m, rad] of cell (0, 0)'s corner,
-    ``resolution`` [m/cell], size in cells. Rotated maps (yaw != 0) cannot be drawn axis-aligned."""
-
-    ROOT: ClassVar[str] = "map grid"
-    origin: Annotated[tuple[schema.Finite, ...], Meta(min_length=2, max_length=3)]
-    resolution: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m/cell"})]
-    width_cells: Annotated[int, Meta(ge=1)]
-    height_cells: Annotated[int, Meta(ge=1)]
-
-    def check(self) -> None:
-        if len(self.origin) == 3 and self.origin[2] != 0.0:
-            raise MapViewError(
-                f"map origin yaw {self.origin[2]!r} rad is not supported: rotated maps cannot be "
-                "drawn axis-aligned; use yaw 0"
-            )
 
 
 class MapViewTransform(_Declared, frozen=True, dict=True):
@@ -116,41 +96,6 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
         """World y of the map's top edge [m]."""
         return self.map_origin_y + self.map_height_m
 
-    @classmethod
-    def from_grid(
-        cls,
-        origin: Sequence[float],
-        resolution: float,
-        width_cells: int,
-        height_cells: int,
-        widget_width_px: float,
-        widget_height_px: float,
-        keep_aspect: bool = True,
-    ) -> MapViewTransform:
-        """From a ROS map_server grid (see `GridFrame`)."""
-        grid = GridFrame(tuple(origin), resolution, width_cells, height_cells)
-        return cls(
-            grid.origin[0],
-            grid.origin[1],
-            grid.width_cells * grid.resolution,
-            grid.height_cells * grid.resolution,
-            widget_width_px,
-            widget_height_px,
-            keep_aspect,
-        )
-
-    def resized(self, widget_width_px: float, widget_height_px: float) -> MapViewTransform:
-        """The same map shown in a widget of a new size."""
-        return MapViewTransform(
-            self.map_origin_x,
-            self.map_origin_y,
-            self.map_width_m,
-            self.map_height_m,
-            widget_width_px,
-            widget_height_px,
-            self.keep_aspect,
-        )
-
     @property
     def scale(self) -> float:
         """Isotropic scale [px/m]: equals ``scale_x == scale_y`` when the aspect is kept, else the
@@ -178,23 +123,6 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
         x = self.map_origin_x + (px - self.offset_x) / self.scale_x
         y = self.map_top_y - (py - self.offset_y) / self.scale_y
         return (x, y)
-
-    def world_to_widget_array(self, xy: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """Vectorised `world_to_widget` for an (N, 2) array of points [m] (paths, scans)."""
-        points = np.asarray(xy, dtype=np.float64)
-        if points.ndim != 2 or points.shape[1] != 2:
-            raise MapViewError(f"expected an (N, 2) array of points, got shape {points.shape}")
-        out = np.empty_like(points)
-        out[:, 0] = self.offset_x + (points[:, 0] - self.map_origin_x) * self.scale_x
-        out[:, 1] = self.offset_y + (self.map_top_y - points[:, 1]) * self.scale_y
-        return out
-
-    def contains_world(self, x: float, y: float) -> bool:
-        """True when the point lies inside the map rectangle (edges included)."""
-        return (
-            self.map_origin_x <= x <= self.map_origin_x + self.map_width_m
-            and self.map_origin_y <= y <= self.map_top_y
-        )
 
     def yaw_to_widget_angle(self, yaw: float) -> float:
         """World yaw [rad, CCW from +x] to a widget angle [rad] from +x towards +y (clockwise on

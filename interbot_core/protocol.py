@@ -417,9 +417,6 @@ class Hello(Message, frozen=True):
     client: Text
 
 
-TOUR_ACTIONS: Final = ("resume", "end")
-
-
 class TourControl(Message, frozen=True):
     """At a tour stop: ``{"tour_control": "resume"}`` or ``{"tour_control": "end"}``."""
 
@@ -436,14 +433,15 @@ class InitialPoseRoom(Message, frozen=True):
     room: Node
 
 
-MALFUNCTION_KINDS: Final = ("collision", "wrong_position", "wrong_orientation", "other")
+MalfunctionKind = Literal["collision", "wrong_position", "wrong_orientation", "other"]
+MALFUNCTION_KINDS: Final = typing.get_args(MalfunctionKind)
 
 
 class Malfunction(Message, frozen=True):
     """User report: ``{"malfunction": {"kind": "collision", "text": "hit a chair"}}``."""
 
     KEY: ClassVar[str] = "malfunction"
-    kind: Literal["collision", "wrong_position", "wrong_orientation", "other"]
+    kind: MalfunctionKind
     text: Text
 
 
@@ -604,7 +602,6 @@ class Permissions(Message, frozen=True):
 
 
 LocalisationState = Literal["unset", "ok", "degraded", "lost", "searching", "turning"]
-LOCALISATION_STATES: Final = typing.get_args(LocalisationState)
 
 
 class Localisation(Message, frozen=True):

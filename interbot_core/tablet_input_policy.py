@@ -19,27 +19,26 @@ Pure: time is passed in.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.rate_limit import TokenBucket
 
 ALWAYS_ADMITTED = "stop"
 
 
-@dataclass(frozen=True)
-class InputPolicyConfig:
-    rate: float = 50.0  # [objects/s] sustained
-    burst: int = 50  # [objects] at once
-    max_per_turn: int = 50  # [objects] handled per event-loop turn
-    error_interval: float = 1.0  # [s] at most one "dropped" error this often
+class InputPolicyConfig(schema.Declared, frozen=True):
+    """The policy's limits (declared: an error names the field, the value and the range)."""
 
-    def __post_init__(self) -> None:
-        if not (0.0 < self.rate <= 10_000.0):
-            raise ValueError(f"rate must be in (0, 10000] objects/s, got {self.rate!r}")
-        if not (1 <= self.burst <= 10_000 and 1 <= self.max_per_turn <= 10_000):
-            raise ValueError("burst and max_per_turn must be in 1..10000")
-        if not (0.0 < self.error_interval <= 60.0):
-            raise ValueError(f"error_interval must be in (0, 60] s, got {self.error_interval!r}")
+    ROOT: ClassVar[str] = "tablet input"
+    ERROR: ClassVar[type[Exception]] = ValueError
+    rate: Annotated[float, Meta(gt=0.0, le=10_000.0, extra={"unit": "objects/s"})] = 50.0
+    burst: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [objects] at once
+    max_per_turn: Annotated[int, Meta(ge=1, le=10_000)] = 50  # [objects] per event-loop turn
+    # [s] at most one "dropped" error this often
+    error_interval: Annotated[float, Meta(gt=0.0, le=60.0, extra={"unit": "s"})] = 1.0
 
 
 class TabletInputPolicy:

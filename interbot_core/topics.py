@@ -28,7 +28,7 @@ import struct
 import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Annotated, Final, TypeVar
+from typing import Annotated, Any, Final, TypeVar
 
 import msgspec
 import numpy as np
@@ -736,20 +736,11 @@ STATE_TOPICS: Final = frozenset(s.topic for s in _SPECS if not s.command)
 _TOPIC_NAMES: Final = frozenset(str(t) for t in Topic)
 
 
-def _encode_binary(topic: Topic, message: object) -> bytes:
-    if topic is Topic.SCAN and isinstance(message, LaserScan):
-        return encode_scan(message)
-    if topic is Topic.MAP and isinstance(message, OccupancyGrid):
-        return encode_map(message)
-    if topic is Topic.IMAGE and isinstance(message, ImageMsg):
-        return encode_image(message)
-    raise MessageValueError(f"{topic}: cannot encode {type(message).__name__}")
-
-
-_BINARY_DECODERS: Final[Mapping[Topic, Callable[[bytes], object]]] = {
-    Topic.SCAN: decode_scan,
-    Topic.MAP: decode_map,
-    Topic.IMAGE: decode_image,
+# Binary topics: the type each carries, its encoder and its decoder.
+_BINARY: Final[Mapping[Topic, tuple[type, Callable[[Any], bytes], Callable[[bytes], object]]]] = {
+    Topic.SCAN: (LaserScan, encode_scan, decode_scan),
+    Topic.MAP: (OccupancyGrid, encode_map, decode_map),
+    Topic.IMAGE: (ImageMsg, encode_image, decode_image),
 }
 
 
@@ -765,7 +756,10 @@ def encode(topic: Topic | str, message: object) -> bytes:
     """Encode ``message`` for ``topic``, checking it is the topic's message type."""
     spec = TOPIC_SPECS[to_topic(topic)]
     if spec.binary:
-        return _encode_binary(spec.topic, message)
+        kind, encoder, _ = _BINARY[spec.topic]
+        if not isinstance(message, kind):
+            raise MessageValueError(f"{spec.topic}: cannot encode {type(message).__name__}")
+        return encoder(message)
     if type(message) is not spec.message_type or not isinstance(message, JsonMessage):
         raise MessageValueError(
             f"{spec.topic} carries {spec.message_type.__name__}, not {type(message).__name__}"
@@ -777,7 +771,7 @@ def decode(topic: Topic | str, payload: bytes) -> object:
     """Decode a payload received on ``topic``; raise TopicDecodeError if it is malformed."""
     spec = TOPIC_SPECS[to_topic(topic)]
     if spec.binary:
-        return _BINARY_DECODERS[spec.topic](payload)
+        return _BINARY[spec.topic][2](payload)
     message_type: type[JsonMessage] = spec.message_type
     return decode_json(message_type, payload, str(spec.topic))
 

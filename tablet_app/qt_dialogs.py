@@ -30,7 +30,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from interbot_core.protocol import ShowRequest
+from interbot_core.protocol import MALFUNCTION_KINDS, ShowRequest
 from interbot_core.rooms import Room, RoomMap
 from tablet_app.qt_keyboard import QtKeyboard
 
@@ -300,9 +300,6 @@ class QtHelpConfirmDialog(_TabletDialog):
         )
         self.yes_button.setText(self.tr("Yes, you are here"))
         self.no_button.setText(self.tr("No"))
-
-
-MALFUNCTION_KINDS = ("collision", "wrong_position", "wrong_orientation", "other")
 
 
 class QtMalfunctionDialog(_TabletDialog):

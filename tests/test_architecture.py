@@ -175,6 +175,8 @@ STATE_OWNERS = {
     "StationLink",
     "FleetWatch",
     "FleetLink",
+    "SupervisorEvents",
+    "TabletRequests",
 }
 STATION_QT_FREE = (
     "fleet.py",
@@ -186,6 +188,8 @@ STATION_QT_FREE = (
     "robot_state.py",
     "alerts.py",
     "tablet_session.py",
+    "supervisor_events.py",
+    "tablet_requests.py",
 )
 
 
@@ -486,3 +490,133 @@ def test_unused_module_rule_catches_a_test_only_module(tmp_path: Path, monkeypat
     assert unused_product_modules(files, {"robot_daemon.main"}) == [
         "robot_daemon.localisation.log_replay"
     ]
+
+
+# Issue 13, the controller's split: what a supervisor event or a tablet request becomes is decided
+# in one Qt-free place each, so the controller stays a composition root. In base_station_app only
+# `SupervisorEvents` (and `RobotMirror`, for what an event changes in one robot's mirror) name a
+# supervisor event class; only `TabletRequests` (and `permission_for`, which says what permission
+# each needs) name a tablet request class.
+SUPERVISOR_EVENT_NAMES = {
+    "TaskStarted", "TaskFinished", "QueueChanged", "RouteStarted", "RouteCancelled",
+    "IntermediateGoalReached", "GoalReached", "PauseNavigation", "TourStopReached",
+    "RequestShown", "RequestAccepted", "RequestDeclined", "RequestTimedOut",
+}  # fmt: skip
+TABLET_REQUEST_NAMES = {
+    "Goal", "Pause", "Stop", "Tour", "Home", "RequestFrom", "TourControl", "InitialPoseRoom",
+    "Malfunction", "RequestAnswer",
+}  # fmt: skip
+DECIDED_IN = {
+    "supervisor event": (SUPERVISOR_EVENT_NAMES, {"supervisor_events.py", "robot_mirror.py"}),
+    "tablet request": (TABLET_REQUEST_NAMES, {"tablet_requests.py", "tablet_session.py"}),
+}
+
+
+def names_used(path: Path) -> set[str]:
+    """Every name a module imports, reads or reaches as an attribute (``p.Goal`` -> Goal)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names = imported_names(path)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute):
+            names.add(node.attr)
+    return names
+
+
+def test_the_event_and_tablet_request_sets_are_the_real_ones() -> None:
+    import typing
+
+    from interbot_core import protocol, supervisor
+
+    assert {c.__name__ for c in typing.get_args(supervisor.Event)} == SUPERVISOR_EVENT_NAMES
+    requests = {c.__name__ for c in typing.get_args(protocol.TabletMessage)}
+    assert requests - {"Speed", "Hello", "Ping", "Pong", "ErrorReport"} == TABLET_REQUEST_NAMES
+
+
+@pytest.mark.parametrize("what", sorted(DECIDED_IN))
+def test_events_and_tablet_requests_are_decided_in_one_place_each(what: str) -> None:
+    names, owners = DECIDED_IN[what]
+    offenders = {
+        p.name: sorted(names_used(p) & names)
+        for p in package_files("base_station_app")
+        if p.name not in owners and names_used(p) & names
+    }
+    assert offenders == {}, f"act on a {what} in {sorted(owners)[0]}, not elsewhere"
+    assert all(names_used(REPO / "base_station_app" / o) & names for o in owners)  # still looks
+
+
+def test_the_decided_in_one_place_rule_catches_a_controller_that_matches_events(
+    tmp_path: Path,
+) -> None:
+    bad = tmp_path / "station_controller.py"
+    bad.write_text(
+        "from interbot_core import protocol as p\n"
+        "if isinstance(event, supervisor.TourStopReached) or isinstance(msg, p.Goal):\n"
+        "    pass\n",
+        encoding="utf-8",
+    )
+    assert names_used(bad) & SUPERVISOR_EVENT_NAMES == {"TourStopReached"}
+    assert names_used(bad) & TABLET_REQUEST_NAMES == {"Goal"}
+
+
+# Issue 14 (the e-stop wins over a tablet command in flight): what gates the tablet thread's
+# speed path - the operator's stop, a robot's online flag, the tablet's permissions: everything
+# `TabletTeleop`'s ``refusal()`` and ``estop()`` read - is written only under a ``lock`` (the
+# speed path's, ``tablet_teleop.lock``), outside constructors. The split keeps these writes in
+# the controller; a part that wrote one without the lock would let a command slip past a stop.
+TABLET_GATES = {"estop_latched", "online", "permissions"}
+
+
+def unlocked_gate_writes(path: Path) -> list[int]:
+    """Lines that assign a tablet gate outside ``with ....lock:`` and outside ``__init__``."""
+    found: list[int] = []
+
+    def visit(node: ast.AST, locked: bool, in_init: bool) -> None:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            in_init = node.name == "__init__"
+        if isinstance(node, ast.With):
+            locked = locked or any(
+                ast.unparse(item.context_expr).endswith(".lock") for item in node.items
+            )
+        targets: list[ast.expr] = []
+        if isinstance(node, ast.Assign):
+            targets = node.targets
+        elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+            targets = [node.target]
+        for target in targets:
+            for t in target.elts if isinstance(target, ast.Tuple) else [target]:
+                gate = isinstance(t, ast.Attribute) and t.attr in TABLET_GATES
+                if gate and not (locked or in_init):
+                    found.append(t.lineno)
+        for child in ast.iter_child_nodes(node):
+            visit(child, locked, in_init)
+
+    visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)), False, False)
+    return found
+
+
+def test_what_gates_the_tablet_is_written_under_the_speed_paths_lock() -> None:
+    offenders = {
+        p.name: lines
+        for p in package_files("base_station_app")
+        if (lines := unlocked_gate_writes(p))
+    }
+    assert offenders == {}, "write the e-stop, online and permissions under tablet_teleop.lock"
+
+
+def test_the_gate_rule_catches_a_write_without_the_lock(tmp_path: Path) -> None:
+    bad = tmp_path / "part.py"
+    bad.write_text(
+        "class Part:\n"
+        "    def __init__(self):\n"
+        "        self.online = False\n"  # a constructor: fine
+        "    def ok(self, link):\n"
+        "        with self.tablet_teleop.lock:\n"
+        "            link.estop_latched = True\n"
+        "    def bad(self, mirror, policy):\n"
+        "        mirror.online = True\n"
+        "        policy.permissions, x = 1, 2\n",
+        encoding="utf-8",
+    )
+    assert unlocked_gate_writes(bad) == [8, 9]

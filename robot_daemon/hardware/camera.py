@@ -11,7 +11,6 @@ into the daemon. The capture factory is a parameter so tests can use a fake devi
 from __future__ import annotations
 
 import logging
-import threading
 import time
 from collections.abc import Callable
 from typing import Any, Protocol, cast
@@ -21,6 +20,7 @@ import numpy as np
 
 from robot_daemon.backend import DeviceStatus
 from robot_daemon.hardware.config import CameraConfig
+from robot_daemon.hardware.driver_thread import DriverThread
 
 logger = logging.getLogger(__name__)
 
@@ -52,9 +52,10 @@ def encode_frame(frame: np.ndarray, width: int, height: int, quality: int) -> by
     return buf.tobytes()
 
 
-class CameraDriver:
+class CameraDriver(DriverThread):
     """Newest JPEG frame from a USB camera; see the module docstring."""
 
+    THREAD_NAME = "camera-driver"
     MAX_READ_FAILURES = 5  # in a row, before the camera is reopened
 
     def __init__(
@@ -63,14 +64,12 @@ class CameraDriver:
         clock: Clock = time.monotonic,
         capture_factory: CaptureFactory | None = None,
     ) -> None:
+        super().__init__()
         self.config = config
         self.clock = clock
         self.capture_factory: CaptureFactory = capture_factory or cast(
             CaptureFactory, cv2.VideoCapture
         )
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._latest: tuple[float, bytes] | None = None
         self._seq = 0
         self._open = False
@@ -80,18 +79,7 @@ class CameraDriver:
         )
 
     def start(self) -> CameraDriver:
-        if self.config.enabled:
-            self._thread = threading.Thread(target=self._run, name="camera-driver", daemon=True)
-            self._thread.start()
-        return self
-
-    def close(self, timeout: float = 3.0) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-            if self._thread.is_alive():
-                logger.error("camera thread did not stop within %.1f s", timeout)
-            self._thread = None
+        return super().start() if self.config.enabled else self
 
     def latest(self) -> tuple[int, tuple[float, bytes] | None]:
         """(sequence number, (stamp, JPEG)) of the newest encoded frame."""

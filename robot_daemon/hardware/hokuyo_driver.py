@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -35,6 +34,7 @@ from interbot_core.laser_scan import LaserScan
 from robot_daemon.backend import DeviceStatus
 from robot_daemon.hardware import scip
 from robot_daemon.hardware.config import LaserConfig
+from robot_daemon.hardware.driver_thread import DriverThread
 
 logger = logging.getLogger(__name__)
 
@@ -61,7 +61,6 @@ class _FrameReader:
         self.stall_timeout = stall_timeout
         self.buffer = bytearray()
         self.last_rx = clock()
-        self.overflows = 0
 
     def next_frame(self, timeout: float | None = None) -> tuple[bytes, float]:
         """The next reply and the host time its last bytes arrived.
@@ -86,12 +85,13 @@ class _FrameReader:
                 self.last_rx = self.clock()
                 self.buffer += chunk
                 if len(self.buffer) > self.MAX_BUFFER:
-                    self.overflows += 1
                     del self.buffer[: -self.MAX_BUFFER // 2]
 
 
-class HokuyoDriver:
+class HokuyoDriver(DriverThread):
     """Streams scans from a UTM-30LX; see the module docstring."""
+
+    THREAD_NAME = "hokuyo-driver"
 
     def __init__(
         self,
@@ -100,6 +100,7 @@ class HokuyoDriver:
         serial_factory: SerialFactory = serial.Serial,
         reply_timeout: float = 0.5,
     ) -> None:
+        super().__init__()
         self.config = config
         self.reply_timeout = reply_timeout  # [s] for each handshake reply
         self.clock = clock
@@ -107,9 +108,6 @@ class HokuyoDriver:
         self.params: scip.SensorParameters | None = None
         self.version: dict[str, str] = {}
         self.state_info: dict[str, str] = {}
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._latest: LaserScan | None = None
         self._seq = 0
         self._connected = False
@@ -131,20 +129,6 @@ class HokuyoDriver:
         )
 
     # -- life cycle ---------------------------------------------------------------------------
-
-    def start(self) -> HokuyoDriver:
-        self._thread = threading.Thread(target=self._run, name="hokuyo-driver", daemon=True)
-        self._thread.start()
-        return self
-
-    def close(self, timeout: float = 3.0) -> None:
-        """Stop streaming (QT, RS) and release the port; idempotent."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-            if self._thread.is_alive():
-                logger.error("hokuyo driver thread did not stop within %.1f s", timeout)
-            self._thread = None
 
     # -- results ------------------------------------------------------------------------------
 

@@ -36,6 +36,7 @@ import serial
 from robot_daemon.backend import BatteryReading, DeviceStatus
 from robot_daemon.hardware import roboteq
 from robot_daemon.hardware.config import BatteryConfig, MotorsConfig
+from robot_daemon.hardware.driver_thread import DriverThread
 
 logger = logging.getLogger(__name__)
 
@@ -47,8 +48,10 @@ class NoReply(Exception):
     """The controller did not answer in time."""
 
 
-class RoboteqDriver:
+class RoboteqDriver(DriverThread):
     """Differential drive on a RoboteQ controller; see the module docstring."""
+
+    THREAD_NAME = "roboteq-driver"
 
     REPLY_TIMEOUT = 0.2  # [s]
     BATTERY_PERIOD = 1.0  # [s]
@@ -62,6 +65,7 @@ class RoboteqDriver:
         clock: Clock = time.monotonic,
         serial_factory: SerialFactory = serial.Serial,
     ) -> None:
+        super().__init__()
         self.config = config
         self.battery_config = battery or BatteryConfig()
         self.geometry = config.geometry
@@ -70,10 +74,7 @@ class RoboteqDriver:
         self.odometry_model = roboteq.WheelOdometry(
             self.geometry, config.left_sign, config.right_sign
         )
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
         self._wake = threading.Event()
-        self._thread: threading.Thread | None = None
         self._pending: tuple[float, float, float] | None = None  # (linear, angular, stamp)
         self._odometry: roboteq.OdometryState | None = None
         self._battery: BatteryReading | None = None
@@ -100,20 +101,8 @@ class RoboteqDriver:
 
     # -- life cycle ---------------------------------------------------------------------------
 
-    def start(self) -> RoboteqDriver:
-        self._thread = threading.Thread(target=self._run, name="roboteq-driver", daemon=True)
-        self._thread.start()
-        return self
-
-    def close(self, timeout: float = 3.0) -> None:
-        """Send zero on both channels and release the port; idempotent."""
-        self._stop.set()
+    def _wake_up(self) -> None:
         self._wake.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-            if self._thread.is_alive():
-                logger.error("roboteq driver thread did not stop within %.1f s", timeout)
-            self._thread = None
 
     # -- daemon side --------------------------------------------------------------------------
 

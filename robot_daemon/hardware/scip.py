@@ -22,6 +22,10 @@ Geometry (from PP, never constants): step ``s`` points at ``(s - AFRT) * 2 pi / 
 (REP-103, counter-clockwise positive); the mirror turns at SCAN rpm, so a scan takes
 ``60 / SCAN`` s; the sensor's timestamp is taken when the beam passes the rear of the sensor
 (step ``AFRT - ARES / 2``).
+
+Only the host's side is here (commands out, replies parsed); the sensor's side (encoding
+values, replies and scans) belongs to the emulator, a test double
+(`tests/robot_daemon/hardware/emulators/scip_encoder.py`).
 """
 
 from __future__ import annotations
@@ -72,11 +76,6 @@ def checksum(payload: bytes) -> int:
     return (sum(payload) & 0x3F) + 0x30
 
 
-def with_sum(payload: bytes) -> bytes:
-    """``payload`` followed by its sum character (no LF)."""
-    return payload + bytes((checksum(payload),))
-
-
 def verify_line(line: bytes) -> bytes:
     """The payload of ``payload + sum``; raises `ScipChecksumError` if the sum is wrong."""
     if len(line) < 2:
@@ -87,13 +86,6 @@ def verify_line(line: bytes) -> bytes:
             f"SCIP line {line!r}: sum {chr(got)!r}, expected {chr(checksum(payload))!r}"
         )
     return payload
-
-
-def encode_value(value: int, chars: int) -> bytes:
-    """``value`` in ``chars`` 6-bit characters (0x30 offset, big-endian)."""
-    if not 0 <= value < 1 << (6 * chars):
-        raise ValueError(f"{value} does not fit in {chars} SCIP characters")
-    return bytes(((value >> (6 * (chars - 1 - i))) & 0x3F) + 0x30 for i in range(chars))
 
 
 def decode_value(data: bytes) -> int:
@@ -118,29 +110,7 @@ def decode_array(data: bytes, chars: int) -> npt.NDArray[np.int64]:
     return groups @ weights
 
 
-def encode_array(values: npt.ArrayLike, chars: int) -> bytes:
-    """Encode values as concatenated ``chars``-character groups (inverse of `decode_array`)."""
-    v = np.asarray(values, dtype=np.int64)
-    if v.size and (v.min() < 0 or v.max() >= 1 << (6 * chars)):
-        raise ValueError(f"values do not fit in {chars} SCIP characters")
-    shifts = 6 * np.arange(chars - 1, -1, -1, dtype=np.int64)
-    out = ((v[:, None] >> shifts) & 0x3F) + 0x30
-    return out.astype(np.uint8).tobytes()
-
-
-def data_lines(payload: bytes) -> list[bytes]:
-    """Split a data block into lines of <= 64 characters, each followed by its sum."""
-    return [
-        with_sum(payload[i : i + DATA_LINE_CHARS]) for i in range(0, len(payload), DATA_LINE_CHARS)
-    ]
-
-
 # -- status and KEY:VALUE lines ---------------------------------------------------------------
-
-
-def status_line(status: str) -> bytes:
-    """``00`` -> ``b"00P"``."""
-    return with_sum(status.encode("ascii"))
 
 
 def parse_status(line: bytes) -> str:
@@ -154,12 +124,6 @@ def parse_status(line: bytes) -> str:
     if len(line) != 3:
         raise ScipTruncatedError(f"SCIP status line {line!r} must be 2 characters and a sum")
     return verify_line(line).decode("ascii")
-
-
-def info_line(key: str, value: str) -> bytes:
-    """``KEY:VALUE;S`` with the sum over ``KEY:VALUE`` (the ``;`` is excluded)."""
-    body = f"{key}:{value}".encode("ascii")
-    return body + b";" + bytes((checksum(body),))
 
 
 def parse_info_line(line: bytes) -> tuple[str, str]:
@@ -277,15 +241,6 @@ class SensorParameters:
         """Time for one turn of the mirror [s] (60 / SCAN)."""
         return 60.0 / self.scan_rpm
 
-    @property
-    def rear_step(self) -> float:
-        """The step (possibly outside AMIN..AMAX) that points backwards; timestamps refer to it."""
-        return self.afrt - self.ares / 2
-
-    def step_delay(self, step: float) -> float:
-        """Time from the timestamp (beam at the rear) to the measurement of ``step`` [s]."""
-        return ((step - self.rear_step) % self.ares) / self.ares * self.scan_period
-
 
 # -- commands and streamed scans --------------------------------------------------------------
 
@@ -376,15 +331,6 @@ def parse_scan_frame(lines: list[bytes], steps: int, chars: int = 3) -> ScanFram
     timestamp = decode_value(verify_line(lines[2]))
     payload = b"".join(verify_line(line) for line in data)
     return ScanFrame(timestamp, decode_array(payload, chars), request.scans)
-
-
-def encode_scan_frame(
-    echo: bytes, status: str, timestamp_ms: int, ranges_mm: npt.ArrayLike, chars: int = 3
-) -> bytes:
-    """The bytes of one scan reply (the emulator's side of `parse_scan_frame`)."""
-    parts = [echo, status_line(status), with_sum(encode_value(timestamp_ms % TIMESTAMP_MODULUS, 4))]
-    parts += data_lines(encode_array(ranges_mm, chars))
-    return b"\n".join(parts) + b"\n\n"
 
 
 # -- timestamps -------------------------------------------------------------------------------

@@ -33,7 +33,6 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_FOXGLOVE_PORT = 8765
 LOCALISATION = "/localisation"
 
 

@@ -435,9 +435,11 @@ class Recorder:
         )
 
     def _log(
-        self, name: str, factory: Callable[[], Any], message: Any, now: float, latch: bool = False
+        self, name: str, kind: Any, message: Any, now: float, latch: bool = False, **extra: Any
     ) -> None:
-        channel = self._channel(name, factory)
+        """Log ``message`` on channel ``name`` of Foxglove channel class ``kind`` (made on first
+        use, with ``extra`` such as metadata); a ``latch`` message is repeated in a new file."""
+        channel = self._channel(name, lambda: kind(name, context=self._context, **extra))
         channel.log(message, log_time=ns(self.epoch_offset + now))
         if latch:
             self._latched[name] = (now, message)
@@ -451,7 +453,6 @@ class Recorder:
         kind, now = item[0], float(item[1])
         self._maybe_rotate(now)
         t = self.epoch_offset + now
-        ctx = self._context
         if kind == "state":
             self._write_state(item[2], item[3], now, t)
         elif kind == "command":
@@ -463,7 +464,7 @@ class Recorder:
             if isinstance(message, RouteMsg):
                 self._log(
                     ROUTE,
-                    lambda: PosesInFrameChannel(ROUTE, context=ctx),
+                    PosesInFrameChannel,
                     fc.path_message(t, message.waypoints),
                     now,
                     latch=True,
@@ -476,43 +477,23 @@ class Recorder:
         elif kind == "path":
             points = fc.path_with_headings(item[2])
             self._log(
-                PLANNED_PATH,
-                lambda: PosesInFrameChannel(PLANNED_PATH, context=ctx),
-                fc.path_message(t, points),
-                now,
-                latch=True,
+                PLANNED_PATH, PosesInFrameChannel, fc.path_message(t, points), now, latch=True
             )
         else:
             raise ValueError(f"unknown recorder item {kind!r}")
 
     def _write_state(self, topic: Topic, message: Any, now: float, t: float) -> None:
-        ctx = self._context
         if topic is Topic.SCAN and isinstance(message, LaserScan):
             meta = {"range_min": repr(message.range_min), "range_max": repr(message.range_max)}
-            self._log(
-                SCAN,
-                lambda: LaserScanChannel(SCAN, metadata=meta, context=ctx),
-                fc.scan_message(self.epoch_offset + message.stamp, message),  # sensor time
-                now,
-            )
+            scan = fc.scan_message(self.epoch_offset + message.stamp, message)  # sensor time
+            self._log(SCAN, LaserScanChannel, scan, now, metadata=meta)
             if "/tf_static" not in self._latched:
                 self._log_mount(now)
         elif topic is Topic.MAP and isinstance(message, OccupancyGrid):
-            self._log(
-                MAP,
-                lambda: GridChannel(MAP, context=ctx),
-                fc.grid_message(t, message),
-                now,
-                latch=True,
-            )
+            self._log(MAP, GridChannel, fc.grid_message(t, message), now, latch=True)
         elif topic is Topic.IMAGE and isinstance(message, ImageMsg | bytes):
             jpeg = message.jpeg if isinstance(message, ImageMsg) else message
-            self._log(
-                CAMERA_JPEG,
-                lambda: CompressedImageChannel(CAMERA_JPEG, context=ctx),
-                fc.jpeg_message(t, jpeg),
-                now,
-            )
+            self._log(CAMERA_JPEG, CompressedImageChannel, fc.jpeg_message(t, jpeg), now)
         elif topic in JSON_STATE_TOPICS and isinstance(message, JsonMessage):
             self._log_json(JSON_STATE_TOPICS[topic], message_dict(message), now, type(message))
             if isinstance(message, PoseMsg):
@@ -524,11 +505,7 @@ class Recorder:
             elif isinstance(message, PlanMsg):  # the path the station draws, for Foxglove too
                 points = fc.path_with_headings(message.points)
                 self._log(
-                    PLANNED_PATH,
-                    lambda: PosesInFrameChannel(PLANNED_PATH, context=ctx),
-                    fc.path_message(t, points),
-                    now,
-                    latch=True,
+                    PLANNED_PATH, PosesInFrameChannel, fc.path_message(t, points), now, latch=True
                 )
             elif isinstance(message, Odom):
                 self._odom_seen = True
@@ -538,19 +515,11 @@ class Recorder:
             raise ValueError(f"cannot record {type(message).__name__} on {topic}")
 
     def _log_tf(self, transforms: Any, now: float) -> None:
-        ctx = self._context
-        self._log(TF, lambda: FrameTransformsChannel(TF, context=ctx), transforms, now)
+        self._log(TF, FrameTransformsChannel, transforms, now)
 
     def _log_mount(self, now: float) -> None:
-        ctx = self._context
         mount = fc.laser_mount_transform(self.epoch_offset + now, self._laser_mount)
-        self._log(
-            "/tf_static",
-            lambda: FrameTransformsChannel("/tf_static", context=ctx),
-            mount,
-            now,
-            latch=True,
-        )
+        self._log("/tf_static", FrameTransformsChannel, mount, now, latch=True)
 
     # ------------------------------------------------------------------ files
 

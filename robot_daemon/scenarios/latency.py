@@ -211,7 +211,6 @@ class CircuitSender:
         self.distance = distance
         self.index = 0
         self._phase_start: float | None = None
-        self._origin_pose: Pose2D | None = None
         self._turned = 0.0
         self._last_yaw: float | None = None
         self._aligning = False
@@ -237,7 +236,6 @@ class CircuitSender:
         pose = self.system.stack.pose
         if self._phase_start is None:
             self._phase_start = now
-            self._origin_pose = pose
         cfg = self.config
         if kind == "pause":
             if now - self._phase_start >= PAUSE_S - 1e-9:

@@ -125,16 +125,15 @@ def _door_runs(system: SimulatedSystem, topo: TopologicalMap, distance: np.ndarr
         if float(distance[rows[0], cols[0]]) < 0.45:
             continue
         side = 1.0 if len(out) % 2 else -1.0  # alternate sides from door to door
-        if True:
-            start = Pose2D(
-                p.x - 0.5 * c - side * DOOR_OFFSET * s,
-                p.y - 0.5 * s + side * DOOR_OFFSET * c,
-                p.yaw,
+        start = Pose2D(
+            p.x - 0.5 * c - side * DOOR_OFFSET * s,
+            p.y - 0.5 * s + side * DOOR_OFFSET * c,
+            p.yaw,
+        )
+        if _free(system, start):
+            out.append(
+                Run("door", start, target, 25.0, f"door {node.name} ({side:+.0f})", 2 * narrow)
             )
-            if _free(system, start):
-                out.append(
-                    Run("door", start, target, 25.0, f"door {node.name} ({side:+.0f})", 2 * narrow)
-                )
     return out
 
 

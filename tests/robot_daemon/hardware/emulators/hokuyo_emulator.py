@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_daemon.hardware import scip
+from tests.robot_daemon.hardware.emulators import scip_encoder
 from tests.robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
 
 logger = logging.getLogger(__name__)
@@ -190,11 +191,11 @@ class HokuyoEmulator(EmulatorThread):
             return
         # Scans missed while stalled or blocked are skipped, as the sensor does not queue them.
         latest = math.floor(
-            (now - self._rear_time(0) - self.params.step_delay(self.params.amax))
+            (now - self._rear_time(0) - scip_encoder.step_delay(self.params, self.params.amax))
             / self.params.scan_period
         )
         k = max(self._next_scan, latest)
-        send_at = self._rear_time(k) + self.params.step_delay(self.params.amax)
+        send_at = self._rear_time(k) + scip_encoder.step_delay(self.params, self.params.amax)
         if now < send_at:
             return
         req = self._md
@@ -203,14 +204,14 @@ class HokuyoEmulator(EmulatorThread):
             self._md_remaining -= 1
         remaining = self._md_remaining if req.scans else 0
         echo = scip.md_command(req.start, req.end, req.cluster, req.interval, remaining)[:-1]
-        frame = scip.encode_scan_frame(
+        frame = scip_encoder.encode_scan_frame(
             echo, scip.STATUS_STREAM, self._timestamp_ms(k), self._select(self.ranges_for(k), req)
         )
         self._write(self._corrupt(frame))
         self.sent.append(
             (
                 k,
-                self._rear_time(k) + self.params.step_delay(self.params.amin),
+                self._rear_time(k) + scip_encoder.step_delay(self.params, self.params.amin),
                 self._timestamp_ms(k),
             )
         )
@@ -237,7 +238,7 @@ class HokuyoEmulator(EmulatorThread):
     # -- commands -----------------------------------------------------------------------------
 
     def _reply(self, echo: bytes, status: str, body: list[bytes] | None = None) -> None:
-        parts = [echo, scip.status_line(status), *(body or [])]
+        parts = [echo, scip_encoder.status_line(status), *(body or [])]
         self._write(b"\n".join(parts) + b"\n\n")
 
     def _handle(self, line: bytes, now: float) -> None:
@@ -248,9 +249,13 @@ class HokuyoEmulator(EmulatorThread):
             self._reply(line, scip.STATUS_NOT_DEFINED)  # already SCIP 2.0: "0Ee"
         elif text in ("VV", "PP"):
             info = UTM30LX_VV if text == "VV" else self.pp
-            self._reply(line, scip.STATUS_OK, [scip.info_line(k, v) for k, v in info.items()])
+            self._reply(
+                line, scip.STATUS_OK, [scip_encoder.info_line(k, v) for k, v in info.items()]
+            )
         elif text == "II":
-            ts = scip.encode_value(self._timestamp_ms(self._scan_index_after(now)), 4).decode()
+            ts = scip_encoder.encode_value(
+                self._timestamp_ms(self._scan_index_after(now)), 4
+            ).decode()
             info = {
                 "MODL": self.pp["MODL"],
                 "LASR": "ON" if self._laser_on else "OFF",
@@ -260,7 +265,9 @@ class HokuyoEmulator(EmulatorThread):
                 "TIME": ts,
                 "STAT": "Stable 000 no error.",
             }
-            self._reply(line, scip.STATUS_OK, [scip.info_line(k, v) for k, v in info.items()])
+            self._reply(
+                line, scip.STATUS_OK, [scip_encoder.info_line(k, v) for k, v in info.items()]
+            )
         elif text == "BM":
             status = scip.STATUS_ALREADY_ON if self._laser_on else scip.STATUS_OK
             self._laser_on = True
@@ -290,7 +297,7 @@ class HokuyoEmulator(EmulatorThread):
                 return
             k = max(self._scan_index_after(now) - 1, 0)
             self._write(
-                scip.encode_scan_frame(
+                scip_encoder.encode_scan_frame(
                     line,
                     scip.STATUS_OK,
                     self._timestamp_ms(k),
