@@ -15,7 +15,7 @@ Thrun, Burgard, Fox, *Probabilistic Robotics*, 2005, §7.4):
   ``F c Jᵀ + J cᵀ Fᵀ + v J Jᵀ`` (``c``: the pose-drift cross-covariance, ``v``: the drift's
   variance): an unknown drift makes the heading's uncertainty grow linearly with the distance.
 * **Update.** The scan match measures the pose only; the drift follows by Gaussian
-  conditioning, exactly as the scale does (`OdometryScale.update`): where the scans fix the
+  conditioning, exactly as the scale does (`learnt_state.LearntScalar.update`): where the scans fix the
   heading, its corrections teach ``b``; where they do not, the learnt ``b`` carries it.
 
 **Off by default** (``enabled``), measured (load ~10, 2026-11-23): on the Freiburg campus,
@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D
-from robot_daemon.localisation.odometry_scale import _solve_spd3
+from robot_daemon.localisation.learnt_state import LearntScalar
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -70,21 +70,14 @@ class OdometryYawBiasConfig:
                 )
 
 
-class OdometryYawBias:
+class OdometryYawBias(LearntScalar):
     """The drift estimate ``value`` [rad/m], its variance ``var`` and its cross-covariance
-    with the pose (x, y, yaw)."""
+    with the pose (x, y, yaw) (`learnt_state.LearntScalar` keeps, updates and resets them)."""
 
     def __init__(self, config: OdometryYawBiasConfig | None = None) -> None:
         self.config = config or OdometryYawBiasConfig()
-        self.value = 0.0
-        self.var = self.config.sigma**2
-        self.cross = (0.0, 0.0, 0.0)
-        self._pred: tuple[tuple[float, float, float], float] | None = None
-
-    def reset_cross(self) -> None:
-        """A new pose was set: it is independent of the drift learnt so far."""
-        self.cross = (0.0, 0.0, 0.0)
-        self._pred = None
+        lim = self.config.max_abs
+        super().__init__(0.0, self.config.sigma**2, -lim, lim, 1e-12)
 
     def corrected(self, step: Pose2D) -> Pose2D:
         """The odometry increment with the drift over its length added to its turn."""
@@ -106,34 +99,8 @@ class OdometryYawBias:
         f0 = k0 + (-s * step.x - c * step.y) * k2
         f1 = k1 + (c * step.x - s * step.y) * k2
         f2 = k2
-        self._pred = ((f0, f1, f2 + d * v), v + self.config.walk_per_sqrt_m**2 * d)
+        self.remember_prediction((f0, f1, f2 + d * v), v + self.config.walk_per_sqrt_m**2 * d)
         out: FloatArray = cov + np.array(
             [[0.0, 0.0, d * f0], [0.0, 0.0, d * f1], [d * f0, d * f1, 2.0 * d * f2 + v * d * d]]
         )
         return out
-
-    def keep_prediction(self) -> None:
-        """No update this scan (match rejected, lost): the prediction stands."""
-        if self._pred is not None:
-            self.cross, self.var = self._pred
-        self._pred = None
-
-    def update(self, cov_pred: FloatArray, cov_post: FloatArray, correction: FloatArray) -> None:
-        """Condition the drift on the pose update ``correction`` = posterior - prediction
-        (x, y, yaw) with the pose covariances before and after (`OdometryScale.update`)."""
-        if self._pred is None:
-            return
-        cross, var = self._pred
-        self._pred = None
-        a = _solve_spd3(cov_pred.tolist(), cross)  # P⁻¹ c
-        if a is None:
-            self.cross, self.var = cross, var
-            return
-        post = cov_post.tolist()
-        pa = tuple(sum(post[r][q] * a[q] for q in range(3)) for r in range(3))  # P⁺ Aᵀ
-        gain = sum(a[q] * float(correction[q]) for q in range(3))
-        lim = self.config.max_abs
-        self.value = min(max(self.value + gain, -lim), lim)
-        reduce = sum(a[q] * cross[q] for q in range(3)) - sum(a[q] * pa[q] for q in range(3))
-        self.var = max(var - reduce, 1e-12)
-        self.cross = (pa[0], pa[1], pa[2])
