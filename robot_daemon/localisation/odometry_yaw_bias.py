@@ -57,12 +57,16 @@ class OdometryYawBiasConfig:
     sigma: float = 0.02  # [rad/m] prior sigma (1 % unequal wheels on a 0.5 m track)
     walk_per_sqrt_m: float = 0.001  # [rad/m per sqrt(m)] the drift changes (load, floor)
     max_abs: float = 0.1  # [rad/m] the estimate stays within ± this
+    # Learn only from scan steps turning at most this much [rad]: a turn's own error (slip,
+    # a fast turn between a log's 1 Hz scans) is not drift per metre and would teach it wrong.
+    learn_max_turn_rad: float = math.pi
 
     def __post_init__(self) -> None:
         for name, value, low, high in (
             ("sigma", self.sigma, 1e-5, 1.0),
             ("walk_per_sqrt_m", self.walk_per_sqrt_m, 0.0, 0.1),
             ("max_abs", self.max_abs, 1e-3, 1.0),
+            ("learn_max_turn_rad", self.learn_max_turn_rad, 0.0, math.pi),
         ):
             if not (math.isfinite(value) and low <= value <= high):
                 raise OdometryYawBiasConfigError(
@@ -84,6 +88,11 @@ class OdometryYawBias(LearntScalar):
         if not self.config.enabled:
             return step
         return Pose2D(step.x, step.y, step.yaw + self.value * math.hypot(step.x, step.y))
+
+    def learns_from(self, raw_step: Pose2D) -> bool:
+        """Whether a scan after the odometry increment ``raw_step`` may teach the drift: not
+        after a turn of more than ``learn_max_turn_rad`` (its heading error is the turn's)."""
+        return abs(raw_step.yaw) <= self.config.learn_max_turn_rad
 
     def predict(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:
         """``cov`` (the pose covariance propagated along ``step``, the increment applied, from
