@@ -208,13 +208,14 @@ class LocaliserConfig:
     # than gate_max_sigma_m (a wrong prior must not hide the beams that would correct it).
     # On the realistic ISR tour it cuts seed 3's error at the Meeting Room's pane (a sideboard
     # moved 0.44 m behind it: 20 cm along the corridor -> 1 cm; tour RMS 4.3 -> 3.7 cm, max
-    # 21 -> 16 cm). It once lost seed 1 at 365 s: not through the gate itself, whose pose was
-    # 3 cm off, but because the robot's path changed and a crowded scan through the
-    # Mecatronics Lab's opened door then failed the see-through test
-    # (see_through_crowded_confidence fixes that).
-    # The prior's heading counts too: 0.05-0.08 rad off after the CSAIL revisit's fast turns
-    # between 1 Hz scans, beams at 4 m are 0.3 m off and good ones look through walls (gated,
-    # the run was lost, RMS 2.3 -> 35 cm); at the tour's 10 Hz the prior's is ~0.003 rad.
+    # 21 -> 16 cm; seeds 1-3 the same with gate_max_sigma_m 0.1 or 0.2, where a 6 m drive
+    # along a corridor with nothing but the pane to fix it needs 0.2: test_loc_beam_gating).
+    # It once lost seed 1 at 365 s: not through the gate itself, whose pose was 3 cm off, but
+    # because the robot's path changed and a crowded scan through the Mecatronics Lab's opened
+    # door then failed the see-through test (see_through_crowded_confidence fixes that).
+    # The prior's heading counts too: its sigma is 0.05-0.08 rad after the CSAIL revisit's
+    # fast turns between 1 Hz scans, beams at 4 m are 0.3 m off and good ones look through
+    # walls (gated, the run was lost, RMS 2.3 -> 35 cm); at the tour's 10 Hz it is ~0.003 rad.
     gate_through_walls: bool = True
     gate_max_sigma_m: float = 0.2
     gate_max_sigma_rad: float = 0.02

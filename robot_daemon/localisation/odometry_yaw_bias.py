@@ -23,8 +23,12 @@ scans 880-1400 (interleaved method), it brings the RMS from 17.3 to 10.6 cm, the
 from 2.4 to 0.75 degrees, the max from 0.95 to 0.48 m and the losses from 10 to 3. But it
 changes which look-alike the CSAIL revisit's fast turns settle on (a 10-degree-off pose fitting
 at 0.91 is accepted; the run is lost, RMS 2.3 -> 24 cm: `test_csail_revisit_through_a_fast_turn_is_tracked`
-fails), and the ISR tour seed 1 was lost twice (6/15 stops). Until the match's gate tells
-such look-alikes apart, the drift stays an option, not the default.
+fails), and the ISR tour seed 1 was lost twice (6/15 stops). Learning only from scan steps
+that turn at most ``learn_max_turn_rad`` (0.2 rad; a turn's own error is not drift per metre:
+`learns_from`) keeps both (2026-11-24, load 11-14, beam gating on): the CSAIL revisit RMS
+3.0 cm, 0 lost (2.3 cm with the drift off); ISR seed 1 15/15, 0 losses, RMS 4.6 / max 16.0 cm
+(4.9 / 18.5 off); the campus scans 880-1400 RMS 9.8 cm (10.6 learning from every step,
+17.3 off). Not yet measured on every log and tour, so still off by default.
 
 The drift's and the scale's cross-covariance with each other is not carried (each is
 conditioned on the pose alone): they are driven by different components of the motion
