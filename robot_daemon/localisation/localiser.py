@@ -216,7 +216,11 @@ class LocaliserConfig:
     # The prior's heading counts too: its sigma is 0.05-0.08 rad after the CSAIL revisit's
     # fast turns between 1 Hz scans, beams at 4 m are 0.3 m off and good ones look through
     # walls (gated, the run was lost, RMS 2.3 -> 35 cm); at the tour's 10 Hz it is ~0.003 rad.
-    gate_through_walls: bool = True
+    # OFF by default: measured on (2026-11-24), it also moves ISR kidnap seed 3 from 8/8 to
+    # 7/8 relocalised without a person (one help request, 0 wrong) and the Freiburg 079
+    # whole-log RMS from 3.24 to 3.35 cm; seed 1's world-frame RMS 4.4 -> 4.9 cm (its path
+    # changes; the extra error is in a corridor where the map's own error is 5-17 cm).
+    gate_through_walls: bool = False
     gate_max_sigma_m: float = 0.2
     gate_max_sigma_rad: float = 0.02
 
