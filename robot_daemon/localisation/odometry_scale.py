@@ -16,9 +16,7 @@ and Cartographer's odometry calibration do the same for wheel odometry):
   pose-scale cross-covariance and ``v`` the scale's variance: an unknown scale makes the
   uncertainty along the travel grow *linearly* with the distance, as the error does.
 * **Update.** The scan match measures the pose only, so the scale follows from the pose update
-  by Gaussian conditioning: with ``A = cᵀ P⁻¹`` (``P`` the predicted pose covariance),
-  ``k += A Δx``, ``v ← v - A c + A P⁺ Aᵀ``, ``c ← P⁺ Aᵀ`` (``Δx``, ``P⁺``: the pose's
-  correction and posterior covariance). Where the scan pins the pose along the travel (a door
+  by Gaussian conditioning (`learnt_state.LearntScalar.update`). Where the scan pins the pose along the travel (a door
   jamb, a corridor's end), the correction teaches the scale; along a featureless corridor the
   learnt scale carries the pose.
 
@@ -35,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D
+from robot_daemon.localisation.learnt_state import LearntScalar
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -64,21 +63,14 @@ class OdometryScaleConfig:
                 )
 
 
-class OdometryScale:
-    """The scale estimate ``value``, its variance ``var`` and its cross-covariance with the pose."""
+class OdometryScale(LearntScalar):
+    """The scale estimate ``value``, its variance ``var`` and its cross-covariance with the pose
+    (`learnt_state.LearntScalar` keeps, updates and resets them)."""
 
     def __init__(self, config: OdometryScaleConfig | None = None) -> None:
         self.config = config or OdometryScaleConfig()
-        self.value = 1.0
-        self.var = self.config.sigma**2
-        self.cross = (0.0, 0.0, 0.0)  # cov(pose (x, y, yaw), scale)
-        # (cross, var) after `predict`, until `update` or `keep_prediction`
-        self._pred: tuple[tuple[float, float, float], float] | None = None
-
-    def reset_cross(self) -> None:
-        """A new pose was set: it is independent of the scale learnt so far."""
-        self.cross = (0.0, 0.0, 0.0)
-        self._pred = None
+        lim = self.config.max_error
+        super().__init__(1.0, self.config.sigma**2, 1.0 - lim, 1.0 + lim, 1e-10)
 
     def scaled(self, step: Pose2D) -> Pose2D:
         """The odometry increment with the scale applied to its translation."""
@@ -89,8 +81,7 @@ class OdometryScale:
     def predict(self, pose: Pose2D, step: Pose2D, scaled: Pose2D, cov: FloatArray) -> FloatArray:
         """The scale's share of the prediction: ``cov`` (the pose covariance propagated along
         ``scaled`` from ``pose``, without the scale) plus the terms of the scale's uncertainty.
-        Remembers the predicted cross-covariance and variance for `update`. (Plain floats: a
-        few 3-vectors, cheaper than numpy's per-call overhead at 10-40 scans a second.)"""
+        Remembers the predicted cross-covariance and variance for `update`."""
         if not self.config.enabled:
             return cov
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)
@@ -107,50 +98,8 @@ class OdometryScale:
         out: FloatArray = cov + np.array(
             [[a00, a01, k2 * j0], [a01, a11, k2 * j1], [k2 * j0, k2 * j1, 0.0]]
         )
-        cross = (f0 + j0 * v, f1 + j1 * v, k2)
-        var = v + self.config.walk_per_sqrt_m**2 * math.hypot(step.x, step.y)
-        self._pred = (cross, var)
+        self.remember_prediction(
+            (f0 + j0 * v, f1 + j1 * v, k2),
+            v + self.config.walk_per_sqrt_m**2 * math.hypot(step.x, step.y),
+        )
         return out
-
-    def keep_prediction(self) -> None:
-        """No update this scan (match rejected, lost): the prediction stands."""
-        if self._pred is not None:
-            self.cross, self.var = self._pred
-        self._pred = None
-
-    def update(self, cov_pred: FloatArray, cov_post: FloatArray, correction: FloatArray) -> None:
-        """Condition the scale on the pose update ``correction`` = posterior - prediction
-        (x, y, yaw) with the pose covariances before and after."""
-        if self._pred is None:
-            return
-        cross, var = self._pred
-        self._pred = None
-        a = _solve_spd3(cov_pred.tolist(), cross)  # P⁻¹ c (P symmetric): Aᵀ
-        if a is None:
-            self.cross, self.var = cross, var
-            return
-        post = cov_post.tolist()
-        pa = tuple(sum(post[r][q] * a[q] for q in range(3)) for r in range(3))  # P⁺ Aᵀ
-        gain = sum(a[q] * float(correction[q]) for q in range(3))
-        lim = self.config.max_error
-        self.value = min(max(self.value + gain, 1.0 - lim), 1.0 + lim)
-        reduce = sum(a[q] * cross[q] for q in range(3)) - sum(a[q] * pa[q] for q in range(3))
-        self.var = max(var - reduce, 1e-10)
-        self.cross = (pa[0], pa[1], pa[2])
-
-
-def _solve_spd3(
-    m: list[list[float]], b: tuple[float, float, float]
-) -> tuple[float, float, float] | None:
-    """``m⁻¹ b`` for a symmetric 3x3 ``m`` (Cramer's rule); None if ``m`` is singular."""
-    (p, q, r), (_, t, u), (_, _, w) = m
-    c0, c1, c2 = t * w - u * u, r * u - q * w, q * u - r * t
-    det = p * c0 + q * c1 + r * c2
-    if not abs(det) > 1e-300:
-        return None
-    d11, d12, d22 = p * w - r * r, q * r - p * u, p * t - q * q
-    return (
-        (b[0] * c0 + b[1] * c1 + b[2] * c2) / det,
-        (b[0] * c1 + b[1] * d11 + b[2] * d12) / det,
-        (b[0] * c2 + b[1] * d12 + b[2] * d22) / det,
-    )

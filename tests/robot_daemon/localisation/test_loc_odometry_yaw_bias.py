@@ -73,3 +73,14 @@ def test_off_by_default_it_changes_nothing() -> None:
 def test_invalid_configuration_names_the_field() -> None:
     with pytest.raises(OdometryYawBiasConfigError, match="sigma"):
         OdometryYawBiasConfig(sigma=-1.0)
+
+
+def test_the_drift_is_not_learnt_from_a_turn() -> None:
+    """A turn's own heading error (slip, a fast turn between 1 Hz scans) is not drift per
+    metre: past ``learn_max_turn_rad`` the localiser keeps the drift's prediction."""
+    bias = OdometryYawBias(OdometryYawBiasConfig(enabled=True, learn_max_turn_rad=0.2))
+    assert bias.learns_from(Pose2D(0.5, 0.0, 0.1))
+    assert not bias.learns_from(Pose2D(0.5, 0.0, -0.3))
+    assert OdometryYawBias(OdometryYawBiasConfig(enabled=True)).learns_from(Pose2D(0, 0, 3.0))
+    with pytest.raises(OdometryYawBiasConfigError):
+        OdometryYawBiasConfig(learn_max_turn_rad=-0.1)
