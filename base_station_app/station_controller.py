@@ -119,7 +119,7 @@ from interbot_core.topics import (
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import PeriodStats
 from interbot_link import RobotAppeared, RobotLeft, StateMessage, StationLink
-from interbot_link.command_priority import ZENOH_SEND_THREADS, NamedThreadRaiser
+from interbot_link.command_priority import SCAN_PERIOD_S, ZENOH_SEND_THREADS, NamedThreadRaiser
 from interbot_link.fleet_watch import FleetWatch
 
 logger = logging.getLogger(__name__)
@@ -129,7 +129,7 @@ Clock = Callable[[], float]
 #: [s] after an initial pose is sent, the robot's "unset"/"lost" is not passed on to the tablet
 #: (the localiser applies the pose at its next scan, well within this at 10-40 Hz).
 INITIAL_POSE_SETTLE_S = 2.0
-NETWORK_THREAD_SCAN_MS = 1000  # [ms] between two looks for new zenoh network threads
+NETWORK_THREAD_SCAN_MS = round(SCAN_PERIOD_S * 1000)  # [ms] the daemon's period too
 
 
 def random_route_id() -> int:

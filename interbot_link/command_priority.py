@@ -55,6 +55,9 @@ ZENOH_THREADS = ("tx-", "rx-", "acc-", "net-")
 ZENOH_SEND_THREADS = ("tx-",)
 """zenoh's transmit threads only: for a program whose commands go out but whose incoming
 traffic is display data (the Base Station)."""
+SCAN_PERIOD_S = 1.0
+"""[s] wall time between two `NamedThreadRaiser.scan` calls by their owners (zenoh starts its
+network threads as links come up, so they are looked for now and then)."""
 TASK_DIR = Path("/proc/self/task")
 """Linux: one directory per thread of this process, its name in ``comm``."""
 

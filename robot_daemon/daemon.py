@@ -63,6 +63,7 @@ from interbot_core.topological_map import TopologicalMap, TopologicalMapError, l
 from interbot_core.velocity_mux import MuxError, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from interbot_link.command_priority import (
+    SCAN_PERIOD_S,
     NamedThreadRaiser,
     PriorityOutcome,
     raise_current_thread,
@@ -93,7 +94,6 @@ SLOW_PASS_LOG_PERIOD = 10.0  # [s] wall time between two such log lines
 MAP_REPUBLISH_PERIOD = 30.0  # [s]
 SAFETY_HZ = 10.0  # [Hz] collision monitor report to the station (topic safety)
 COMMAND_WAIT = 0.1  # [s] the command thread re-checks for a stop this often when idle
-NETWORK_THREAD_SCAN = 1.0  # [s] wall time between two looks for new zenoh network threads
 
 
 @dataclass(frozen=True)
@@ -400,7 +400,7 @@ class Daemon:
         try:
             while not stop.is_set():
                 if time.monotonic() >= next_scan:
-                    next_scan = time.monotonic() + NETWORK_THREAD_SCAN
+                    next_scan = time.monotonic() + SCAN_PERIOD_S
                     self._raise_network_threads()
                 next_tick = self._pass(link, notifier, next_tick)
                 # Sleep until the next pass, or until a (non-motion) command arrives.

@@ -48,7 +48,7 @@ class LookAroundConfig:
     # [rad/s] a full turn in 7.9 s, scans 4.6° apart at 10 Hz. (At 0.8 rad/s, ISR kidnap
     # seed 3 was once relocalised 29 m wrong: a clean corridor outscored the cluttered truth
     # over the turn and was accepted on the first scan the beam veto did not fire. The veto
-    # now holds for the attempt (`relocaliser`), and the same run asks for help instead;
+    # now holds for the attempt (`relocaliser`), and the same run asks for help instead.
     # With the same rules, 0.5 rad/s left an ISR cold start at 7.4 s and ISR kidnap seed 3
     # at 10.3 s; 0.8 rad/s: every cold start relocalised within 4.4 s.)
     angular_speed: float = 0.8
