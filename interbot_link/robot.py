@@ -187,12 +187,8 @@ class RobotLink:
 
     def _on_query(self, query: zenoh.Query) -> None:
         """Runs on a zenoh thread: reply with the stored, already encoded state."""
-        wanted = query.parameters.get("parts")
         with self._lock:
             parts = dict(self._snapshot)
-        if wanted:
-            names = set(wanted.split(","))
-            parts = {t: data for t, data in parts.items() if str(t) in names}
         query.reply(self._state_key, encode_snapshot(parts))
 
     # ------------------------------------------------------------------ daemon thread

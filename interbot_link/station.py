@@ -17,13 +17,12 @@ from __future__ import annotations
 import logging
 import threading
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
 
 import zenoh
 
-from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     ALIVE,
     ALIVE_WILDCARD,
@@ -96,7 +95,6 @@ class StationLink:
     ) -> None:
         self._session = session
         self._lock = threading.Lock()
-        self._cond = threading.Condition(self._lock)
         self._raw: list[_Raw] = []
         self._capacity = queue_capacity
         self._notify = notify
@@ -106,7 +104,6 @@ class StationLink:
         self._rings: dict[Topic, zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]] = {}
         self._event_subs: list[zenoh.Subscriber[None]] = []
         self._publishers: dict[Topic, zenoh.Publisher] = {}
-        self._latest: dict[Topic, object] = {}
         self._closed = False
         self.decode_errors: Counter[str] = Counter()
         """Dropped payloads per topic name."""
@@ -126,12 +123,11 @@ class StationLink:
     # ------------------------------------------------------------------ zenoh threads
 
     def _queue(self, item: _Raw) -> None:
-        with self._cond:
+        with self._lock:
             if len(self._raw) >= self._capacity:
                 self.overflow += 1
                 return
             self._raw.append(item)
-            self._cond.notify_all()
         if self._notify is not None:
             self._notify()
 
@@ -200,16 +196,6 @@ class StationLink:
     def selected(self) -> str | None:
         return self._selected
 
-    def refresh_robots(self, timeout: float = 1.0) -> frozenset[str]:
-        """Ask for the present liveliness tokens now (blocking up to ``timeout`` [s])."""
-        found: set[str] = set()
-        for reply in self._session.liveliness().get(ALIVE_WILDCARD, timeout=timeout):
-            sample = reply.ok
-            robot_id = None if sample is None else self._robot_from_alive(str(sample.key_expr))
-            if robot_id is not None:
-                found.add(robot_id)
-        return frozenset(found)
-
     def select_robot(self, robot_id: str | None) -> None:
         """Follow ``robot_id`` (None: none): subscribe to its state, ask for its snapshot."""
         self._check_open()
@@ -248,7 +234,6 @@ class StationLink:
         self._rings.clear()
         self._event_subs.clear()
         self._publishers.clear()
-        self._latest.clear()
         self._selected = None
 
     # ------------------------------------------------------------------ receiving
@@ -277,11 +262,6 @@ class StationLink:
                 events.extend(self._decode(*item))
         return events
 
-    def wait_events(self, timeout: float) -> bool:
-        """Block up to ``timeout`` [s] until an event is queued."""
-        with self._cond:
-            return self._cond.wait_for(lambda: bool(self._raw), timeout)
-
     def poll_state(self) -> dict[Topic, object]:
         """The newest message of each high-rate topic that has a new one since the last call."""
         fresh: dict[Topic, object] = {}
@@ -291,40 +271,13 @@ class StationLink:
             if sample is None or robot_id is None:
                 continue
             for msg in self._decode(robot_id, str(topic), sample.payload.to_bytes()):
-                fresh[topic] = self._latest[topic] = msg.message
+                fresh[topic] = msg.message
         return fresh
-
-    def latest(self, topic: Topic) -> object | None:
-        """The last message `poll_state` returned for ``topic`` (None before the first)."""
-        return self._latest.get(topic)
 
     def request_state(self, robot_id: str | None = None) -> None:
         """Ask for the robot's state snapshot; its parts arrive as StateMessage events."""
         robot_id = self._target(robot_id)
         self._session.get(state_key(robot_id), self._on_state_reply(robot_id), timeout=5.0)
-
-    def fetch_state(
-        self, robot_id: str | None = None, parts: Iterable[Topic] = (), timeout: float = 2.0
-    ) -> dict[Topic, object]:
-        """Query the robot's state snapshot (blocking up to ``timeout`` [s]), decoded."""
-        robot_id = self._target(robot_id)
-        selector = state_key(robot_id)
-        names = ",".join(str(t) for t in parts)
-        if names:
-            selector += f"?parts={names}"
-        result: dict[Topic, object] = {}
-        for reply in self._session.get(selector, timeout=timeout):
-            sample = reply.ok
-            if sample is None:
-                continue
-            for msg in self._decode(robot_id, "state", sample.payload.to_bytes()):
-                result[msg.topic] = msg.message
-        return result
-
-    def fetch_map(self, robot_id: str | None = None, timeout: float = 2.0) -> OccupancyGrid | None:
-        """The robot's current map through the ``state`` query, or None if it has none."""
-        grid = self.fetch_state(robot_id, (Topic.MAP,), timeout).get(Topic.MAP)
-        return grid if isinstance(grid, OccupancyGrid) else None
 
     # ------------------------------------------------------------------ sending
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -57,3 +58,26 @@ def _wait_until(predicate: Callable[[], bool], timeout: float = 5.0, what: str =
 @pytest.fixture
 def wait_until() -> Callable[..., None]:
     return _wait_until
+
+
+def _query_state(station: Any, robot_id: str, timeout: float = 5.0) -> dict[Any, object]:
+    """A robot's state snapshot through the station's own path: `StationLink.request_state`,
+    then the parts that arrive together as events (one reply, decoded in one poll)."""
+    from interbot_link import StateMessage
+
+    station.request_state(robot_id)
+    found: dict[Any, object] = {}
+
+    def arrived() -> bool:
+        for event in station.poll_events():
+            if isinstance(event, StateMessage) and event.robot_id == robot_id:
+                found[event.topic] = event.message
+        return bool(found)
+
+    _wait_until(arrived, timeout, f"the state of {robot_id}")
+    return found
+
+
+@pytest.fixture
+def query_state() -> Callable[..., dict[Any, object]]:
+    return _query_state

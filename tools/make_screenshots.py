@@ -269,9 +269,10 @@ def fleet_screenshots(out: Path, speed: float) -> None:
             time.sleep(0.3)
     with StationLink(session) as probe:  # a station (re)started while five robots run
         end = time.monotonic() + 90.0
-        while len(probe.refresh_robots(timeout=0.5)) < len(FLEET):
+        while len(probe.robots) < len(FLEET):  # the liveliness subscriber's view
             if time.monotonic() > end:
                 raise TimeoutError("the five robots did not reach the router")
+            time.sleep(0.5)
     settings_dir = tempfile.TemporaryDirectory()
     settings = QSettings(str(Path(settings_dir.name) / "s.ini"), QSettings.Format.IniFormat)
     station = StationController(load_topological_map(TOPO), session, topo_path=TOPO, tablet_port=0)

@@ -1,8 +1,8 @@
 """RobotLink <-> StationLink over two real zenoh sessions on 127.0.0.1 (ports the OS picks).
 
-Waiting is bounded and event-driven: `wait_commands` / `wait_events` block on a condition the
-zenoh callbacks notify; for the ring-channel state and subscription matching `wait_until` polls
-like pytest-qt's ``waitUntil`` (there is no callback to wait on by design).
+Waiting is bounded: `wait_commands` blocks on a condition the zenoh callbacks notify; for the
+station's events and ring-channel state and for subscription matching `wait_until` polls like
+pytest-qt's ``waitUntil`` (the station is polled by its Qt timer, by design).
 """
 
 from __future__ import annotations
@@ -116,15 +116,18 @@ def _grid() -> OccupancyGrid:
     return OccupancyGrid(cells, 0.05, -1.0, -2.0)
 
 
+def _next_events(pair: Pair, timeout: float) -> list[object]:
+    events: list[object] = []
+    wait_until(lambda: bool(events.extend(pair.station.poll_events()) or events), timeout)
+    return events
+
+
 def test_station_sees_the_robot_appear_and_leave_within_a_second(pair: Pair) -> None:
-    assert pair.station.wait_events(1.0)
-    assert RobotAppeared(ROBOT) in pair.station.poll_events()
+    assert RobotAppeared(ROBOT) in _next_events(pair, 1.0)
     assert pair.station.robots == {ROBOT}
-    assert pair.station.refresh_robots(1.0) == {ROBOT}
     pair.robot_session.close()  # a clean exit of the daemon
     start = time.monotonic()
-    assert pair.station.wait_events(1.0)
-    assert pair.station.poll_events() == [RobotLeft(ROBOT)]
+    assert _next_events(pair, 1.0) == [RobotLeft(ROBOT)]
     assert time.monotonic() - start < 1.0
     assert pair.station.robots == frozenset()
 
@@ -211,7 +214,6 @@ def test_state_topics_reach_the_station(pair: Pair) -> None:
     assert isinstance(scan_back, LaserScan)
     assert scan_back.ranges.tobytes() == scan.ranges.tobytes()
     assert seen == latest
-    assert pair.station.latest(Topic.POSE) == latest[Topic.POSE]
     assert pair.station.poll_state() == {}  # nothing new
 
     events = [
@@ -242,38 +244,39 @@ def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
     pair.select()
     for i in range(50):
         pair.robot.publish_pose(PoseMsg(float(i), 0.0, 0.0, float(i)))
-    wait_until(lambda: pair.station.poll_state().get(Topic.POSE) is not None)
-    newest = pair.station.latest(Topic.POSE)
-    assert isinstance(newest, PoseMsg)
-    wait_until(lambda: (pair.station.poll_state() or True) and _x(pair) == 49.0)
+    newest: list[object] = [None]
 
+    def the_last_arrived() -> bool:
+        newest.extend(pair.station.poll_state().values())
+        return isinstance(newest[-1], PoseMsg) and newest[-1].x == 49.0
 
-def _x(pair: Pair) -> float:
-    pose = pair.station.latest(Topic.POSE)
-    return pose.x if isinstance(pose, PoseMsg) else -1.0
+    wait_until(the_last_arrived)
 
 
 def test_scans_in_millimetres_arrive_quantised(pair: Pair) -> None:
     pair.select()
     ranges = np.array([0.1234, 5.0, np.nan, 29.9999], dtype=np.float32)
     pair.robot.publish_scan(LaserScan(1.0, -1.0, 0.5, 0.05, 30.0, ranges), RangeEncoding.UINT16_MM)
-    wait_until(lambda: pair.station.poll_state().get(Topic.SCAN) is not None)
-    scan = pair.station.latest(Topic.SCAN)
+    state: dict[Topic, object] = {}
+    wait_until(lambda: bool(state.update(pair.station.poll_state()) or state))
+    scan = state[Topic.SCAN]
     assert isinstance(scan, LaserScan)
     np.testing.assert_allclose(scan.ranges, [0.123, 5.0, np.nan, 30.0], atol=1e-6)
 
 
-def test_the_state_query_returns_the_map_to_a_late_station(pair: Pair) -> None:
+def test_the_state_query_returns_the_map_to_a_late_station(
+    pair: Pair, query_state: Callable[..., dict[Topic, object]]
+) -> None:
     grid = _grid()
     pair.robot.publish_map(grid)
     pair.robot.publish_pose(PoseMsg(1.0, 1.0, 0.0))
     wait_until(lambda: ROBOT in pair.station.robots)
-    fetched = pair.station.fetch_map(ROBOT)
-    assert fetched is not None
+    state = query_state(pair.station, ROBOT)
+    assert set(state) == {Topic.MAP, Topic.POSE}
+    fetched = state[Topic.MAP]
+    assert isinstance(fetched, OccupancyGrid)
     assert np.array_equal(fetched.cells, grid.cells)
     assert (fetched.resolution, fetched.origin_x, fetched.origin_y) == (0.05, -1.0, -2.0)
-    state = pair.station.fetch_state(ROBOT)
-    assert set(state) == {Topic.MAP, Topic.POSE}
     assert state[Topic.POSE] == PoseMsg(1.0, 1.0, 0.0)
     # Selecting a robot asks for the snapshot: the map arrives as an event.
     pair.station.select_robot(ROBOT)
@@ -291,9 +294,12 @@ def test_the_state_query_returns_the_map_to_a_late_station(pair: Pair) -> None:
     assert isinstance(maps[0], OccupancyGrid) and np.array_equal(maps[0].cells, grid.cells)
 
 
-def test_fetch_map_is_none_when_the_robot_has_no_map(pair: Pair) -> None:
+def test_the_state_query_has_no_map_when_the_robot_has_none(
+    pair: Pair, query_state: Callable[..., dict[Topic, object]]
+) -> None:
+    pair.robot.publish_pose(PoseMsg(1.0, 1.0, 0.0))
     wait_until(lambda: ROBOT in pair.station.robots)
-    assert pair.station.fetch_map(ROBOT) is None
+    assert set(query_state(pair.station, ROBOT)) == {Topic.POSE}
 
 
 def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:

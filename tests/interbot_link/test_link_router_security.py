@@ -93,7 +93,7 @@ def test_a_plaintext_router_off_loopback_is_refused() -> None:
 
 
 def test_station_commands_and_watches_through_the_secure_router(
-    keys: Path, building: tuple[str, RobotLink]
+    keys: Path, building: tuple[str, RobotLink], query_state: Callable[..., dict[Topic, object]]
 ) -> None:
     endpoint, link = building
     security = LinkSecurity.load(keys, "station", "station")
@@ -109,7 +109,7 @@ def test_station_commands_and_watches_through_the_secure_router(
         assert Topic.STOP in {c.topic for c in link.poll_commands()}
         link.publish_pose(PoseMsg(1.0, 2.0, 0.5))
         wait_until(lambda: isinstance(station.poll_state().get(Topic.POSE), PoseMsg))
-        assert Topic.POSE in station.fetch_state(ROBOT, (Topic.POSE,))
+        assert Topic.POSE in query_state(station, ROBOT)
 
 
 @pytest.mark.parametrize("who", ["station", "observer", "interbot2"])

@@ -162,7 +162,7 @@ def test_access_control_lists_only_unrevoked_members(keys: Path) -> None:
 
 
 def test_station_commands_and_sees_state_over_mutual_tls(
-    keys: Path, robot: tuple[str, RobotLink]
+    keys: Path, robot: tuple[str, RobotLink], query_state: Callable[..., dict[Topic, object]]
 ) -> None:
     endpoint, link = robot
     security = LinkSecurity.load(keys, "station", "station")
@@ -179,7 +179,7 @@ def test_station_commands_and_sees_state_over_mutual_tls(
             return isinstance(st.poll_state().get(Topic.POSE), PoseMsg)
 
         wait_until(pose_seen)
-        assert Topic.POSE in st.fetch_state(ROBOT, (Topic.POSE,))
+        assert Topic.POSE in query_state(st, ROBOT)
 
 
 @pytest.mark.parametrize(
@@ -205,7 +205,7 @@ def test_members_without_command_rights_cannot_command(
 
 
 def test_observer_may_watch_and_query_but_not_command(
-    keys: Path, robot: tuple[str, RobotLink]
+    keys: Path, robot: tuple[str, RobotLink], query_state: Callable[..., dict[Topic, object]]
 ) -> None:
     endpoint, link = robot
     security = LinkSecurity.load(keys, "observer", "observer")
@@ -215,7 +215,7 @@ def test_observer_may_watch_and_query_but_not_command(
         wait_until(lambda: link.subscribed(Topic.POSE))
         link.publish_pose(PoseMsg(1.0, 2.0, 0.5))
         wait_until(lambda: isinstance(obs.poll_state().get(Topic.POSE), PoseMsg))
-        assert Topic.POSE in obs.fetch_state(ROBOT, (Topic.POSE,))
+        assert Topic.POSE in query_state(obs, ROBOT)
         assert _attack(session, link) == set()
 
 

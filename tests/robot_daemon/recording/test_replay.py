@@ -6,6 +6,7 @@ import socket
 import threading
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +99,9 @@ def test_a_truncated_recording_is_refused(daemon_recording: Path, tmp_path: Path
         RecordingSource(cut)
 
 
-def test_the_station_watches_and_controls_a_replay(daemon_recording: Path) -> None:
+def test_the_station_watches_and_controls_a_replay(
+    daemon_recording: Path, query_state: Callable[..., dict[Topic, object]]
+) -> None:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         endpoint = f"tcp/127.0.0.1:{sock.getsockname()[1]}"
@@ -143,7 +146,9 @@ def test_the_station_watches_and_controls_a_replay(daemon_recording: Path) -> No
                 time.sleep(0.01)
             final = states["replay1"]
             assert final.position == pytest.approx(final.duration)  # played to the end at x20
-            assert isinstance(station.fetch_map(), OccupancyGrid)  # the replay answers the query
+            assert isinstance(
+                query_state(station, "replay1").get(Topic.MAP), OccupancyGrid
+            )  # answered
             assert len(poses) >= 5 and any(p.state == "ok" for p in poses)
             stamps = [p.stamp for p in poses]
             assert stamps == sorted(stamps)
