@@ -25,7 +25,8 @@ from PySide6.QtWidgets import (
 
 from base_station_app.display_text import age_text
 from base_station_app.station_controller import StationController
-from base_station_app.tablet_session import PERMISSION_KINDS, describe_task
+from base_station_app.tablet_policy import PERMISSION_KINDS, allows
+from base_station_app.tablet_session import describe_task
 
 _TITLES = {
     "teleop": "Teleoperation (joystick)",
@@ -63,7 +64,7 @@ class QtTabletPanel(QWidget):
         self.permission_boxes: dict[str, QCheckBox] = {}
         for kind in PERMISSION_KINDS:
             box = QCheckBox(_TITLES[kind])
-            box.setChecked(controller.tablet_policy.permissions.allows(kind))
+            box.setChecked(allows(controller.tablet_policy.permissions, kind))
             box.toggled.connect(lambda on, k=kind: controller.set_permission(k, on))
             plo.addWidget(box)
             self.permission_boxes[kind] = box
@@ -112,7 +113,7 @@ class QtTabletPanel(QWidget):
         )
         for kind, box in self.permission_boxes.items():
             box.blockSignals(True)
-            box.setChecked(c.tablet_policy.permissions.allows(kind))
+            box.setChecked(allows(c.tablet_policy.permissions, kind))
             box.blockSignals(False)
         task = c.tablet_task
         self.task_label.setText("none" if task is None else describe_task(task, c.names))

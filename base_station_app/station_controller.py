@@ -89,10 +89,10 @@ from base_station_app.station_file import StationFileError, StationSettingsStore
 from base_station_app.supervisor_events import Notices, SupervisorEvents
 from base_station_app.tablet_auth import TabletAuthServer
 from base_station_app.tablet_feed import TabletFeed
-from base_station_app.tablet_policy import TabletPolicy
+from base_station_app.tablet_policy import TabletPolicy, with_kind
 from base_station_app.tablet_requests import TabletRequests
 from base_station_app.tablet_server import TabletServer
-from base_station_app.tablet_session import TabletPermissions, describe_task
+from base_station_app.tablet_session import describe_task
 from base_station_app.tablet_teleop import TabletTeleop
 from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import TeleopArbiter
@@ -641,12 +641,12 @@ class StationController(QObject):
         tablet_id, name = getattr(record, "tablet_id", "?"), getattr(record, "name", "?")
         self.log("info", f"tablet {tablet_id} ({name}) authorised")
 
-    def tablet_permissions(self) -> TabletPermissions:
+    def tablet_permissions(self) -> p.Permissions:
         """What the tablet may do now: the operator's choice, and only what can work."""
         return self.tablet_policy.effective(self.robot_online, self.estop_latched)
 
     def _send_permissions(self) -> None:
-        msg = self.tablet_permissions().to_message()
+        msg = self.tablet_permissions()
         if msg != self._permissions_sent and self.tablet.send(msg):
             self._permissions_sent = msg
             with self.tablet_teleop.lock:
@@ -897,7 +897,7 @@ class StationController(QObject):
     def set_permission(self, kind: str, allowed: bool) -> None:
         policy = self.tablet_policy
         with self.tablet_teleop.lock:  # the tablet thread reads it (TabletTeleop.on_speed)
-            policy.permissions = policy.permissions.with_kind(kind, allowed)
+            policy.permissions = with_kind(policy.permissions, kind, allowed)
             if not policy.permissions.teleop:
                 self.stop_tablet_speed("teleoperation not permitted")
         self._send_permissions()

@@ -29,8 +29,8 @@ import msgspec
 import yaml
 
 from base_station_app.station_config import StationConfig
-from base_station_app.tablet_session import TabletPermissions
 from interbot_core import schema
+from interbot_core.protocol import Permissions
 
 logger = logging.getLogger(__name__)
 
@@ -71,11 +71,11 @@ class TabletSection(_Section, frozen=True):
     tours: bool = True
     requests: bool = True
 
-    def permissions(self) -> TabletPermissions:
-        return TabletPermissions(self.teleop, self.goals, self.tours, self.requests)
+    def permissions(self) -> Permissions:
+        return Permissions(self.teleop, self.goals, self.tours, self.requests)
 
     @classmethod
-    def of(cls, permissions: TabletPermissions) -> TabletSection:
+    def of(cls, permissions: Permissions) -> TabletSection:
         return cls(permissions.teleop, permissions.goals, permissions.tours, permissions.requests)
 
 
@@ -108,7 +108,7 @@ class StationSettingsStore:
         self._security = file.security
         return file
 
-    def save(self, config: StationConfig, permissions: TabletPermissions) -> None:
+    def save(self, config: StationConfig, permissions: Permissions) -> None:
         """Write ``config`` and ``permissions`` (and the security section as read), atomically."""
         file = StationFile(self._security, config, TabletSection.of(permissions))
         text = HEADER + yaml.safe_dump(msgspec.to_builtins(file), sort_keys=False)

@@ -1,9 +1,8 @@
 """The Base Station's policy for the one controlling Tablet (thesis §5.3 "Tablet Control", §5.3.1).
 
 The thesis lets the station operator decide "if the requests from the Tablet should be accepted
-or not, and which type of requests are allowed". `TabletPermissions` holds the four kinds
-(teleoperation, goals, tours, requests) and `permission_for` names the kind a tablet message
-needs; safety messages (pause, stop), the "Help me!" initial pose, malfunction reports and the
+or not, and which type of requests are allowed": the four kinds of the protocol's `Permissions`
+(teleoperation, goals, tours, requests). `permission_for` names the kind a tablet message needs; safety messages (pause, stop), the "Help me!" initial pose, malfunction reports and the
 connection housekeeping (hello, ping, pong, error) need none. `ErrorBudget` is the rule for
 closing a misbehaving connection: a frame that is too large closes it at once, otherwise more
 than ``max_errors`` protocol errors within ``window_s`` seconds do.
@@ -13,15 +12,10 @@ from __future__ import annotations
 
 import logging
 from collections import deque
-from typing import ClassVar, Final
 
-import msgspec
-
-from interbot_core import schema
 from interbot_core.protocol import (
     Goal,
     Home,
-    Permissions,
     RequestAnswer,
     RequestFrom,
     Speed,
@@ -32,33 +26,6 @@ from interbot_core.protocol import (
 from interbot_core.supervisor import Delivery, GoHome, GoTo, GoToPose, GuidedTour, Task
 
 logger = logging.getLogger(__name__)
-
-PERMISSION_KINDS: Final = ("teleop", "goals", "tours", "requests")
-
-
-class TabletPermissions(schema.Declared, frozen=True):
-    """What the tablet may do; everything allowed by default, as in the thesis's tests."""
-
-    ROOT: ClassVar[str] = "TabletPermissions"
-    ERROR: ClassVar[type[Exception]] = ValueError
-    teleop: bool = True
-    goals: bool = True
-    tours: bool = True
-    requests: bool = True
-
-    def allows(self, kind: str | None) -> bool:
-        if kind is None:
-            return True
-        if kind not in PERMISSION_KINDS:
-            raise ValueError(f"unknown permission {kind!r}; known: {list(PERMISSION_KINDS)}")
-        return bool(getattr(self, kind))
-
-    def with_kind(self, kind: str, allowed: bool) -> TabletPermissions:
-        self.allows(kind)  # validates the name
-        return msgspec.structs.replace(self, **{kind: allowed})
-
-    def to_message(self) -> Permissions:
-        return Permissions(self.teleop, self.goals, self.tours, self.requests)
 
 
 def permission_for(msg: TabletMessage) -> str | None:

@@ -7,12 +7,13 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import msgspec
 import pytest
 import yaml
 
 from base_station_app.station_config import RANGES, StationConfig
 from base_station_app.station_file import StationFileError, StationSettingsStore, migrate_legacy
-from base_station_app.tablet_session import TabletPermissions
+from base_station_app.tablet_policy import EVERYTHING
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -21,10 +22,10 @@ def test_missing_file_is_the_defaults_and_save_round_trips(tmp_path: Path) -> No
     store = StationSettingsStore(tmp_path / "sub" / "station.yaml")
     assert store.load().config == StationConfig()
     config = StationConfig(latency_ceiling=0.3, goal_tolerance=0.4)
-    store.save(config, TabletPermissions(teleop=False))
+    store.save(config, msgspec.structs.replace(EVERYTHING, teleop=False))
     again = StationSettingsStore(store.path).load()
     assert again.config == config
-    assert again.tablet.permissions() == TabletPermissions(teleop=False)
+    assert again.tablet.permissions() == msgspec.structs.replace(EVERYTHING, teleop=False)
     assert list(store.path.parent.iterdir()) == [store.path]  # no temporary file left behind
 
 
@@ -34,7 +35,7 @@ def test_save_keeps_the_security_section_as_written(tmp_path: Path) -> None:
     store = StationSettingsStore(path)
     file = store.load()
     assert file.config.yaw_tolerance == 0.5 and file.security.identity == "desk2"
-    store.save(file.config, TabletPermissions(tours=False))
+    store.save(file.config, msgspec.structs.replace(EVERYTHING, tours=False))
     saved = yaml.safe_load(path.read_text(encoding="utf-8"))
     assert saved["security"]["keys"] == "../keys" and saved["security"]["identity"] == "desk2"
     assert saved["tablet"]["tours"] is False
@@ -78,7 +79,7 @@ def test_a_file_that_cannot_be_written_is_reported(tmp_path: Path) -> None:
     blocker.write_text("")
     store = StationSettingsStore(blocker / "station.yaml")
     with pytest.raises(StationFileError, match="cannot save the settings"):
-        store.save(StationConfig(), TabletPermissions())
+        store.save(StationConfig(), EVERYTHING)
 
 
 def test_panel_ranges_come_from_the_declaration() -> None:
@@ -151,7 +152,7 @@ def test_old_qsettings_values_move_into_the_file_once(tmp_path: Path) -> None:
     assert file.config.latency_ceiling == 0.3
     assert file.config.goal_tolerance == 0.4
     assert file.config.teleop_linear_max == StationConfig().teleop_linear_max
-    assert file.tablet.permissions() == TabletPermissions(tours=False)
+    assert file.tablet.permissions() == msgspec.structs.replace(EVERYTHING, tours=False)
     assert file.security.identity == "desk2"
     assert sorted(old.allKeys()) == ["fleet/robot", "window/geometry"]
     before = path.read_text(encoding="utf-8")

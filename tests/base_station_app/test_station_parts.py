@@ -7,7 +7,7 @@ import pytest
 from base_station_app.fleet import Ask, Fleet, Select, Waiting
 from base_station_app.robot_mirror import Health, RobotMirror
 from base_station_app.tablet_feed import TabletFeed
-from base_station_app.tablet_policy import TabletPolicy
+from base_station_app.tablet_policy import TabletPolicy, with_kind
 from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
@@ -122,7 +122,7 @@ def test_tablet_policy_refuses_with_the_reason_and_owns_by_identity() -> None:
     assert policy.refusal("goals", robot_online=True, estop_latched=False) is None
     assert "offline" in str(policy.refusal("goals", robot_online=False, estop_latched=False))
     assert "emergency stop" in str(policy.refusal("teleop", True, True))
-    policy.permissions = policy.permissions.with_kind("tours", False)
+    policy.permissions = with_kind(policy.permissions, "tours", False)
     assert "does not allow tours" in str(policy.refusal("tours", True, False))
     assert policy.refusal(None, False, True) is None  # stop, pause, help: always
     mine, equal = GoTo(3), GoTo(3)

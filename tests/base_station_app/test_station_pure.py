@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 from base_station_app.map_labels import map_labels
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import RANGES, StationConfig, StationConfigError
+from base_station_app.tablet_policy import TabletPolicy, allows, with_kind
 from base_station_app.tablet_session import (
     ErrorBudget,
-    TabletPermissions,
     describe_task,
     permission_for,
 )
@@ -96,11 +96,13 @@ def test_permission_kinds_of_tablet_messages():
     assert permission_for(p.RequestFrom("x", 1, 2, True)) == "requests"
     for always in (p.Pause(True), p.Stop(True), p.InitialPoseRoom(2), p.Malfunction("other", "")):
         assert permission_for(always) is None
-    perms = TabletPermissions().with_kind("tours", False)
-    assert not perms.allows("tours") and perms.allows("goals") and perms.allows(None)
-    assert perms.to_message() == p.Permissions(True, True, False, True)
+    perms = with_kind(TabletPolicy().permissions, "tours", False)
+    assert not allows(perms, "tours") and allows(perms, "goals") and allows(perms, None)
+    assert perms == p.Permissions(True, True, False, True)
     with pytest.raises(ValueError, match="unknown permission"):
-        perms.allows("flying")
+        allows(perms, "flying")
+    with pytest.raises(ValueError, match="unknown permission"):
+        with_kind(perms, "flying", True)
 
 
 def test_error_budget_closes_after_repeated_errors_in_window_or_fatal():

@@ -7,7 +7,7 @@ import pytest
 from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.fleet import Fleet
 from base_station_app.robot_mirror import RobotMirror
-from base_station_app.tablet_policy import TabletPolicy
+from base_station_app.tablet_policy import TabletPolicy, with_kind
 from base_station_app.tablet_requests import TabletRequests
 from interbot_core import protocol as p
 from interbot_core.route_planner import RoutePlanner
@@ -95,7 +95,7 @@ def rig(topo: TopologicalMap) -> Rig:
 
 
 def test_a_refused_request_is_told_with_its_reason_and_raises_an_alert(rig: Rig) -> None:
-    rig.policy.permissions = rig.policy.permissions.with_kind("goals", False)
+    rig.policy.permissions = with_kind(rig.policy.permissions, "goals", False)
     rig.requests.on_message(p.Goal(3))
     rig.station.estop_latched = True
     rig.requests.on_message(p.Tour(True))
