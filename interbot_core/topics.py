@@ -778,18 +778,14 @@ def decode(topic: Topic | str, payload: bytes) -> object:
 
 # --------------------------------------------------------------------------- state snapshot
 
-_SNAPSHOT = struct.Struct("<2sBBH")  # preamble, section count
-_SECTION_NAME = struct.Struct("<B")
-_SECTION_LEN = struct.Struct("<I")
+_SNAPSHOT_PARTS: Final = msgspec.msgpack.Decoder(dict[str, bytes])
 
 
 def encode_snapshot(parts: Mapping[Topic, bytes]) -> bytes:
-    """Concatenate encoded state payloads: header, then per part name length u8, name, u32, data."""
-    chunks = [_SNAPSHOT.pack(BINARY_MAGIC, BINARY_VERSION, BinaryKind.SNAPSHOT, len(parts))]
-    for topic, data in parts.items():
-        name = str(to_topic(topic)).encode("ascii")
-        chunks += [_SECTION_NAME.pack(len(name)), name, _SECTION_LEN.pack(len(data)), bytes(data)]
-    return b"".join(chunks)
+    """The ``state`` reply: the preamble, then a MessagePack map of topic name -> payload."""
+    body = {str(to_topic(topic)): bytes(data) for topic, data in parts.items()}
+    preamble = _PREAMBLE.pack(BINARY_MAGIC, BINARY_VERSION, BinaryKind.SNAPSHOT)
+    return preamble + msgspec.msgpack.encode(body)
 
 
 def decode_snapshot(payload: bytes) -> dict[Topic, bytes]:
@@ -798,31 +794,8 @@ def decode_snapshot(payload: bytes) -> dict[Topic, bytes]:
     if len(payload) > MAX_SNAPSHOT_BYTES:
         raise TopicDecodeError(f"snapshot: {len(payload)} bytes > {MAX_SNAPSHOT_BYTES}")
     _check_preamble(payload, BinaryKind.SNAPSHOT, "snapshot")
-    if len(payload) < _SNAPSHOT.size:
-        raise TopicDecodeError("snapshot: truncated header")
-    count = _SNAPSHOT.unpack_from(payload)[3]
-    pos = _SNAPSHOT.size
-    parts: dict[Topic, bytes] = {}
-    for i in range(count):
-        if pos + 1 > len(payload):
-            raise TopicDecodeError(f"snapshot: truncated at part {i}")
-        (name_len,) = _SECTION_NAME.unpack_from(payload, pos)
-        pos += 1
-        name_end = pos + name_len
-        if name_end + _SECTION_LEN.size > len(payload):
-            raise TopicDecodeError(f"snapshot: truncated at part {i}")
-        try:
-            topic = to_topic(payload[pos:name_end].decode("ascii"))
-        except (UnicodeDecodeError, TopicError) as exc:
-            raise TopicDecodeError(f"snapshot: part {i}: {exc}") from exc
-        (length,) = _SECTION_LEN.unpack_from(payload, name_end)
-        pos = name_end + _SECTION_LEN.size
-        if pos + length > len(payload):
-            raise TopicDecodeError(f"snapshot: part {i} ({topic}) truncated")
-        if topic in parts:
-            raise TopicDecodeError(f"snapshot: part {topic} appears twice")
-        parts[topic] = payload[pos : pos + length]
-        pos += length
-    if pos != len(payload):
-        raise TopicDecodeError(f"snapshot: {len(payload) - pos} trailing bytes")
-    return parts
+    try:
+        parts = _SNAPSHOT_PARTS.decode(payload[_PREAMBLE.size :])
+        return {to_topic(name): data for name, data in parts.items()}
+    except (msgspec.DecodeError, TopicError) as exc:  # truncated, trailing bytes, unknown topic
+        raise TopicDecodeError(f"snapshot: {exc}") from None

@@ -366,7 +366,7 @@ def test_snapshot_carries_parts_and_rejects_corruption() -> None:
         decode_snapshot(payload[:-1])
     with pytest.raises(TopicDecodeError, match="trailing"):
         decode_snapshot(payload + b"x")
-    renamed = payload.replace(b"\x04pose", b"\x04pise")
+    renamed = payload.replace(b"\xa4pose", b"\xa4pise")  # a MessagePack string of 4
     with pytest.raises(TopicDecodeError, match="unknown topic"):
         decode_snapshot(renamed)
 
