@@ -21,7 +21,7 @@ from typing import Any
 
 import msgspec
 
-from base_station_app.station_file import SecuritySection, StationFileError, StationSettingsStore
+from base_station_app.station_file import SecuritySection
 from interbot_link import KeysError, KeyStore, LinkSecurity
 from interbot_link.keys import SETUP_HINT
 from interbot_link.security import is_loopback_host, warn_insecure
@@ -59,15 +59,6 @@ class StationSecurity:
     def registry_path(self) -> Path:
         assert self.keys is not None
         return self.keys / f"tablets-{self.identity}.json"
-
-
-def load_settings(path: Path) -> dict[str, Any]:
-    """The ``security`` section of a station file (`station_file`) as `resolve` takes it."""
-    try:
-        section = StationSettingsStore(path).load().security
-    except StationFileError as exc:
-        raise StationSecurityError(str(exc)) from None
-    return settings_of(section, path)
 
 
 def settings_of(section: SecuritySection, path: Path) -> dict[str, Any]:

@@ -118,12 +118,6 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
         py = self.offset_y + (self.map_top_y - y) * self.scale_y
         return (px, py)
 
-    def widget_to_world(self, px: float, py: float) -> tuple[float, float]:
-        """Widget pixels to a map-frame point [m]; the inverse of `world_to_widget`."""
-        x = self.map_origin_x + (px - self.offset_x) / self.scale_x
-        y = self.map_top_y - (py - self.offset_y) / self.scale_y
-        return (x, y)
-
     def yaw_to_widget_angle(self, yaw: float) -> float:
         """World yaw [rad, CCW from +x] to a widget angle [rad] from +x towards +y (clockwise on
         screen), in (-pi, pi]. With an isotropic scale this is ``-yaw`` wrapped; with a stretched
@@ -132,10 +126,3 @@ class MapViewTransform(_Declared, frozen=True, dict=True):
             raise MapViewError(f"yaw must be finite, got {yaw!r}")
         angle = math.atan2(-math.sin(yaw) * self.scale_y, math.cos(yaw) * self.scale_x)
         return math.pi if angle == -math.pi else angle
-
-    def widget_angle_to_yaw(self, angle: float) -> float:
-        """Inverse of `yaw_to_widget_angle`, in (-pi, pi]."""
-        if not math.isfinite(angle):
-            raise MapViewError(f"angle must be finite, got {angle!r}")
-        yaw = math.atan2(-math.sin(angle) / self.scale_y, math.cos(angle) / self.scale_x)
-        return math.pi if yaw == -math.pi else yaw

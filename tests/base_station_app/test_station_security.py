@@ -11,6 +11,7 @@ import pytest
 from base_station_app import station_security
 from base_station_app.main import main
 from base_station_app.qt_tablet_pairing import QtTabletPairing, qr_pixmap
+from base_station_app.station_file import StationFileError, StationSettingsStore
 from base_station_app.tablet_auth import TabletAuthServer
 from interbot_link import KeyStore
 
@@ -53,14 +54,15 @@ def test_title_shows_what_is_insecure(keys: Path) -> None:
 def test_keys_from_the_station_yaml(keys: Path, tmp_path: Path) -> None:
     yaml_path = tmp_path / "station.yaml"
     yaml_path.write_text(f"security: {{keys: {keys}, identity: station}}\n")
-    sec = _resolve(file_settings=station_security.load_settings(yaml_path))
+    section = StationSettingsStore(yaml_path).load().security
+    sec = _resolve(file_settings=station_security.settings_of(section, yaml_path))
     assert sec.keys == keys and sec.link is not None
     yaml_path.write_text("security: {key: x}\n")
     with pytest.raises(
-        station_security.StationSecurityError,
+        StationFileError,
         match=r"station\.yaml: unknown key 'security\.key' \(allowed: keys, identity",
     ):
-        station_security.load_settings(yaml_path)
+        StationSettingsStore(yaml_path).load()
     with pytest.raises(station_security.StationSecurityError, match="is a robot, not a station"):
         _resolve(keys=keys, identity="interbot1")
     observer = _resolve(keys=keys, identity="observer")
