@@ -399,21 +399,17 @@ class TabletWindow(QMainWindow):
         text = unavailable_text(perms.teleop, perms.goals, perms.tours, perms.requests)
         self.unavailable_label.setText(text)
         self.unavailable_label.setVisible(bool(text) and self.session.connected)
-        self.menu.joystick_button.setEnabled(perms.teleop)
-        self.map_screen.drive_button.setEnabled(perms.teleop)
-        self.motion_bar.manual_button.setEnabled(perms.teleop)
-        self.joystick_screen.joystick.setEnabled(perms.teleop)
-        self.map_screen.tour_button.setEnabled(perms.tours)
-        self.menu.home_button.setEnabled(perms.goals)
-        self.map_screen.home_button.setEnabled(perms.goals)
         why = self.tr("The operator does not allow this now.")
         for widget, allowed in (
             (self.menu.joystick_button, perms.teleop),
             (self.map_screen.drive_button, perms.teleop),
+            (self.motion_bar.manual_button, perms.teleop),
+            (self.joystick_screen.joystick, perms.teleop),
             (self.map_screen.tour_button, perms.tours),
             (self.menu.home_button, perms.goals),
             (self.map_screen.home_button, perms.goals),
         ):
+            widget.setEnabled(allowed)
             widget.setToolTip("" if allowed else why)
 
     def _render_texts(self) -> None:

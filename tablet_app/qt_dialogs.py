@@ -15,6 +15,8 @@ each sends nothing itself. Room names and info come from the map file and are no
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from PySide6.QtCore import QEvent, Qt, Signal
 from PySide6.QtWidgets import (
     QButtonGroup,
@@ -45,6 +47,27 @@ class _TabletDialog(QDialog):
     def retranslate(self) -> None:
         raise NotImplementedError
 
+    def _lay_out(
+        self, *rows: QWidget, buttons: tuple[QPushButton, ...], grow: QWidget | None = None
+    ) -> None:
+        """``rows`` top to bottom (``grow`` takes the spare height), then ``buttons`` in a row."""
+        layout = QVBoxLayout(self)
+        for row in rows:
+            layout.addWidget(row, 1 if row is grow else 0)
+        line = QHBoxLayout()
+        for button in buttons:
+            line.addWidget(button)
+        layout.addLayout(line)
+
+    def _answers(self, button: QPushButton, answer: Callable[[], object]) -> None:
+        """A click on ``button`` gives the ``answer`` (emits a signal), then closes the dialog."""
+
+        def clicked() -> None:
+            answer()
+            self.accept()
+
+        button.clicked.connect(clicked)
+
     def changeEvent(self, event: QEvent) -> None:
         if event.type() == QEvent.Type.LanguageChange:
             self.retranslate()
@@ -55,6 +78,12 @@ def _info_label(text: str) -> QLabel:
     label = QLabel(text)
     label.setWordWrap(True)
     label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+    return label
+
+
+def _title_label(text: str = "") -> QLabel:
+    label = QLabel(text)
+    label.setObjectName("title")
     return label
 
 
@@ -69,8 +98,7 @@ class QtRoomDialog(_TabletDialog):
     ) -> None:
         super().__init__(parent)
         self.room = room
-        self.name_label = QLabel(room.name)
-        self.name_label.setObjectName("title")
+        self.name_label = _title_label(room.name)
         self.info_label = _info_label(room.info)
         self.go_button = QPushButton()
         self.go_button.setEnabled(can_go)
@@ -78,25 +106,12 @@ class QtRoomDialog(_TabletDialog):
         self.request_button.setVisible(room.requests)
         self.request_button.setEnabled(can_request)
         self.close_button = QPushButton()
-        buttons = QHBoxLayout()
-        for button in (self.go_button, self.request_button, self.close_button):
-            buttons.addWidget(button)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.name_label)
-        layout.addWidget(self.info_label, 1)
-        layout.addLayout(buttons)
-        self.go_button.clicked.connect(self._go)
-        self.request_button.clicked.connect(self._request)
+        buttons = (self.go_button, self.request_button, self.close_button)
+        self._lay_out(self.name_label, self.info_label, buttons=buttons, grow=self.info_label)
+        self._answers(self.go_button, lambda: self.go_requested.emit(room.id))
+        self._answers(self.request_button, lambda: self.request_requested.emit(room.id))
         self.close_button.clicked.connect(self.reject)
         self.retranslate()
-
-    def _go(self) -> None:
-        self.go_requested.emit(self.room.id)
-        self.accept()
-
-    def _request(self) -> None:
-        self.request_requested.emit(self.room.id)
-        self.accept()
 
     def retranslate(self) -> None:
         self.setWindowTitle(self.room.name)
@@ -115,8 +130,7 @@ class QtRequestDialog(_TabletDialog):
     def __init__(self, room: Room, plan: RoomMap, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.room = room
-        self.title_label = QLabel()
-        self.title_label.setObjectName("title")
+        self.title_label = _title_label()
         self.text_edit = QLineEdit()
         self.text_edit.setMaxLength(200)
         self.keyboard = QtKeyboard()
@@ -129,16 +143,14 @@ class QtRequestDialog(_TabletDialog):
         self.send_button = QPushButton()
         self.send_button.setEnabled(False)
         self.cancel_button = QPushButton()
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.send_button)
-        buttons.addWidget(self.cancel_button)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.title_label)
-        layout.addWidget(self.text_edit)
-        layout.addWidget(self.keyboard)
-        layout.addWidget(self.deliver_label)
-        layout.addWidget(self.deliver_combo)
-        layout.addLayout(buttons)
+        self._lay_out(
+            self.title_label,
+            self.text_edit,
+            self.keyboard,
+            self.deliver_label,
+            self.deliver_combo,
+            buttons=(self.send_button, self.cancel_button),
+        )
         self.text_edit.textChanged.connect(
             lambda text: self.send_button.setEnabled(bool(text.strip()))
         )
@@ -173,29 +185,15 @@ class QtTourStopDialog(_TabletDialog):
     def __init__(self, room: Room, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.room = room
-        self.name_label = QLabel(room.name)
-        self.name_label.setObjectName("title")
+        self.name_label = _title_label(room.name)
         self.info_label = _info_label(room.info)
         self.resume_button = QPushButton()
         self.end_button = QPushButton()
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.resume_button)
-        buttons.addWidget(self.end_button)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.name_label)
-        layout.addWidget(self.info_label, 1)
-        layout.addLayout(buttons)
-        self.resume_button.clicked.connect(self._resume)
-        self.end_button.clicked.connect(self._end)
+        buttons = (self.resume_button, self.end_button)
+        self._lay_out(self.name_label, self.info_label, buttons=buttons, grow=self.info_label)
+        self._answers(self.resume_button, self.resume_requested.emit)
+        self._answers(self.end_button, self.end_requested.emit)
         self.retranslate()
-
-    def _resume(self) -> None:
-        self.resume_requested.emit()
-        self.accept()
-
-    def _end(self) -> None:
-        self.end_requested.emit()
-        self.accept()
 
     def retranslate(self) -> None:
         self.setWindowTitle(self.tr("Guided tour"))
@@ -214,8 +212,7 @@ class QtShowRequestDialog(_TabletDialog):
         self._from = plan.name(request.room)
         self._to = plan.name(request.deliver_to)
         self._accepted: bool | None = None
-        self.title_label = QLabel()
-        self.title_label.setObjectName("title")
+        self.title_label = _title_label()
         self.request_label = _info_label(request.request)
         self.request_label.setObjectName("requestText")
         self.status_label = _info_label("")
@@ -223,14 +220,13 @@ class QtShowRequestDialog(_TabletDialog):
         self.decline_button = QPushButton()
         self.close_button = QPushButton()
         self.close_button.setVisible(False)
-        buttons = QHBoxLayout()
-        for button in (self.accept_button, self.decline_button, self.close_button):
-            buttons.addWidget(button)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.title_label)
-        layout.addWidget(self.request_label, 1)
-        layout.addWidget(self.status_label)
-        layout.addLayout(buttons)
+        self._lay_out(
+            self.title_label,
+            self.request_label,
+            self.status_label,
+            buttons=(self.accept_button, self.decline_button, self.close_button),
+            grow=self.request_label,
+        )
         self.accept_button.clicked.connect(lambda: self._answer(True))
         self.decline_button.clicked.connect(lambda: self._answer(False))
         self.close_button.clicked.connect(self.accept)
@@ -279,19 +275,10 @@ class QtHelpConfirmDialog(_TabletDialog):
         self.question_label.setObjectName("title")
         self.yes_button = QPushButton()
         self.no_button = QPushButton()
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.yes_button)
-        buttons.addWidget(self.no_button)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.question_label)
-        layout.addLayout(buttons)
-        self.yes_button.clicked.connect(self._yes)
+        self._lay_out(self.question_label, buttons=(self.yes_button, self.no_button))
+        self._answers(self.yes_button, lambda: self.confirmed.emit(room.id))
         self.no_button.clicked.connect(self.reject)
         self.retranslate()
-
-    def _yes(self) -> None:
-        self.confirmed.emit(self.room.id)
-        self.accept()
 
     def retranslate(self) -> None:
         self.setWindowTitle(self.tr("Help me!"))
@@ -311,38 +298,32 @@ class QtMalfunctionDialog(_TabletDialog):
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(parent)
-        self.title_label = QLabel()
-        self.title_label.setObjectName("title")
-        self.kind_buttons: dict[str, QRadioButton] = {}
+        self.title_label = _title_label()
+        self.kind_buttons = {kind: QRadioButton() for kind in MALFUNCTION_KINDS}
         self._group = QButtonGroup(self)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.title_label)
-        for kind in MALFUNCTION_KINDS:
-            radio = QRadioButton()
-            self.kind_buttons[kind] = radio
+        for radio in self.kind_buttons.values():
             self._group.addButton(radio)
-            layout.addWidget(radio)
         self.kind_buttons["collision"].setChecked(True)
         self.text_edit = QLineEdit()
         self.text_edit.setMaxLength(300)
-        layout.addWidget(self.text_edit)
         self.keyboard = QtKeyboard()
         self.keyboard.set_target(self.text_edit)
-        layout.addWidget(self.keyboard)
         self.send_button = QPushButton()
         self.cancel_button = QPushButton()
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.send_button)
-        buttons.addWidget(self.cancel_button)
-        layout.addLayout(buttons)
-        self.send_button.clicked.connect(self._send)
+        self._lay_out(
+            self.title_label,
+            *self.kind_buttons.values(),
+            self.text_edit,
+            self.keyboard,
+            buttons=(self.send_button, self.cancel_button),
+        )
+        self._answers(self.send_button, self._send)
         self.cancel_button.clicked.connect(self.reject)
         self.retranslate()
 
     def _send(self) -> None:
         kind = next(k for k, radio in self.kind_buttons.items() if radio.isChecked())
         self.submitted.emit(kind, self.text_edit.text().strip())
-        self.accept()
 
     def retranslate(self) -> None:
         self.setWindowTitle(self.tr("Report a malfunction"))
