@@ -16,16 +16,14 @@ from PySide6.QtWidgets import (
     QAbstractItemView,
     QApplication,
     QCheckBox,
-    QHBoxLayout,
-    QPushButton,
     QTableWidget,
     QTableWidgetItem,
-    QVBoxLayout,
     QWidget,
 )
 
 from base_station_app.alerts import Alert
 from base_station_app.station_controller import StationController
+from interbot_qt.layout import button, column, row
 
 COLUMNS = ("time", "robot", "kind", "what", "times")
 
@@ -46,19 +44,13 @@ class QtAlertsPanel(QWidget):
             3, self.table.horizontalHeader().ResizeMode.Stretch
         )
         self.table.verticalHeader().setVisible(False)
-        self.ack_button = QPushButton("Acknowledge")
-        self.ack_all_button = QPushButton("Acknowledge all")
+        self.ack_button = button("Acknowledge", self._acknowledge_selected)
+        self.ack_all_button = button("Acknowledge all", self._acknowledge_all)
         self.sound_box = QCheckBox("Sound")
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.ack_button)
-        buttons.addWidget(self.ack_all_button)
+        buttons = row(self.ack_button, self.ack_all_button)
         buttons.addStretch(1)
         buttons.addWidget(self.sound_box)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.table, 1)
-        layout.addLayout(buttons)
-        self.ack_button.clicked.connect(self._acknowledge_selected)
-        self.ack_all_button.clicked.connect(self._acknowledge_all)
+        column((self.table, 1), buttons, parent=self)
         controller.alert_raised.connect(self._on_alert)
         controller.clocked.connect(self.refresh)
         self.refresh()
@@ -69,8 +61,8 @@ class QtAlertsPanel(QWidget):
         self.refresh()
 
     def _acknowledge_selected(self) -> None:
-        for row in {i.row() for i in self.table.selectedIndexes()}:
-            item = self.table.item(row, 0)
+        for line in {i.row() for i in self.table.selectedIndexes()}:
+            item = self.table.item(line, 0)
             if item is not None:
                 self._controller.alerts.acknowledge(int(item.data(Qt.ItemDataRole.UserRole)))
         self.refresh()

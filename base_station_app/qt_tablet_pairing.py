@@ -17,16 +17,15 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QFont, QPixmap
 from PySide6.QtWidgets import (
     QGroupBox,
-    QHBoxLayout,
     QLabel,
     QListWidget,
     QListWidgetItem,
-    QPushButton,
     QVBoxLayout,
     QWidget,
 )
 
 from base_station_app.tablet_auth import TabletAuthServer
+from interbot_qt.layout import button, row
 
 logger = logging.getLogger(__name__)
 
@@ -50,16 +49,13 @@ class QtTabletPairing(QGroupBox):
         self.fingerprint_label = QLabel(f"station certificate SHA-256: {auth.fingerprint[:32]}…")
         self.fingerprint_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         layout.addWidget(self.fingerprint_label)
-        row = QHBoxLayout()
-        self.pair_button = QPushButton("Pair a tablet")
+        self.pair_button = button("Pair a tablet", self.show_code)
         self.code_label = QLabel("")
         font = QFont(self.code_label.font())
         font.setPointSize(font.pointSize() * 2)
         font.setBold(True)
         self.code_label.setFont(font)
-        row.addWidget(self.pair_button)
-        row.addWidget(self.code_label, 1)
-        layout.addLayout(row)
+        layout.addLayout(row(self.pair_button, (self.code_label, 1)))
         self.qr_label = QLabel()
         self.uri_label = QLabel()
         self.uri_label.setWordWrap(True)
@@ -69,11 +65,8 @@ class QtTabletPairing(QGroupBox):
         self.tablets = QListWidget()
         self.tablets.setMaximumHeight(110)
         layout.addWidget(self.tablets)
-        self.revoke_button = QPushButton("Revoke selected tablet")
+        self.revoke_button = button("Revoke selected tablet", self.revoke_selected)
         layout.addWidget(self.revoke_button)
-
-        self.pair_button.clicked.connect(self.show_code)
-        self.revoke_button.clicked.connect(self.revoke_selected)
         auth.tablets_changed.connect(self.refresh)
         self._expiry = QTimer(self)  # an expired or used code disappears from the screen
         self._expiry.setInterval(1000)

@@ -16,9 +16,7 @@ from PySide6.QtWidgets import (
     QCheckBox,
     QFormLayout,
     QGroupBox,
-    QHBoxLayout,
     QLabel,
-    QPushButton,
     QVBoxLayout,
     QWidget,
 )
@@ -27,6 +25,7 @@ from base_station_app.display_text import age_text
 from base_station_app.station_controller import StationController
 from base_station_app.tablet_policy import PERMISSION_KINDS, allows
 from base_station_app.tablet_session import describe_task
+from interbot_qt.layout import button, column, row
 
 _TITLES = {
     "teleop": "Teleoperation (joystick)",
@@ -71,16 +70,12 @@ class QtTabletPanel(QWidget):
         layout.addWidget(perms)
 
         task = QGroupBox("Tablet's task")
-        tlo = QVBoxLayout(task)
         self.task_label = QLabel("none")
-        tlo.addWidget(self.task_label)
-        row = QHBoxLayout()
-        self.override_button = QPushButton("Take over")
-        self.stop_button = QPushButton("Stop (pause)")
-        self.cancel_button = QPushButton("Cancel")
-        for b in (self.override_button, self.stop_button, self.cancel_button):
-            row.addWidget(b)
-        tlo.addLayout(row)
+        self.override_button = button("Take over", controller.tablet_task_override)
+        self.stop_button = button("Stop (pause)", controller.tablet_task_stop)
+        self.cancel_button = button("Cancel", controller.tablet_task_cancel)
+        buttons = row(self.override_button, self.stop_button, self.cancel_button)
+        column(self.task_label, buttons, parent=task)
         layout.addWidget(task)
         if controller.tablet_auth is not None:  # TLS + pairing (issue 15)
             from base_station_app.qt_tablet_pairing import QtTabletPairing
@@ -88,9 +83,6 @@ class QtTabletPanel(QWidget):
             self.pairing = QtTabletPairing(controller.tablet_auth)
             layout.addWidget(self.pairing)
 
-        self.override_button.clicked.connect(controller.tablet_task_override)
-        self.stop_button.clicked.connect(controller.tablet_task_stop)
-        self.cancel_button.clicked.connect(controller.tablet_task_cancel)
         controller.tablet_changed.connect(self.refresh)
         controller.tasks_changed.connect(self.refresh)
         controller.latency_added.connect(self._on_latency)

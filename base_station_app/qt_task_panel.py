@@ -16,19 +16,17 @@ from PySide6.QtWidgets import (
     QFormLayout,
     QGridLayout,
     QGroupBox,
-    QHBoxLayout,
     QLabel,
     QLineEdit,
     QListWidget,
     QListWidgetItem,
-    QPushButton,
-    QVBoxLayout,
     QWidget,
 )
 
 from base_station_app.station_controller import StationController
 from base_station_app.tablet_session import describe_task
 from interbot_core.supervisor import Delivery, GoHome, GoTo, GuidedTour, SupervisorState
+from interbot_qt.layout import button, column, row
 
 
 class QtTaskPanel(QWidget):
@@ -41,8 +39,7 @@ class QtTaskPanel(QWidget):
 
     def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
-        self._controller = controller
-        layout = QVBoxLayout(self)
+        self._controller = c = controller
         rooms = [n for n in controller.topo.nodes if self._is_room(n.id)]
 
         order = QGroupBox("Order a task")
@@ -54,15 +51,15 @@ class QtTaskPanel(QWidget):
             self.room_list.addItem(item)
         self.room_list.setCurrentRow(0)
         grid.addWidget(self.room_list, 0, 0, 6, 1)
-        self.goto_button = QPushButton("Move to room")
-        self.tour_button = QPushButton("Guided tour")
-        self.home_button = QPushButton("Go home")
-        self.goal_pick_button = QPushButton("Goal on map (click, drag heading)")
-        grid.addWidget(self.goto_button, 0, 1)
-        grid.addWidget(self.tour_button, 1, 1)
-        grid.addWidget(self.home_button, 2, 1)
+        self.goto_button = button("Move to room", self._goto)
+        self.tour_button = button("Guided tour", lambda: c.submit(GuidedTour()))
+        self.home_button = button("Go home", lambda: c.submit(GoHome()))
+        self.goal_pick_button = button(
+            "Goal on map (click, drag heading)", lambda: self.pick_requested.emit("goal")
+        )
+        for i, b in enumerate((self.goto_button, self.tour_button, self.home_button)):
+            grid.addWidget(b, i, 1)
         grid.addWidget(self.goal_pick_button, 3, 1)
-        layout.addWidget(order)
 
         deliver = QGroupBox("Deliver a message / request an item")
         form = QFormLayout(deliver)
@@ -77,98 +74,66 @@ class QtTaskPanel(QWidget):
         form.addRow("text", self.request_text)
         form.addRow("from room", self.from_room)
         form.addRow("to room", self.to_room)
-        buttons = QHBoxLayout()
-        self.deliver_button = QPushButton("Deliver message")
-        self.request_button = QPushButton("Request item")
-        buttons.addWidget(self.deliver_button)
-        buttons.addWidget(self.request_button)
-        form.addRow(buttons)
-        layout.addWidget(deliver)
+        self.deliver_button = button("Deliver message", self._deliver)
+        self.request_button = button("Request item", self._deliver)
+        form.addRow(row(self.deliver_button, self.request_button))
 
         queue = QGroupBox("Task queue (runs in order)")
-        qlay = QVBoxLayout(queue)
         self.current_label = QLabel()
         font = QFont(self.current_label.font())
         font.setBold(True)
         self.current_label.setFont(font)
-        qlay.addWidget(self.current_label)
-        row = QHBoxLayout()
         self.queue_list = QListWidget()
-        row.addWidget(self.queue_list, 1)
-        column = QVBoxLayout()
-        self.up_button = QPushButton("Up")
-        self.down_button = QPushButton("Down")
-        self.remove_button = QPushButton("Remove")
-        self.cancel_button = QPushButton("Cancel current")
-        self.clear_button = QPushButton("Clear queue")
-        self.resume_queue_button = QPushButton("Resume queue")
-        self.resume_queue_button.setToolTip(
-            "After an emergency stop, waiting tasks start only when you resume the queue"
+        self.up_button = button("Up", lambda: self._move(-1))
+        self.down_button = button("Down", lambda: self._move(+1))
+        self.remove_button = button("Remove", self._remove)
+        self.cancel_button = button("Cancel current", c.cancel_task)
+        self.clear_button = button("Clear queue", c.clear_queue)
+        self.resume_queue_button = button(
+            "Resume queue",
+            c.resume_queue,
+            tip="After an emergency stop, waiting tasks start only when you resume the queue",
         )
-        for b in (
+        edits = column(
             self.up_button,
             self.down_button,
             self.remove_button,
             self.cancel_button,
             self.clear_button,
             self.resume_queue_button,
-        ):
-            column.addWidget(b)
-        column.addStretch(1)
-        row.addLayout(column)
-        qlay.addLayout(row, 1)
-        answers = QHBoxLayout()
-        self.tour_resume_button = QPushButton("Resume tour")
-        self.tour_end_button = QPushButton("End tour")
-        self.accept_button = QPushButton("Request accepted")
-        self.decline_button = QPushButton("Request declined")
-        for b in (
-            self.tour_resume_button,
-            self.tour_end_button,
-            self.accept_button,
-            self.decline_button,
-        ):
-            answers.addWidget(b)
-        qlay.addLayout(answers)
-        layout.addWidget(queue, 1)
+        )
+        edits.addStretch(1)
+        self.tour_resume_button = button("Resume tour", c.tour_resume)
+        self.tour_end_button = button("End tour", c.tour_end)
+        self.accept_button = button("Request accepted", lambda: c.answer_request(True))
+        self.decline_button = button("Request declined", lambda: c.answer_request(False))
+        answers = row(
+            self.tour_resume_button, self.tour_end_button, self.accept_button, self.decline_button
+        )
+        column(self.current_label, (row((self.queue_list, 1), edits), 1), answers, parent=queue)
 
         pose = QGroupBox("Initial pose")
-        plo = QHBoxLayout(pose)
-        self.initial_pick_button = QPushButton("Drag an arrow on the map")
+        self.initial_pick_button = button(
+            "Drag an arrow on the map", lambda: self.pick_requested.emit("initial")
+        )
         self.initial_room = QComboBox()
         for node in rooms:
             self.initial_room.addItem(f"{node.id}  {node.name}", node.id)
-        self.initial_room_button = QPushButton("Robot is at this room")
-        plo.addWidget(self.initial_pick_button)
-        plo.addWidget(self.initial_room, 1)
-        plo.addWidget(self.initial_room_button)
-        self.relocalise_button = QPushButton("Relocalise")
-        self.relocalise_button.setToolTip("Let the robot find itself on the whole map")
-        plo.addWidget(self.relocalise_button)
-        layout.addWidget(pose)
-
-        c = controller
-        self.goto_button.clicked.connect(self._goto)
-        self.tour_button.clicked.connect(lambda: c.submit(GuidedTour()))
-        self.home_button.clicked.connect(lambda: c.submit(GoHome()))
-        self.goal_pick_button.clicked.connect(lambda: self.pick_requested.emit("goal"))
-        self.initial_pick_button.clicked.connect(lambda: self.pick_requested.emit("initial"))
-        self.initial_room_button.clicked.connect(
-            lambda: c.set_initial_pose_room(int(self.initial_room.currentData()))
+        self.initial_room_button = button(
+            "Robot is at this room",
+            lambda: c.set_initial_pose_room(int(self.initial_room.currentData())),
         )
-        self.relocalise_button.clicked.connect(c.relocalise)
-        self.deliver_button.clicked.connect(self._deliver)
-        self.request_button.clicked.connect(self._deliver)
-        self.up_button.clicked.connect(lambda: self._move(-1))
-        self.down_button.clicked.connect(lambda: self._move(+1))
-        self.remove_button.clicked.connect(self._remove)
-        self.cancel_button.clicked.connect(lambda: c.cancel_task())
-        self.clear_button.clicked.connect(c.clear_queue)
-        self.resume_queue_button.clicked.connect(c.resume_queue)
-        self.tour_resume_button.clicked.connect(c.tour_resume)
-        self.tour_end_button.clicked.connect(c.tour_end)
-        self.accept_button.clicked.connect(lambda: c.answer_request(True))
-        self.decline_button.clicked.connect(lambda: c.answer_request(False))
+        self.relocalise_button = button(
+            "Relocalise", c.relocalise, tip="Let the robot find itself on the whole map"
+        )
+        row(
+            self.initial_pick_button,
+            (self.initial_room, 1),
+            self.initial_room_button,
+            self.relocalise_button,
+            parent=pose,
+        )
+        column(order, deliver, (queue, 1), pose, parent=self)
         c.tasks_changed.connect(self.refresh)
         c.clocked.connect(self._refresh_buttons)
         self.refresh()
@@ -182,9 +147,9 @@ class QtTaskPanel(QWidget):
 
     def select_room(self, node_id: int) -> None:
         """Select ``node_id`` in the room list (a click on the map)."""
-        for row in range(self.room_list.count()):
-            if self.room_list.item(row).data(Qt.ItemDataRole.UserRole) == node_id:
-                self.room_list.setCurrentRow(row)
+        for i in range(self.room_list.count()):
+            if self.room_list.item(i).data(Qt.ItemDataRole.UserRole) == node_id:
+                self.room_list.setCurrentRow(i)
                 return
 
     def _goto(self) -> None:
@@ -202,14 +167,14 @@ class QtTaskPanel(QWidget):
         )
 
     def _move(self, delta: int) -> None:
-        row = self.queue_list.currentRow()
-        if row >= 0 and self._controller.move_task(row, delta):
-            self.queue_list.setCurrentRow(row + delta)
+        index = self.queue_list.currentRow()
+        if index >= 0 and self._controller.move_task(index, delta):
+            self.queue_list.setCurrentRow(index + delta)
 
     def _remove(self) -> None:
-        row = self.queue_list.currentRow()
-        if row >= 0:
-            self._controller.remove_task(row)
+        index = self.queue_list.currentRow()
+        if index >= 0:
+            self._controller.remove_task(index)
 
     def refresh(self) -> None:
         c = self._controller
@@ -218,12 +183,12 @@ class QtTaskPanel(QWidget):
         self.current_label.setText(
             "Now: idle" if task is None else f"Now: {describe_task(task, c.names)}{who}"
         )
-        row = self.queue_list.currentRow()
+        index = self.queue_list.currentRow()
         self.queue_list.clear()
         for t in c.selected.supervisor.queue:
             self.queue_list.addItem(describe_task(t, c.names))
-        if 0 <= row < self.queue_list.count():
-            self.queue_list.setCurrentRow(row)
+        if 0 <= index < self.queue_list.count():
+            self.queue_list.setCurrentRow(index)
         self._refresh_buttons()
 
     def _refresh_buttons(self) -> None:

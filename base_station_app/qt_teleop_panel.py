@@ -16,11 +16,8 @@ from PySide6.QtWidgets import (
     QFormLayout,
     QGridLayout,
     QGroupBox,
-    QHBoxLayout,
     QLabel,
-    QPushButton,
     QToolButton,
-    QVBoxLayout,
     QWidget,
 )
 
@@ -28,6 +25,7 @@ from base_station_app.station_config import RANGES
 from base_station_app.station_controller import StationController
 from base_station_app.teleop import Direction
 from interbot_core.safety_text import describe_safety
+from interbot_qt.layout import button, column, row
 from interbot_qt.qt_joystick import QtJoystick
 
 _PAD = (
@@ -44,50 +42,34 @@ class QtTeleopPanel(QWidget):
     def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self._controller = controller
-        layout = QVBoxLayout(self)
-
-        self.estop_button = QPushButton("EMERGENCY STOP")
+        self.estop_button = button("EMERGENCY STOP", controller.emergency_stop)
         self.estop_button.setMinimumHeight(56)
         self.estop_button.setStyleSheet(
             "QPushButton { background: #d00000; color: white; font-size: 18px; font-weight: bold; }"
         )
-        self.release_button = QPushButton("Release emergency stop")
+        self.release_button = button("Release emergency stop", controller.release_stop)
         self.estop_label = QLabel()
-        layout.addWidget(self.estop_button)
-        row = QHBoxLayout()
-        row.addWidget(self.release_button)
-        row.addWidget(self.estop_label, 1)
-        layout.addLayout(row)
+        self.pause_button = button("Pause navigation", controller.pause)
+        self.resume_button = button("Resume navigation", controller.resume)
 
-        nav = QHBoxLayout()
-        self.pause_button = QPushButton("Pause navigation")
-        self.resume_button = QPushButton("Resume navigation")
-        nav.addWidget(self.pause_button)
-        nav.addWidget(self.resume_button)
-        layout.addLayout(nav)
-
-        drive = QHBoxLayout()
         pad_box = QGroupBox("Arrow pad (or arrows / WASD on the map)")
         grid = QGridLayout(pad_box)
         self.pad: dict[Direction, QToolButton] = {}
         for direction, arrow, r, col in _PAD:
-            button = QToolButton()
-            button.setText(arrow)
-            button.setStyleSheet("font-size: 28px;")
-            button.setAutoRepeat(False)
-            button.setMinimumSize(64, 64)
-            button.setToolTip(f"drive {direction.value}")
-            button.pressed.connect(lambda d=direction: controller.press(d))
-            button.released.connect(lambda d=direction: controller.release(d))
-            grid.addWidget(button, r, col)
-            self.pad[direction] = button
-        drive.addWidget(pad_box)
+            key = QToolButton()
+            key.setText(arrow)
+            key.setStyleSheet("font-size: 28px;")
+            key.setAutoRepeat(False)
+            key.setMinimumSize(64, 64)
+            key.setToolTip(f"drive {direction.value}")
+            key.pressed.connect(lambda d=direction: controller.press(d))
+            key.released.connect(lambda d=direction: controller.release(d))
+            grid.addWidget(key, r, col)
+            self.pad[direction] = key
         self.joystick = QtJoystick(
             controller.config.teleop_linear_max, controller.config.teleop_angular_max
         )
         self.joystick.setMinimumSize(180, 180)
-        drive.addWidget(self.joystick, 1)
-        layout.addLayout(drive, 1)
 
         limits = QGroupBox("Maximum teleoperation speeds")
         form = QFormLayout(limits)
@@ -95,7 +77,6 @@ class QtTeleopPanel(QWidget):
         self.angular_max = self._spin("teleop_angular_max", " rad/s")
         form.addRow("linear", self.linear_max)
         form.addRow("angular", self.angular_max)
-        layout.addWidget(limits)
 
         # Issue 17: assisted driving (robot-side) and what the collision monitor is doing.
         self.assist_check = QCheckBox("Assisted driving (slide along walls, through doors)")
@@ -106,13 +87,16 @@ class QtTeleopPanel(QWidget):
             "The robot's collision monitor on the laser: NOT a certified safety system. "
             "The emergency stop is."
         )
-        layout.addWidget(self.assist_check)
-        layout.addWidget(self.monitor_label)
-
-        self.estop_button.clicked.connect(controller.emergency_stop)
-        self.release_button.clicked.connect(controller.release_stop)
-        self.pause_button.clicked.connect(controller.pause)
-        self.resume_button.clicked.connect(controller.resume)
+        column(
+            self.estop_button,
+            row(self.release_button, (self.estop_label, 1)),
+            row(self.pause_button, self.resume_button),
+            (row(pad_box, (self.joystick, 1)), 1),
+            limits,
+            self.assist_check,
+            self.monitor_label,
+            parent=self,
+        )
         self.joystick.speed_changed.connect(self._on_joystick)
         self.joystick.released.connect(lambda: controller.set_joystick(0.0, 0.0, False))
         self.linear_max.editingFinished.connect(self._apply_limits)
@@ -175,6 +159,6 @@ class QtTeleopPanel(QWidget):
         self.release_button.setEnabled(latched)
         self.estop_label.setText("STOP LATCHED" if latched else "")
         self.estop_label.setStyleSheet("color: #c00; font-weight: bold;")
-        for button in self.pad.values():
-            button.setEnabled(not latched)
+        for key in self.pad.values():
+            key.setEnabled(not latched)
         self.joystick.setEnabled(not latched)

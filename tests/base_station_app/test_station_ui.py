@@ -449,7 +449,13 @@ def test_alerts_from_the_robot_reach_the_list_and_the_badge(qtbot, window, stati
     assert window.alerts_action.text() == "1 alert"
     QTest.mouseClick(window.alerts_badge, Qt.MouseButton.LeftButton)
     assert window.tabs.currentWidget() is window.alerts_panel
-    QTest.mouseClick(window.alerts_panel.ack_all_button, Qt.MouseButton.LeftButton)
+    panel = window.alerts_panel
+    QTest.mouseClick(panel.ack_button, Qt.MouseButton.LeftButton)  # nothing selected
+    assert window.alerts_action.text() == "1 alert"
+    panel.table.selectRow(0)
+    QTest.mouseClick(panel.ack_button, Qt.MouseButton.LeftButton)
     station.tick()
     assert window.alerts_action.text() == "No alerts"
+    assert station.alerts.unacknowledged == []
+    QTest.mouseClick(panel.ack_all_button, Qt.MouseButton.LeftButton)  # nothing left: no error
     assert station.alerts.unacknowledged == []
