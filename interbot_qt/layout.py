@@ -8,8 +8,9 @@ from typing import TypeVar
 
 from PySide6.QtWidgets import QBoxLayout, QHBoxLayout, QLayout, QPushButton, QVBoxLayout, QWidget
 
-Item = QWidget | QLayout | tuple[QWidget | QLayout, int]
-"""A widget or layout, or ``(item, stretch)`` for one that takes a share of the spare room."""
+Item = QWidget | QLayout | tuple[QWidget | QLayout, int] | int
+"""A widget or layout; ``(item, stretch)`` for one that takes a share of the spare room; a
+number alone for an empty stretch of that share."""
 L = TypeVar("L", bound=QBoxLayout)
 
 
@@ -35,7 +36,9 @@ def column(*items: Item, parent: QWidget | None = None) -> QVBoxLayout:
 def _fill(layout: L, items: tuple[Item, ...]) -> L:
     for item in items:
         thing, stretch = item if isinstance(item, tuple) else (item, 0)
-        if isinstance(thing, QLayout):
+        if isinstance(thing, int):
+            layout.addStretch(thing)
+        elif isinstance(thing, QLayout):
             layout.addLayout(thing, stretch)
         else:
             layout.addWidget(thing, stretch)

@@ -22,18 +22,17 @@ from PySide6.QtWidgets import (
     QButtonGroup,
     QComboBox,
     QDialog,
-    QHBoxLayout,
     QLabel,
     QLineEdit,
     QListView,
     QPushButton,
     QRadioButton,
-    QVBoxLayout,
     QWidget,
 )
 
 from interbot_core.protocol import MALFUNCTION_KINDS, ShowRequest
 from interbot_core.rooms import Room, RoomMap
+from interbot_qt.layout import column, row
 from tablet_app.qt_keyboard import QtKeyboard
 
 
@@ -51,13 +50,7 @@ class _TabletDialog(QDialog):
         self, *rows: QWidget, buttons: tuple[QPushButton, ...], grow: QWidget | None = None
     ) -> None:
         """``rows`` top to bottom (``grow`` takes the spare height), then ``buttons`` in a row."""
-        layout = QVBoxLayout(self)
-        for row in rows:
-            layout.addWidget(row, 1 if row is grow else 0)
-        line = QHBoxLayout()
-        for button in buttons:
-            line.addWidget(button)
-        layout.addLayout(line)
+        column(*((r, 1) if r is grow else r for r in rows), row(*buttons), parent=self)
 
     def _answers(self, button: QPushButton, answer: Callable[[], object]) -> None:
         """A click on ``button`` gives the ``answer`` (emits a signal), then closes the dialog."""

@@ -14,9 +14,10 @@ import logging
 import time
 
 from PySide6.QtCore import QEvent, Qt, QTimer, Signal
-from PySide6.QtWidgets import QGridLayout, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
 
 from interbot_core.protocol import SafetyInfo, Speed
+from interbot_qt.layout import button, column, row
 from interbot_qt.qt_joystick import QtJoystick
 from tablet_app.tablet_connection import TabletConnection
 
@@ -63,11 +64,11 @@ class QtJoystickScreen(QWidget):
         self.angular_value = QLabel()
         for label in (self.linear_value, self.angular_value):
             label.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.linear_down = QPushButton("−")
-        self.linear_up = QPushButton("+")
-        self.angular_down = QPushButton("−")
-        self.angular_up = QPushButton("+")
-        self.back_button = QPushButton()
+        self.linear_down = button("−", lambda: self._step(-STEP, 0.0))
+        self.linear_up = button("+", lambda: self._step(STEP, 0.0))
+        self.angular_down = button("−", lambda: self._step(0.0, -STEP))
+        self.angular_up = button("+", lambda: self._step(0.0, STEP))
+        self.back_button = button("", self.back_requested.emit)
 
         limits = QGridLayout()
         limits.addWidget(self.linear_title, 0, 0, 1, 3)
@@ -78,25 +79,19 @@ class QtJoystickScreen(QWidget):
         limits.addWidget(self.angular_down, 3, 0)
         limits.addWidget(self.angular_value, 3, 1)
         limits.addWidget(self.angular_up, 3, 2)
-        side = QVBoxLayout()
-        side.addWidget(self.latency_label)
-        side.addWidget(self.warning_label)
-        side.addWidget(self.monitor_label)
-        side.addStretch(1)
-        side.addLayout(limits)
-        side.addStretch(1)
-        side.addWidget(self.back_button)
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.joystick, 3)
-        layout.addLayout(side, 2)
+        side = column(
+            self.latency_label,
+            self.warning_label,
+            self.monitor_label,
+            1,
+            limits,
+            1,
+            self.back_button,
+        )
+        row((self.joystick, 3), (side, 2), parent=self)
 
         self.joystick.pressed.connect(self._on_pressed)
         self.joystick.released.connect(self._on_released)
-        self.linear_down.clicked.connect(lambda: self._step(-STEP, 0.0))
-        self.linear_up.clicked.connect(lambda: self._step(STEP, 0.0))
-        self.angular_down.clicked.connect(lambda: self._step(0.0, -STEP))
-        self.angular_up.clicked.connect(lambda: self._step(0.0, STEP))
-        self.back_button.clicked.connect(self.back_requested)
         connection.latency_changed.connect(self.set_latency)
         connection.link_lossy_changed.connect(self.set_lossy)
         connection.safety_received.connect(self.set_safety)

@@ -8,7 +8,9 @@ joystick ... or open the map interface." Added: Home, Report a malfunction, lang
 from __future__ import annotations
 
 from PySide6.QtCore import QEvent, Qt, Signal
-from PySide6.QtWidgets import QGridLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
+
+from interbot_qt.layout import button, column
 
 
 class QtMainMenu(QWidget):
@@ -29,14 +31,14 @@ class QtMainMenu(QWidget):
         self.connection_label.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.latency_label = QLabel()
         self.latency_label.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.joystick_button = QPushButton()
-        self.map_button = QPushButton()
-        self.home_button = QPushButton()
-        self.malfunction_button = QPushButton()
-        self.english_button = QPushButton("English")
-        self.portuguese_button = QPushButton("Português")
-        for button in (self.joystick_button, self.map_button):
-            button.setObjectName("big")
+        self.joystick_button = button("", self.joystick_requested.emit)
+        self.map_button = button("", self.map_requested.emit)
+        self.home_button = button("", self.home_requested.emit)
+        self.malfunction_button = button("", self.malfunction_requested.emit)
+        self.english_button = button("English", lambda: self.language_requested.emit("en"))
+        self.portuguese_button = button("Português", lambda: self.language_requested.emit("pt"))
+        self.joystick_button.setObjectName("big")
+        self.map_button.setObjectName("big")
         grid = QGridLayout()
         grid.addWidget(self.joystick_button, 0, 0)
         grid.addWidget(self.map_button, 0, 1)
@@ -44,19 +46,8 @@ class QtMainMenu(QWidget):
         grid.addWidget(self.malfunction_button, 1, 1)
         grid.addWidget(self.english_button, 2, 0)
         grid.addWidget(self.portuguese_button, 2, 1)
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.title)
-        layout.addWidget(self.connection_label)
-        layout.addWidget(self.latency_label)
-        layout.addStretch(1)
-        layout.addLayout(grid, 4)
-        layout.addStretch(1)
-        self.joystick_button.clicked.connect(self.joystick_requested)
-        self.map_button.clicked.connect(self.map_requested)
-        self.home_button.clicked.connect(self.home_requested)
-        self.malfunction_button.clicked.connect(self.malfunction_requested)
-        self.english_button.clicked.connect(lambda: self.language_requested.emit("en"))
-        self.portuguese_button.clicked.connect(lambda: self.language_requested.emit("pt"))
+        labels = (self.title, self.connection_label, self.latency_label)
+        column(*labels, 1, (grid, 4), 1, parent=self)
         self._latency_ms: float | None = None
         self.retranslate()
 

@@ -9,8 +9,9 @@ and asks the user to drive the robot with the joystick to one of them and tap it
 from __future__ import annotations
 
 from PySide6.QtCore import QEvent, Signal
-from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QFrame, QLabel, QWidget
 
+from interbot_qt.layout import button, column, row
 from tablet_app.qt_map_view import QtMapView
 from tablet_app.tablet_session import Help
 
@@ -31,31 +32,16 @@ class QtMapScreen(QWidget):
         self.help_banner.setObjectName("helpBanner")
         self.help_text = QLabel()
         self.help_text.setWordWrap(True)
-        self.help_button = QPushButton()
+        self.help_button = button("", self.help_requested.emit)
         self.help_button.setObjectName("helpButton")
-        self.drive_button = QPushButton()
-        banner = QVBoxLayout(self.help_banner)
-        banner.addWidget(self.help_text)
-        banner.addWidget(self.help_button)
-        banner.addWidget(self.drive_button)
+        self.drive_button = button("", self.joystick_requested.emit)
+        column(self.help_text, self.help_button, self.drive_button, parent=self.help_banner)
         self.help_banner.setVisible(False)
-        self.tour_button = QPushButton()
-        self.home_button = QPushButton()
-        self.back_button = QPushButton()
-        side = QVBoxLayout()
-        side.addWidget(self.help_banner)
-        side.addStretch(1)
-        side.addWidget(self.tour_button)
-        side.addWidget(self.home_button)
-        side.addWidget(self.back_button)
-        layout = QHBoxLayout(self)
-        layout.addWidget(map_view, 4)
-        layout.addLayout(side, 1)
-        self.tour_button.clicked.connect(self.tour_requested)
-        self.home_button.clicked.connect(self.home_requested)
-        self.back_button.clicked.connect(self.back_requested)
-        self.help_button.clicked.connect(self.help_requested)
-        self.drive_button.clicked.connect(self.joystick_requested)
+        self.tour_button = button("", self.tour_requested.emit)
+        self.home_button = button("", self.home_requested.emit)
+        self.back_button = button("", self.back_requested.emit)
+        side = column(self.help_banner, 1, self.tour_button, self.home_button, self.back_button)
+        row((map_view, 4), (side, 1), parent=self)
         self._help = Help.NONE
         self._room = ""
         self.retranslate()

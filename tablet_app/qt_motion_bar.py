@@ -8,7 +8,9 @@ Resume, Cancel and Manual control.
 from __future__ import annotations
 
 from PySide6.QtCore import QEvent, Signal
-from PySide6.QtWidgets import QFrame, QHBoxLayout, QLabel, QProgressBar, QPushButton, QWidget
+from PySide6.QtWidgets import QFrame, QLabel, QProgressBar, QWidget
+
+from interbot_qt.layout import button, row
 
 
 class QtMotionBar(QFrame):
@@ -23,24 +25,14 @@ class QtMotionBar(QFrame):
         self.destination_label = QLabel()
         self.progress = QProgressBar()
         self.progress.setRange(0, 100)
-        self.pause_button = QPushButton()
-        self.resume_button = QPushButton()
-        self.cancel_button = QPushButton()
-        self.manual_button = QPushButton()
-        layout = QHBoxLayout(self)
-        layout.addWidget(self.destination_label, 2)
-        layout.addWidget(self.progress, 2)
-        for button in (
-            self.pause_button,
-            self.resume_button,
-            self.cancel_button,
-            self.manual_button,
-        ):
-            layout.addWidget(button, 1)
-        self.pause_button.clicked.connect(self.pause_requested)
-        self.resume_button.clicked.connect(self.resume_requested)
-        self.cancel_button.clicked.connect(self.cancel_requested)
-        self.manual_button.clicked.connect(self.manual_requested)
+        self.pause_button = button("", self.pause_requested.emit)
+        self.resume_button = button("", self.resume_requested.emit)
+        self.cancel_button = button("", self.cancel_requested.emit)
+        self.manual_button = button("", self.manual_requested.emit)
+        buttons = (self.pause_button, self.resume_button, self.cancel_button, self.manual_button)
+        row(
+            (self.destination_label, 2), (self.progress, 2), *((b, 1) for b in buttons), parent=self
+        )
         self._destination = ""
         self.set_paused(False)
         self.retranslate()
