@@ -260,10 +260,10 @@ class MainWindow(QMainWindow):
     def _restore_robot(self) -> None:
         """The saved choice decides which robot a restarted station commands, unless --robot."""
         saved = self.settings.value(ROBOT_KEY)
-        if self.controller.preferred_robot is not None or not saved:
+        if self.controller.fleet.preferred is not None or not saved:
             return
         try:
-            self.controller.preferred_robot = validate_robot_id(str(saved))
+            self.controller.fleet.preferred = validate_robot_id(str(saved))
         except TopicError as exc:
             logger.warning("ignored the saved robot choice: %s", exc)
             return

@@ -130,7 +130,7 @@ class QtStatePanel(QWidget):
         text, alarm = estop_text(c.estop_latched, c.selected.state.estop_engaged)
         L["estop"].setText(text)
         L["estop"].setStyleSheet("color: #c00; font-weight: bold;" if alarm else "")
-        L["task"].setText(c.task_text())
+        L["task"].setText(c.selected.task_text(c.names))
         d = c.selected.supervisor.distance_to_next_goal
         L["distance"].setText(UNSET if d is None else f"{d:.2f} m")
-        L["status"].setText(c.status_text())
+        L["status"].setText(c.selected.status_text(c.estop_latched))

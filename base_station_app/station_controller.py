@@ -286,7 +286,7 @@ class StationController(QObject):
         self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
         self.tablet_teleop.refused.connect(self._on_tablet_speed_refused)
         self.tablet_teleop.stopped.connect(self._on_tablet_speed_stopped)
-        self.tablet_teleop.forwarded.connect(self._on_tablet_speed_forwarded)
+        self.tablet_teleop.forwarded.connect(self.tablet_changed)
         self.tablet.connected.connect(self._on_tablet_connected)
         self.tablet.disconnected.connect(self._on_tablet_disconnected)
         self.tablet.message_received.connect(self.on_tablet_message)
@@ -333,14 +333,6 @@ class StationController(QObject):
         return self.fleet.selected
 
     @property
-    def preferred_robot(self) -> str | None:
-        return self.fleet.preferred
-
-    @preferred_robot.setter
-    def preferred_robot(self, robot_id: str | None) -> None:
-        self.fleet.preferred = robot_id
-
-    @property
     def robots(self) -> dict[str, bool]:
         """Robot id -> present, for every robot seen."""
         return {r: m.online for r, m in sorted(self.fleet.mirrors.items())}
@@ -362,11 +354,6 @@ class StationController(QObject):
     def station_assist(self) -> bool:
         """The station's assisted teleoperation of ``station_vel`` (issue 17)."""
         return self.robot_link.assist
-
-    @property
-    def tablet_watchdog(self) -> QTimer:
-        """Thesis Fig. 5.10: the single-shot timer of the tablet's speed (tablet thread)."""
-        return self.tablet_teleop.watchdog
 
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
@@ -478,11 +465,7 @@ class StationController(QObject):
         self.robot_selected.emit(robot_id or "")
         self.robots_changed.emit()
         self.tasks_changed.emit()
-        self._resend_pending(new)
-
-    def _resend_pending(self, mirror: RobotMirror | None = None) -> None:
-        """Must-arrive state (stop intent, config, assist) to ``mirror`` (default: selected)."""
-        self.robot_link.resend_pending(mirror if mirror is not None else self.fleet.selected)
+        self.robot_link.resend_pending(new)  # must-arrive state: stop intent, config, assist
 
     def set_station_assist(self, enabled: bool) -> None:
         """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
@@ -627,9 +610,6 @@ class StationController(QObject):
         self.log("warning", f"tablet speed stopped ({why}): explicit zero sent")
         self.tablet_changed.emit()
 
-    def _on_tablet_speed_forwarded(self) -> None:
-        self.tablet_changed.emit()
-
     def _on_tablet_protocol_error(self, text: str) -> None:
         self.log("warning", f"tablet: {text}")
 
@@ -641,12 +621,9 @@ class StationController(QObject):
         tablet_id, name = getattr(record, "tablet_id", "?"), getattr(record, "name", "?")
         self.log("info", f"tablet {tablet_id} ({name}) authorised")
 
-    def tablet_permissions(self) -> p.Permissions:
-        """What the tablet may do now: the operator's choice, and only what can work."""
-        return self.tablet_policy.effective(self.robot_online, self.estop_latched)
-
     def _send_permissions(self) -> None:
-        msg = self.tablet_permissions()
+        """What the tablet may do now: the operator's choice, and only what can work."""
+        msg = self.tablet_policy.effective(self.robot_online, self.estop_latched)
         if msg != self._permissions_sent and self.tablet.send(msg):
             self._permissions_sent = msg
             with self.tablet_teleop.lock:
@@ -657,20 +634,15 @@ class StationController(QObject):
         if not self.tablet.is_connected:
             return
         self._send_permissions()
-        status = p.StatusInfo(self.task_text(), self.status_text())
-        for message in self.tablet_feed.messages(self.selected, now, self.robot_online, status):
+        robot = self.selected
+        status = p.StatusInfo(robot.task_text(self.names), robot.status_text(self.estop_latched))
+        for message in self.tablet_feed.messages(robot, now, self.robot_online, status):
             self.tablet.send(message)
-
-    def task_text(self) -> str:
-        return self.selected.task_text(self.names)
 
     @property
     def robot_online(self) -> bool:
         robot = self.selected_robot
         return robot is not None and self.selected.online
-
-    def status_text(self) -> str:
-        return self.selected.status_text(self.estop_latched)
 
     # ================================================================== operator commands
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:

@@ -146,7 +146,9 @@ def linked(qtbot, station: StationController, robot: FakeRobot) -> StationContro
     """The station once the robot receives its commands (subscriptions propagated)."""
 
     def ok() -> bool:
-        station._resend_pending()  # the stop intent (release of the start latch) and config
+        station.robot_link.resend_pending(
+            station.selected
+        )  # the stop intent (release of the start latch) and config
         sent = station._send(Topic.CONFIG, ConfigMsg({"max_linear_speed": 0.5}))
         return sent and not station.selected.stop_assert_pending
 

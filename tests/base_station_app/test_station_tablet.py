@@ -116,7 +116,7 @@ def test_watchdog_discards_stale_tablet_speed(qtbot, linked, station, robot, tab
     for _ in range(3):
         clock.advance(0.1)
         station.tick()  # no republishing of the tablet's command
-    assert station.tablet_watchdog.isActive()
+    assert station.tablet_teleop.watchdog.isActive()
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) >= 2), timeout=3000)
     qtbot.wait(300)
     sent = robot.of("tablet_vel")

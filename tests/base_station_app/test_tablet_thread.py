@@ -41,7 +41,7 @@ def test_the_tablet_server_and_its_speed_path_live_in_their_own_thread(station) 
     thread = station.tablet.thread()
     assert thread is not QThread.currentThread() and thread.isRunning()
     assert station.tablet_teleop.thread() is thread
-    assert station.tablet_watchdog.thread() is thread
+    assert station.tablet_teleop.watchdog.thread() is thread
 
 
 def test_commands_reach_the_robot_while_the_qt_thread_is_busy_none_lost_in_order(
