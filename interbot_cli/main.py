@@ -9,7 +9,8 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, Final
 
 from interbot_cli import bench, calibrate, demo, keys, replay, router
 
@@ -23,19 +24,15 @@ class NotBuiltError(RuntimeError):
     """A part of the system this command needs does not exist yet."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="interbot", description="Interbot human-robot interaction stack."
-    )
-    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+Runner = Callable[[argparse.Namespace], int]
 
-    p_demo = sub.add_parser(
-        "demo", help="start the simulated robot, the Base Station and the Tablet"
-    )
-    demo.add_arguments(p_demo)
 
-    p_scn = sub.add_parser("scenario", help="run a thesis test scenario headless on simulated time")
+def _of(module: Any) -> tuple[Callable[[argparse.ArgumentParser], None], Runner]:
+    """A subcommand module's ``add_arguments`` and ``run``."""
+    return module.add_arguments, module.run
+
+
+def _scenario_arguments(p_scn: argparse.ArgumentParser) -> None:
     p_scn.add_argument("name", help="odometry | tour | mission | latency | kidnap")
     p_scn.add_argument("--map", dest="map_yaml", help="map_server YAML (default: ISR floor 0)")
     p_scn.add_argument("--topo", help="topological map YAML")
@@ -54,31 +51,36 @@ def build_parser() -> argparse.ArgumentParser:
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
     )
 
-    p_replay = sub.add_parser(
-        "replay", help="play an MCAP recording back as a robot the station can watch"
-    )
-    replay.add_arguments(p_replay)
-
-    p_bench = sub.add_parser("bench", help="run the benchmarks and print medians and p99")
-    bench.add_arguments(p_bench)
-
-    p_cal = sub.add_parser(
-        "calibrate", help="calibrate the robot (odometry: thesis Test Scenario 1)"
-    )
-    calibrate.add_arguments(p_cal)
-
-    p_router = sub.add_parser("router", help="run the building's zenoh router")
-    router.add_arguments(p_router)
-
-    p_keys = sub.add_parser("keys", help="certificates for the secure links (docs/security.md)")
-    keys.add_arguments(p_keys)
-    return parser
-
 
 def run_scenario(args: argparse.Namespace) -> int:
     from robot_daemon import scenarios
 
     return scenarios.main(args)
+
+
+_SCENARIO: Final = (_scenario_arguments, run_scenario)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="interbot", description="Interbot human-robot interaction stack."
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    commands: tuple[tuple[str, str, Callable[[argparse.ArgumentParser], None], Runner], ...] = (
+        ("demo", "start the simulated robot, the Base Station and the Tablet", *_of(demo)),
+        ("scenario", "run a thesis test scenario headless on simulated time", *_SCENARIO),
+        ("replay", "play an MCAP recording back as a robot the station can watch", *_of(replay)),
+        ("bench", "run the benchmarks and print medians and p99", *_of(bench)),
+        ("calibrate", "calibrate the robot (odometry: thesis Test Scenario 1)", *_of(calibrate)),
+        ("router", "run the building's zenoh router", *_of(router)),
+        ("keys", "certificates for the secure links (docs/security.md)", *_of(keys)),
+    )
+    for name, text, add_arguments, run in commands:
+        command = sub.add_parser(name, help=text)
+        add_arguments(command)
+        command.set_defaults(run=run)
+    return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -89,28 +91,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
     try:
-        if args.command == "demo":
-            return demo.run(args)
-        if args.command == "scenario":
-            return run_scenario(args)
-        if args.command == "bench":
-            return bench.run(args)
-        if args.command == "replay":
-            return replay.run(args)
-        if args.command == "calibrate":
-            return calibrate.run(args)
-        if args.command == "router":
-            return router.run(args)
-        if args.command == "keys":
-            return keys.run(args)
+        return int(args.run(args))
     except NotBuiltError as exc:
         print(f"interbot {args.command}: {exc}", file=sys.stderr)
         return EXIT_NOT_BUILT
     except bench.BenchError as exc:
         print(f"interbot bench: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    parser.error(f"unknown command {args.command!r}")
-    return EXIT_USAGE  # pragma: no cover  (parser.error exits)
 
 
 if __name__ == "__main__":
