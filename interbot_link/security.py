@@ -126,6 +126,27 @@ def _rule(rule_id: str, flow: str, messages: list[str], keys: list[str]) -> dict
     }
 
 
+def _alive_watch(rule_id: str, flow: str) -> dict[str, Any]:
+    """Watching every robot's liveliness token (subscriber and query)."""
+    messages = ["declare_liveliness_subscriber", "liveliness_query"]
+    return _rule(rule_id, flow, messages, [f"{KEY_PREFIX}/*/{ALIVE}"])
+
+
+def _robot_speaks(ids: list[str], base: str) -> list[dict[str, Any]]:
+    """What the robot under ``base`` may send its peers: its state, the replies to its state
+    query, its liveliness token and its command subscriber (three rules named ``ids``)."""
+    return [
+        _rule(ids[0], "ingress", ["put"], [f"{base}/{s}" for s in _STATES]),
+        _rule(ids[1], "ingress", ["reply", "declare_queryable"], [f"{base}/{STATE_QUERY}"]),
+        _rule(
+            ids[2],
+            "ingress",
+            ["liveliness_token", "declare_subscriber"],
+            [f"{base}/{ALIVE}", f"{base}/*"],
+        ),
+    ]
+
+
 def _subject(subject_id: str, names: tuple[str, ...]) -> dict[str, Any]:
     # zenoh refuses an empty list; a name no certificate can carry keeps the subject inert.
     return {"id": subject_id, "cert_common_names": list(names) or ["-none-"]}
@@ -161,12 +182,7 @@ def robot_rules(
         _rule("alive_out", "egress", ["liveliness_token"], [f"{base}/{ALIVE}"]),
         _rule("watch_in", "ingress", ["declare_subscriber"], [f"{base}/**"]),
         _rule("query_in", "ingress", ["query"], [f"{base}/{STATE_QUERY}"]),
-        _rule(
-            "alive_watch_in",
-            "ingress",
-            ["declare_liveliness_subscriber", "liveliness_query"],
-            [f"{KEY_PREFIX}/*/{ALIVE}"],
-        ),
+        _alive_watch("alive_watch_in", "ingress"),
     ]
     watch = ["state_out", "state_query_out", "alive_out", "watch_in", "query_in", "alive_watch_in"]
     subjects = [_subject("stations", stations + routers), _subject("observers", observers)]
@@ -194,34 +210,14 @@ def peer_rules(
     if routers:
         sources.append(("*", "routers", routers))
     for index, (robot, subject, names) in enumerate(sources):
-        base = f"{KEY_PREFIX}/{robot}"
         rule_ids = [f"r{index}_state_in", f"r{index}_query_in", f"r{index}_subs_in"]
-        rules += [
-            _rule(rule_ids[0], "ingress", ["put"], [f"{base}/{s}" for s in _STATES]),
-            _rule(
-                rule_ids[1],
-                "ingress",
-                ["reply", "declare_queryable"],
-                [f"{base}/{STATE_QUERY}"],
-            ),
-            _rule(
-                rule_ids[2],
-                "ingress",
-                ["liveliness_token", "declare_subscriber"],
-                [f"{base}/{ALIVE}", f"{base}/*"],
-            ),
-        ]
+        rules += _robot_speaks(rule_ids, f"{KEY_PREFIX}/{robot}")
         subjects.append(_subject(subject, names))
         policies.append({"rules": rule_ids, "subjects": [subject]})
     out = [
         _rule("watch_out", "egress", ["declare_subscriber"], [f"{KEY_PREFIX}/**"]),
         _rule("query_out", "egress", ["query"], [f"{KEY_PREFIX}/*/{STATE_QUERY}"]),
-        _rule(
-            "alive_watch_out",
-            "egress",
-            ["declare_liveliness_subscriber", "liveliness_query"],
-            [f"{KEY_PREFIX}/*/{ALIVE}"],
-        ),
+        _alive_watch("alive_watch_out", "egress"),
     ]
     if commands:
         out.append(
@@ -250,18 +246,11 @@ def router_rules(
         base = f"{KEY_PREFIX}/{robot}"
         ids = [f"r{index}_{n}" for n in ("state", "query", "subs", "cmd", "watch", "ask", "alive")]
         rules += [
-            _rule(ids[0], "ingress", ["put"], [f"{base}/{s}" for s in _STATES]),
-            _rule(ids[1], "ingress", ["reply", "declare_queryable"], [f"{base}/{STATE_QUERY}"]),
-            _rule(
-                ids[2],
-                "ingress",
-                ["liveliness_token", "declare_subscriber"],
-                [f"{base}/{ALIVE}", f"{base}/*"],
-            ),
+            *_robot_speaks(ids, base),
             _rule(ids[3], "egress", ["put"], [f"{base}/{c}" for c in _COMMANDS]),
             _rule(ids[4], "egress", ["declare_subscriber"], [f"{base}/**"]),
             _rule(ids[5], "egress", ["query"], [f"{base}/{STATE_QUERY}"]),
-            _rule(ids[6], "egress", ["declare_liveliness_subscriber", "liveliness_query"], [alive]),
+            _alive_watch(ids[6], "egress"),
         ]
         subjects.append(_subject(f"robot{index}", (robot,)))
         policies.append({"rules": ids, "subjects": [f"robot{index}"]})
@@ -269,12 +258,7 @@ def router_rules(
     watch = [
         _rule("watch_in", "ingress", ["declare_subscriber"], [f"{KEY_PREFIX}/**"]),
         _rule("query_in", "ingress", ["query"], [f"{any_robot}/{STATE_QUERY}"]),
-        _rule(
-            "alive_watch_in",
-            "ingress",
-            ["declare_liveliness_subscriber", "liveliness_query"],
-            [alive],
-        ),
+        _alive_watch("alive_watch_in", "ingress"),
         _rule("state_out", "egress", ["put"], [f"{any_robot}/{s}" for s in _STATES]),
         _rule(
             "state_query_out",
