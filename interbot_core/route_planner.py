@@ -207,15 +207,5 @@ class RoutePlanner:
         first = min(range(len(stops)), key=lambda k: (self._robot_distance(pose, stops[k]), k))
         return stops[first:] + stops[:first]
 
-    def tour_legs(self, pose: Pose2D) -> list[Route]:
-        """The whole tour as routes: robot to the first stop (:meth:`plan`), then stop to stop
-        along shortest paths (each leg omits the stop it starts at)."""
-        stops = self.tour_order(pose)
-        legs = [self.plan(pose, stops[0])]
-        for a, b in itertools.pairwise(stops):
-            path = self.shortest_path(a, b)
-            legs.append(self.route_through(path[1:], self.topo.nodes[a].pose))
-        return legs
-
     def _robot_distance(self, pose: Pose2D, node_id: int) -> float:
         return pose.distance_to(self.topo.nodes[node_id].pose)

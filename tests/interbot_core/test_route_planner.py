@@ -188,13 +188,6 @@ def test_tour_order_is_a_ring_from_the_closest_tour_node() -> None:
     assert planner.tour_order(Pose2D(20.0, 10.0, 0.0)) == [2, 4, 0, 1]
 
 
-def test_tour_legs_reach_every_stop_by_shortest_paths() -> None:
-    planner = RoutePlanner(load_topological_map(FIXTURE))
-    legs = planner.tour_legs(Pose2D(19.0, 1.0, 0.0))
-    assert [leg.goal for leg in legs] == [2, 4, 0, 1]
-    assert [leg.node_ids for leg in legs] == [(2,), (1, 4), (1, 0), (1,)]
-
-
 def test_no_tour_nodes_is_an_error() -> None:
     planner = RoutePlanner(_line([0.0, 1.0]))
     with pytest.raises(RoutePlanningError, match="no node has 'tour: true'"):
