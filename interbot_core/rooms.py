@@ -32,8 +32,9 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
@@ -54,10 +55,40 @@ KINDS = ("entrance", "inside", "waypoint")
 NAME_MAX, INFO_MAX = 200, 1000  # [characters] of a translated name / info
 
 Point = tuple[float, float]
+Metres = Annotated[float, msgspec.Meta(ge=-schema.FINITE, le=schema.FINITE, extra={"unit": "m"})]
 
 
 class RoomMapError(TopologicalMapError):
     """A topological map whose rooms cannot be drawn (bad ``area``, ``kind`` or translation)."""
+
+
+class RoomKeys(msgspec.Struct, frozen=True):
+    """The room keys of one ``nodes:`` entry (its other keys are the topological map's)."""
+
+    kind: Annotated[str, schema.one_of(*KINDS)] | None = None  # None: entrance
+    area: tuple[tuple[Metres, Metres], ...] | None = None  # None: a square; (): no room
+    name_pt: Annotated[str, msgspec.Meta(max_length=NAME_MAX)] = ""
+    info_pt: Annotated[str, msgspec.Meta(max_length=INFO_MAX)] = ""
+
+    def outline(self, label: str, node: Point) -> tuple[Point, ...]:
+        """The room's outline: ``()`` for ``[]``, a square around ``node`` without ``area``."""
+        if self.area is None:
+            x, y, h = node[0], node[1], DEFAULT_ROOM_SIZE / 2.0
+            return ((x - h, y - h), (x + h, y - h), (x + h, y + h), (x - h, y + h))
+        if 0 < len(self.area) < 3:
+            raise RoomMapError(
+                f"{label}: area must be [] or a list of at least 3 [x, y] points [m], "
+                f"got {len(self.area)}"
+            )
+        return self.area
+
+    def translations(self) -> tuple[tuple[str, str, str], ...]:
+        """``(language, name, info)`` of each language with a ``name_<lang>``/``info_<lang>``."""
+        texts = (
+            (lang, getattr(self, f"name_{lang}"), getattr(self, f"info_{lang}"))
+            for lang in TRANSLATED_LANGUAGES
+        )
+        return tuple(t for t in texts if t[1] or t[2])
 
 
 @dataclass(frozen=True)
@@ -234,13 +265,16 @@ def room_map(topo: TopologicalMap, raw: Any = None) -> RoomMap:
     outlines: list[tuple[Point, ...] | None] = []  # None: no room
     kinds: list[str] = []
     for node in topo.nodes:
-        entry = entries.get(node.id, {})
         label = f"{topo.source}: node {node.id}"
-        kind = _kind(entry.get("kind") or "entrance", label)
-        area = _area(entry.get("area"), label, (node.pose.x, node.pose.y))
+        try:
+            keys = schema.convert(entries.get(node.id, {}), RoomKeys, "")
+        except schema.SchemaError as exc:
+            raise RoomMapError(f"{label}: {exc.message}") from None
+        kind = keys.kind or "entrance"
+        area = keys.outline(label, (node.pose.x, node.pose.y))
         kinds.append(kind)
         outlines.append(None if kind == "waypoint" or area == () else area)
-        texts.append(Texts(node.name, node.info, _translations(entry, label)))
+        texts.append(Texts(node.name, node.info, keys.translations()))
     explicit = {node.id: entries.get(node.id, {}).get("area") is not None for node in topo.nodes}
     groups: dict[tuple[Point, ...], list[int]] = {}
     for node in topo.nodes:
@@ -267,57 +301,6 @@ def room_map(topo: TopologicalMap, raw: Any = None) -> RoomMap:
         )
     rooms.sort(key=lambda r: r.id)
     return RoomMap(topo, tuple(rooms), tuple(texts))
-
-
-def _kind(value: Any, label: str) -> str:
-    if value not in KINDS:
-        raise RoomMapError(f"{label}: 'kind' must be one of {', '.join(KINDS)}, got {value!r}")
-    return str(value)
-
-
-def _area(raw: Any, label: str, node: Point) -> tuple[Point, ...]:
-    """The outline of ``area``: ``()`` for ``[]``, a square around ``node`` when absent."""
-    if raw is None:
-        x, y, h = node[0], node[1], DEFAULT_ROOM_SIZE / 2.0
-        return ((x - h, y - h), (x + h, y - h), (x + h, y + h), (x - h, y + h))
-    if raw == []:
-        return ()
-    if not isinstance(raw, list) or len(raw) < 3:
-        raise RoomMapError(
-            f"{label}: 'area' must be a list of at least 3 [x, y] points [m], got {raw!r}"
-        )
-    points: list[Point] = []
-    for i, point in enumerate(raw):
-        ok = (
-            isinstance(point, list | tuple)
-            and len(point) == 2
-            and all(
-                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                for v in point
-            )
-        )
-        if not ok:
-            raise RoomMapError(
-                f"{label}: area[{i}] must be [x, y], finite numbers [m], got {point!r}"
-            )
-        points.append((float(point[0]), float(point[1])))
-    return tuple(points)
-
-
-def _translations(entry: Mapping[str, Any], label: str) -> tuple[tuple[str, str, str], ...]:
-    """``name_<lang>`` / ``info_<lang>``: texts of at most NAME_MAX / INFO_MAX characters."""
-    found = []
-    for lang in TRANSLATED_LANGUAGES:
-        name, info = entry.get(f"name_{lang}", ""), entry.get(f"info_{lang}", "")
-        for key, value, limit in (
-            (f"name_{lang}", name, NAME_MAX),
-            (f"info_{lang}", info, INFO_MAX),
-        ):
-            if not isinstance(value, str) or len(value) > limit:
-                raise RoomMapError(f"{label}: '{key}' must be text of at most {limit} characters")
-        if name or info:
-            found.append((lang, name, info))
-    return tuple(found)
 
 
 # ---------------------------------------------------------------------------- geometry

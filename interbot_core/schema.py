@@ -259,7 +259,7 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
         return _field_problem(what, value, info, path)
     unit = _unit(_type_at(_type_info(type_), tokens))
     choices = _extra(_type_at(_type_info(type_), tokens), "one_of")
-    if choices and what.startswith("Expected `str` matching"):
+    if choices:  # a wrong type or a string outside them: either way, say the choices
         allowed = ", ".join(choices)
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
     form = _extra(_type_at(_type_info(type_), tokens), "format")

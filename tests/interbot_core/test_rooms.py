@@ -96,12 +96,17 @@ def test_translations_for_rooms_and_for_nodes_that_are_not_rooms() -> None:
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"area": [[2.0, 3.0], [5.0]]}, r"t.yaml: node 4: 'area' must be a list of at least 3"),
-        ({"area": [[0, 0], [1, 0], [1, "a"]]}, r"t.yaml: node 4: area\[2\] must be \[x, y\]"),
-        ({"area": [[0, 0], [1, 0], [1, math.nan]]}, r"node 4: area\[2\]"),
-        ({"kind": "door"}, r"node 4: 'kind' must be one of entrance, inside, waypoint"),
-        ({"name_pt": 3}, r"node 4: 'name_pt' must be text of at most 200 characters"),
-        ({"info_pt": "x" * 1001}, r"node 4: 'info_pt' must be text of at most 1000"),
+        ({"area": [[2.0, 3.0], [5.0]]}, r"t.yaml: node 4: area\[1\] must be an array of 2"),
+        (
+            {"area": [[2.0, 3.0], [5.0, 3.0]]},
+            r"t.yaml: node 4: area must be \[\] or a list of at "
+            r"least 3 \[x, y\] points \[m\], got 2",
+        ),
+        ({"area": [[0, 0], [1, 0], [1, "a"]]}, r"t.yaml: node 4: area\[2\]\[1\] must be a number"),
+        ({"area": [[0, 0], [1, 0], [1, math.nan]]}, r"node 4: area\[2\]\[1\] must be a finite"),
+        ({"kind": "door"}, r"node 4: kind must be one of entrance, inside, waypoint; got 'door'"),
+        ({"name_pt": 3}, r"node 4: name_pt must be a string, got 3"),
+        ({"info_pt": "x" * 1001}, r"node 4: info_pt has 1001 characters; at most 1000 are"),
     ],
 )
 def test_bad_room_keys_name_the_file_node_and_key(change: dict[str, object], message: str) -> None:
@@ -117,7 +122,7 @@ def test_load_room_map_reads_the_file_and_names_it(tmp_path: Path) -> None:
     rooms = load_room_map(path)
     assert rooms.map_yaml == tmp_path / "floor.yaml" and rooms.source == str(path)
     path.write_text(path.read_text(encoding="utf-8").replace("kind: entrance", "kind: 7"))
-    with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: 'kind'"):
+    with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: kind must be one of"):
         load_room_map(path)
 
 

@@ -24,7 +24,7 @@ def test_bad_area_names_the_file_and_node(topo_path: Path) -> None:
         "area: [[2.0, 3.0], [5.0, 3.0], [5.0, 5.0], [2.0, 5.0]]", "area: [[2.0, 3.0], [5.0]]"
     )
     topo_path.write_text(text, encoding="utf-8")
-    with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: 'area'"):
+    with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: area\[1\] must be an array"):
         load_plan(topo_path)
 
 
