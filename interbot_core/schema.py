@@ -220,15 +220,6 @@ _ERROR = re.compile(r"^(?P<what>.*?)(?: - at (?P<key>`key` in )?`\$(?P<path>[^`]
 _TOKEN = re.compile(r"\.([^.\[]+)|\[(\d+|\.\.\.)\]")
 _BOUND = re.compile(r"^Expected `(?P<type>\w+)`(?: of length)? (?P<op>[<>]=?) ")
 _FIELD = re.compile(r"field `(?P<name>[^`]+)`")
-_TYPE_WORDS: Final = {
-    "float": "a number",
-    "int": "an integer",
-    "bool": "true or false",
-    "str": "a string",
-    "null": "null",
-    "object": "an object",
-    "array": "an array",
-}
 
 
 def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -> SchemaError:

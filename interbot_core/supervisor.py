@@ -358,11 +358,6 @@ class Supervisor:
         return remaining[0] if remaining else None
 
     @property
-    def request_deadline(self) -> float | None:
-        """When the shown request times out [s], while awaiting a response."""
-        return self._deadline
-
-    @property
     def distance_to_next_goal(self) -> float | None:
         """Straight-line distance from the last pose to the current target [m]."""
         if self._route is None or self._pose is None or self._phase is not _Phase.FOLLOWING:

@@ -44,7 +44,6 @@ CODE_DIGITS: Final = 6
 CODE_TTL: Final = 300.0  # [s]
 MAX_ATTEMPTS: Final = 5
 TOKEN_BYTES: Final = 32
-MAX_NAME: Final = 64
 URI_SCHEME: Final = "interbot-pair"
 AUTH_KEYS: Final = ("pair", "auth")
 _FINGERPRINT = re.compile(r"[0-9a-f]{64}")
