@@ -15,7 +15,7 @@ import logging
 import time
 from collections.abc import Callable
 
-from PySide6.QtCore import QEvent, Qt, QTimer
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QCloseEvent, QMouseEvent, QResizeEvent
 from PySide6.QtWidgets import (
     QDialog,
@@ -65,7 +65,7 @@ from tablet_app.qt_motion_bar import QtMotionBar
 from tablet_app.tablet_connection import ConnectionState, TabletConnection
 from tablet_app.tablet_session import Help, TabletSession
 from tablet_app.texts import activity_text, notice_text, unavailable_text
-from tablet_app.translations import LanguageSwitcher
+from tablet_app.translations import LanguageSwitcher, Retranslated
 from tablet_app.ui_metrics import font_px, touch_target_px
 
 logger = logging.getLogger(__name__)
@@ -90,7 +90,7 @@ QProgressBar {{ min-height: {half}px; }}
 """
 
 
-class TabletWindow(QMainWindow):
+class TabletWindow(Retranslated, QMainWindow):
     """Header + screens + motion bar; renders the session, sends what the user asks."""
 
     def __init__(
@@ -492,11 +492,6 @@ class TabletWindow(QMainWindow):
         self.help_button.setText(self.tr("Help me!"))
         self._update_connection_text()
         self.render()
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)
 
     def mousePressEvent(self, event: QMouseEvent) -> None:
         """Kiosk: taps in the top-left corner count towards the operator's exit gesture."""

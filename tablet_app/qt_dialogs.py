@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from PySide6.QtCore import QEvent, Qt, Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
     QButtonGroup,
     QComboBox,
@@ -34,17 +34,15 @@ from interbot_core.protocol import MALFUNCTION_KINDS, ShowRequest
 from interbot_core.rooms import Room, RoomMap
 from interbot_qt.layout import column, row
 from tablet_app.qt_keyboard import QtKeyboard
+from tablet_app.translations import Retranslated
 
 
-class _TabletDialog(QDialog):
+class _TabletDialog(Retranslated, QDialog):
     HAS_KEYBOARD = False  # dialogs with an on-screen keyboard get most of the screen
 
     def __init__(self, parent: QWidget | None) -> None:
         super().__init__(parent)
         self.setModal(True)
-
-    def retranslate(self) -> None:
-        raise NotImplementedError
 
     def _lay_out(
         self, *rows: QWidget, buttons: tuple[QPushButton, ...], grow: QWidget | None = None
@@ -60,11 +58,6 @@ class _TabletDialog(QDialog):
             self.accept()
 
         button.clicked.connect(clicked)
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)
 
 
 def _info_label(text: str) -> QLabel:

@@ -13,13 +13,14 @@ from __future__ import annotations
 import logging
 import time
 
-from PySide6.QtCore import QEvent, Qt, QTimer, Signal
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
 
 from interbot_core.protocol import SafetyInfo, Speed
 from interbot_qt.layout import button, column, row
 from interbot_qt.qt_joystick import QtJoystick
 from tablet_app.tablet_connection import TabletConnection
+from tablet_app.translations import Retranslated
 
 logger = logging.getLogger(__name__)
 
@@ -34,7 +35,7 @@ def _quantise(value: float) -> float:
     return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
-class QtJoystickScreen(QWidget):
+class QtJoystickScreen(Retranslated, QWidget):
     """Teleoperation by touch; sends speed commands through the connection."""
 
     back_requested = Signal()
@@ -179,8 +180,3 @@ class QtJoystickScreen(QWidget):
         self._show_latency()
         self._show_limits()
         self._show_safety()
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)

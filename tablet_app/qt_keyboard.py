@@ -9,8 +9,10 @@ tap inserts at the cursor of the field given to `set_target`.
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, Qt, Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QGridLayout, QLineEdit, QPushButton, QSizePolicy, QWidget
+
+from tablet_app.translations import Retranslated
 
 ROWS: tuple[str, ...] = (
     "1234567890",
@@ -22,7 +24,7 @@ ROWS: tuple[str, ...] = (
 SHIFT, BACKSPACE, SPACE = "shift", "backspace", "space"
 
 
-class QtKeyboard(QWidget):
+class QtKeyboard(Retranslated, QWidget):
     """Letter keys in `ROWS` and a bottom row of Shift, Space and Backspace."""
 
     key_tapped = Signal(str)  # the text inserted, or "backspace"
@@ -89,8 +91,3 @@ class QtKeyboard(QWidget):
         self.keys[SHIFT].setText("⇧ " + self.tr("Shift"))
         self.keys[SPACE].setText(self.tr("Space"))
         self.keys[BACKSPACE].setText("⌫")
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)

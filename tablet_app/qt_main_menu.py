@@ -7,13 +7,14 @@ joystick ... or open the map interface." Added: Home, Report a malfunction, lang
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, Qt, Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
 
 from interbot_qt.layout import button, column
+from tablet_app.translations import Retranslated
 
 
-class QtMainMenu(QWidget):
+class QtMainMenu(Retranslated, QWidget):
     """Big buttons; the window feeds it the connection text and the latency."""
 
     joystick_requested = Signal()
@@ -73,8 +74,3 @@ class QtMainMenu(QWidget):
         self.home_button.setText(self.tr("Home"))
         self.malfunction_button.setText(self.tr("Report a malfunction"))
         self._show_latency()
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)

@@ -8,15 +8,16 @@ and asks the user to drive the robot with the joystick to one of them and tap it
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, Signal
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QFrame, QLabel, QWidget
 
 from interbot_qt.layout import button, column, row
 from tablet_app.qt_map_view import QtMapView
 from tablet_app.tablet_session import Help
+from tablet_app.translations import Retranslated
 
 
-class QtMapScreen(QWidget):
+class QtMapScreen(Retranslated, QWidget):
     """Map plus actions; the window decides what a room tap means."""
 
     tour_requested = Signal()
@@ -76,8 +77,3 @@ class QtMapScreen(QWidget):
         self.home_button.setText(self.tr("Home"))
         self.back_button.setText(self.tr("Menu"))
         self._show_help_text()
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)

@@ -7,13 +7,14 @@ Resume, Cancel and Manual control.
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, Signal
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QFrame, QLabel, QProgressBar, QWidget
 
 from interbot_qt.layout import button, row
+from tablet_app.translations import Retranslated
 
 
-class QtMotionBar(QFrame):
+class QtMotionBar(Retranslated, QFrame):
     pause_requested = Signal()
     resume_requested = Signal()
     cancel_requested = Signal()
@@ -57,8 +58,3 @@ class QtMotionBar(QFrame):
         self.cancel_button.setText(self.tr("Cancel"))
         self.manual_button.setText(self.tr("Manual control"))
         self._show_destination()
-
-    def changeEvent(self, event: QEvent) -> None:
-        if event.type() == QEvent.Type.LanguageChange:
-            self.retranslate()
-        super().changeEvent(event)

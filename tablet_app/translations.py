@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from PySide6.QtCore import QCoreApplication, QObject, QTranslator
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QTranslator
 
 logger = logging.getLogger(__name__)
 
@@ -49,3 +49,16 @@ class LanguageSwitcher(QObject):
         self._translator = translator
         self.language = language
         return True
+
+
+class Retranslated:
+    """Mixin of a widget (listed before its Qt class): ``retranslate()`` sets every visible
+    string, and runs again on each ``LanguageChange``."""
+
+    def retranslate(self) -> None:
+        raise NotImplementedError
+
+    def changeEvent(self, event: QEvent) -> None:
+        if event.type() == QEvent.Type.LanguageChange:
+            self.retranslate()
+        super().changeEvent(event)  # type: ignore[misc]
