@@ -6,10 +6,11 @@ station file.
 
 from __future__ import annotations
 
-from PySide6.QtWidgets import QDoubleSpinBox, QFormLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QDoubleSpinBox, QFormLayout, QLabel, QWidget
 
 from base_station_app.station_config import RANGES, StationConfig, StationConfigError
 from base_station_app.station_controller import StationController
+from interbot_qt.layout import button, column
 
 TITLES = {
     "approach_tolerance": "Approach tolerance (intermediate goals)",
@@ -29,7 +30,6 @@ class QtConfigPanel(QWidget):
     def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self._controller = controller
-        layout = QVBoxLayout(self)
         form = QFormLayout()
         self.spins: dict[str, QDoubleSpinBox] = {}
         for name, (lo, hi, unit) in RANGES.items():
@@ -40,13 +40,9 @@ class QtConfigPanel(QWidget):
             spin.setSuffix(f" {unit}")
             form.addRow(TITLES[name], spin)
             self.spins[name] = spin
-        layout.addLayout(form)
-        self.apply_button = QPushButton("Apply")
+        self.apply_button = button("Apply", self.apply)
         self.message = QLabel()
-        layout.addWidget(self.apply_button)
-        layout.addWidget(self.message)
-        layout.addStretch(1)
-        self.apply_button.clicked.connect(self.apply)
+        column(form, self.apply_button, self.message, 1, parent=self)
         controller.config_changed.connect(self.show_config)
         self.show_config(controller.config)
 

@@ -14,13 +14,13 @@ from PySide6.QtWidgets import (
     QLabel,
     QListWidget,
     QListWidgetItem,
-    QPushButton,
     QVBoxLayout,
     QWidget,
 )
 
 from base_station_app.qt_fleet_layer import HEALTH_COLOURS
 from base_station_app.station_controller import StationController
+from interbot_qt.layout import button
 
 
 class QtRobotsPanel(QWidget):
@@ -36,10 +36,9 @@ class QtRobotsPanel(QWidget):
         self.robot_list = QListWidget()
         self.robot_list.setObjectName("robot_list")
         layout.addWidget(self.robot_list, 1)
-        self.select_button = QPushButton("Command this robot")
+        self.select_button = button("Command this robot", self._select)
         self.select_button.setObjectName("command_robot")
         layout.addWidget(self.select_button)
-        self.select_button.clicked.connect(self._select)
         self.robot_list.itemDoubleClicked.connect(lambda _item: self._select())
         controller.robots_changed.connect(self.refresh)
         controller.robot_selected.connect(lambda _: self.refresh())

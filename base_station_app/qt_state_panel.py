@@ -10,7 +10,6 @@ from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QFormLayout,
     QGroupBox,
-    QHBoxLayout,
     QLabel,
     QListWidget,
     QListWidgetItem,
@@ -28,6 +27,7 @@ from base_station_app.display_text import (
 from base_station_app.qt_speedometer import QtSpeedometer
 from base_station_app.station_controller import StationController
 from interbot_core.safety_text import describe_safety
+from interbot_qt.layout import row
 
 LEVEL_COLOURS = {
     "info": QColor(20, 20, 20),
@@ -44,7 +44,6 @@ class QtStatePanel(QWidget):
         self._controller = controller
         self._version = -1
         layout = QVBoxLayout(self)
-        dials = QHBoxLayout()
         cfg = controller.config
         self.linear_dial = QtSpeedometer(
             "linear", "m/s", max(cfg.teleop_linear_max, cfg.planner_linear_max)
@@ -52,9 +51,7 @@ class QtStatePanel(QWidget):
         self.angular_dial = QtSpeedometer(
             "angular", "rad/s", max(cfg.teleop_angular_max, cfg.planner_angular_max)
         )
-        dials.addWidget(self.linear_dial)
-        dials.addWidget(self.angular_dial)
-        layout.addLayout(dials)
+        layout.addLayout(row(self.linear_dial, self.angular_dial))
         box = QGroupBox("Robot")
         form = QFormLayout(box)
         self.labels: dict[str, QLabel] = {}
