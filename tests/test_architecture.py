@@ -620,3 +620,114 @@ def test_the_gate_rule_catches_a_write_without_the_lock(tmp_path: Path) -> None:
         encoding="utf-8",
     )
     assert unlocked_gate_writes(bad) == [8, 9]
+
+
+# Issue 13 (lines down, one owner): the classes a newcomer reads first keep no API that only
+# tests call - a test drives the path the product uses (`StationLink.request_state` and its
+# events, not a blocking fetch the station never makes), so it cannot pass on a path that is
+# dead in the product.
+NO_TEST_ONLY_API = {
+    "interbot_link/station.py": "StationLink",
+    "base_station_app/station_controller.py": "StationController",
+    "base_station_app/tablet_policy.py": "TabletPolicy",
+}
+
+
+def public_members(path: Path, class_name: str) -> set[str]:
+    """Public methods and properties of ``class_name`` (Qt overrides and dunders excluded)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    (cls,) = (n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
+    return {
+        n.name
+        for n in cls.body
+        if isinstance(n, ast.FunctionDef) and not n.name.startswith("_") and n.name.islower()
+    }
+
+
+def attribute_uses(paths: list[Path]) -> set[str]:
+    """Every ``x.name`` read or called in ``paths``."""
+    used: set[str] = set()
+    for path in paths:
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        used |= {n.attr for n in ast.walk(tree) if isinstance(n, ast.Attribute)}
+    return used
+
+
+def test_the_main_classes_have_no_api_only_tests_use() -> None:
+    shipped = [*product_files(), *(REPO / "bench").glob("*.py"), *(REPO / "tools").glob("*.py")]
+    used = attribute_uses(shipped)
+    unused = {
+        f"{path}:{name}": sorted(public_members(REPO / path, name) - used)
+        for path, name in NO_TEST_ONLY_API.items()
+    }
+    assert unused == {f"{path}:{name}": [] for path, name in NO_TEST_ONLY_API.items()}
+
+
+def test_the_test_only_api_rule_catches_a_method_nobody_calls(tmp_path: Path) -> None:
+    part = tmp_path / "part.py"
+    part.write_text(
+        "class Link:\n"
+        "    def poll(self): return self._wait()\n"
+        "    def _wait(self): pass\n"
+        "    def fetch_map(self): pass\n"
+        "    def keyPressEvent(self, e): pass\n",
+        encoding="utf-8",
+    )
+    user = tmp_path / "user.py"
+    user.write_text("link.poll()\n", encoding="utf-8")
+    assert public_members(part, "Link") - attribute_uses([part, user]) == {"fetch_map"}
+
+
+# One declaration per thing (issue 13): what the tablet may do is the protocol's `Permissions`
+# (the station file's `tablet:` section is its on-disk form), and the tablet's widgets follow a
+# language change through one mixin (`tablet_app.translations.Retranslated`).
+PERMISSION_FIELDS = {"teleop", "goals", "tours", "requests"}
+PERMISSION_OWNERS = {
+    "interbot_core/protocol.py:Permissions",
+    "base_station_app/station_file.py:TabletSection",
+}
+
+
+def classes_with_fields(path: Path, fields: set[str]) -> set[str]:
+    """Classes of ``path`` whose annotated class attributes include all of ``fields``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found = set()
+    for cls in (n for n in ast.walk(tree) if isinstance(n, ast.ClassDef)):
+        names = {
+            n.target.id
+            for n in cls.body
+            if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)
+        }
+        if fields <= names:
+            found.add(cls.name)
+    return found
+
+
+def test_the_tablets_permissions_are_declared_once() -> None:
+    declared = {
+        f"{_rel(p)}:{name}"
+        for p in product_files()
+        for name in classes_with_fields(p, PERMISSION_FIELDS)
+    }
+    assert declared == PERMISSION_OWNERS
+
+
+def test_only_the_mixin_handles_a_language_change() -> None:
+    handlers = {
+        _rel(p)
+        for p in package_files("tablet_app")
+        if "LanguageChange" in p.read_text(encoding="utf-8")
+    }
+    assert handlers == {"tablet_app/translations.py"}
+
+
+def test_the_declared_once_rule_catches_a_copy(tmp_path: Path) -> None:
+    copy = tmp_path / "tablet_session.py"
+    copy.write_text(
+        "class TabletPermissions:\n"
+        "    teleop: bool = True\n    goals: bool = True\n"
+        "    tours: bool = True\n    requests: bool = True\n"
+        "class Other:\n    teleop: bool\n",
+        encoding="utf-8",
+    )
+    assert classes_with_fields(copy, PERMISSION_FIELDS) == {"TabletPermissions"}
