@@ -887,12 +887,6 @@ class StationController(QObject):
         if self.tablet_requests.override():
             self.tablet_changed.emit()
 
-    def tablet_task_stop(self) -> None:
-        self.tablet_requests.stop_task()
-
-    def tablet_task_cancel(self) -> None:
-        self.tablet_requests.cancel_task()
-
     def on_tablet_message(self, msg: p.TabletMessage) -> None:
         """A validated tablet message: a request (tablet_requests.py) or a speed command."""
         if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)

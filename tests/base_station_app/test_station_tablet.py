@@ -282,7 +282,7 @@ def test_malfunction_goes_to_status_log_and_cancel_by_operator(
     qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
     assert station.tablet_task == GoTo(9)
-    station.tablet_task_cancel()
+    station.tablet_requests.cancel_task()
     qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)
     assert station.selected.supervisor.current_task is None
 
