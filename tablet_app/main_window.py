@@ -32,8 +32,8 @@ from PySide6.QtWidgets import (
 
 from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.protocol import (
+    Cancel,
     Goal,
-    GoalStatus,
     Home,
     InitialPoseRoom,
     Malfunction,
@@ -42,6 +42,7 @@ from interbot_core.protocol import (
     Permissions,
     RequestAnswer,
     RequestFrom,
+    StationMessage,
     StatusInfo,
     Stop,
     Tour,
@@ -174,18 +175,7 @@ class TabletWindow(Retranslated, QMainWindow):
         c.reconnect_scheduled.connect(self._on_reconnect_scheduled)
         c.latency_changed.connect(self._on_latency)
         c.refused.connect(s.on_refused)
-        c.pose_received.connect(s.on_pose)
-        c.initial_pose_received.connect(s.on_initial_pose)
-        c.localisation_received.connect(s.on_localisation)
-        c.goal_status_received.connect(self._on_goal_status)
-        c.tour_state_received.connect(s.on_tour_state)
-        c.request_shown.connect(s.on_show_request)
-        c.cancel_received.connect(s.on_cancel)
-        c.cancel_received.connect(self._on_cancel)
-        c.permissions_received.connect(s.on_permissions)
-        c.status_received.connect(s.on_status)
-        c.status_received.connect(self._on_status)
-        c.error_received.connect(s.on_error)
+        c.message_received.connect(self._on_message)
         c.robot_name_changed.connect(s.on_robot_name)
         c.robot_name_changed.connect(lambda _name: self._update_connection_text())
 
@@ -330,17 +320,13 @@ class TabletWindow(Retranslated, QMainWindow):
             self.session.report_sent(kind)
 
     # ---------------------------------------------------------------- Base Station messages
-    def _on_goal_status(self, msg: GoalStatus) -> None:
-        self.session.on_goal_status(msg, self.clock())
-
-    def _on_cancel(self, _msg: object) -> None:
-        """The operator cancelled: whatever the user had open about it goes too."""
-        if self.dialog is not None:
+    def _on_message(self, msg: StationMessage) -> None:
+        """Into the session; a cancel by the operator closes what the user had open about it,
+        and the station's progress on an accepted request shows in the request's dialog."""
+        self.session.on_message(msg, self.clock())
+        if isinstance(msg, Cancel) and self.dialog is not None:
             self.dialog.close()
-
-    def _on_status(self, msg: StatusInfo) -> None:
-        """The station's progress on an accepted request, in the request's dialog."""
-        if isinstance(self.dialog, QtShowRequestDialog):
+        elif isinstance(msg, StatusInfo) and isinstance(self.dialog, QtShowRequestDialog):
             self.dialog.set_status(activity_text(self.room_name, self.session))
 
     # ---------------------------------------------------------------- rendering the session

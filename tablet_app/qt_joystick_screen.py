@@ -95,7 +95,9 @@ class QtJoystickScreen(Retranslated, QWidget):
         self.joystick.released.connect(self._on_released)
         connection.latency_changed.connect(self.set_latency)
         connection.link_lossy_changed.connect(self.set_lossy)
-        connection.safety_received.connect(self.set_safety)
+        connection.message_received.connect(
+            lambda msg: self.set_safety(msg) if isinstance(msg, SafetyInfo) else None
+        )
         self._latency_ms: float | None = connection.average_latency_ms
         self.set_lossy(connection.is_lossy)
         self.retranslate()

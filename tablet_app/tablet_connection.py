@@ -1,7 +1,7 @@
 """The Tablet's connection to the Base Station (thesis §4.2.1.2 Communication Handler, §5.3.1).
 
 `TabletConnection` owns the socket (through `interbot_qt.qt_tcp_connection.QtTcpConnection`),
-turns every validated Base Station message into a typed Qt signal and sends Tablet messages.
+passes every validated Base Station message on (``message_received``) and sends Tablet messages.
 Beyond the thesis it: says ``hello`` on connect (docs/protocol.md), answers pings, pings the
 station every second to keep the average round-trip latency shown on the main menu and beside
 the joystick, decides when the link is lossy (`tablet_app.link_health.LatencyMonitor`), and
@@ -21,24 +21,14 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from interbot_core.protocol import (
     PROTOCOL_VERSION,
-    Cancel,
     ErrorReport,
-    GoalStatus,
     Hello,
-    InitialPose,
-    Localisation,
     Message,
-    Permissions,
     Ping,
     Pong,
-    Pose,
     ProtocolError,
     Refused,
     RobotName,
-    SafetyInfo,
-    ShowRequest,
-    StatusInfo,
-    TourState,
     Welcome,
     decode_station_message,
 )
@@ -63,18 +53,7 @@ class ConnectionState(enum.StrEnum):
 class TabletConnection(QObject):
     """Client side of the Tablet <-> Base Station protocol over TCP."""
 
-    pose_received = Signal(object)  # Pose
-    initial_pose_received = Signal(object)  # InitialPose
-    goal_status_received = Signal(object)  # GoalStatus
-    tour_state_received = Signal(object)  # TourState
-    request_shown = Signal(object)  # ShowRequest
-    cancel_received = Signal(object)  # Cancel
-    permissions_received = Signal(object)  # Permissions
-    localisation_received = Signal(object)  # Localisation
-    safety_received = Signal(object)  # SafetyInfo (the robot's collision monitor)
-    status_received = Signal(object)  # StatusInfo
-    error_received = Signal(object)  # ErrorReport from the station
-    welcome_received = Signal(object)  # Welcome
+    message_received = Signal(object)  # a StationMessage other than the connection's own (below)
     robot_name_changed = Signal(str)  # the robot this tablet drives (Welcome, RobotName)
     refused = Signal(str)  # reason
     protocol_error = Signal(str)  # a frame or message from the station we could not use
@@ -112,7 +91,6 @@ class TabletConnection(QObject):
         self._lossy = True
         self._seq = 0
         self.robot_name = ""
-        self.permissions: Permissions | None = None
         self.last_refusal = ""
 
         self._ping_timer = self._timer(ping_interval, self._send_ping)
@@ -125,18 +103,8 @@ class TabletConnection(QObject):
         self._link.socket_error.connect(self._on_socket_error)
         self._link.object_received.connect(self._on_object)
         self._link.frame_error.connect(self._on_protocol_error)
+        # The messages the connection handles itself; the others go out as message_received.
         self._handlers: dict[type[Message], Callable[[Any], None]] = {
-            Pose: self.pose_received.emit,
-            InitialPose: self.initial_pose_received.emit,
-            GoalStatus: self.goal_status_received.emit,
-            TourState: self.tour_state_received.emit,
-            ShowRequest: self.request_shown.emit,
-            Cancel: self.cancel_received.emit,
-            Permissions: self._on_permissions,
-            Localisation: self.localisation_received.emit,
-            SafetyInfo: self.safety_received.emit,
-            StatusInfo: self.status_received.emit,
-            ErrorReport: self.error_received.emit,
             Welcome: self._on_welcome,
             RobotName: self._on_robot_name,
             Refused: self._on_refused,
@@ -285,9 +253,7 @@ class TabletConnection(QObject):
         except ProtocolError as exc:
             self._on_protocol_error(exc)
             return
-        handler = self._handlers.get(type(msg))
-        if handler is not None:
-            handler(msg)
+        self._handlers.get(type(msg), self.message_received.emit)(msg)
 
     def _on_protocol_error(self, exc: ProtocolError) -> None:
         logger.warning("invalid message from the Base Station: %s", exc.message)
@@ -299,7 +265,6 @@ class TabletConnection(QObject):
 
     def _on_welcome(self, welcome: Welcome) -> None:
         self.robot_name = welcome.robot
-        self.welcome_received.emit(welcome)
         self.robot_name_changed.emit(welcome.robot)
 
     def _on_robot_name(self, msg: RobotName) -> None:
@@ -311,7 +276,3 @@ class TabletConnection(QObject):
         self.last_refusal = refused.reason
         logger.warning("Base Station refused the tablet: %s", refused.reason)
         self.refused.emit(refused.reason)
-
-    def _on_permissions(self, permissions: Permissions) -> None:
-        self.permissions = permissions
-        self.permissions_received.emit(permissions)

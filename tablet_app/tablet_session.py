@@ -34,6 +34,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from interbot_core.protocol import (
     Cancel,
@@ -44,6 +45,7 @@ from interbot_core.protocol import (
     Permissions,
     Pose,
     ShowRequest,
+    StationMessage,
     StatusInfo,
     TourState,
 )
@@ -155,6 +157,24 @@ class TabletSession:
             self.help, self.help_room, self._help_deadline = Help.OFFERED, None, math.inf
 
     # ------------------------------------------------------------------ station messages
+    def on_message(self, msg: StationMessage, now: float) -> None:
+        """One validated message from the station, to the method for its type below."""
+        handlers: dict[type, Callable[[Any], None]] = {
+            Pose: self.on_pose,
+            InitialPose: self.on_initial_pose,
+            Localisation: self.on_localisation,
+            GoalStatus: lambda m: self.on_goal_status(m, now),
+            TourState: self.on_tour_state,
+            ShowRequest: self.on_show_request,
+            Cancel: self.on_cancel,
+            Permissions: self.on_permissions,
+            StatusInfo: self.on_status,
+            ErrorReport: self.on_error,
+        }
+        handler = handlers.get(type(msg))
+        if handler is not None:
+            handler(msg)
+
     def on_robot_name(self, name: str) -> None:
         """The station names the robot this tablet drives (at connect, and on a switch)."""
         if name != self.robot:

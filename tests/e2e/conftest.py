@@ -99,14 +99,13 @@ class Recorder:
     localisation: list[str] = field(default_factory=list)
     requests: list[ShowRequest] = field(default_factory=list)
 
-    def on_goal_status(self, msg: GoalStatus) -> None:
-        self.goal_status.append(msg)
-
-    def on_localisation(self, msg: Localisation) -> None:
-        self.localisation.append(msg.state)
-
-    def on_request(self, msg: ShowRequest) -> None:
-        self.requests.append(msg)
+    def on_message(self, msg: object) -> None:
+        if isinstance(msg, GoalStatus):
+            self.goal_status.append(msg)
+        elif isinstance(msg, Localisation):
+            self.localisation.append(msg.state)
+        elif isinstance(msg, ShowRequest):
+            self.requests.append(msg)
 
 
 @dataclass
@@ -283,9 +282,7 @@ def make_rig(qtbot: Any, free_tcp_port: Callable[[], int]) -> Iterator[Callable[
         resources.callback(connection.deleteLater)
         resources.callback(connection.stop)
         seen = Recorder()
-        connection.goal_status_received.connect(seen.on_goal_status)
-        connection.localisation_received.connect(seen.on_localisation)
-        connection.request_shown.connect(seen.on_request)
+        connection.message_received.connect(seen.on_message)
         window = TabletWindow(connection, plan, grid)
         qtbot.addWidget(window)
         resources.callback(window.close)
