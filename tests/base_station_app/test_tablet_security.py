@@ -85,7 +85,7 @@ def test_pairing_gives_a_token_that_reconnects_and_the_protocol_is_unchanged(
     creds.save(tmp_path / "tablet.json")
     again = TabletCredentials.load(tmp_path / "tablet.json")
     conn, _ = _tablet(qtbot, station, token=again.token)
-    with qtbot.waitSignal(conn.welcome_received, timeout=5000):  # hello -> welcome inside TLS
+    with qtbot.waitSignal(conn.robot_name_changed, timeout=5000):  # hello -> welcome in TLS
         conn.start()
     assert station.server.greeted
     conn.stop()
