@@ -35,6 +35,7 @@ def _at_least(low: float, unit: str) -> Meta:
     return Meta(ge=low, le=schema.FINITE, extra={"unit": unit})
 
 
+# Built only to check arguments (`schema.Declared`): a bad value raises JoystickError naming it.
 class _Geometry(schema.Declared, frozen=True):
     ROOT: ClassVar[str] = "joystick"
     ERROR: ClassVar[type[Exception]] = JoystickError
@@ -57,14 +58,6 @@ class _Pressed(schema.Declared, frozen=True):
     y: Pixels
 
 
-def _check_geometry(center_x: float, center_y: float, radius: float) -> None:
-    _Geometry(center_x, center_y, radius)
-
-
-def _check_limits(linear_max: float, angular_max: float) -> None:
-    _Limits(linear_max, angular_max)
-
-
 def _clamp_unit(value: float) -> float:
     return min(1.0, max(-1.0, value))
 
@@ -84,8 +77,8 @@ def joystick_command(
     ``angular = (center_x - pressed_x) / radius * angular_max``, with the pressed point first
     clamped radially onto the circle of ``radius`` around the centre.
     """
-    _check_geometry(center_x, center_y, radius)
-    _check_limits(linear_max, angular_max)
+    _Geometry(center_x, center_y, radius)
+    _Limits(linear_max, angular_max)
     _Pressed(pressed_x, pressed_y)
     u = (center_x - pressed_x) / radius  # + when pressed left of centre: turn left
     v = (center_y - pressed_y) / radius  # + when pressed above centre: forward
@@ -111,8 +104,8 @@ class JoystickState:
         linear_max: float,
         angular_max: float,
     ) -> None:
-        _check_geometry(center_x, center_y, radius)
-        _check_limits(linear_max, angular_max)
+        _Geometry(center_x, center_y, radius)
+        _Limits(linear_max, angular_max)
         self._center = (float(center_x), float(center_y))
         self._radius = float(radius)
         self._linear_max = float(linear_max)
@@ -148,13 +141,13 @@ class JoystickState:
 
     def set_geometry(self, center_x: float, center_y: float, radius: float) -> None:
         """The widget was resized: new centre and radius [px]."""
-        _check_geometry(center_x, center_y, radius)
+        _Geometry(center_x, center_y, radius)
         self._center = (float(center_x), float(center_y))
         self._radius = float(radius)
 
     def set_limits(self, linear_max: float, angular_max: float) -> tuple[float, float]:
         """New maxima from the sliders; returns the updated command."""
-        _check_limits(linear_max, angular_max)
+        _Limits(linear_max, angular_max)
         self._linear_max, self._angular_max = float(linear_max), float(angular_max)
         return self.command
 
