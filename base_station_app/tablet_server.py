@@ -210,10 +210,6 @@ class TabletServer(QObject):
         return self._conn is not None and self._conn.is_connected
 
     @property
-    def peer(self) -> str:
-        return self._peer
-
-    @property
     def greeted(self) -> bool:
         """True once the tablet said hello (False: compatibility mode, or nobody connected)."""
         return self._greeted
@@ -329,7 +325,7 @@ class TabletServer(QObject):
         self._last_pong = self._clock()
         conn.object_received.connect(self._on_object)
         conn.batch_finished.connect(self._on_batch_finished)
-        conn.frame_error.connect(self._on_frame_error)
+        conn.frame_error.connect(self._report)
         conn.disconnected.connect(self._on_disconnected)
         self._ping_timer.start()
         logger.info("tablet connected from %s", peer)
@@ -354,9 +350,6 @@ class TabletServer(QObject):
         if self._budget.record(self._clock(), fatal=fatal):
             why = "frame too large" if fatal else "repeated protocol errors"
             self.disconnect_tablet(why)
-
-    def _on_frame_error(self, error: ProtocolError) -> None:
-        self._report(error)
 
     def _on_object(self, obj: object) -> None:
         if self.sender() is not self._conn:
