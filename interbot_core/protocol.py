@@ -277,7 +277,6 @@ def _check_bounds(msg: Message, limits: ProtocolLimits) -> None:
 # --------------------------------------------------------------------------------------------
 
 
-JsonObject = dict[str, Any]
 _ENCODER: Final = msgspec.json.Encoder()
 
 
@@ -304,10 +303,6 @@ class Message(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defa
     def body(self) -> object:
         """The value under ``KEY`` (a struct encodes as its fields, with their wire names)."""
         return getattr(self, self.__struct_fields__[0]) if self.BARE else self
-
-    def to_json(self) -> JsonObject:
-        """The whole message as JSON values: ``{KEY: body}``."""
-        return {self.KEY: msgspec.json.decode(_ENCODER.encode(self.body()))}
 
     @classmethod
     def from_json(cls, body: object, limits: ProtocolLimits = DEFAULT_LIMITS) -> Self:

@@ -17,7 +17,7 @@ from PySide6.QtNetwork import QSslSocket, QTcpSocket
 
 from base_station_app.tablet_auth import TabletAuthServer
 from base_station_app.tablet_server import TabletServer
-from interbot_core.protocol import Hello, Speed
+from interbot_core.protocol import Hello, Speed, encode
 from interbot_core.tablet_pairing import TabletRegistry
 from interbot_link import KeyStore
 from tablet_app.pairing import PairedTlsConnection, TabletCredentials
@@ -139,7 +139,7 @@ def test_plain_tcp_client_is_refused_before_anything_is_acted_on(qtbot, station:
     sock = QTcpSocket()
     sock.connectToHost("127.0.0.1", station.port)
     assert sock.waitForConnected(3000)
-    sock.write(SPEED * 5 + json.dumps(Hello(1, "rogue").to_json()).encode())
+    sock.write(SPEED * 5 + encode(Hello(1, "rogue")))
     qtbot.waitUntil(lambda: bool(station.refusals), timeout=5000)
     assert "TLS handshake failed" in station.refusals[0]
     assert station.received == [] and not station.server.is_connected
