@@ -71,19 +71,6 @@ class ProtocolError(Exception):
         self.message = message
         self.field = field
 
-    def __eq__(self, other: object) -> bool:
-        return (
-            type(other) is type(self)
-            and isinstance(other, ProtocolError)
-            and (other.message, other.field) == (self.message, self.field)
-        )
-
-    def __hash__(self) -> int:
-        return hash((type(self), self.message, self.field))
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({self.message!r})"
-
 
 class InvalidJson(ProtocolError):
     """The bytes of a frame are not valid UTF-8 JSON (or contain NaN, Infinity, duplicate keys)."""
