@@ -78,6 +78,12 @@ def migrate_qsettings(store: StationSettingsStore, qsettings: QSettings | None =
     qsettings.sync()
 
 
+def _fail(text: str) -> int:
+    """Say why the station cannot start; the exit status of a usage or set-up error."""
+    sys.stderr.write(f"interbot-base-station: {text}\n")
+    return 2
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="interbot-base-station",
@@ -146,24 +152,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         topo = load_topological_map(args.topo)
     except (TopologicalMapError, OSError) as exc:
-        sys.stderr.write(f"interbot-base-station: {exc}\n")
-        return 2
+        return _fail(str(exc))
     if not 0 < args.tablet_port < 65536:
-        sys.stderr.write("interbot-base-station: --tablet-port must be 1..65535\n")
-        return 2
+        return _fail("--tablet-port must be 1..65535")
     connect = args.connect or ["tcp/127.0.0.1:7447"]
     try:
         geometry = None if args.geometry is None else parse_geometry(args.geometry)
     except LayoutError as exc:
-        sys.stderr.write(f"interbot-base-station: --geometry: {exc}\n")
-        return 2
+        return _fail(f"--geometry: {exc}")
     settings = StationSettingsStore(args.config or station_file.default_path())
     try:
         migrate_qsettings(settings)
         saved = settings.load()
     except station_file.StationFileError as exc:
-        sys.stderr.write(f"interbot-base-station: {exc}\n")
-        return 2
+        return _fail(str(exc))
     try:
         security = station_security.resolve(
             keys=args.security,
@@ -178,16 +180,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             connect, args.mode, security=security.link, insecure=security.insecure
         )
     except station_security.StationSecurityError as exc:
-        sys.stderr.write(f"interbot-base-station: {exc}\n")
-        return 2
+        return _fail(str(exc))
     except (LinkError, zenoh.ZError) as exc:
         hint = (
             " (is the building's router running? start it with `interbot router`)"
             if args.mode == "client"
             else ""
         )
-        sys.stderr.write(f"interbot-base-station: cannot open the zenoh session: {exc}{hint}\n")
-        return 2
+        return _fail(f"cannot open the zenoh session: {exc}{hint}")
 
     from PySide6.QtCore import Qt
     from PySide6.QtWidgets import QApplication
@@ -211,8 +211,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         except (TabletTlsError, ValueError) as exc:
             holder.close()
-            sys.stderr.write(f"interbot-base-station: tablet link: {exc}\n")
-            return 2
+            return _fail(f"tablet link: {exc}")
         tablet_auth.advertised_host = advertised_address(args.tablet_host)
     controller = StationController(
         topo,
