@@ -1,10 +1,10 @@
 """The station's rules for the one controlling tablet: what it may do, and what it owns.
 
 Thesis §5.3.1: the operator decides "if the requests from the Tablet should be accepted or not,
-and which type of requests are allowed" (the protocol's `Permissions`, sent as they are). Issue 14 adds ownership: the
-tablet cancels only the tasks it ordered (identity of the task object, whatever robot runs it),
-its stop pauses an operator's task instead, and nothing it orders is accepted while it could
-not work (robot offline, emergency stop). The tablet is bound to the robot the operator
+and which type of requests are allowed" (the protocol's `Permissions`, sent as they are). Issue
+14 adds ownership: the tablet cancels only the tasks it ordered (identity of the task object,
+whatever robot runs it), its stop pauses an operator's task instead, and nothing it orders is
+accepted while it could not work (robot offline, emergency stop). The tablet is bound to the robot the operator
 commands (the selected one): its tasks go to that robot's supervisor. Plain Python, no Qt.
 """
 
