@@ -81,6 +81,7 @@ class RobotState:
         self.plan: PlanMsg | None = None
         self.poses.clear()
         self.version = 0
+        self.map_version = 0  # map updates applied (bench_replay counts them)
         self.image_version = 0
 
     @property
@@ -118,6 +119,8 @@ class RobotState:
                 self.poses.add(message.stamp, Pose2D(message.x, message.y, message.yaw))
             else:
                 self.poses.clear()
+        elif isinstance(message, OccupancyGrid):
+            self.map_version += 1
         elif isinstance(message, ImageMsg):
             self.image_version += 1
         self.version += 1

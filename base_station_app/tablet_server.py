@@ -210,6 +210,10 @@ class TabletServer(QObject):
         return self._conn is not None and self._conn.is_connected
 
     @property
+    def peer(self) -> str:
+        return self._peer
+
+    @property
     def greeted(self) -> bool:
         """True once the tablet said hello (False: compatibility mode, or nobody connected)."""
         return self._greeted
