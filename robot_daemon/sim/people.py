@@ -268,14 +268,6 @@ class Crowd:
         self._next_id += 1
         return person.person_id
 
-    def remove_person(self, person_id: int) -> None:
-        """Remove a person by id (KeyError if there is none)."""
-        for i, p in enumerate(self._people):
-            if p.person_id == person_id:
-                del self._people[i]
-                return
-        raise KeyError(f"no person with id {person_id}")
-
     def get(self, person_id: int) -> Person:
         """The person with this id."""
         for p in self._people:

@@ -64,11 +64,6 @@ class RectObstacle:
             if not (math.isfinite(value) and value > 0):
                 raise WorldConfigError(f"RectObstacle.{name} must be > 0 m, got {value!r}")
 
-    @classmethod
-    def from_bounds(cls, x_min: float, y_min: float, x_max: float, y_max: float) -> RectObstacle:
-        """An axis-aligned rectangle from its corners [m]."""
-        return cls((x_min + x_max) / 2, (y_min + y_max) / 2, abs(x_max - x_min), abs(y_max - y_min))
-
     def corners(self) -> FloatArray:
         """(4, 2) world corners."""
         fp = RobotFootprint(self.size_x, self.size_y)
