@@ -36,8 +36,11 @@ from interbot_core.laser_scan import (
     LaserScan,
 )
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
-from robot_daemon.planning import Costmap, GlobalPlanner, Navigator, PlannerConfig
+from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.global_planner import GlobalPlanner
 from robot_daemon.planning.local_planner import DWAPlanner, obstacle_points_near
+from robot_daemon.planning.navigator import Navigator
 
 REPO = Path(__file__).resolve().parent.parent
 WILLOW = REPO.parent / "shared" / "data" / "maps" / "willow.yaml"

@@ -107,19 +107,13 @@ class DaemonOptions:
     foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
 
-def odometry_model(name: str) -> OdometryErrorModel:
-    return {
-        "perfect": OdometryErrorModel.perfect,
-        "calibrated": OdometryErrorModel.calibrated,
-        "uncalibrated": OdometryErrorModel.uncalibrated,
-    }[name]()
-
-
 def build_sim_backend(
     config: DaemonConfig, grid: OccupancyGrid, start: Pose2D, scan_rate_hz: float
 ) -> SimBackend:
     sim_config = SimConfig(
-        start_pose=start, n_people=config.sim.people, odometry=odometry_model(config.sim.odometry)
+        start_pose=start,
+        n_people=config.sim.people,
+        odometry=OdometryErrorModel.named(config.sim.odometry),
     )
     simulator = Simulator(grid, sim_config, rng_seed=config.sim.seed)
     return SimBackend(simulator, scan_rate_hz=scan_rate_hz, camera_rate_hz=config.rates.image_hz)

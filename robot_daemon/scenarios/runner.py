@@ -108,18 +108,6 @@ def person_set_pose_error(rng: np.random.Generator) -> Pose2D:
     return Pose2D(distance * math.cos(direction), distance * math.sin(direction), float(yaw))
 
 
-def odometry_model(name: str) -> OdometryErrorModel:
-    models = {
-        "perfect": OdometryErrorModel.perfect,
-        "calibrated": OdometryErrorModel.calibrated,
-        "uncalibrated": OdometryErrorModel.uncalibrated,
-        "realistic": OdometryErrorModel.realistic,
-    }
-    if name not in models:
-        raise ValueError(f"odometry model must be one of {sorted(models)}, got {name!r}")
-    return models[name]()
-
-
 @dataclass
 class Metrics:
     """Ground-truth figures sampled every station clock period (METRICS ONLY)."""
@@ -317,7 +305,7 @@ class SimulatedSystem:
             internal_dt=SIM_DT,
             start_pose=start_pose,
             n_people=options.people,
-            odometry=odometry_model(odometry),
+            odometry=OdometryErrorModel.named(odometry),
         )
         world_grid = self.grid
         # What the person setting the initial pose gets wrong (ideal world: nothing).
