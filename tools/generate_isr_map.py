@@ -192,13 +192,46 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     return nodes
 
 
+def validate_nodes(plan: FloorPlan) -> None:
+    """The node names are unique, ``ring`` lists each once and ``arcs`` only names nodes."""
+    src = plan.source
+    known = node_names(plan)
+    for name in known:
+        if known.count(name) > 1:
+            raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
+    for i, name in enumerate(plan.ring):
+        if name not in known:
+            raise FloorPlanError(
+                f"{src}: ring[{i}]: {name!r} is not a node; nodes are {', '.join(known)}"
+            )
+        if plan.ring.count(name) > 1:
+            raise FloorPlanError(f"{src}: ring[{i}]: {name!r} is listed twice")
+    missing = [name for name in known if name not in plan.ring]
+    if missing:
+        raise FloorPlanError(f"{src}: ring: missing nodes {missing} (every node needs an id)")
+    for i, chain in enumerate(plan.arcs):
+        for name in chain:
+            if name not in known:
+                raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
+
+
+def node_names(plan: FloorPlan) -> list[str]:
+    """The names of the plan's topological nodes: a room's (with ``inside``, also "<room> door"
+    for the node at its door), then the waypoints'."""
+    names: list[str] = []
+    for room in plan.rooms:
+        names += [room.name] if room.inside is None else [f"{room.name} door", room.name]
+    return names + [waypoint.name for waypoint in plan.waypoints]
+
+
 def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> dict[str, Any]:
     """The topological map of ``plan`` as a dict in the ``topological_map`` YAML format.
 
-    Node ids follow ``plan.ring``. Checks against ``grid`` (rasterised if not given) that each
+    Node ids follow ``plan.ring`` (`validate_nodes`). Checks against ``grid`` (rasterised if not given) that each
     node has ``node_clearance`` and each arc keeps ``arc_clearance`` to blocked cells, and that
     the graph is connected; raises :class:`FloorPlanError` naming the node or arc otherwise.
     """
+    validate_nodes(plan)
     grid = rasterise(plan) if grid is None else grid
     clearance = clearance_map(grid)
     by_name = {node.name: node for node in plan_nodes(plan)}

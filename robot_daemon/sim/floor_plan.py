@@ -450,7 +450,6 @@ def validate_floor_plan(plan: FloorPlan) -> None:
         raise FloorPlanError(f"{src}: exactly one room needs home: true, found {homes}")
     for room in plan.rooms:
         _validate_room(plan, room)
-    _validate_nodes(plan)
 
 
 def _validate_room(plan: FloorPlan, room: Room) -> None:
@@ -486,37 +485,6 @@ def _validate_room(plan: FloorPlan, room: Room) -> None:
                 raise FloorPlanError(
                     f"{src}: {label}: 'inside' ({x}, {y}) lies on furniture[{f}] ({item.name})"
                 )
-
-
-def _validate_nodes(plan: FloorPlan) -> None:
-    src = plan.source
-    known = node_names(plan)
-    for name in known:
-        if known.count(name) > 1:
-            raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
-    for i, name in enumerate(plan.ring):
-        if name not in known:
-            raise FloorPlanError(
-                f"{src}: ring[{i}]: {name!r} is not a node; nodes are {', '.join(known)}"
-            )
-        if plan.ring.count(name) > 1:
-            raise FloorPlanError(f"{src}: ring[{i}]: {name!r} is listed twice")
-    missing = [name for name in known if name not in plan.ring]
-    if missing:
-        raise FloorPlanError(f"{src}: ring: missing nodes {missing} (every node needs an id)")
-    for i, chain in enumerate(plan.arcs):
-        for name in chain:
-            if name not in known:
-                raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
-
-
-def node_names(plan: FloorPlan) -> list[str]:
-    """The names of the plan's topological nodes: a room's (with ``inside``, also "<room> door"
-    for the node at its door), then the waypoints'."""
-    names: list[str] = []
-    for room in plan.rooms:
-        names += [room.name] if room.inside is None else [f"{room.name} door", room.name]
-    return names + [waypoint.name for waypoint in plan.waypoints]
 
 
 # ---------------------------------------------------------------------------- geometry

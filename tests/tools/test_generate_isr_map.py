@@ -228,21 +228,6 @@ MUTATIONS: list[tuple[str, Any, str]] = [
         r"exactly one room needs home: true",
     ),
     (
-        "unknown node in the ring",
-        lambda d: d["ring"].append("Cafeteria"),
-        r"ring\[\d+\]: 'Cafeteria' is not a node",
-    ),
-    (
-        "node missing from the ring",
-        lambda d: d["ring"].remove("Bar"),
-        r"ring: missing nodes \['Bar'\]",
-    ),
-    (
-        "unknown node in an arc",
-        lambda d: d["arcs"].append(["Bar", "Kitchen"]),
-        r"arcs\[4\]: 'Kitchen' is not a node",
-    ),
-    (
         "misspelt field",
         lambda d: rooms_of(d, "Bar").update(furnitur=[]),
         r"room 'Bar': unknown key 'rooms\[\d+\]\.furnitur' \(allowed: x, y, name, doors, furniture",
@@ -265,6 +250,39 @@ def test_validation_errors_name_the_room_and_field(
     mutate(data)
     with pytest.raises(FloorPlanError, match=message) as info:
         parse_floor_plan(data, "plan.yaml")
+    assert str(info.value).startswith("plan.yaml: ")
+
+
+NODE_MUTATIONS = [
+    (
+        "unknown node in the ring",
+        lambda d: d["ring"].append("Cafeteria"),
+        r"ring\[\d+\]: 'Cafeteria' is not a node",
+    ),
+    (
+        "node missing from the ring",
+        lambda d: d["ring"].remove("Bar"),
+        r"ring: missing nodes \['Bar'\]",
+    ),
+    (
+        "unknown node in an arc",
+        lambda d: d["arcs"].append(["Bar", "Kitchen"]),
+        r"arcs\[4\]: 'Kitchen' is not a node",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"), [m[1:] for m in NODE_MUTATIONS], ids=[m[0] for m in NODE_MUTATIONS]
+)
+def test_node_list_errors_name_the_list_and_node(
+    raw_plan: dict[str, Any], mutate: Any, message: str
+) -> None:
+    data = copy.deepcopy(raw_plan)
+    mutate(data)
+    plan = parse_floor_plan(data, "plan.yaml")  # the simulator's reading: nodes not needed
+    with pytest.raises(FloorPlanError, match=message) as info:
+        topological_map_dict(plan)
     assert str(info.value).startswith("plan.yaml: ")
 
 
