@@ -32,7 +32,6 @@ from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
     Event,
-    GoalReached,
     PauseNavigation,
     RequestShown,
     RouteCancelled,
@@ -489,17 +488,6 @@ def auto_answer_requests(
             )
 
     return hook
-
-
-__all__ = [
-    "GoalReached",
-    "ScenarioOptions",
-    "ScenarioResult",
-    "SimulatedSystem",
-    "TaskFinished",
-    "auto_answer_requests",
-    "auto_resume_tour",
-]
 
 
 # -- generic helpers for scripted scenarios (odometry, mission, latency) ----------------------
