@@ -360,12 +360,6 @@ class ScanClock:
         self._samples: deque[tuple[int, float]] = deque()  # (index, offset) increasing offsets
         self._index = 0
 
-    def reset(self) -> None:
-        """Forget the sensor clock (after a reconnect or RS the counter restarts)."""
-        self._last_raw = None
-        self._wraps = 0
-        self._samples.clear()
-
     def unwrap(self, raw_ms: int) -> int:
         """The 24-bit timestamp extended with the number of wraps seen [ms]."""
         if self._last_raw is not None and raw_ms < self._last_raw - TIMESTAMP_MODULUS // 2:

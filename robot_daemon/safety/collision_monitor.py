@@ -239,10 +239,6 @@ class MonitorResult:
     time_to_contact: float = math.inf  # [s] along the commanded arc (inf: none in the horizon)
     scale: float = 1.0  # output speed / commanded speed
 
-    @property
-    def limited(self) -> bool:
-        return self.scale < 1.0 - 1e-9
-
 
 @dataclass
 class _Zone:
