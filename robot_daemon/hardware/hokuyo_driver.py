@@ -42,6 +42,14 @@ Clock = Callable[[], float]
 SerialFactory = Callable[..., Any]
 
 
+# The counter a scan dropped for each kind of SCIP error goes to (any other: "malformed").
+DROPPED_AS = {
+    scip.ScipChecksumError: "bad_sum",
+    scip.ScipTruncatedError: "truncated",
+    scip.ScipStatusError: "bad_status",
+}
+
+
 class LaserStalled(Exception):
     """No byte arrived for the stall timeout."""
 
@@ -244,17 +252,8 @@ class HokuyoDriver(DriverThread):
             return None
         try:
             decoded = scip.parse_scan_frame(lines, p.steps)
-        except scip.ScipChecksumError:
-            self._count("bad_sum")
-            return None
-        except scip.ScipTruncatedError:
-            self._count("truncated")
-            return None
-        except scip.ScipStatusError:
-            self._count("bad_status")
-            return None
-        except scip.ScipError:
-            self._count("malformed")
+        except scip.ScipError as exc:
+            self._count(DROPPED_AS.get(type(exc), "malformed"))
             return None
         mm = decoded.ranges_mm
         ranges = mm.astype(np.float32) / np.float32(1000.0)
