@@ -108,9 +108,6 @@ class Relocalisation:
             return LocaliserState.LOST
         return LocaliserState.SEARCHING
 
-    def status_text(self, now: float) -> str:
-        return self.relocaliser.status(now).text if self.active else ""
-
     # ------------------------------------------------------------------ requests
 
     def request(self, now: float) -> RelocalisationEvent:
