@@ -35,6 +35,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.sim.floor_plan import (
     FloorPlan,
     FloorPlanError,
+    Room,
     door_opening,
     load_floor_plan,
     rasterise,
@@ -117,6 +118,36 @@ def _round(value: float) -> float:
     return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
+@dataclass(frozen=True)
+class DoorOpening:
+    """Where a door cuts through the wall: its opening, centres and outward normal."""
+
+    room: str
+    index: int  # position in the room's ``doors``
+    room_face: tuple[float, float]  # [m] centre of the door on the room's side
+    corridor_face: tuple[float, float]  # [m] centre of the door on the corridor's side
+    normal: tuple[float, float]  # outward unit vector (room -> corridor)
+
+
+def door_faces(plan: FloorPlan, room: Room, index: int) -> DoorOpening:
+    """The room and corridor faces of ``room.doors[index]``'s opening (`door_opening`)."""
+    door, r = room.doors[index], room.rect
+    rect = door_opening(plan, room, index)
+    centre = (r.x0 if door.wall in ("north", "south") else r.y0) + door.offset
+    room_face, corridor_face, normal = {
+        "north": ((centre, r.y1), (centre, rect.y1), (0.0, 1.0)),
+        "south": ((centre, r.y0), (centre, rect.y0), (0.0, -1.0)),
+        "east": ((r.x1, centre), (rect.x1, centre), (1.0, 0.0)),
+        "west": ((r.x0, centre), (rect.x0, centre), (-1.0, 0.0)),
+    }[door.wall]
+    return DoorOpening(room.name, index, room_face, corridor_face, normal)
+
+
+def door_openings(plan: FloorPlan) -> list[DoorOpening]:
+    """Every door of every room, in plan order."""
+    return [door_faces(plan, room, i) for room in plan.rooms for i in range(len(room.doors))]
+
+
 def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     """The topological nodes in plan order (rooms, then waypoints), before ring ordering.
 
@@ -127,7 +158,7 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     """
     nodes: list[PlanNode] = []
     for room in plan.rooms:
-        opening = door_opening(plan, room, 0)
+        opening = door_faces(plan, room, 0)
         nx, ny = opening.normal
         ex = opening.corridor_face[0] + nx * plan.entrance_distance
         ey = opening.corridor_face[1] + ny * plan.entrance_distance

@@ -24,7 +24,6 @@ from interbot_core.topological_map import load_topological_map
 from robot_daemon.sim.floor_plan import (
     FloorPlan,
     FloorPlanError,
-    door_openings,
     load_floor_plan,
     parse_floor_plan,
     rasterise,
@@ -81,6 +80,7 @@ def load_generator() -> ModuleType:
 
 GENERATOR = load_generator()
 topological_map_dict = GENERATOR.topological_map_dict
+door_openings = GENERATOR.door_openings
 
 
 @pytest.fixture(scope="module")
