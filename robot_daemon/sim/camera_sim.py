@@ -44,6 +44,7 @@ class CameraConfigError(ValueError):
 
 
 Pixels = Annotated[int, Meta(ge=16, le=4096)]
+FieldOfView = Annotated[float, Meta(gt=0.1, lt=math.pi - 0.1, extra={"unit": "rad"})]
 
 
 class CameraConfig(schema.Declared, frozen=True):
@@ -53,10 +54,7 @@ class CameraConfig(schema.Declared, frozen=True):
     ERROR: ClassVar[type[Exception]] = CameraConfigError
     width: Pixels = 320
     height: Pixels = 240
-    # [rad] horizontal
-    fov: Annotated[float, Meta(gt=0.1, lt=math.pi - 0.1, extra={"unit": "rad"})] = math.radians(
-        60.0
-    )
+    fov: FieldOfView = math.radians(60.0)  # horizontal
     frame_period: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = 0.1  # [s] ~10 Hz
     mount_x: float = 0.25  # [m] ahead of base_link
     mount_height: float = 1.1  # [m] above the floor
