@@ -16,7 +16,6 @@ it reaches the robot.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -25,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
@@ -320,7 +320,7 @@ class SimulatedSystem:
                 keep_clear=[(start_pose.x, start_pose.y)],
             )
             world_grid = self.world_spec.grid
-            sim_config = dataclasses.replace(
+            sim_config = msgspec.structs.replace(
                 sim_config,
                 laser=LaserConfig.realistic(),
                 obstacles=tuple(
