@@ -128,7 +128,6 @@ class HokuyoDriver(DriverThread):
         self.serial_factory = serial_factory
         self.params: scip.SensorParameters | None = None
         self.version: dict[str, str] = {}
-        self.state_info: dict[str, str] = {}
         self._latest: LaserScan | None = None
         self._seq = 0
         self._last_scan_time: float | None = None
@@ -208,7 +207,7 @@ class HokuyoDriver(DriverThread):
         self.params = scip.SensorParameters.from_info(
             scip.parse_info(self._command(port, reader, b"PP\n"), "PP")
         )
-        self.state_info = scip.parse_info(self._command(port, reader, b"II\n"), "II")
+        scip.parse_info(self._command(port, reader, b"II\n"), "II")  # its status and sums
         reply = self._command(port, reader, b"BM\n")
         if reply.status not in (scip.STATUS_OK, scip.STATUS_ALREADY_ON):
             raise scip.ScipStatusError("BM", reply.status)
