@@ -137,7 +137,7 @@ def time_local(grid: OccupancyGrid, start: tuple[float, float], goal: tuple[floa
         pose = pose.compose(delta)
     # Whole navigator updates on the same route (scan integration, replans at 1 Hz included).
     nav = Navigator(grid, config)
-    nav.set_goal(Pose2D(goal[0], goal[1], 0.0), now=0.0)
+    nav.set_route([Pose2D(goal[0], goal[1], 0.0)], now=0.0)
     pose = Pose2D(start[0], start[1], heading)
     nav_times: list[float] = []
     for i in range(cycles):
