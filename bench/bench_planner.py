@@ -36,8 +36,11 @@ from interbot_core.laser_scan import (
     LaserScan,
 )
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
-from robot_daemon.planning import Costmap, GlobalPlanner, Navigator, PlannerConfig
+from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.global_planner import GlobalPlanner
 from robot_daemon.planning.local_planner import DWAPlanner, obstacle_points_near
+from robot_daemon.planning.navigator import Navigator
 
 REPO = Path(__file__).resolve().parent.parent
 WILLOW = REPO.parent / "shared" / "data" / "maps" / "willow.yaml"
@@ -134,7 +137,7 @@ def time_local(grid: OccupancyGrid, start: tuple[float, float], goal: tuple[floa
         pose = pose.compose(delta)
     # Whole navigator updates on the same route (scan integration, replans at 1 Hz included).
     nav = Navigator(grid, config)
-    nav.set_goal(Pose2D(goal[0], goal[1], 0.0), now=0.0)
+    nav.set_route([Pose2D(goal[0], goal[1], 0.0)], now=0.0)
     pose = Pose2D(start[0], start[1], heading)
     nav_times: list[float] = []
     for i in range(cycles):

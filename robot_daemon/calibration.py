@@ -33,8 +33,12 @@ import logging
 import math
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import Annotated, ClassVar
 
 import numpy as np
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -51,33 +55,24 @@ class SegmentKind(StrEnum):
     ROTATION = "rotation"
 
 
-@dataclass(frozen=True)
-class SegmentMeasurement:
+class SegmentMeasurement(schema.Declared, frozen=True):
     """One section of Test Scenario 1, measured from standstill to standstill.
 
     Distances are signed along the heading at the start of the segment [m]; rotations are
     signed and unwrapped (2π is one full turn counter-clockwise) [rad].
     """
 
+    ROOT: ClassVar[str] = "SegmentMeasurement"
+    ERROR: ClassVar[type[Exception]] = CalibrationError
     kind: SegmentKind
-    command: float  # [m/s] or [rad/s], signed, as commanded
-    duration: float  # [s] time the command was applied
-    odom_distance: float  # [m]
-    odom_rotation: float  # [rad]
-    ref_distance: float  # [m] scan matcher against the map
-    ref_rotation: float  # [rad]
+    command: schema.Finite  # [m/s] or [rad/s], signed, as commanded
+    duration: Annotated[float, Meta(ge=0.0, le=schema.FINITE)]  # [s] the command was applied
+    odom_distance: schema.Finite  # [m]
+    odom_rotation: schema.Finite  # [rad]
+    ref_distance: schema.Finite  # [m] scan matcher against the map
+    ref_rotation: schema.Finite  # [rad]
     truth_distance: float | None = None  # [m] simulator only: a check of the method
     truth_rotation: float | None = None  # [rad]
-
-    def __post_init__(self) -> None:
-        for name in ("command", "duration", "odom_distance", "odom_rotation"):
-            if not math.isfinite(getattr(self, name)):
-                raise CalibrationError(f"SegmentMeasurement.{name} must be finite")
-        for name in ("ref_distance", "ref_rotation"):
-            if not math.isfinite(getattr(self, name)):
-                raise CalibrationError(f"SegmentMeasurement.{name} must be finite")
-        if self.duration < 0:
-            raise CalibrationError(f"SegmentMeasurement.duration must be >= 0, got {self.duration}")
 
     @property
     def odom_motion(self) -> float:
@@ -101,19 +96,17 @@ class SegmentMeasurement:
         return abs(self.odom_motion - ref) / abs(ref)
 
 
-@dataclass(frozen=True)
-class KinematicParameters:
+Metres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+
+
+class KinematicParameters(schema.Declared, frozen=True):
     """The believed geometry odometry is computed with [m]."""
 
-    wheel_radius_left: float
-    wheel_radius_right: float
-    track: float
-
-    def __post_init__(self) -> None:
-        for name in ("wheel_radius_left", "wheel_radius_right", "track"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise CalibrationError(f"KinematicParameters.{name} must be > 0 m, got {value!r}")
+    ROOT: ClassVar[str] = "KinematicParameters"
+    ERROR: ClassVar[type[Exception]] = CalibrationError
+    wheel_radius_left: Metres
+    wheel_radius_right: Metres
+    track: Metres
 
     @property
     def wheel_radius(self) -> float:

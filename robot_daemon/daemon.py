@@ -60,7 +60,7 @@ from interbot_core.topics import (
     Twist,
 )
 from interbot_core.topological_map import TopologicalMap, TopologicalMapError, load_topological_map
-from interbot_core.velocity_mux import MuxError, load_mux_config
+from interbot_core.velocity_mux import MuxError, MuxOutput, load_mux_config
 from interbot_link import Command, RobotLink, open_session
 from interbot_link.command_priority import (
     SCAN_PERIOD_S,
@@ -83,7 +83,14 @@ from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
-from robot_daemon.stack import STOP_TOPIC, Periodic, RobotStack, StackConfig, StackError
+from robot_daemon.stack import (
+    STOP_TOPIC,
+    Periodic,
+    RobotStack,
+    RouteState,
+    StackConfig,
+    StackError,
+)
 from robot_daemon.systemd_notify import SystemdNotifier
 
 logger = logging.getLogger(__name__)
@@ -107,19 +114,13 @@ class DaemonOptions:
     foxglove: str | None = None  # --foxglove [HOST:]PORT: live Foxglove view
 
 
-def odometry_model(name: str) -> OdometryErrorModel:
-    return {
-        "perfect": OdometryErrorModel.perfect,
-        "calibrated": OdometryErrorModel.calibrated,
-        "uncalibrated": OdometryErrorModel.uncalibrated,
-    }[name]()
-
-
 def build_sim_backend(
     config: DaemonConfig, grid: OccupancyGrid, start: Pose2D, scan_rate_hz: float
 ) -> SimBackend:
     sim_config = SimConfig(
-        start_pose=start, n_people=config.sim.people, odometry=odometry_model(config.sim.odometry)
+        start_pose=start,
+        n_people=config.sim.people,
+        odometry=OdometryErrorModel.named(config.sim.odometry),
     )
     simulator = Simulator(grid, sim_config, rng_seed=config.sim.seed)
     return SimBackend(simulator, scan_rate_hz=scan_rate_hz, camera_rate_hz=config.rates.image_hz)
@@ -327,9 +328,7 @@ class Daemon:
             with stack.motion_lock:  # in order with the command thread's mux samples
                 out = stack.last_output
                 link.publish_cmd_vel(Twist(out.linear, out.angular, now))
-                link.publish_mux(
-                    MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
-                )
+                link.publish_mux(mux_message(out, now))
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
@@ -373,16 +372,8 @@ class Daemon:
         key = (route.route_id, route.index, route.state)
         if key != self._progress_key or force:
             self._progress_key = key
-            link.publish_route_progress(
-                RouteProgress(
-                    route.route_id,
-                    route.index,
-                    route.state == "succeeded",
-                    route.state,
-                    route.reason or (self.stack.suspended_reason or ""),
-                    self.now,
-                )
-            )
+            reason = route.reason or (self.stack.suspended_reason or "")
+            link.publish_route_progress(route_progress(route, reason, self.now))
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -452,9 +443,7 @@ class Daemon:
                     self.handle(command, link)
                 now = self.now
                 out = self.stack.apply_output(now)
-                link.publish_mux(
-                    MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
-                )
+                link.publish_mux(mux_message(out, now))
         except Exception as exc:  # report and stop, as the loop does (its route is its own)
             self._on_component_error(exc, link, abort_route=False)
 
@@ -519,6 +508,17 @@ class Daemon:
                 self.backend.set_cmd_vel(0.0, 0.0, self.now)
         except Exception:  # the backend itself is broken: log and go on
             logger.exception("could not set the motors to zero")
+
+
+def mux_message(out: MuxOutput, now: float) -> MuxMsg:
+    """The multiplexer's output as the ``mux`` topic carries it."""
+    return MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, now)
+
+
+def route_progress(route: RouteState, reason: str, now: float) -> RouteProgress:
+    """The robot's progress on its route as the ``route_progress`` topic carries it."""
+    succeeded = route.state == "succeeded"
+    return RouteProgress(route.route_id, route.index, succeeded, route.state, reason, now)
 
 
 def safety_message(stack: RobotStack, now: float) -> SafetyMsg:

@@ -58,7 +58,7 @@ from robot_daemon.localisation.look_around import TURNING_TEXT, LookAround, Look
 from robot_daemon.localisation.relocalisation import Relocalisation, RelocalisationConfig
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.goal_checker import final_goal_reached, next_goal_index
-from robot_daemon.planning.navigator import NavCommand, Navigator, NavState
+from robot_daemon.planning.navigator import Navigator, NavState
 from robot_daemon.safety.motion_guard import MotionGuard, MotionGuardConfig, default_guard_config
 
 logger = logging.getLogger(__name__)
@@ -172,7 +172,6 @@ class RobotStack:
         self.last_scan: LaserScan | None = None
         self._scan_localised: LaserScan | None = None
         self.last_estimate: LocaliserEstimate | None = None
-        self.last_nav: NavCommand | None = None
         self.last_output = MuxOutput(0.0, 0.0, None, "not started")
         self.last_battery: BatteryReading | None = None
         self.last_jpeg: bytes | None = None
@@ -531,7 +530,6 @@ class RobotStack:
             route.state = "active"
             self._suspended_reason = None
         command = self.navigator.update(now, pose, self.last_scan)
-        self.last_nav = command
         route.index = min(route.offset + command.goal_index, len(route.goals) - 1)
         if command.state == NavState.SUCCEEDED:
             route.index = len(route.goals) - 1

@@ -68,9 +68,6 @@ class SystemdNotifier:
     def stopping(self) -> bool:
         return self.notify("STOPPING=1")
 
-    def status(self, text: str) -> bool:
-        return self.notify(f"STATUS={text}")
-
     def watchdog(self, now: float) -> bool:
         """Ping the watchdog if half its period has passed since the last ping (``now`` [s])."""
         if self.watchdog_period is None:

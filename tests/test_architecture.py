@@ -281,8 +281,15 @@ BUILDING_PLAN = REPO / "robot_daemon" / "sim" / "floor_plan.py"
 # base_station_app/map_rooms.py).
 ROOM_MODEL_NAMES = {"Room", "RoomArea", "RoomMap", "RoomMapError", "FloorPlan", "FloorPlanError"}
 ROOM_MODEL_FUNCTIONS = {"load_floor_plan", "load_room_areas", "load_room_map", "room_at"}
-# Functions that write maps from a plan: they belong to tools/generate_isr_map.py.
-AUTHORING_FUNCTIONS = {"topological_map_dict", "plan_nodes", "generate", "stale_files"}
+# Functions that write maps (from a plan: tools/generate_isr_map.py; from logged scans: the
+# real-data tests' log_replay.py).
+AUTHORING_FUNCTIONS = {
+    "topological_map_dict",
+    "plan_nodes",
+    "generate",
+    "stale_files",
+    "grid_from_scans",
+}
 
 
 def product_files() -> list[Path]:

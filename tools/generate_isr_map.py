@@ -35,6 +35,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.sim.floor_plan import (
     FloorPlan,
     FloorPlanError,
+    Room,
     door_opening,
     load_floor_plan,
     rasterise,
@@ -117,6 +118,36 @@ def _round(value: float) -> float:
     return round(value, 3) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
+@dataclass(frozen=True)
+class DoorOpening:
+    """Where a door cuts through the wall: its opening, centres and outward normal."""
+
+    room: str
+    index: int  # position in the room's ``doors``
+    room_face: tuple[float, float]  # [m] centre of the door on the room's side
+    corridor_face: tuple[float, float]  # [m] centre of the door on the corridor's side
+    normal: tuple[float, float]  # outward unit vector (room -> corridor)
+
+
+def door_faces(plan: FloorPlan, room: Room, index: int) -> DoorOpening:
+    """The room and corridor faces of ``room.doors[index]``'s opening (`door_opening`)."""
+    door, r = room.doors[index], room.rect
+    rect = door_opening(plan, room, index)
+    centre = (r.x0 if door.wall in ("north", "south") else r.y0) + door.offset
+    room_face, corridor_face, normal = {
+        "north": ((centre, r.y1), (centre, rect.y1), (0.0, 1.0)),
+        "south": ((centre, r.y0), (centre, rect.y0), (0.0, -1.0)),
+        "east": ((r.x1, centre), (rect.x1, centre), (1.0, 0.0)),
+        "west": ((r.x0, centre), (rect.x0, centre), (-1.0, 0.0)),
+    }[door.wall]
+    return DoorOpening(room.name, index, room_face, corridor_face, normal)
+
+
+def door_openings(plan: FloorPlan) -> list[DoorOpening]:
+    """Every door of every room, in plan order."""
+    return [door_faces(plan, room, i) for room in plan.rooms for i in range(len(room.doors))]
+
+
 def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     """The topological nodes in plan order (rooms, then waypoints), before ring ordering.
 
@@ -127,7 +158,7 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     """
     nodes: list[PlanNode] = []
     for room in plan.rooms:
-        opening = door_opening(plan, room, 0)
+        opening = door_faces(plan, room, 0)
         nx, ny = opening.normal
         ex = opening.corridor_face[0] + nx * plan.entrance_distance
         ey = opening.corridor_face[1] + ny * plan.entrance_distance
@@ -192,13 +223,46 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
     return nodes
 
 
+def validate_nodes(plan: FloorPlan) -> None:
+    """The node names are unique, ``ring`` lists each once and ``arcs`` only names nodes."""
+    src = plan.source
+    known = node_names(plan)
+    for name in known:
+        if known.count(name) > 1:
+            raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
+    for i, name in enumerate(plan.ring):
+        if name not in known:
+            raise FloorPlanError(
+                f"{src}: ring[{i}]: {name!r} is not a node; nodes are {', '.join(known)}"
+            )
+        if plan.ring.count(name) > 1:
+            raise FloorPlanError(f"{src}: ring[{i}]: {name!r} is listed twice")
+    missing = [name for name in known if name not in plan.ring]
+    if missing:
+        raise FloorPlanError(f"{src}: ring: missing nodes {missing} (every node needs an id)")
+    for i, chain in enumerate(plan.arcs):
+        for name in chain:
+            if name not in known:
+                raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
+
+
+def node_names(plan: FloorPlan) -> list[str]:
+    """The names of the plan's topological nodes: a room's (with ``inside``, also "<room> door"
+    for the node at its door), then the waypoints'."""
+    names: list[str] = []
+    for room in plan.rooms:
+        names += [room.name] if room.inside is None else [f"{room.name} door", room.name]
+    return names + [waypoint.name for waypoint in plan.waypoints]
+
+
 def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> dict[str, Any]:
     """The topological map of ``plan`` as a dict in the ``topological_map`` YAML format.
 
-    Node ids follow ``plan.ring``. Checks against ``grid`` (rasterised if not given) that each
+    Node ids follow ``plan.ring`` (`validate_nodes`). Checks against ``grid`` (rasterised if not given) that each
     node has ``node_clearance`` and each arc keeps ``arc_clearance`` to blocked cells, and that
     the graph is connected; raises :class:`FloorPlanError` naming the node or arc otherwise.
     """
+    validate_nodes(plan)
     grid = rasterise(plan) if grid is None else grid
     clearance = clearance_map(grid)
     by_name = {node.name: node for node in plan_nodes(plan)}

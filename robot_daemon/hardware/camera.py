@@ -64,7 +64,9 @@ class CameraDriver(DriverThread):
         clock: Clock = time.monotonic,
         capture_factory: CaptureFactory | None = None,
     ) -> None:
-        super().__init__()
+        super().__init__(
+            f"camera {config.device!r}", ("frames", "open_failures", "read_failures", "reopens")
+        )
         self.config = config
         self.clock = clock
         self.capture_factory: CaptureFactory = capture_factory or cast(
@@ -72,11 +74,8 @@ class CameraDriver(DriverThread):
         )
         self._latest: tuple[float, bytes] | None = None
         self._seq = 0
-        self._open = False
-        self._message = "not started" if config.enabled else "disabled in robot.yaml"
-        self.counters: dict[str, int] = dict.fromkeys(
-            ("frames", "open_failures", "read_failures", "reopens"), 0
-        )
+        if not config.enabled:
+            self._message = "disabled in robot.yaml"
 
     def start(self) -> CameraDriver:
         return super().start() if self.config.enabled else self
@@ -88,12 +87,7 @@ class CameraDriver(DriverThread):
 
     def status(self) -> DeviceStatus:
         with self._lock:
-            return DeviceStatus("camera", self._open, self._message, dict(self.counters))
-
-    def _set(self, is_open: bool, message: str) -> None:
-        with self._lock:
-            self._open = is_open
-            self._message = message
+            return DeviceStatus("camera", self._connected, self._message, dict(self.counters))
 
     def _run(self) -> None:
         c = self.config
@@ -111,7 +105,7 @@ class CameraDriver(DriverThread):
                     logger.warning(
                         "camera %r not available; retrying every %.0f s", c.device, c.reopen_delay
                     )
-                self._set(False, f"camera {c.device!r} not available")
+                self._set_state(False, f"camera {c.device!r} not available")
                 if capture is not None:
                     capture.release()
                 self._stop.wait(c.reopen_delay)
@@ -121,10 +115,9 @@ class CameraDriver(DriverThread):
             finally:
                 capture.release()
             if not self._stop.is_set():
-                with self._lock:
-                    self.counters["reopens"] += 1
+                self._count("reopens")
                 self._stop.wait(c.reopen_delay)
-        self._set(False, "closed")
+        self._set_state(False, "closed")
 
     def _capture(self, capture: FrameSource) -> None:
         c = self.config
@@ -132,7 +125,7 @@ class CameraDriver(DriverThread):
         capture.set(cv2.CAP_PROP_FRAME_HEIGHT, c.height)
         capture.set(cv2.CAP_PROP_FPS, c.fps)
         capture.set(cv2.CAP_PROP_BUFFERSIZE, 1)
-        self._set(True, f"camera {c.device!r} {c.width}x{c.height} at {c.fps:g} Hz")
+        self._set_state(True, f"camera {c.device!r} {c.width}x{c.height} at {c.fps:g} Hz")
         logger.info("camera %r opened", c.device)
         period = 1.0 / c.fps
         next_due = self.clock()
@@ -141,10 +134,11 @@ class CameraDriver(DriverThread):
             ok, frame = capture.read()
             if not ok or frame is None:
                 failures += 1
-                with self._lock:
-                    self.counters["read_failures"] += 1
+                self._count("read_failures")
                 if failures >= self.MAX_READ_FAILURES:
-                    self._set(False, f"camera {c.device!r} stopped delivering frames; reopening")
+                    self._set_state(
+                        False, f"camera {c.device!r} stopped delivering frames; reopening"
+                    )
                     logger.warning("camera %r stopped delivering frames; reopening", c.device)
                     return
                 self._stop.wait(0.05)
@@ -159,5 +153,5 @@ class CameraDriver(DriverThread):
                 self._latest = (now, jpeg)
                 self._seq += 1
                 self.counters["frames"] += 1
-                self._open = True
+                self._connected = True
                 self._message = f"camera {c.device!r} {c.width}x{c.height} at {c.fps:g} Hz"

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Mapping
-from typing import Any
+from collections.abc import Callable
 
 from interbot_core.laser_scan import LaserScan
 from robot_daemon.backend import BatteryReading, DeviceStatus, OdometryReading
@@ -53,13 +52,6 @@ class HardwareBackend:
         self.laser.start()
         self.motors.start()
         self.camera.start()
-
-    @classmethod
-    def from_mapping(
-        cls, raw: Mapping[str, Any] | None, source: str = "robot.yaml"
-    ) -> HardwareBackend:
-        """Build from the ``hardware:`` mapping of robot.yaml (validated, errors name the key)."""
-        return cls(HardwareConfig.from_mapping(raw, source))
 
     def set_cmd_vel(self, linear: float, angular: float, now: float) -> None:
         if not self._closed:

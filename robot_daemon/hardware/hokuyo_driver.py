@@ -42,6 +42,14 @@ Clock = Callable[[], float]
 SerialFactory = Callable[..., Any]
 
 
+# The counter a scan dropped for each kind of SCIP error goes to (any other: "malformed").
+DROPPED_AS = {
+    scip.ScipChecksumError: "bad_sum",
+    scip.ScipTruncatedError: "truncated",
+    scip.ScipStatusError: "bad_status",
+}
+
+
 class LaserStalled(Exception):
     """No byte arrived for the stall timeout."""
 
@@ -100,20 +108,8 @@ class HokuyoDriver(DriverThread):
         serial_factory: SerialFactory = serial.Serial,
         reply_timeout: float = 0.5,
     ) -> None:
-        super().__init__()
-        self.config = config
-        self.reply_timeout = reply_timeout  # [s] for each handshake reply
-        self.clock = clock
-        self.serial_factory = serial_factory
-        self.params: scip.SensorParameters | None = None
-        self.version: dict[str, str] = {}
-        self.state_info: dict[str, str] = {}
-        self._latest: LaserScan | None = None
-        self._seq = 0
-        self._connected = False
-        self._message = "not started"
-        self._last_scan_time: float | None = None
-        self.counters: dict[str, int] = dict.fromkeys(
+        super().__init__(
+            f"laser {config.port}",
             (
                 "scans",
                 "bad_sum",
@@ -125,10 +121,16 @@ class HokuyoDriver(DriverThread):
                 "handshake_failures",
                 "connects",
             ),
-            0,
         )
-
-    # -- life cycle ---------------------------------------------------------------------------
+        self.config = config
+        self.reply_timeout = reply_timeout  # [s] for each handshake reply
+        self.clock = clock
+        self.serial_factory = serial_factory
+        self.params: scip.SensorParameters | None = None
+        self.version: dict[str, str] = {}
+        self._latest: LaserScan | None = None
+        self._seq = 0
+        self._last_scan_time: float | None = None
 
     # -- results ------------------------------------------------------------------------------
 
@@ -146,15 +148,6 @@ class HokuyoDriver(DriverThread):
         if connected and stale:
             message = f"{message}; no scan received recently"
         return DeviceStatus("laser", ok, message, counters)
-
-    def _count(self, key: str) -> None:
-        with self._lock:
-            self.counters[key] += 1
-
-    def _set_state(self, connected: bool, message: str) -> None:
-        with self._lock:
-            self._connected = connected
-            self._message = message
 
     # -- the thread ---------------------------------------------------------------------------
 
@@ -189,15 +182,6 @@ class HokuyoDriver(DriverThread):
             self._stop.wait(self.config.reconnect_delay)
         self._set_state(False, "closed")
 
-    def _fail(self, message: str) -> None:
-        # Warn when the reason changes; repeats of the same failure go to debug.
-        with self._lock:
-            repeated = message == self._message
-        if not self._stop.is_set():
-            level = logging.DEBUG if repeated else logging.WARNING
-            logger.log(level, "laser %s: %s", self.config.port, message)
-        self._set_state(False, message)
-
     def _command(self, port: Any, reader: _FrameReader, command: bytes) -> scip.Reply:
         """Send ``command`` and return its reply, skipping other frames (e.g. old scans)."""
         port.write(command)
@@ -223,7 +207,7 @@ class HokuyoDriver(DriverThread):
         self.params = scip.SensorParameters.from_info(
             scip.parse_info(self._command(port, reader, b"PP\n"), "PP")
         )
-        self.state_info = scip.parse_info(self._command(port, reader, b"II\n"), "II")
+        scip.parse_info(self._command(port, reader, b"II\n"), "II")  # its status and sums
         reply = self._command(port, reader, b"BM\n")
         if reply.status not in (scip.STATUS_OK, scip.STATUS_ALREADY_ON):
             raise scip.ScipStatusError("BM", reply.status)
@@ -267,17 +251,8 @@ class HokuyoDriver(DriverThread):
             return None
         try:
             decoded = scip.parse_scan_frame(lines, p.steps)
-        except scip.ScipChecksumError:
-            self._count("bad_sum")
-            return None
-        except scip.ScipTruncatedError:
-            self._count("truncated")
-            return None
-        except scip.ScipStatusError:
-            self._count("bad_status")
-            return None
-        except scip.ScipError:
-            self._count("malformed")
+        except scip.ScipError as exc:
+            self._count(DROPPED_AS.get(type(exc), "malformed"))
             return None
         mm = decoded.ranges_mm
         ranges = mm.astype(np.float32) / np.float32(1000.0)

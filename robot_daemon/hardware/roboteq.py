@@ -28,9 +28,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 
 CR = b"\r"
@@ -130,8 +133,10 @@ def fault_names(flags: int) -> list[str]:
 # -- kinematics -------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class DriveGeometry:
+Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE)]
+
+
+class DriveGeometry(schema.Declared, frozen=True):
     """The kinematic parameters (the ones tuned in the thesis §6.1.1.2 calibration).
 
     ``wheel_radius_left`` / ``wheel_radius_right`` override ``wheel_radius`` for one wheel: the
@@ -139,23 +144,16 @@ class DriveGeometry:
     since unequal wheels are what makes a straight run curve.
     """
 
-    wheel_radius: float  # [m]
-    track: float  # [m] distance between the wheel contact points
-    counts_per_rev: float  # encoder counts per motor turn (quadrature: 4 x PPR)
-    gear_ratio: float  # motor turns per wheel turn
-    max_rpm: float  # motor rpm that !G 1000 means (the controller's MXRPM)
-    wheel_radius_left: float | None = None  # [m] None: wheel_radius
-    wheel_radius_right: float | None = None  # [m] None: wheel_radius
+    ROOT: ClassVar[str] = "DriveGeometry"
+    ERROR: ClassVar[type[Exception]] = ValueError
 
-    def __post_init__(self) -> None:
-        for name in ("wheel_radius", "track", "counts_per_rev", "gear_ratio", "max_rpm"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"DriveGeometry.{name} must be > 0, got {value!r}")
-        for name in ("wheel_radius_left", "wheel_radius_right"):
-            value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise ValueError(f"DriveGeometry.{name} must be > 0 or None, got {value!r}")
+    wheel_radius: Positive  # [m]
+    track: Positive  # [m] distance between the wheel contact points
+    counts_per_rev: Positive  # encoder counts per motor turn (quadrature: 4 x PPR)
+    gear_ratio: Positive  # motor turns per wheel turn
+    max_rpm: Positive  # motor rpm that !G 1000 means (the controller's MXRPM)
+    wheel_radius_left: Positive | None = None  # [m] None: wheel_radius
+    wheel_radius_right: Positive | None = None  # [m] None: wheel_radius
 
     @property
     def radii(self) -> tuple[float, float]:

@@ -65,7 +65,20 @@ class RoboteqDriver(DriverThread):
         clock: Clock = time.monotonic,
         serial_factory: SerialFactory = serial.Serial,
     ) -> None:
-        super().__init__()
+        super().__init__(
+            f"motors {config.port}",
+            (
+                "commands",
+                "clamped",
+                "zero_first",
+                "odometry",
+                "malformed",
+                "nacks",
+                "timeouts",
+                "disconnects",
+                "connects",
+            ),
+        )
         self.config = config
         self.battery_config = battery or BatteryConfig()
         self.geometry = config.geometry
@@ -79,25 +92,9 @@ class RoboteqDriver(DriverThread):
         self._odometry: roboteq.OdometryState | None = None
         self._battery: BatteryReading | None = None
         self._faults = 0
-        self._connected = False
-        self._message = "not started"
         self._clamping = False
         self._last_bang: float | None = None
         self._rx = bytearray()
-        self.counters: dict[str, int] = dict.fromkeys(
-            (
-                "commands",
-                "clamped",
-                "zero_first",
-                "odometry",
-                "malformed",
-                "nacks",
-                "timeouts",
-                "disconnects",
-                "connects",
-            ),
-            0,
-        )
 
     # -- life cycle ---------------------------------------------------------------------------
 
@@ -129,10 +126,6 @@ class RoboteqDriver(DriverThread):
             message = f"{message}; faults: {', '.join(roboteq.fault_names(faults))}"
         return DeviceStatus("motors", ok, message, counters)
 
-    def _count(self, key: str, n: int = 1) -> None:
-        with self._lock:
-            self.counters[key] += n
-
     # -- the thread ---------------------------------------------------------------------------
 
     def _run(self) -> None:
@@ -163,20 +156,7 @@ class RoboteqDriver(DriverThread):
                         port.close()
                     port = None
             self._stop.wait(self.config.reconnect_delay)
-        with self._lock:
-            self._connected = False
-            self._message = "closed"
-
-    def _fail(self, message: str) -> None:
-        # Warn when the reason changes; repeats of the same failure go to debug.
-        with self._lock:
-            repeated = message == self._message
-        if not self._stop.is_set():
-            level = logging.DEBUG if repeated else logging.WARNING
-            logger.log(level, "motors %s: %s", self.config.port, message)
-        with self._lock:
-            self._connected = False
-            self._message = message
+        self._set_state(False, "closed")
 
     def _setup(self, port: Any) -> None:
         port.reset_input_buffer()
@@ -194,10 +174,9 @@ class RoboteqDriver(DriverThread):
         self._count("zero_first")
         self.odometry_model.rebase()
         self._count("connects")
-        with self._lock:
-            self._connected = True
-            self._message = f"RoboteQ on {self.config.port}, watchdog {self.config.watchdog_ms} ms"
-        logger.info("motors: %s", self._message)
+        message = f"RoboteQ on {self.config.port}, watchdog {self.config.watchdog_ms} ms"
+        self._set_state(True, message)
+        logger.info("motors: %s", message)
 
     def _loop(self, port: Any) -> None:
         period = 1.0 / self.config.poll_hz

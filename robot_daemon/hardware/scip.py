@@ -202,25 +202,16 @@ class SensorParameters:
     @classmethod
     def from_info(cls, info: dict[str, str]) -> SensorParameters:
         """Build from a parsed PP reply; names the missing or non-numeric key."""
-        values: dict[str, int] = {}
-        for key in ("DMIN", "DMAX", "ARES", "AMIN", "AMAX", "AFRT", "SCAN"):
+        values: list[int] = []
+        for key in ("DMIN", "DMAX", "ARES", "AMIN", "AMAX", "AFRT", "SCAN"):  # the fields' order
             text = info.get(key)
             if text is None:
                 raise ScipError(f"PP reply lacks {key} (got keys {sorted(info)})")
             try:
-                values[key] = int(text)
+                values.append(int(text))
             except ValueError:
                 raise ScipError(f"PP {key}:{text!r} is not an integer") from None
-        return cls(
-            model=info.get("MODL", "?"),
-            dmin=values["DMIN"],
-            dmax=values["DMAX"],
-            ares=values["ARES"],
-            amin=values["AMIN"],
-            amax=values["AMAX"],
-            afrt=values["AFRT"],
-            scan_rpm=values["SCAN"],
-        )
+        return cls(info.get("MODL", "?"), *values)
 
     @property
     def steps(self) -> int:
@@ -359,12 +350,6 @@ class ScanClock:
         self._wraps = 0
         self._samples: deque[tuple[int, float]] = deque()  # (index, offset) increasing offsets
         self._index = 0
-
-    def reset(self) -> None:
-        """Forget the sensor clock (after a reconnect or RS the counter restarts)."""
-        self._last_raw = None
-        self._wraps = 0
-        self._samples.clear()
 
     def unwrap(self, raw_ms: int) -> int:
         """The 24-bit timestamp extended with the number of wraps seen [ms]."""

@@ -10,7 +10,6 @@ from robot_daemon.localisation.localiser import (
     LocaliserEstimate,
     LocaliserState,
 )
-from robot_daemon.localisation.mapping import grid_from_scans
 from robot_daemon.localisation.scan_matcher import MatchResult, ScanMatcher, ScanMatcherConfig
 
 __all__ = [
@@ -23,5 +22,4 @@ __all__ = [
     "MatchResult",
     "ScanMatcher",
     "ScanMatcherConfig",
-    "grid_from_scans",
 ]

@@ -20,11 +20,13 @@ longer than ``promote_after_s`` while the robot drives around will be taken as s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.occupancy_grid import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
@@ -34,28 +36,24 @@ class DynamicMapConfigError(ValueError):
     """A dynamic-map parameter is outside its allowed range."""
 
 
-@dataclass(frozen=True)
-class DynamicMapConfig:
+class DynamicMapConfig(schema.Declared, frozen=True):
     """When unexplained hits become static obstacles."""
 
-    promote_after_s: float = 20.0  # [s] streak length needed
-    max_gap_s: float = 2.0  # [s] a longer gap between hits resets the streak
-    min_hits: int = 20  # hits needed within the streak
-    min_travel_m: float = 0.5  # [m] robot travel within the streak
+    ROOT: ClassVar[str] = "DynamicMapConfig"
+    ERROR: ClassVar[type[Exception]] = DynamicMapConfigError
+    # streak length needed
+    promote_after_s: Annotated[float, Meta(ge=1.0, le=3600.0, extra={"unit": "s"})] = 20.0
+    # a longer gap between hits resets the streak (at most promote_after_s)
+    max_gap_s: Annotated[float, Meta(ge=0.05, le=3600.0, extra={"unit": "s"})] = 2.0
+    min_hits: Annotated[int, Meta(ge=1, le=100_000)] = 20  # hits needed within the streak
+    # robot travel within the streak
+    min_travel_m: Annotated[float, Meta(ge=0.0, le=100.0, extra={"unit": "m"})] = 0.5
 
-    def __post_init__(self) -> None:
-        if not 1.0 <= self.promote_after_s <= 3600.0:
-            raise DynamicMapConfigError(
-                f"promote_after_s must be 1..3600 s, got {self.promote_after_s}"
-            )
-        if not 0.05 <= self.max_gap_s <= self.promote_after_s:
+    def check(self) -> None:
+        if self.max_gap_s > self.promote_after_s:
             raise DynamicMapConfigError(
                 f"max_gap_s must be 0.05 s..promote_after_s, got {self.max_gap_s}"
             )
-        if not 1 <= self.min_hits <= 100_000:
-            raise DynamicMapConfigError(f"min_hits must be 1..100000, got {self.min_hits}")
-        if not 0.0 <= self.min_travel_m <= 100.0:
-            raise DynamicMapConfigError(f"min_travel_m must be 0..100 m, got {self.min_travel_m}")
 
 
 class DynamicEvidenceGrid:

@@ -77,7 +77,6 @@ class Relocalisation:
         self._localiser = localiser
         self._reloc: Relocaliser | None = None
         self._help_until: float | None = None  # verifying a "Help me!" pose until then
-        self._kidnaps = 0
         self.help_requests = 0  # times the search asked for a person (for figures)
         self._help_flagged = False
         self.executor: Executor | None = None  # where searches run (None: in the caller)
@@ -108,9 +107,6 @@ class Relocalisation:
                 return LocaliserState.UNSET
             return LocaliserState.LOST
         return LocaliserState.SEARCHING
-
-    def status_text(self, now: float) -> str:
-        return self.relocaliser.status(now).text if self.active else ""
 
     # ------------------------------------------------------------------ requests
 
@@ -162,7 +158,6 @@ class Relocalisation:
                 if pose is not None:
                     better = self.relocaliser.check_standing(scan, pose, speed, now)
                     if better is not None:
-                        self._kidnaps += 1
                         self.relocaliser.start(now, "kidnap")
                         events.append(
                             RelocalisationEvent(

@@ -295,7 +295,6 @@ class Relocaliser:
         self._since = 0.0
         self._region: SearchRegion | None = None
         self._last_search = -math.inf
-        self._last_result: SearchResult | None = None
         self._exhaustive = False
         self._odom: Pose2D | None = None
         self._travel_m = 0.0  # since the last search that was not exhaustive
@@ -319,7 +318,6 @@ class Relocaliser:
         # `accept_s`) with nothing against it yet: the stack waits before it turns, since
         # while turning every other verified place blocks acceptance (`_decide`).
         self.ripening = False
-        self.searches = 0  # global searches run (for figures)
         self.last_failure = ""
         # With an executor (the daemon: a worker thread) searches run beside the control loop
         # and their hypotheses, moved by the odometry since, are verified on a later scan;
@@ -356,7 +354,6 @@ class Relocaliser:
         self._region = region
         self._candidates = []
         self._last_search = -math.inf
-        self._last_result = None
         self._exhaustive = False
         self._travel_m = 0.0
         self.last_failure = ""
@@ -500,7 +497,6 @@ class Relocaliser:
         max_nodes: int | None = None,
     ) -> SearchResult | None:
         """The search's result now, or None when it was handed to the executor."""
-        self.searches += 1
         engine = self.search_engine
         excl = exclude or []
         if self.executor is None:
@@ -654,7 +650,6 @@ class Relocaliser:
     ) -> None:
         """Verify a search's hypotheses (moved by ``moved`` since its scan) on ``points``."""
         cfg = self.config
-        self._last_result = result
         exhaustive = result.complete and len(result.hypotheses) < cfg.search.max_hypotheses
         if not exhaustive:
             self._travel_m = 0.0

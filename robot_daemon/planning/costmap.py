@@ -325,13 +325,6 @@ class Costmap:
         rows += cols
         self._marked_until.ravel()[rows] = -np.inf
 
-    def mark_points(self, now: float, points: npt.ArrayLike) -> None:
-        """Mark map-frame points (N, 2) [m] as live obstacles (e.g. a sonar or a test)."""
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        rows, cols = self.grid.world_to_cell(pts[:, 0], pts[:, 1])
-        ok = self.grid.in_bounds(rows, cols)
-        self._mark(rows[ok], cols[ok], now, now + self.config.obstacle_persistence)
-
     def _mark(
         self, rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], now: float, until: float
     ) -> None:
@@ -431,13 +424,6 @@ class Costmap:
         self._cache_key = key
         self._cache = result
         return result
-
-    def cost_at(self, now: float, x: float, y: float) -> int:
-        """Cost of the cell holding map-frame point (x, y); outside the map is lethal."""
-        row, col = self.grid.world_to_cell(x, y)
-        if not bool(self.grid.in_bounds(row, col)):
-            return LETHAL
-        return int(self.costs(now)[int(row), int(col)])
 
     @property
     def static_distance(self) -> npt.NDArray[np.float32]:

@@ -29,7 +29,6 @@ never hugs a wall more closely than the optimal path did). The result is resampl
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 from typing import Annotated, ClassVar
@@ -115,21 +114,11 @@ def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.u
     return pooled
 
 
-def octile_distance(
-    rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], goal: tuple[int, int]
-) -> npt.NDArray[np.float64]:
-    """Octile distance [cells] from (rows, cols) to ``goal`` = (row, col)."""
-    dr = np.abs(rows - goal[0]).astype(np.float64)
-    dc = np.abs(cols - goal[1]).astype(np.float64)
-    result: npt.NDArray[np.float64] = np.maximum(dr, dc) + (SQRT2 - 1.0) * np.minimum(dr, dc)
-    return result
-
-
 def octile_grid(shape: tuple[int, int], goal: tuple[int, int]) -> npt.NDArray[np.float64]:
-    """`octile_distance` from every cell of a grid of ``shape`` to ``goal``, as a grid.
+    """Octile distance [cells] from every cell of a grid of ``shape`` to ``goal`` = (row, col).
 
     Computed from one row and one column of distances (broadcast), element for element the
-    same arithmetic as `octile_distance`: gathering from this grid is cheaper than evaluating
+    same arithmetic as the formula on each cell (the tests' reference): gathering from this grid is cheaper than evaluating
     the formula on every (node, neighbour) pair.
     """
     dr = np.abs(np.arange(shape[0], dtype=np.int64) - goal[0]).astype(np.float64)[:, None]
@@ -266,17 +255,6 @@ def _search_box(
         slack = math.ceil(max(bound - (high - low), 0.0) / 2.0) + 2
         box += [max(low - slack, 0), min(high + slack + 1, shape[axis])]
     return box[0], box[1], box[2], box[3]
-
-
-def path_cost(
-    costs: npt.NDArray[np.uint8], cells: list[tuple[int, int]], cost_weight: float = 100.0
-) -> float:
-    """Cost [cells] of a cell path under :func:`astar_cells`' step cost."""
-    total = 0.0
-    for (r0, c0), (r1, c1) in itertools.pairwise(cells):
-        step = math.hypot(r1 - r0, c1 - c0)
-        total += step * (1.0 + (float(costs[r0, c0]) + float(costs[r1, c1])) / (2.0 * cost_weight))
-    return total
 
 
 class GlobalPlanner:

@@ -135,10 +135,6 @@ class Navigator:
         logger.info("navigation reconfigured: %s", changes)
         return new
 
-    def set_goal(self, pose: Pose2D, now: float) -> None:
-        """Drive to one goal, with the configured tolerances."""
-        self.set_route([pose], now=now)
-
     def set_route(
         self,
         poses: Sequence[Pose2D],

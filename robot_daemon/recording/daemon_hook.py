@@ -219,13 +219,3 @@ def make_link(session: zenoh.Session, daemon: Daemon, recorder: Recorder | None)
         return RobotLink(session, robot_id)
     sampler = StackSampler(daemon.stack, recorder)
     return RecordingLink(session, robot_id, recorder, lambda: daemon.now, sampler)
-
-
-__all__ = [
-    "LiveAddressError",
-    "RecordingConfigError",
-    "RecordingLink",
-    "StackSampler",
-    "build_recorder",
-    "parse_live_address",
-]

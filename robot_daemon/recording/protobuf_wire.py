@@ -67,6 +67,12 @@ def fields(data: bytes) -> Iterator[tuple[int, int, int | bytes]]:
         yield number, wire, value
 
 
+def last_fields(data: bytes) -> dict[int, int | bytes]:
+    """{field number: value} of one message; a repeated field keeps its last value, as protobuf
+    does for a scalar (no decoder here reads a repeated field)."""
+    return {number: value for number, _, value in fields(data)}
+
+
 def _double(value: int | bytes) -> float:
     if not isinstance(value, bytes) or len(value) != 8:
         raise WireError("expected a fixed64 double")
@@ -90,13 +96,8 @@ def _int(value: int | bytes) -> int:
 
 def timestamp(data: bytes) -> float:
     """google.protobuf.Timestamp (1 seconds, 2 nanos) -> seconds."""
-    sec = nsec = 0
-    for number, _, value in fields(data):
-        if number == 1:
-            sec = _int(value)
-        elif number == 2:
-            nsec = _int(value)
-    return sec + nsec * 1e-9
+    f = last_fields(data)
+    return _int(f.get(1, 0)) + _int(f.get(2, 0)) * 1e-9
 
 
 def vector(data: bytes) -> tuple[float, float, float, float]:
@@ -117,36 +118,20 @@ class Pose3:
 
 def pose(data: bytes) -> Pose3:
     """foxglove.Pose (1 position, 2 orientation) as a planar pose (yaw about z)."""
-    x = y = 0.0
-    qz, qw = 0.0, 1.0
-    for number, _, value in fields(data):
-        if number == 1:
-            x, y, _, _ = vector(_bytes(value))
-        elif number == 2:
-            _, _, qz, qw = vector(_bytes(value))
+    f = last_fields(data)
+    x, y, _, _ = vector(_bytes(f[1])) if 1 in f else (0.0, 0.0, 0.0, 0.0)
+    _, _, qz, qw = vector(_bytes(f[2])) if 2 in f else (0.0, 0.0, 0.0, 1.0)
     return Pose3(x, y, 2.0 * float(np.arctan2(qz, qw)))
 
 
 def decode_grid(data: bytes) -> OccupancyGrid:
     """foxglove.Grid (1 timestamp, 2 frame_id, 3 pose, 4 column_count, 5 cell_size,
     6 row_stride, 7 cell_stride, 8 fields, 9 data) written by `foxglove_convert.grid_message`."""
-    columns = row_stride = cell_stride = 0
-    cell = 0.0
-    origin = Pose3(0.0, 0.0, 0.0)
-    payload = b""
-    for number, _, value in fields(data):
-        if number == 3:
-            origin = pose(_bytes(value))
-        elif number == 4:
-            columns = _int(value)
-        elif number == 5:
-            cell = vector(_bytes(value))[0]
-        elif number == 6:
-            row_stride = _int(value)
-        elif number == 7:
-            cell_stride = _int(value)
-        elif number == 9:
-            payload = _bytes(value)
+    f = last_fields(data)
+    origin = pose(_bytes(f[3])) if 3 in f else Pose3(0.0, 0.0, 0.0)
+    columns, row_stride, cell_stride = (_int(f.get(n, 0)) for n in (4, 6, 7))
+    cell = vector(_bytes(f[5]))[0] if 5 in f else 0.0
+    payload = _bytes(f.get(9, b""))
     if cell_stride != 1 or columns <= 0 or row_stride != columns or cell <= 0:
         raise WireError(
             f"grid layout not from this recorder (columns {columns}, row_stride {row_stride}, "
@@ -180,15 +165,10 @@ def decode_laser_scan(data: bytes, range_min: float, range_max: float) -> LaserS
 
 def decode_compressed_image(data: bytes) -> tuple[float, str, bytes]:
     """foxglove.CompressedImage (1 timestamp, 4 frame_id, 2 data, 3 format) -> (stamp, format, data)."""
-    stamp, fmt, payload = 0.0, "", b""
-    for number, _, value in fields(data):
-        if number == 1:
-            stamp = timestamp(_bytes(value))
-        elif number == 2:
-            payload = _bytes(value)
-        elif number == 3:
-            fmt = _bytes(value).decode("utf-8", "replace")
-    return stamp, fmt, payload
+    f = last_fields(data)
+    stamp = timestamp(_bytes(f[1])) if 1 in f else 0.0
+    fmt = _bytes(f.get(3, b"")).decode("utf-8", "replace")
+    return stamp, fmt, _bytes(f.get(2, b""))
 
 
 def descriptor_fields(file_descriptor_set: bytes) -> dict[str, dict[str, int]]:

@@ -102,25 +102,11 @@ def ns(t: float) -> int:
     return round(t * 1e9)
 
 
-def json_schema(cls: type) -> dict[str, Any]:
-    """A JSON Schema for a message class (for Foxglove's plots): msgspec's standard one for a
-    declared message (`interbot_core.topics`), else one from a dataclass's field annotations."""
-    if issubclass(cls, msgspec.Struct):
-        generated: dict[str, Any] = msgspec.json.schema(cls)["$defs"][cls.__name__]
-        return generated
-    kinds = {"float": "number", "int": "integer", "bool": "boolean", "str": "string"}
-    properties: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):  # type: ignore[arg-type]
-        annotation = str(f.type)
-        if annotation.startswith(("tuple", "list")):
-            properties[f.name] = {"type": "array"}
-        elif annotation.startswith("dict"):
-            properties[f.name] = {"type": "object"}
-        elif annotation in kinds:
-            properties[f.name] = {"type": kinds[annotation]}
-        else:
-            properties[f.name] = {}
-    return {"type": "object", "title": cls.__name__, "properties": properties}
+def json_schema(cls: type[msgspec.Struct]) -> dict[str, Any]:
+    """msgspec's standard JSON Schema of a declared message (`interbot_core.topics`), for
+    Foxglove's plots."""
+    generated: dict[str, Any] = msgspec.json.schema(cls)["$defs"][cls.__name__]
+    return generated
 
 
 def is_message(value: object) -> bool:
@@ -427,7 +413,7 @@ class Recorder:
             channel = self._channels[name] = factory()
         return channel
 
-    def _json_channel(self, name: str, cls: type | None = None) -> Any:
+    def _json_channel(self, name: str, cls: type[msgspec.Struct] | None = None) -> Any:
         title = "interbot" + "".join(part.title() for part in re.split(r"[/_]", name))
         schema = json_schema(cls) if cls is not None else {"type": "object", "title": title}
         return self._channel(
@@ -445,7 +431,7 @@ class Recorder:
             self._latched[name] = (now, message)
 
     def _log_json(
-        self, name: str, data: dict[str, Any], now: float, cls: type | None = None
+        self, name: str, data: dict[str, Any], now: float, cls: type[msgspec.Struct] | None = None
     ) -> None:
         self._json_channel(name, cls).log(data, log_time=ns(self.epoch_offset + now))
 

@@ -194,7 +194,6 @@ class ReplayPlayer:
         self.source = source
         self.clock = ReplayClock(source.duration, now, speed=speed, playing=playing)
         self._publish = publish
-        self.published = 0
         self.skipped = 0
         self._restart(0.0)
 
@@ -203,14 +202,10 @@ class ReplayPlayer:
         for topic in (MAP, "/pose"):  # what the station needs to draw anything at all
             item = self.source.latest(topic, position)
             if item is not None:
-                self._emit(item)
+                self._publish(item)
                 emitted.add((item.topic, item.t))
         self._items = (i for i in self.source.items(position) if (i.topic, i.t) not in emitted)
         self._next = next(self._items, None)
-
-    def _emit(self, item: ReplayItem) -> None:
-        self._publish(item)
-        self.published += 1
 
     def command(self, command: ReplayCommand, now: float) -> None:
         was_finished = self.clock.position(now) >= self.clock.duration
@@ -233,7 +228,7 @@ class ReplayPlayer:
             if item.topic in (Topic.SCAN, Topic.IMAGE) and item.t < position - STALE_S:
                 self.skipped += 1
             else:
-                self._emit(item)
+                self._publish(item)
                 count += 1
             self._next = next(self._items, None)
         return count

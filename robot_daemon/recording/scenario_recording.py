@@ -20,15 +20,14 @@ from typing import TYPE_CHECKING, Any
 from interbot_core.supervisor import PauseNavigation, RouteCancelled
 from interbot_core.topics import (
     Battery,
-    MuxMsg,
     Odom,
     PoseMsg,
     RouteMsg,
-    RouteProgress,
     Status,
     Topic,
     Twist,
 )
+from robot_daemon.daemon import mux_message, route_progress
 from robot_daemon.planning.path_report import plan_message
 from robot_daemon.recording.recorder import Recorder
 from robot_daemon.stack import Periodic
@@ -116,12 +115,7 @@ class ScenarioRecorder:
                 self._path = path
                 rec.state(Topic.PLAN, plan_message(route_id, path, t), t)
         if due["mux"](system.now):
-            out = stack.last_output
-            rec.state(
-                Topic.MUX,
-                MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, t),
-                t,
-            )
+            rec.state(Topic.MUX, mux_message(stack.last_output, t), t)
         if due["scan"](system.now) and stack.last_scan is not None:
             rec.state(Topic.SCAN, stack.last_scan, t)
         if due["battery"](system.now) and stack.last_battery is not None:
@@ -159,18 +153,7 @@ class ScenarioRecorder:
             key = (route.route_id, route.index, route.state)
             if key != self._route_key:
                 self._route_key = key
-                rec.state(
-                    Topic.ROUTE_PROGRESS,
-                    RouteProgress(
-                        route.route_id,
-                        route.index,
-                        route.state == "succeeded",
-                        route.state,
-                        route.reason,
-                        t,
-                    ),
-                    t,
-                )
+                rec.state(Topic.ROUTE_PROGRESS, route_progress(route, route.reason, t), t)
 
     def close(self) -> None:
         self.recorder.close()

@@ -118,7 +118,6 @@ class AssistResult:
     linear: float  # [m/s]
     angular: float  # [rad/s]
     mode: str  # free | scaled | slid | stopped | idle
-    speed_kept: float = 1.0  # share of the intended speed kept
 
 
 def decimate(
@@ -204,7 +203,7 @@ class AssistedTeleop:
         else:
             mode = "free" if kept >= 1.0 - 1e-9 else "scaled"
         self._last_side = float(np.sign(offsets[best])) if mode == "slid" else 0.0
-        return AssistResult(v, w, mode, kept)
+        return AssistResult(v, w, mode)
 
     def _rotate(
         self,
@@ -225,7 +224,7 @@ class AssistedTeleop:
                 cx, cy, self._footprint, 0 * one, 0 * one, math.cos(t) * one,
                 math.sin(t) * one, ESCAPE_TOLERANCE,
             )[0]:  # fmt: skip
-                return AssistResult(0.0, 0.0, "stopped", 0.0)
+                return AssistResult(0.0, 0.0, "stopped")
         if qx.size == 0:
             return AssistResult(linear, angular, "free")
         angle = angular * horizon
@@ -235,4 +234,4 @@ class AssistedTeleop:
         if ratio >= 1.0:
             return AssistResult(linear, angular, "free")
         mode = "stopped" if ratio == 0.0 else "scaled"
-        return AssistResult(linear * ratio, angular * ratio, mode, ratio)
+        return AssistResult(linear * ratio, angular * ratio, mode)

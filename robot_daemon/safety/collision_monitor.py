@@ -115,6 +115,8 @@ class _Section(schema.Declared, frozen=True):
     ERROR: ClassVar[type[Exception]] = SafetyConfigError
 
 
+Radius = Annotated[float, within(0.0, 10.0, "m", low_open=True)]  # of a circle zone
+
 # Nav2 keys of a polygon that only its visualisation and topics use: accepted, ignored.
 NAV2_DISPLAY_KEYS = ("visualize", "polygon_pub_topic", "polygon_sub_topic", "footprint_topic")
 
@@ -162,13 +164,9 @@ class ZoneConfig(_Section, frozen=True):
         fields = {k: v for k, v in data.items() if k not in NAV2_DISPLAY_KEYS and k != "type"}
         kind = data.get("type", "polygon")
         if kind == "circle":
-            radius = fields.pop("radius", None)
-            if isinstance(radius, bool) or not isinstance(radius, int | float):
-                raise SafetyConfigError(f"{where}: 'radius' must be a number, got {radius!r}")
-            if not 0.0 < radius <= 10.0:
-                raise SafetyConfigError(
-                    f"{where}: 'radius' = {radius} m is outside the allowed range (0, 10] m"
-                )
+            radius = schema.checked(
+                fields.pop("radius", None), Radius, f"{where}: 'radius'", SafetyConfigError
+            )
             a = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
             fields["points"] = [[radius * math.cos(t), radius * math.sin(t)] for t in a]
         elif kind == "polygon":
@@ -238,10 +236,6 @@ class MonitorResult:
     distance: float = math.inf  # [m] footprint to the nearest return (inf: none in range)
     time_to_contact: float = math.inf  # [s] along the commanded arc (inf: none in the horizon)
     scale: float = 1.0  # output speed / commanded speed
-
-    @property
-    def limited(self) -> bool:
-        return self.scale < 1.0 - 1e-9
 
 
 @dataclass

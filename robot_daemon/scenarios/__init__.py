@@ -27,12 +27,10 @@ def load_scenario(name: str) -> Callable[[ScenarioOptions], ScenarioResult]:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``args.name`` and print its table; with ``--json`` the last line is the figures."""
-    if args.name not in SCENARIOS:
-        print(
-            f"interbot scenario: unknown scenario {args.name!r}; "
-            f"choose one of {', '.join(SCENARIOS)}",
-            file=sys.stderr,
-        )
+    try:
+        run = load_scenario(args.name)
+    except ValueError as exc:
+        print(f"interbot scenario: {exc}", file=sys.stderr)
         return 2
     options = ScenarioOptions(
         map_yaml=Path(args.map_yaml) if args.map_yaml else DEFAULT_MAP,
@@ -41,11 +39,6 @@ def main(args: argparse.Namespace) -> int:
         ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
     )
-    try:
-        run = load_scenario(args.name)
-    except ModuleNotFoundError:
-        print(f"interbot scenario: {args.name!r} is not built yet", file=sys.stderr)
-        return 3
     if getattr(args, "record", None):
         from dataclasses import replace
 

@@ -37,11 +37,13 @@ import dataclasses
 import logging
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import msgspec
 import numpy as np
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.velocity_mux import MuxConfig
 from interbot_core.watchdog import LatencyWatchdog, PeriodStats
@@ -71,30 +73,24 @@ class LatencyScenarioError(RuntimeError):
     """The map has no usable stretch or the robot could not reach it."""
 
 
-@dataclass(frozen=True)
-class LatencyConfig:
+Rate = Annotated[float, Meta(gt=0.0, le=10.0)]
+
+
+class LatencyConfig(schema.Declared, frozen=True):
     """The experiment's knobs; defaults follow the thesis (mux timeout 0.5 s as configured)."""
 
-    mux_timeout: float = 0.5  # [s] station_vel/tablet_vel (thesis Fig. 6.6a used 0.2 s)
-    watchdog_ceiling: float = 0.5  # [s] station's tablet watchdog (thesis §5.3.4)
-    linear_speed: float = 0.6  # [m/s]
-    angular_speed: float = 0.6  # [rad/s]
-    distance: float = 26.0  # [m] wanted straight run
+    ROOT: ClassVar[str] = "LatencyConfig"
+    ERROR: ClassVar[type[Exception]] = ValueError
+    mux_timeout: Rate = 0.5  # [s] station_vel/tablet_vel (thesis Fig. 6.6a used 0.2 s)
+    watchdog_ceiling: Rate = 0.5  # [s] station's tablet watchdog (thesis §5.3.4)
+    linear_speed: Rate = 0.6  # [m/s]
+    angular_speed: Rate = 0.6  # [rad/s]
+    distance: Annotated[float, Meta(ge=1.0, le=schema.FINITE, extra={"unit": "m"})] = 26.0
     zone_radius: float = 5.0  # [m]
     zone_p_good_to_bad: float = 0.02  # per message inside the zone
     zone_point: tuple[float, float] | None = None  # None: the node named "Library"
-    runs: int = 3
-    wifi: WifiConfig = dataclasses.field(default_factory=WifiConfig)  # zones are added
-
-    def __post_init__(self) -> None:
-        for name in ("mux_timeout", "watchdog_ceiling", "linear_speed", "angular_speed"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0 < value <= 10):
-                raise ValueError(f"LatencyConfig.{name} must be in (0, 10], got {value!r}")
-        if not (math.isfinite(self.distance) and self.distance >= 1.0):
-            raise ValueError(f"LatencyConfig.distance must be >= 1 m, got {self.distance!r}")
-        if not 1 <= self.runs <= 20:
-            raise ValueError(f"LatencyConfig.runs must be in 1..20, got {self.runs!r}")
+    runs: Annotated[int, Meta(ge=1, le=20)] = 3
+    wifi: WifiConfig = msgspec.field(default_factory=WifiConfig)  # zones are added
 
 
 @dataclass

@@ -518,6 +518,3 @@ def run(options: ScenarioOptions) -> ScenarioResult:
         "people": options.people,
     }
     return ScenarioResult("mission", format_tables(results), figures)
-
-
-__all__ = ["MODES", "HumanDriver", "choose_checkpoints", "mission_nodes", "run", "run_mode"]

@@ -16,7 +16,6 @@ it reaches the robot.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -25,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D, angle_diff
@@ -32,7 +32,6 @@ from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import (
     Event,
-    GoalReached,
     PauseNavigation,
     RequestShown,
     RouteCancelled,
@@ -106,18 +105,6 @@ def person_set_pose_error(rng: np.random.Generator) -> Pose2D:
     direction = rng.uniform(-math.pi, math.pi)
     yaw = rng.choice([-1.0, 1.0]) * rng.uniform(math.radians(3.0), max_yaw)
     return Pose2D(distance * math.cos(direction), distance * math.sin(direction), float(yaw))
-
-
-def odometry_model(name: str) -> OdometryErrorModel:
-    models = {
-        "perfect": OdometryErrorModel.perfect,
-        "calibrated": OdometryErrorModel.calibrated,
-        "uncalibrated": OdometryErrorModel.uncalibrated,
-        "realistic": OdometryErrorModel.realistic,
-    }
-    if name not in models:
-        raise ValueError(f"odometry model must be one of {sorted(models)}, got {name!r}")
-    return models[name]()
 
 
 @dataclass
@@ -317,7 +304,7 @@ class SimulatedSystem:
             internal_dt=SIM_DT,
             start_pose=start_pose,
             n_people=options.people,
-            odometry=odometry_model(odometry),
+            odometry=OdometryErrorModel.named(odometry),
         )
         world_grid = self.grid
         # What the person setting the initial pose gets wrong (ideal world: nothing).
@@ -333,7 +320,7 @@ class SimulatedSystem:
                 keep_clear=[(start_pose.x, start_pose.y)],
             )
             world_grid = self.world_spec.grid
-            sim_config = dataclasses.replace(
+            sim_config = msgspec.structs.replace(
                 sim_config,
                 laser=LaserConfig.realistic(),
                 obstacles=tuple(
@@ -501,17 +488,6 @@ def auto_answer_requests(
             )
 
     return hook
-
-
-__all__ = [
-    "GoalReached",
-    "ScenarioOptions",
-    "ScenarioResult",
-    "SimulatedSystem",
-    "TaskFinished",
-    "auto_answer_requests",
-    "auto_resume_tour",
-]
 
 
 # -- generic helpers for scripted scenarios (odometry, mission, latency) ----------------------

@@ -412,6 +412,3 @@ def format_table(results: dict[str, dict[str, Any]]) -> str:
         for setup, f in results.items()
     ))  # fmt: skip
     return "\n".join(lines)
-
-
-__all__ = ["SETUPS", "Run", "drive", "make_system", "plan_runs", "run", "run_setup"]

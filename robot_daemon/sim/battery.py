@@ -17,10 +17,13 @@ gives none): 20 Ah, 20 W idle, 60 W per m/s, 20 W per rad/s.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
@@ -32,42 +35,28 @@ class BatteryConfigError(ValueError):
     """A battery parameter is out of range; the message names the field."""
 
 
-@dataclass(frozen=True)
-class BatteryConfig:
+NonNegative = Annotated[float, Meta(ge=0.0, le=schema.FINITE)]
+
+
+class BatteryConfig(schema.Declared, frozen=True):
     """Pack and load parameters."""
 
-    cells: int = 8
-    capacity_ah: float = 20.0  # [Ah]
+    ROOT: ClassVar[str] = "BatteryConfig"
+    ERROR: ClassVar[type[Exception]] = BatteryConfigError
+    cells: Annotated[int, Meta(ge=1, le=32)] = 8
+    capacity_ah: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "Ah"})] = 20.0
     cell_full: float = 4.2  # [V]
     cell_nominal: float = 3.7  # [V]
     cell_cutoff: float = 3.0  # [V]
-    internal_resistance: float = 0.08  # [ohm] pack
-    idle_power: float = 20.0  # [W]
+    internal_resistance: NonNegative = 0.08  # [ohm] pack
+    idle_power: NonNegative = 20.0  # [W]
     power_per_linear: float = 60.0  # [W per m/s]
     power_per_angular: float = 20.0  # [W per rad/s]
-    initial_soc: float = 1.0
+    initial_soc: Annotated[float, Meta(ge=0.0, le=1.0)] = 1.0
 
-    def __post_init__(self) -> None:
-        if not 1 <= self.cells <= 32:
-            raise BatteryConfigError(f"BatteryConfig.cells must be in [1, 32], got {self.cells}")
-        for name in ("capacity_ah", "internal_resistance", "idle_power"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0) or (name == "capacity_ah" and value == 0):
-                raise BatteryConfigError(f"BatteryConfig.{name} must be >= 0 (capacity > 0)")
-        if not 0.0 <= self.initial_soc <= 1.0:
-            raise BatteryConfigError("BatteryConfig.initial_soc must be in [0, 1]")
+    def check(self) -> None:
         if not self.cell_cutoff < self.cell_nominal < self.cell_full:
             raise BatteryConfigError("BatteryConfig needs cell_cutoff < cell_nominal < cell_full")
-
-    @property
-    def nominal_voltage(self) -> float:
-        """Pack nominal voltage [V] (29.6 V for 8 cells)."""
-        return self.cells * self.cell_nominal
-
-    @property
-    def full_voltage(self) -> float:
-        """Pack voltage when full [V] (33.6 V)."""
-        return self.cells * self.cell_full
 
     @property
     def cutoff_voltage(self) -> float:

@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import cv2
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.laser_sim import RayCaster
 
@@ -41,27 +43,26 @@ class CameraConfigError(ValueError):
     """A camera parameter is out of range; the message names the field."""
 
 
-@dataclass(frozen=True)
-class CameraConfig:
+Pixels = Annotated[int, Meta(ge=16, le=4096)]
+FieldOfView = Annotated[float, Meta(gt=0.1, lt=math.pi - 0.1, extra={"unit": "rad"})]
+
+
+class CameraConfig(schema.Declared, frozen=True):
     """Image size, optics and mounting of the simulated camera."""
 
-    width: int = 320  # [px]
-    height: int = 240  # [px]
-    fov: float = math.radians(60.0)  # [rad] horizontal
-    frame_period: float = 0.1  # [s] ~10 Hz
+    ROOT: ClassVar[str] = "CameraConfig"
+    ERROR: ClassVar[type[Exception]] = CameraConfigError
+    width: Pixels = 320
+    height: Pixels = 240
+    fov: FieldOfView = math.radians(60.0)  # horizontal
+    frame_period: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = 0.1  # [s] ~10 Hz
     mount_x: float = 0.25  # [m] ahead of base_link
     mount_height: float = 1.1  # [m] above the floor
     wall_height: float = 2.5  # [m]
     person_height: float = 1.7  # [m]
     max_range: float = 30.0  # [m]
 
-    def __post_init__(self) -> None:
-        if not (16 <= self.width <= 4096 and 16 <= self.height <= 4096):
-            raise CameraConfigError("CameraConfig.width/height must be in [16, 4096] px")
-        if not 0.1 < self.fov < math.pi - 0.1:
-            raise CameraConfigError("CameraConfig.fov must be in (0.1, pi - 0.1) rad")
-        if not self.frame_period > 0:
-            raise CameraConfigError("CameraConfig.frame_period must be > 0 s")
+    def check(self) -> None:
         if not 0 < self.mount_height < self.wall_height:
             raise CameraConfigError("CameraConfig.mount_height must be in (0, wall_height) m")
 

@@ -187,14 +187,6 @@ class RobotFootprint(schema.Declared, frozen=True):
         inner = np.column_stack((gx.ravel() + self.offset_x, gy.ravel() + self.offset_y))
         return np.vstack((self.outline_local(spacing / 2), inner))
 
-    def polygon(self, pose: Pose2D) -> FloatArray:
-        """(4, 2) world corners of the footprint at ``pose``."""
-        return to_world(pose, self.corners_local())
-
-    def outline(self, pose: Pose2D, spacing: float = 0.025) -> FloatArray:
-        """(N, 2) world outline points at ``pose``."""
-        return to_world(pose, self.outline_local(spacing))
-
     def distance_to_point(self, pose: Pose2D, x: float, y: float) -> float:
         """Scalar `distance_to_points` for one world point [m] (pure Python, fast)."""
         c, s = math.cos(pose.yaw), math.sin(pose.yaw)

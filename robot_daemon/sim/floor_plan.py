@@ -46,13 +46,6 @@ DOOR_JAMB = 0.1  # [m] minimum wall left between a door and the room's corner
 DOOR_APPROACH_DEPTH = 1.0  # [m] furniture-free depth inside the room in front of a door
 DOOR_APPROACH_SIDE = 0.3  # [m] furniture-free margin either side of the door
 WALLS = ("north", "south", "east", "west")
-# Outward unit normal of each wall of a room.
-_NORMALS: dict[str, tuple[float, float]] = {
-    "north": (0.0, 1.0),
-    "south": (0.0, -1.0),
-    "east": (1.0, 0.0),
-    "west": (-1.0, 0.0),
-}
 
 
 class FloorPlanError(ValueError):
@@ -171,19 +164,6 @@ class Waypoint:
     name: str
     x: float  # [m]
     y: float  # [m]
-
-
-@dataclass(frozen=True)
-class DoorOpening:
-    """Where a door cuts through the wall: the free ``rect``, its centres and outward normal."""
-
-    room: str
-    index: int  # position in the room's ``doors``
-    rect: Rect  # the opening through the wall (room face to corridor face)
-    room_face: tuple[float, float]  # [m] centre of the door on the room's side
-    corridor_face: tuple[float, float]  # [m] centre of the door on the corridor's side
-    normal: tuple[float, float]  # outward unit vector (room -> corridor)
-    width: float  # [m]
 
 
 @dataclass(frozen=True)
@@ -450,7 +430,6 @@ def validate_floor_plan(plan: FloorPlan) -> None:
         raise FloorPlanError(f"{src}: exactly one room needs home: true, found {homes}")
     for room in plan.rooms:
         _validate_room(plan, room)
-    _validate_nodes(plan)
 
 
 def _validate_room(plan: FloorPlan, room: Room) -> None:
@@ -488,37 +467,6 @@ def _validate_room(plan: FloorPlan, room: Room) -> None:
                 )
 
 
-def _validate_nodes(plan: FloorPlan) -> None:
-    src = plan.source
-    known = node_names(plan)
-    for name in known:
-        if known.count(name) > 1:
-            raise FloorPlanError(f"{src}: node name {name!r} is used twice (rooms and waypoints)")
-    for i, name in enumerate(plan.ring):
-        if name not in known:
-            raise FloorPlanError(
-                f"{src}: ring[{i}]: {name!r} is not a node; nodes are {', '.join(known)}"
-            )
-        if plan.ring.count(name) > 1:
-            raise FloorPlanError(f"{src}: ring[{i}]: {name!r} is listed twice")
-    missing = [name for name in known if name not in plan.ring]
-    if missing:
-        raise FloorPlanError(f"{src}: ring: missing nodes {missing} (every node needs an id)")
-    for i, chain in enumerate(plan.arcs):
-        for name in chain:
-            if name not in known:
-                raise FloorPlanError(f"{src}: arcs[{i}]: {name!r} is not a node")
-
-
-def node_names(plan: FloorPlan) -> list[str]:
-    """The names of the plan's topological nodes: a room's (with ``inside``, also "<room> door"
-    for the node at its door), then the waypoints'."""
-    names: list[str] = []
-    for room in plan.rooms:
-        names += [room.name] if room.inside is None else [f"{room.name} door", room.name]
-    return names + [waypoint.name for waypoint in plan.waypoints]
-
-
 # ---------------------------------------------------------------------------- geometry
 
 
@@ -529,8 +477,9 @@ def _wall_axis(room: Room, wall: str) -> tuple[float, float]:
     return room.rect.y0, room.rect.y1
 
 
-def door_opening(plan: FloorPlan, room: Room, index: int) -> DoorOpening:
-    """The opening that ``room.doors[index]`` cuts through the wall to the nearest corridor."""
+def door_opening(plan: FloorPlan, room: Room, index: int) -> Rect:
+    """The opening (free rectangle, room face to corridor face) that ``room.doors[index]`` cuts
+    through the wall to the nearest corridor."""
     door = room.doors[index]
     label = f"{plan.source}: room {room.name!r} doors[{index}]"
     start, end = _wall_axis(room, door.wall)
@@ -561,24 +510,13 @@ def door_opening(plan: FloorPlan, room: Room, index: int) -> DoorOpening:
             f"corridor (none within {WALL_MAX} m covering the door's full width)"
         )
     gap = best[0]
-    nx, ny = _NORMALS[door.wall]
     if door.wall == "north":
-        rect, face = Rect(lo, r.y1, hi, r.y1 + gap), (centre, r.y1)
-    elif door.wall == "south":
-        rect, face = Rect(lo, r.y0 - gap, hi, r.y0), (centre, r.y0)
-    elif door.wall == "east":
-        rect, face = Rect(r.x1, lo, r.x1 + gap, hi), (r.x1, centre)
-    else:
-        rect, face = Rect(r.x0 - gap, lo, r.x0, hi), (r.x0, centre)
-    return DoorOpening(
-        room=room.name,
-        index=index,
-        rect=rect,
-        room_face=face,
-        corridor_face=(face[0] + nx * gap, face[1] + ny * gap),
-        normal=(nx, ny),
-        width=door.width,
-    )
+        return Rect(lo, r.y1, hi, r.y1 + gap)
+    if door.wall == "south":
+        return Rect(lo, r.y0 - gap, hi, r.y0)
+    if door.wall == "east":
+        return Rect(r.x1, lo, r.x1 + gap, hi)
+    return Rect(r.x0 - gap, lo, r.x0, hi)
 
 
 def door_approach_zone(room: Room, index: int) -> Rect:
@@ -595,11 +533,6 @@ def door_approach_zone(room: Room, index: int) -> Rect:
     if door.wall == "east":
         return Rect(r.x1 - depth, c - half, r.x1, c + half)
     return Rect(r.x0, c - half, r.x0 + depth, c + half)
-
-
-def door_openings(plan: FloorPlan) -> list[DoorOpening]:
-    """Every door of every room, in plan order."""
-    return [door_opening(plan, room, i) for room in plan.rooms for i in range(len(room.doors))]
 
 
 # ---------------------------------------------------------------------------- rasterising
@@ -638,8 +571,9 @@ def rasterise(plan: FloorPlan) -> OccupancyGrid:
         cells[_cell_slices(plan, corridor.rect)] = FREE
     for room in plan.rooms:
         cells[_cell_slices(plan, room.rect)] = FREE
-    for opening in door_openings(plan):
-        cells[_cell_slices(plan, opening.rect)] = FREE
+    for room in plan.rooms:
+        for index in range(len(room.doors)):
+            cells[_cell_slices(plan, door_opening(plan, room, index))] = FREE
     for room in plan.rooms:
         for item in room.furniture:
             cells[_cell_slices(plan, item.rect)] = OCCUPIED

@@ -42,11 +42,13 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import (
     UTM30LX_ANGLE_INCREMENT,
@@ -72,27 +74,38 @@ class LaserConfigError(ValueError):
     """A laser parameter is out of range; the message names the field."""
 
 
-@dataclass(frozen=True)
-class LaserConfig:
+Metres = Annotated[float, Meta(ge=0.0, le=1000.0, extra={"unit": "m"})]
+Probability = Annotated[float, Meta(ge=0.0, le=1.0)]
+
+
+class LaserConfig(schema.Declared, frozen=True):
     """Beam geometry, noise and mounting of the simulated scanner."""
 
-    beams: int = UTM30LX_BEAMS
-    angle_min: float = UTM30LX_ANGLE_MIN  # [rad]
-    angle_increment: float = UTM30LX_ANGLE_INCREMENT  # [rad]
-    range_min: float = UTM30LX_RANGE_MIN  # [m]
-    range_max: float = UTM30LX_RANGE_MAX  # [m]
-    scan_period: float = UTM30LX_SCAN_TIME  # [s] 40 Hz
-    noise_sigma: float = 0.03  # [m]
-    mount_x: float = 0.2  # [m] ahead of base_link
-    mount_y: float = 0.0  # [m]
-    mount_yaw: float = 0.0  # [rad]
-    bias_sigma: float = 0.0  # [m] stationary std of the slowly varying range bias
-    bias_tau: float = 20.0  # [s] its time constant
-    dropout_probability: float = 0.0  # per beam: no return (+inf)
-    far_dropout_per_m: float = 0.0  # [1/m] extra dropout probability per metre of range
-    mixed_pixel_probability: float = 0.0  # at a range discontinuity
-    mixed_pixel_jump: float = 0.3  # [m] what counts as a discontinuity
-    glass_return_angle: float = 0.17  # [rad] panes return beams this close to their normal
+    ROOT: ClassVar[str] = "LaserConfig"
+    ERROR: ClassVar[type[Exception]] = LaserConfigError
+    beams: Annotated[int, Meta(ge=1)] = UTM30LX_BEAMS
+    angle_min: schema.Finite = UTM30LX_ANGLE_MIN  # [rad]
+    angle_increment: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = UTM30LX_ANGLE_INCREMENT
+    range_min: Metres = UTM30LX_RANGE_MIN
+    range_max: Metres = UTM30LX_RANGE_MAX
+    scan_period: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = UTM30LX_SCAN_TIME  # [s] 40 Hz
+    noise_sigma: Annotated[float, Meta(ge=0.0, le=schema.FINITE)] = 0.03  # [m]
+    mount_x: schema.Finite = 0.2  # [m] ahead of base_link
+    mount_y: schema.Finite = 0.0  # [m]
+    mount_yaw: schema.Finite = 0.0  # [rad]
+    # [m] stationary std of the slowly varying range bias
+    bias_sigma: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.0
+    bias_tau: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = 20.0  # [s] its time constant
+    dropout_probability: Probability = 0.0  # per beam: no return (+inf)
+    far_dropout_per_m: Probability = 0.0  # [1/m] extra dropout probability per metre of range
+    mixed_pixel_probability: Probability = 0.0  # at a range discontinuity
+    mixed_pixel_jump: Annotated[float, Meta(gt=0.0, le=100.0)] = 0.3  # [m] a discontinuity
+    # [rad] panes return beams this close to their normal
+    glass_return_angle: Annotated[float, Meta(ge=0.0, le=math.pi / 2)] = 0.17
+
+    def check(self) -> None:
+        if not self.range_min < self.range_max:
+            raise LaserConfigError("LaserConfig needs 0 <= range_min < range_max <= 1000 m")
 
     @classmethod
     def realistic(cls) -> LaserConfig:
@@ -105,31 +118,6 @@ class LaserConfig:
             far_dropout_per_m=0.002,
             mixed_pixel_probability=0.5,
         )
-
-    def __post_init__(self) -> None:
-        if self.beams < 1:
-            raise LaserConfigError(f"LaserConfig.beams must be >= 1, got {self.beams}")
-        if not (math.isfinite(self.angle_increment) and self.angle_increment > 0):
-            raise LaserConfigError("LaserConfig.angle_increment must be > 0")
-        if not 0 <= self.range_min < self.range_max <= 1000:
-            raise LaserConfigError("LaserConfig needs 0 <= range_min < range_max <= 1000 m")
-        if not self.scan_period > 0:
-            raise LaserConfigError("LaserConfig.scan_period must be > 0 s")
-        if not (math.isfinite(self.noise_sigma) and self.noise_sigma >= 0):
-            raise LaserConfigError("LaserConfig.noise_sigma must be >= 0 m")
-        if not (math.isfinite(self.bias_sigma) and 0 <= self.bias_sigma <= 1.0):
-            raise LaserConfigError("LaserConfig.bias_sigma must be in [0, 1] m")
-        if not (math.isfinite(self.bias_tau) and self.bias_tau > 0):
-            raise LaserConfigError("LaserConfig.bias_tau must be > 0 s")
-        for name in ("dropout_probability", "mixed_pixel_probability"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise LaserConfigError(f"LaserConfig.{name} must be in [0, 1]")
-        if not 0.0 <= self.far_dropout_per_m <= 1.0:
-            raise LaserConfigError("LaserConfig.far_dropout_per_m must be in [0, 1] 1/m")
-        if not 0.0 < self.mixed_pixel_jump <= 100.0:
-            raise LaserConfigError("LaserConfig.mixed_pixel_jump must be in (0, 100] m")
-        if not 0.0 <= self.glass_return_angle <= math.pi / 2:
-            raise LaserConfigError("LaserConfig.glass_return_angle must be in [0, pi/2] rad")
 
     @property
     def mount(self) -> Pose2D:

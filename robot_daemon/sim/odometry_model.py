@@ -32,9 +32,12 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.diff_drive import body_velocity, integrate_arc, wheel_speeds
 
@@ -45,32 +48,30 @@ class OdometryConfigError(ValueError):
     """An odometry error parameter is out of range; the message names the field."""
 
 
-@dataclass(frozen=True)
-class OdometryErrorModel:
+Scale = Annotated[float, Meta(ge=0.5, le=2.0)]
+MODELS = ("calibrated", "perfect", "realistic", "uncalibrated")
+
+
+class OdometryErrorModel(schema.Declared, frozen=True):
     """Systematic scale errors (measured / true, 1.0 = perfect) and random noise of the encoders."""
 
-    wheel_scale_left: float = 1.0
-    wheel_scale_right: float = 1.0
-    track_scale: float = 1.0
-    noise_per_sqrt_m: float = 0.0  # [m / sqrt(m)] per-wheel std after rolling 1 m
-    turn_slip: float = 0.0  # fraction of the wheels' rotation lost to scrubbing in turns
+    ROOT: ClassVar[str] = "OdometryErrorModel"
+    ERROR: ClassVar[type[Exception]] = OdometryConfigError
+    wheel_scale_left: Scale = 1.0
+    wheel_scale_right: Scale = 1.0
+    track_scale: Scale = 1.0
+    # [m / sqrt(m)] per-wheel std after rolling 1 m
+    noise_per_sqrt_m: Annotated[float, Meta(ge=0.0, le=0.1, extra={"unit": "m/sqrt(m)"})] = 0.0
+    # fraction of the wheels' rotation lost to scrubbing in turns
+    turn_slip: Annotated[float, Meta(ge=0.0, le=0.2)] = 0.0
 
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.turn_slip) and 0.0 <= self.turn_slip <= 0.2):
-            raise OdometryConfigError(
-                f"OdometryErrorModel.turn_slip must be in [0, 0.2], got {self.turn_slip!r}"
-            )
-        for name in ("wheel_scale_left", "wheel_scale_right", "track_scale"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0.5 <= value <= 2.0):
-                raise OdometryConfigError(
-                    f"OdometryErrorModel.{name} must be in [0.5, 2.0], got {value!r}"
-                )
-        if not (math.isfinite(self.noise_per_sqrt_m) and 0.0 <= self.noise_per_sqrt_m <= 0.1):
-            raise OdometryConfigError(
-                "OdometryErrorModel.noise_per_sqrt_m must be in [0, 0.1] m/sqrt(m), "
-                f"got {self.noise_per_sqrt_m!r}"
-            )
+    @classmethod
+    def named(cls, name: str) -> OdometryErrorModel:
+        """The model called ``name`` (one of `MODELS`: the constructors below)."""
+        if name not in MODELS:
+            raise OdometryConfigError(f"odometry model must be one of {list(MODELS)}, got {name!r}")
+        model: OdometryErrorModel = getattr(cls, name)()
+        return model
 
     @classmethod
     def perfect(cls) -> OdometryErrorModel:

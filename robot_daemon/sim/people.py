@@ -30,12 +30,15 @@ import logging
 import math
 from dataclasses import dataclass
 from enum import Enum
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.diff_drive import RobotFootprint
 from robot_daemon.sim.world import World
@@ -59,45 +62,43 @@ class PersonState(Enum):
     BLOCKING = "blocking"
 
 
-@dataclass(frozen=True)
-class CrowdConfig:
+def _within(low: float, high: float, unit: str = "") -> Meta:
+    return Meta(ge=low, le=high, extra={"unit": unit} if unit else None)
+
+
+Probability = Annotated[float, _within(0.0, 1.0)]
+Seconds = Annotated[float, _within(0.0, 600.0, "s")]
+Span = tuple[float, float]  # (lo, hi) with 0 <= lo <= hi
+
+
+class CrowdConfig(schema.Declared, frozen=True):
     """Behaviour parameters shared by all people."""
 
-    radius: float = 0.25  # [m]
-    speed_range: tuple[float, float] = (0.8, 1.3)  # [m/s]
-    pause_probability: float = 0.3  # at each route waypoint
-    pause_range: tuple[float, float] = (1.0, 4.0)  # [s]
+    ROOT: ClassVar[str] = "CrowdConfig"
+    ERROR: ClassVar[type[Exception]] = PeopleConfigError
+    radius: Annotated[float, _within(0.05, 1.0, "m")] = 0.25
+    speed_range: Span = (0.8, 1.3)  # [m/s]
+    pause_probability: Probability = 0.3  # at each route waypoint
+    pause_range: Span = (1.0, 4.0)  # [s]
     robot_margin: float = 0.3  # [m] keep this far from the robot body
     # [s] a person blocked by the robot waits this long, then sidesteps away from it and walks
     # on (otherwise a person yielding on the robot's goal and the robot waiting for them to
     # leave would wait for each other forever)
-    yield_patience: float = 3.0
-    give_way_clearance: float = 1.2  # [m] from the robot body, stepping back in a stand-off
-    give_way_s: float = 8.0  # [s] the person lets the robot pass, then walks on
-    blocker_probability: float = 0.5  # per encounter, for people flagged as blockers
+    yield_patience: Seconds = 3.0
+    # [m] from the robot body, stepping back in a stand-off
+    give_way_clearance: Annotated[float, _within(0.0, 10.0, "m")] = 1.2
+    give_way_s: Seconds = 8.0  # [s] the person lets the robot pass, then walks on
+    blocker_probability: Probability = 0.5  # per encounter, for people flagged as blockers
     blocker_trigger: float = 2.5  # [m] ahead of the robot
-    blocker_duration: tuple[float, float] = (3.0, 8.0)  # [s]
+    blocker_duration: Span = (3.0, 8.0)  # [s]
     blocker_cooldown: float = 15.0  # [s] before the same person blocks again
-    lattice: float = 0.2  # [m] roadmap pitch for route planning
+    lattice: Annotated[float, _within(0.05, 1.0, "m")] = 0.2  # roadmap pitch for route planning
 
-    def __post_init__(self) -> None:
-        if not 0.05 <= self.radius <= 1.0:
-            raise PeopleConfigError(f"CrowdConfig.radius must be in [0.05, 1] m, got {self.radius}")
+    def check(self) -> None:
         for name in ("speed_range", "pause_range", "blocker_duration"):
             lo, hi = getattr(self, name)
             if not 0 <= lo <= hi:
                 raise PeopleConfigError(f"CrowdConfig.{name} must be (lo, hi) with 0 <= lo <= hi")
-        for name in ("pause_probability", "blocker_probability"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise PeopleConfigError(f"CrowdConfig.{name} must be in [0, 1]")
-        if not 0.0 <= self.yield_patience <= 600.0:
-            raise PeopleConfigError("CrowdConfig.yield_patience must be in [0, 600] s")
-        if not 0.0 <= self.give_way_clearance <= 10.0:
-            raise PeopleConfigError("CrowdConfig.give_way_clearance must be in [0, 10] m")
-        if not 0.0 <= self.give_way_s <= 600.0:
-            raise PeopleConfigError("CrowdConfig.give_way_s must be in [0, 600] s")
-        if not 0.05 <= self.lattice <= 1.0:
-            raise PeopleConfigError("CrowdConfig.lattice must be in [0.05, 1] m")
 
 
 @dataclass
@@ -267,14 +268,6 @@ class Crowd:
         self._people.append(person)
         self._next_id += 1
         return person.person_id
-
-    def remove_person(self, person_id: int) -> None:
-        """Remove a person by id (KeyError if there is none)."""
-        for i, p in enumerate(self._people):
-            if p.person_id == person_id:
-                del self._people[i]
-                return
-        raise KeyError(f"no person with id {person_id}")
 
     def get(self, person_id: int) -> Person:
         """The person with this id."""

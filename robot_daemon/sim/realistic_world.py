@@ -281,7 +281,7 @@ def _glass_panels(
             pane = Door(first.wall, float(offset), 1.2)
             trial = dataclasses.replace(room, doors=(*room.doors, pane))
             try:
-                rect = door_opening(plan, trial, len(trial.doors) - 1).rect
+                rect = door_opening(plan, trial, len(trial.doors) - 1)
             except FloorPlanError:
                 continue
             panels.append(GlassPanel(rect.x0, rect.y0, rect.x1, rect.y1))

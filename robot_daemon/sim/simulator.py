@@ -26,11 +26,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from typing import Annotated, ClassVar
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -58,36 +61,26 @@ class SimConfigError(ValueError):
     """A simulator parameter is invalid; the message names the field."""
 
 
-@dataclass(frozen=True)
-class SimConfig:
+class SimConfig(schema.Declared, frozen=True):
     """Everything configurable about the simulated robot and its world."""
 
-    internal_dt: float = 0.01  # [s]
-    drive: DiffDriveConfig = field(default_factory=DiffDriveConfig)
-    footprint: RobotFootprint = field(default_factory=RobotFootprint)
-    odometry: OdometryErrorModel = field(default_factory=OdometryErrorModel.calibrated)
-    laser: LaserConfig = field(default_factory=LaserConfig)
-    camera: CameraConfig = field(default_factory=CameraConfig)
-    battery: BatteryConfig = field(default_factory=BatteryConfig)
-    crowd: CrowdConfig = field(default_factory=CrowdConfig)
+    ROOT: ClassVar[str] = "SimConfig"
+    ERROR: ClassVar[type[Exception]] = SimConfigError
+    internal_dt: Annotated[float, Meta(ge=1e-4, le=0.1, extra={"unit": "s"})] = 0.01
+    drive: DiffDriveConfig = msgspec.field(default_factory=DiffDriveConfig)
+    footprint: RobotFootprint = msgspec.field(default_factory=RobotFootprint)
+    odometry: OdometryErrorModel = msgspec.field(default_factory=OdometryErrorModel.calibrated)
+    laser: LaserConfig = msgspec.field(default_factory=LaserConfig)
+    camera: CameraConfig = msgspec.field(default_factory=CameraConfig)
+    battery: BatteryConfig = msgspec.field(default_factory=BatteryConfig)
+    crowd: CrowdConfig = msgspec.field(default_factory=CrowdConfig)
     obstacles: tuple[RectObstacle, ...] = ()
     glass: tuple[tuple[float, float, float, float], ...] = ()  # panes x0, y0, x1, y1 [m]
-    n_people: int = 0  # people spawned on generated routes at start
+    n_people: Annotated[int, Meta(ge=0, le=200)] = 0  # people spawned on routes at start
     start_pose: Pose2D | None = None  # None: the most open point of the map, facing +x
-    contact_hysteresis: float = 0.02  # [m]
-    cmd_timeout: float | None = None  # [s] motor watchdog (RoboteQ default 1.0); None = off
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.internal_dt) and 1e-4 <= self.internal_dt <= 0.1):
-            raise SimConfigError(
-                f"SimConfig.internal_dt must be in [1e-4, 0.1] s, got {self.internal_dt}"
-            )
-        if not 0 <= self.n_people <= 200:
-            raise SimConfigError(f"SimConfig.n_people must be in [0, 200], got {self.n_people}")
-        if not 0 <= self.contact_hysteresis <= 0.5:
-            raise SimConfigError("SimConfig.contact_hysteresis must be in [0, 0.5] m")
-        if self.cmd_timeout is not None and not self.cmd_timeout > 0:
-            raise SimConfigError("SimConfig.cmd_timeout must be > 0 s or None")
+    contact_hysteresis: Annotated[float, Meta(ge=0.0, le=0.5, extra={"unit": "m"})] = 0.02
+    # [s] motor watchdog (RoboteQ default 1.0); None = off
+    cmd_timeout: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})] | None = None
 
 
 class Simulator:

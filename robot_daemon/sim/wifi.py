@@ -85,11 +85,6 @@ class WifiConfig(schema.Declared, frozen=True):
                     f"{low} = {getattr(self, low)} s"
                 )
 
-    @classmethod
-    def ideal(cls) -> WifiConfig:
-        """A wired-like link: constant 1 ms, never bad, no zones."""
-        return cls(0.001, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, ())
-
 
 @dataclass(frozen=True)
 class Delivery:
@@ -122,9 +117,7 @@ class WifiLink:
         self._seq = 0
         self._queue: list[tuple[float, int, Delivery]] = []
         self.sent_count = 0
-        self.delivered_count = 0
         self.handovers = 0
-        self.bad_messages = 0
 
     def _zone_at(self, x: float, y: float) -> int | None:
         for index, zone in enumerate(self.config.zones):
@@ -152,7 +145,6 @@ class WifiLink:
         delay = cfg.base_delay + (float(rng.exponential(cfg.jitter)) if cfg.jitter > 0 else 0.0)
         if self._bad:
             delay += float(rng.uniform(cfg.bad_delay_min, cfg.bad_delay_max))
-            self.bad_messages += 1
         received = max(now + delay, self._stall_until, self._last_received)
         self._last_received = received
         delivery = Delivery(self._seq, now, received, payload, self._bad, (x, y))
@@ -166,5 +158,4 @@ class WifiLink:
         out: list[Delivery] = []
         while self._queue and self._queue[0][0] <= now + 1e-12:
             out.append(heapq.heappop(self._queue)[2])
-        self.delivered_count += len(out)
         return out

@@ -23,12 +23,14 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import cv2
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.sim.diff_drive import RobotFootprint, to_world
@@ -45,29 +47,19 @@ class WorldConfigError(ValueError):
     """An obstacle or world parameter is invalid; the message names the field."""
 
 
-@dataclass(frozen=True)
-class RectObstacle:
+Size = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+
+
+class RectObstacle(schema.Declared, frozen=True):
     """A static rectangle (furniture): centre [m], size [m] along its own axes, yaw [rad]."""
 
-    center_x: float
-    center_y: float
-    size_x: float
-    size_y: float
-    yaw: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("center_x", "center_y", "yaw"):
-            if not math.isfinite(getattr(self, name)):
-                raise WorldConfigError(f"RectObstacle.{name} must be finite")
-        for name in ("size_x", "size_y"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise WorldConfigError(f"RectObstacle.{name} must be > 0 m, got {value!r}")
-
-    @classmethod
-    def from_bounds(cls, x_min: float, y_min: float, x_max: float, y_max: float) -> RectObstacle:
-        """An axis-aligned rectangle from its corners [m]."""
-        return cls((x_min + x_max) / 2, (y_min + y_max) / 2, abs(x_max - x_min), abs(y_max - y_min))
+    ROOT: ClassVar[str] = "RectObstacle"
+    ERROR: ClassVar[type[Exception]] = WorldConfigError
+    center_x: schema.Finite
+    center_y: schema.Finite
+    size_x: Size
+    size_y: Size
+    yaw: schema.Finite = 0.0
 
     def corners(self) -> FloatArray:
         """(4, 2) world corners."""

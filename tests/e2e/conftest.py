@@ -44,8 +44,9 @@ from interbot_core.protocol import GoalStatus, Localisation, ShowRequest
 from interbot_core.topological_map import TopologicalMap, load_topological_map
 from interbot_link import RobotLink, open_session, session_config
 from robot_daemon.config import DEFAULT_TOPO, DaemonConfig, SimSettings, ZenohSettings
-from robot_daemon.daemon import Daemon, DaemonOptions, odometry_model
+from robot_daemon.daemon import Daemon, DaemonOptions
 from robot_daemon.localisation.localiser import LocaliserState
+from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim_backend import SimBackend
 from robot_daemon.systemd_notify import SystemdNotifier
@@ -216,7 +217,9 @@ def _build_daemon(endpoint: str, start_node: int | None) -> tuple[Daemon, RigBac
     start = topo.node(topo.home_id if start_node is None else start_node).pose
     sim = Simulator(
         load_map(config.map_yaml),
-        SimConfig(start_pose=start, n_people=0, odometry=odometry_model(config.sim.odometry)),
+        SimConfig(
+            start_pose=start, n_people=0, odometry=OdometryErrorModel.named(config.sim.odometry)
+        ),
         rng_seed=config.sim.seed,
     )
     rates = config.rates

@@ -167,4 +167,5 @@ def test_calibrate_rejects_an_impossible_simulated_error(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert interbot_main(["calibrate", "odometry", "--sim-track-error", "150"]) == 2
-    assert "track_scale must be in [0.5, 2.0]" in capsys.readouterr().err
+    err = capsys.readouterr().err  # the field, the value and the allowed range
+    assert "track_scale = 2.5 is outside the allowed range [0.5, 2]" in err

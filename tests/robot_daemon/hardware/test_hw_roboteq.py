@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -138,9 +139,8 @@ def test_unequal_wheel_radii_make_equal_counts_curve_and_commands_compensate() -
     """UMBmark's type-B error: a right wheel 2 % larger turns left on equal counts; per-wheel
     radii in the geometry put that in the odometry, and the command asks the larger wheel for
     proportionally fewer rpm so a straight twist stays straight."""
-    import dataclasses
 
-    geom = dataclasses.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.102)
+    geom = msgspec.structs.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.102)
     assert geom.radii == (0.1, 0.102)
     assert geom.metres_per_count_lr[1] / geom.metres_per_count_lr[0] == pytest.approx(1.02)
     odo = roboteq.WheelOdometry(geom)
@@ -153,9 +153,9 @@ def test_unequal_wheel_radii_make_equal_counts_curve_and_commands_compensate() -
     cmd = roboteq.twist_to_command(geom, 0.25, 0.0, "S")
     assert cmd.left / cmd.right == pytest.approx(1.02, abs=2e-3)
     # equal radii given explicitly change nothing
-    same = dataclasses.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.1)
+    same = msgspec.structs.replace(GEOM, wheel_radius_left=0.1, wheel_radius_right=0.1)
     assert roboteq.twist_to_command(same, 0.2, 0.3, "G") == roboteq.twist_to_command(
         GEOM, 0.2, 0.3, "G"
     )
     with pytest.raises(ValueError, match="wheel_radius_left"):
-        dataclasses.replace(GEOM, wheel_radius_left=0.0)
+        msgspec.structs.replace(GEOM, wheel_radius_left=0.0)

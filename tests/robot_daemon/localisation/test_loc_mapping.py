@@ -7,8 +7,8 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN
-from robot_daemon.localisation import Localiser, grid_from_scans
-from robot_daemon.localisation.mapping import MappingError
+from robot_daemon.localisation import Localiser
+from tests.robot_daemon.localisation.log_replay import MappingError, grid_from_scans
 
 
 def test_map_from_scans_reproduces_the_walls(world) -> None:

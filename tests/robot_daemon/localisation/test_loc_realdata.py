@@ -20,14 +20,14 @@ import pytest
 from scipy import ndimage
 
 from interbot_core.geometry import Pose2D
-from robot_daemon.localisation import grid_from_scans
-from robot_daemon.localisation.mapping import scan_points_in_map
 from tests.robot_daemon.localisation.carmen_log import LaserRecord, read_laser_records
 from tests.robot_daemon.localisation.log_replay import (
+    grid_from_scans,
     localise_interleaved,
     localise_revisits,
     map_of,
     replay_run,
+    scan_points_in_map,
     summarise,
 )
 

@@ -35,6 +35,12 @@ def scan_towards(ranges: list[float], angle_min: float = -0.1, increment: float 
     return LaserScan(0.0, angle_min, increment, 0.05, 30.0, np.array(ranges, dtype=np.float32))
 
 
+def cost_at(cm: Costmap, now: float, x: float, y: float) -> int:
+    """The cost of the cell holding map-frame point (x, y), read from `Costmap.costs`."""
+    row, col = cm.grid.world_to_cell(x, y)
+    return int(cm.costs(now)[int(row), int(col)])
+
+
 def test_inflation_matches_nav2_formula_pointwise() -> None:
     d = np.array([0.0, 0.1, 0.275, 0.3, 0.4, 0.5, 0.6, 0.61, 2.0])
     cost = inflation_cost(d, 0.275, 0.6, 5.0)
@@ -88,17 +94,17 @@ def test_laser_marks_then_expires_and_ray_clears() -> None:
     cm = Costmap(grid, CostmapConfig(obstacle_persistence=2.0))
     pose = Pose2D(1.0, 2.0, 0.0)
     cm.update(0.0, pose, scan_towards([1.5, 1.5, 1.5]))  # hits at about x = 2.5
-    assert cm.cost_at(0.1, 2.5, 2.0) == LETHAL
-    assert cm.cost_at(0.1, 2.5 - 0.2, 2.0) == INSCRIBED
-    assert cm.cost_at(0.1, 1.8, 2.0) < INSCRIBED  # the beam passed here
+    assert cost_at(cm, 0.1, 2.5, 2.0) == LETHAL
+    assert cost_at(cm, 0.1, 2.5 - 0.2, 2.0) == INSCRIBED
+    assert cost_at(cm, 0.1, 1.8, 2.0) < INSCRIBED  # the beam passed here
     # Expiry.
-    assert cm.cost_at(2.5, 2.5, 2.0) == 0
+    assert cost_at(cm, 2.5, 2.5, 2.0) == 0
     # Ray clearing: the obstacle moved away; a longer beam through the cell clears it.
     cm.update(3.0, pose, scan_towards([1.5, 1.5, 1.5]))
-    assert cm.cost_at(3.1, 2.5, 2.0) == LETHAL
+    assert cost_at(cm, 3.1, 2.5, 2.0) == LETHAL
     cm.update(3.2, pose, scan_towards([3.0, 3.0, 3.0]))
-    assert cm.cost_at(3.3, 2.5, 2.0) < INSCRIBED
-    assert cm.cost_at(3.3, 4.0, 2.0) == LETHAL
+    assert cost_at(cm, 3.3, 2.5, 2.0) < INSCRIBED
+    assert cost_at(cm, 3.3, 4.0, 2.0) == LETHAL
 
 
 def test_static_walls_are_never_cleared_and_clear_forgets_live_marks() -> None:
@@ -107,30 +113,31 @@ def test_static_walls_are_never_cleared_and_clear_forgets_live_marks() -> None:
     pose = Pose2D(1.0, 2.0, 0.0)
     # A beam reaching beyond the right wall (a glitch) does not clear the wall.
     cm.update(0.0, pose, scan_towards([10.0, 10.0, 10.0]))
-    assert cm.cost_at(0.0, 5.97, 2.0) == LETHAL
+    assert cost_at(cm, 0.0, 5.97, 2.0) == LETHAL
     cm.update(0.0, pose, scan_towards([1.0, 1.0, 1.0]))
-    assert cm.cost_at(0.0, 2.0, 2.0) == LETHAL
+    assert cost_at(cm, 0.0, 2.0, 2.0) == LETHAL
     cm.clear()
-    assert cm.cost_at(0.0, 2.0, 2.0) == 0
-    assert cm.cost_at(0.0, 5.97, 2.0) == LETHAL
+    assert cost_at(cm, 0.0, 2.0, 2.0) == 0
+    assert cost_at(cm, 0.0, 5.97, 2.0) == LETHAL
 
 
 def test_beyond_obstacle_range_does_not_mark() -> None:
     cm = Costmap(empty_grid(12.0, 4.0), CostmapConfig(obstacle_max_range=4.0))
     cm.update(0.0, Pose2D(0.5, 2.0, 0.0), scan_towards([5.0, 5.0, 5.0]))
-    assert cm.cost_at(0.0, 5.5, 2.0) == 0
+    assert cost_at(cm, 0.0, 5.5, 2.0) == 0
 
 
 def test_live_inflation_equals_full_recomputation() -> None:
     grid = empty_grid()
     cm = Costmap(grid)
     rng = np.random.default_rng(3)
-    pts = rng.uniform([0.5, 0.5], [5.5, 3.5], size=(15, 2))
-    cm.mark_points(0.0, pts)
+    ranges = rng.uniform(0.3, 2.0, 15)
+    cm.update(0.0, Pose2D(3.0, 2.0, 0.0), scan_towards(list(ranges), -math.pi, 2 * math.pi / 15))
+    marked = cm.live_obstacles(0.1)
+    assert marked.sum() >= 10  # the beams' end points
     fast = cm.costs(0.1)
     cells = grid.cells.copy()
-    rows, cols = grid.world_to_cell(pts[:, 0], pts[:, 1])
-    cells[rows, cols] = OCCUPIED
+    cells[marked] = OCCUPIED
     reference = Costmap(grid.with_cells(cells)).costs(0.0)
     np.testing.assert_array_equal(fast, reference)
 

@@ -21,10 +21,18 @@ from robot_daemon.planning.global_planner import (
     NoPathError,
     StartBlockedError,
     astar_cells,
-    path_cost,
 )
 
 RES = 0.05
+
+
+def path_cost(costs: np.ndarray, cells: list[tuple[int, int]], cost_weight: float) -> float:
+    """Cost [cells] of a cell path under `astar_cells`' step cost."""
+    total = 0.0
+    for (r0, c0), (r1, c1) in itertools.pairwise(cells):
+        step = math.hypot(r1 - r0, c1 - c0)
+        total += step * (1.0 + (float(costs[r0, c0]) + float(costs[r1, c1])) / (2.0 * cost_weight))
+    return total
 
 
 def reference_dijkstra(

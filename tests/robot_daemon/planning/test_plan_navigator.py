@@ -124,7 +124,7 @@ def test_reaches_a_goal_through_a_door() -> None:
     grid = two_rooms()
     nav = Navigator(grid)
     assert nav.state is NavState.IDLE
-    nav.set_goal(Pose2D(6.5, 3.5, math.pi / 2), now=0.0)
+    nav.set_route([Pose2D(6.5, 3.5, math.pi / 2)], now=0.0)
     assert nav.state is NavState.PLANNING
     pose, commands, poses, _ = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 80.0)
     states = [c.state for c in commands]
@@ -157,7 +157,7 @@ def test_replans_around_a_new_obstacle() -> None:
     grid = two_rooms()
     world = with_box(grid, 2.0, 1.6, 2.6, 3.4)  # a cabinet the map does not know
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(3.4, 2.5, 0.0), now=0.0)
+    nav.set_route([Pose2D(3.4, 2.5, 0.0)], now=0.0)
     _pose, commands, poses, _ = run(nav, world, Pose2D(0.8, 2.5, 0.0), 70.0)
     assert commands[-1].state is NavState.SUCCEEDED, commands[-1]
     assert min(footprint_clearance(world, p) for p in poses) > 0.0
@@ -168,7 +168,7 @@ def test_initial_path_is_replaced_when_the_obstacle_is_seen() -> None:
     grid = two_rooms()
     world = with_box(grid, 2.0, 1.6, 2.6, 3.4)
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(3.4, 2.5, 0.0), now=0.0)
+    nav.set_route([Pose2D(3.4, 2.5, 0.0)], now=0.0)
     pose = Pose2D(0.8, 2.5, 0.0)
     nav.update(0.0, pose)  # no scan yet: plans on the a-priori map only
     straight = np.asarray(nav.path)
@@ -183,7 +183,7 @@ def test_reports_blocked_in_a_dead_end_after_recoveries() -> None:
     world = with_box(grid, 7.5, 0.9, 7.8, 2.1)  # a trolley closes the far end of the corridor
     config = PlannerConfig(blocked_timeout=15.0, wait_duration=2.0)
     nav = Navigator(grid, config)
-    nav.set_goal(Pose2D(9.0, 1.5, 0.0), now=0.0)
+    nav.set_route([Pose2D(9.0, 1.5, 0.0)], now=0.0)
     pose, commands, poses, now = run(nav, world, Pose2D(1.0, 1.5, 0.0), 90.0)
     states = [c.state for c in commands]
     assert states[-1] is NavState.BLOCKED, commands[-1]
@@ -207,7 +207,7 @@ def test_reports_blocked_in_a_dead_end_after_recoveries() -> None:
 def test_goal_inside_a_wall_is_blocked_at_once() -> None:
     grid = two_rooms()
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(4.05, 1.0, 0.0), now=0.0)
+    nav.set_route([Pose2D(4.05, 1.0, 0.0)], now=0.0)
     cmd = nav.update(0.0, Pose2D(1.0, 1.0, 0.0))
     assert cmd.state is NavState.BLOCKED
     assert "unreachable" in cmd.reason and "two_rooms" in cmd.reason
@@ -217,7 +217,7 @@ def test_a_door_too_narrow_is_reported_with_where_and_how_wide() -> None:
     """A 0.6 m door for a 0.55 m robot: blocked at once, naming the door's place and width."""
     grid = two_rooms(door_cells=12)
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(6.5, 2.5, 0.0), now=0.0)
+    nav.set_route([Pose2D(6.5, 2.5, 0.0)], now=0.0)
     cmd = nav.update(0.0, Pose2D(1.0, 2.5, 0.0))
     assert cmd.state is NavState.BLOCKED and cmd.linear == cmd.angular == 0.0
     assert "unreachable" in cmd.reason
@@ -225,14 +225,14 @@ def test_a_door_too_narrow_is_reported_with_where_and_how_wide() -> None:
     assert "robot 0.55 m wide" in cmd.reason
     # The same door at 0.9 m is planned through.
     wide = Navigator(two_rooms())
-    wide.set_goal(Pose2D(6.5, 2.5, 0.0), now=0.0)
+    wide.set_route([Pose2D(6.5, 2.5, 0.0)], now=0.0)
     assert wide.update(0.0, Pose2D(1.0, 2.5, 0.0)).state is NavState.FOLLOWING
 
 
 def test_progress_checker_starts_recovery_when_the_robot_does_not_move() -> None:
     grid = two_rooms()
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(3.0, 1.0, 0.0), now=0.0)
+    nav.set_route([Pose2D(3.0, 1.0, 0.0)], now=0.0)
     # The wheels slip: commands have no effect.
     _, commands, _, _ = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 11.0, until=set(), move=False)
     first = next(
@@ -245,7 +245,7 @@ def test_progress_checker_starts_recovery_when_the_robot_does_not_move() -> None
 def test_cancel_and_reconfigure() -> None:
     grid = two_rooms()
     nav = Navigator(grid)
-    nav.set_goal(Pose2D(3.0, 1.0, 0.0), now=0.0)
+    nav.set_route([Pose2D(3.0, 1.0, 0.0)], now=0.0)
     nav.reconfigure(max_linear_speed=0.1)
     _, commands, _, now = run(nav, grid, Pose2D(1.0, 1.0, 0.0), 5.0)
     assert max(c.linear for c in commands) == pytest.approx(0.1)

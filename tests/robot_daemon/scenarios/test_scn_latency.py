@@ -14,6 +14,8 @@ from robot_daemon.scenarios.latency import LatencyConfig, lay_out_run, run_trial
 from robot_daemon.scenarios.runner import ScenarioOptions, StraightSegment
 from robot_daemon.sim.wifi import WifiConfig
 
+IDEAL = WifiConfig(0.001, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)  # a wired-like link: 1 ms, never bad
+
 
 def _write_world(tmp_path: Path) -> ScenarioOptions:
     res = 0.05
@@ -55,9 +57,7 @@ def _config(wifi: WifiConfig, **kw: float) -> LatencyConfig:
 
 def test_ideal_link_no_timeouts_regular_periods(tmp_path: Path) -> None:
     options = _write_world(tmp_path)
-    trial = run_trial(
-        options, "Base Station", 1, _config(WifiConfig.ideal(), zone_p_good_to_bad=0.0)
-    )
+    trial = run_trial(options, "Base Station", 1, _config(IDEAL, zone_p_good_to_bad=0.0))
     row = trial.row(1)
     assert row["mux_timeouts"] == 0
     assert row["received"] == row["sent"] > 100

@@ -14,8 +14,6 @@ from robot_daemon.sim.battery import (
 
 def test_pack_voltages() -> None:
     cfg = BatteryConfig()
-    assert cfg.nominal_voltage == pytest.approx(29.6)
-    assert cfg.full_voltage == pytest.approx(33.6)
     assert cfg.cutoff_voltage == pytest.approx(24.0)
     assert open_circuit_cell_voltage(1.0) == pytest.approx(4.2)
     assert open_circuit_cell_voltage(0.0) == pytest.approx(3.0)

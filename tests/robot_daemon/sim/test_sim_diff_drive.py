@@ -17,6 +17,7 @@ from robot_daemon.sim.diff_drive import (
     RobotFootprint,
     body_velocity,
     integrate_arc,
+    to_world,
     wheel_speeds,
 )
 
@@ -105,13 +106,13 @@ def test_invalid_config_names_field() -> None:
 def test_footprint_polygon_and_distance() -> None:
     fp = RobotFootprint()
     assert (fp.length, fp.width) == (0.60, 0.55)
-    corners = fp.polygon(Pose2D(1.0, 1.0, math.pi / 2))
+    corners = to_world(Pose2D(1.0, 1.0, math.pi / 2), fp.corners_local())
     assert corners.min(axis=0) == pytest.approx([1.0 - 0.275, 1.0 - 0.30])
     assert corners.max(axis=0) == pytest.approx([1.0 + 0.275, 1.0 + 0.30])
     d = fp.distance_to_points(Pose2D(0, 0, 0), [(1.0, 0.0), (0.0, 0.0), (0.3, 0.275 + 0.1)])
     assert d == pytest.approx([0.7, 0.0, 0.1])
     assert fp.distance_to_point(Pose2D(0, 0, 0), 1.0, 0.0) == pytest.approx(0.7)
-    outline = fp.outline(Pose2D(0, 0, 0), 0.02)
+    outline = to_world(Pose2D(0, 0, 0), fp.outline_local(0.02))
     steps = np.hypot(*np.diff(np.vstack((outline, outline[:1])), axis=0).T)
     assert steps.max() <= 0.02 + 1e-12
     assert fp.distance_to_points(Pose2D(0, 0, 0), outline) == pytest.approx(0.0, abs=1e-12)
@@ -119,7 +120,7 @@ def test_footprint_polygon_and_distance() -> None:
 
 def test_footprint_offset_moves_rectangle() -> None:
     fp = RobotFootprint(offset_x=0.1)
-    corners = fp.polygon(Pose2D(0, 0, 0))
+    corners = to_world(Pose2D(0, 0, 0), fp.corners_local())
     assert corners[:, 0].max() == pytest.approx(0.4)
     assert corners[:, 0].min() == pytest.approx(-0.2)
     assert fp.circumscribed_radius == pytest.approx(math.hypot(0.4, 0.275))

@@ -65,7 +65,7 @@ def test_collision_with_person_and_obstacle() -> None:
     gap = sim.config.footprint.distance_to_point(sim.true_pose(), person.x, person.y)
     assert gap == pytest.approx(person.radius, abs=0.01)
     sim.teleport(Pose2D(2.0, 1.0, 0.0))
-    sim.add_obstacle(RectObstacle.from_bounds(4.0, 0.0, 4.5, 2.0))
+    sim.add_obstacle(RectObstacle(4.25, 1.0, 0.5, 2.0))
     for _ in range(60):
         sim.step(0.1)
         sim.set_cmd_vel(0.5, 0.0)

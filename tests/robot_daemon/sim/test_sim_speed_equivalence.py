@@ -14,7 +14,7 @@ import numpy as np
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
-from robot_daemon.sim.diff_drive import RobotFootprint
+from robot_daemon.sim.diff_drive import RobotFootprint, to_world
 from robot_daemon.sim.laser_sim import LaserConfig, LaserSim, RayCaster
 from robot_daemon.sim.world import PAD, RAY_FINE_STEP, SQRT2, RectObstacle, World
 
@@ -181,7 +181,7 @@ def test_footprint_clearance_uses_the_outline_of_the_footprint() -> None:
     footprint = RobotFootprint()
     for x, y, yaw in _poses(rng, 30):
         pose = Pose2D(x, y, yaw)
-        pts = footprint.outline(pose, WORLD.resolution / 2)
+        pts = to_world(pose, footprint.outline_local(WORLD.resolution / 2))
         ref = (
             0.0
             if WORLD.footprint_hits_wall(footprint, pose)

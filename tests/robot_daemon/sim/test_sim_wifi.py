@@ -11,6 +11,8 @@ from robot_daemon.sim.wifi import LossyZone, WifiConfig, WifiConfigError, WifiLi
 
 ZONE = LossyZone(10.0, 0.0, 3.0, p_good_to_bad=0.2)
 
+IDEAL = WifiConfig(0.001, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0)  # a wired-like link: 1 ms, never bad
+
 
 def _stream(seed: int, n: int, x_of: object = lambda k: 0.0) -> list:
     link = WifiLink(WifiConfig(zones=(ZONE,)), np.random.default_rng(seed))
@@ -71,7 +73,7 @@ def test_handover_stall_when_crossing_a_zone_boundary() -> None:
 
 
 def test_messages_are_not_delivered_early() -> None:
-    link = WifiLink(WifiConfig.ideal(), np.random.default_rng(0))
+    link = WifiLink(IDEAL, np.random.default_rng(0))
     link.send(1.0, "x")
     assert link.receive(1.0005) == []
     assert [d.payload for d in link.receive(1.001)] == ["x"]
@@ -86,7 +88,7 @@ def test_invalid_config_names_the_field(kwargs: dict[str, float]) -> None:
 
 
 def test_send_times_must_not_go_back() -> None:
-    link = WifiLink(WifiConfig.ideal(), np.random.default_rng(0))
+    link = WifiLink(IDEAL, np.random.default_rng(0))
     link.send(1.0, "x")
     with pytest.raises(ValueError, match="non-decreasing"):
         link.send(0.5, "y")

@@ -37,7 +37,7 @@ def test_added_obstacle_is_rasterised() -> None:
     world = World(room())
     assert not bool(world.is_blocked(3.0, 2.0))
     version = world.version
-    world.add_obstacle(RectObstacle.from_bounds(2.5, 1.5, 3.5, 2.5))
+    world.add_obstacle(RectObstacle(3.0, 2.0, 1.0, 1.0))
     assert world.version == version + 1
     assert bool(world.is_blocked(3.0, 2.0)) and bool(world.is_blocked(2.53, 1.53))
     assert not bool(world.is_blocked(2.4, 2.0)) and not bool(world.is_blocked(3.0, 2.6))
