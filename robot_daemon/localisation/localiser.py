@@ -536,6 +536,11 @@ class Localiser:
         )
         return self._last
 
+    # `_trace_impossible`'s last trace, and whether `_see_through` may reuse it: it asks again
+    # for the trace `on_scan` has just made of the same points at the same pose (speed).
+    _last_trace: tuple[FloatArray, Pose2D, int, npt.NDArray[np.bool_], FloatArray] | None = None
+    _reuse_trace = False
+
     def _see_through(
         self, points: FloatArray, pose: Pose2D, confidence: float, impossible: float
     ) -> float:
@@ -547,10 +552,14 @@ class Localiser:
         opening that end on a mapped surface (``crowded``)."""
         cfg = self.config
         share = 1.0 - impossible
-        if confidence >= cfg.see_through_min_confidence * share:
-            return self.impossible_fraction(points, pose, see_through=True)
-        if confidence >= cfg.see_through_crowded_confidence * share:
-            return self.impossible_fraction(points, pose, see_through=True, crowded=True)
+        self._reuse_trace = True  # the trace of these points at this pose is not traced again
+        try:
+            if confidence >= cfg.see_through_min_confidence * share:
+                return self.impossible_fraction(points, pose, see_through=True)
+            if confidence >= cfg.see_through_crowded_confidence * share:
+                return self.impossible_fraction(points, pose, see_through=True, crowded=True)
+        finally:
+            self._reuse_trace = False
         return impossible
 
     def _keep_odometry_prediction(self) -> None:
@@ -789,9 +798,29 @@ class Localiser:
         clipping both coordinates to the field: every sample beyond that reads the border's
         inf either way. The arithmetic is element for element that of the plain loop, which
         `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as reference.
+        Within `_see_through` the trace `on_scan` has just made of the same points at the same
+        pose is returned again instead of being traced a second (and a third) time.
         """
         cfg = self.config
-        pts = subsample_points(points, max_beams or cfg.impossible_max_beams)
+        beams = max_beams or cfg.impossible_max_beams
+        last = self._last_trace
+        if (
+            self._reuse_trace
+            and last is not None
+            and last[0] is points
+            and last[1:3] == (pose, beams)
+        ):
+            return last[3].copy(), last[4].copy()  # copies: callers edit the flags
+        out, crossing = self._trace_rays(points, pose, beams)
+        self._last_trace = (points, pose, beams, out.copy(), crossing.copy())
+        return out, crossing
+
+    def _trace_rays(
+        self, points: FloatArray, pose: Pose2D, max_beams: int
+    ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+        """The sphere tracing of `_trace_impossible` (see there)."""
+        cfg = self.config
+        pts = subsample_points(points, max_beams)
         out = np.zeros(pts.shape[0], dtype=bool)
         crossing = np.full(pts.shape[0], np.nan)
         if pts.shape[0] == 0:

@@ -282,3 +282,77 @@ def test_background_check_skips_the_search_only_when_no_place_can_fit_better() -
         found = found or reloc.check_standing(utm_scan(ROOM, truth, now, rng), tracked, 0.0, now)
     assert counter.calls >= 1
     assert found is not None and found.pose.distance_to(truth) < 0.1
+
+
+# -- the see-through test reuses the scan's trace ---------------------------------------------
+
+
+class FreshTraces(Localiser):
+    """A localiser that traces every time it is asked (no reuse), counting the traces."""
+
+    traces = 0
+
+    def _trace_impossible(
+        self, points: np.ndarray, pose: Pose2D, max_beams: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        self.traces += 1
+        return self._trace_rays(points, pose, max_beams or self.config.impossible_max_beams)
+
+
+class CountedTraces(Localiser):
+    """The shipped localiser, counting the rays it actually traces."""
+
+    traces = 0
+
+    def _trace_rays(
+        self, points: np.ndarray, pose: Pose2D, max_beams: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        self.traces += 1
+        return super()._trace_rays(points, pose, max_beams)
+
+
+def test_see_through_reuses_the_trace_of_the_scan_and_estimates_alike() -> None:
+    """A robot facing a door the map has closed, people around (the see-through test runs on
+    most scans, crowded or not): every estimate equals that of tracing each time, with one
+    trace per scan instead of two or three."""
+    door = np.array([[7.0, 7.9, 8.2, 8.2]])
+    truth = Pose2D(7.6, 6.6, math.pi / 2)
+    grid = rasterise(np.vstack([OFFICE_BOXES, door]))
+    people = [
+        square(truth.x + 0.9 * math.cos(a), truth.y + 0.9 * math.sin(a), 0.15)
+        for a in np.linspace(0.75 * math.pi, 2.25 * math.pi, 4)
+    ]
+    estimates = []
+    for kind in (CountedTraces, FreshTraces):
+        loc = kind(grid, LocaliserConfig(map_update=False))
+        rng = np.random.default_rng(1)
+        loc.on_odometry(truth, 0.0)
+        loc.set_initial_pose(truth, 0.0, np.diag([0.02**2, 0.02**2, 0.01**2]))
+        run = []
+        for k in range(1, 16):
+            walkers = people[: k % 5]  # 0 to 4 people: both tiers of the test
+            world = np.vstack([OFFICE_BOXES, *walkers]) if walkers else OFFICE_BOXES
+            pose = Pose2D(truth.x, truth.y, truth.yaw + 0.01 * k)
+            loc.on_odometry(pose, 0.1 * k)
+            est = loc.on_scan(utm_scan(world, pose, 0.1 * k, rng), 0.1 * k)
+            run.append((est.pose, est.state, est.impossible, est.confidence, est.reason))
+        estimates.append((run, loc.traces))
+    (reused, traced_once), (fresh, traced_fresh) = estimates
+    assert reused == fresh
+    assert traced_once == 15  # one trace per scan
+    assert traced_fresh > 20  # the see-through test asked again on most scans
+
+
+def test_see_through_at_another_pose_traces_again() -> None:
+    """Only the trace of the same points at the same pose is reused."""
+    rng = np.random.default_rng(9)
+    loc = CountedTraces(office_grid())
+    fresh = FreshTraces(office_grid())
+    pose = Pose2D(10.0, 5.0, 0.3)
+    points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
+    for at in (Pose2D(10.6, 5.3, 0.3), Pose2D(10.0, 5.0, 0.35)):
+        first = loc.impossible_fraction(points, pose)
+        assert first == fresh.impossible_fraction(points, pose)
+        again = loc._see_through(points, at, 1.0, first)
+        assert again == fresh.impossible_fraction(points, at, see_through=True)
+        assert again != first  # the other pose gives another answer
