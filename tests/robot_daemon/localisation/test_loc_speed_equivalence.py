@@ -15,6 +15,7 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
+from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import subsample_points
@@ -172,6 +173,28 @@ def test_fast_impossible_trace_equals_the_plain_loop_on_the_isr_map() -> None:
         ref_mask, ref_crossing = trace_impossible_reference(loc, points, pose)
         assert np.array_equal(mask, ref_mask)
         assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+
+
+@pytest.mark.parametrize("scalar_rays", [0, 10_000])
+def test_impossible_trace_one_ray_at_a_time_equals_the_plain_loop(
+    scalar_rays: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every pass in numpy (0) or every ray in plain Python from the first pass (10 000), on
+    and off the map, with and without the depth test: the plain loop's flags and ranges."""
+    monkeypatch.setattr(localiser_module, "_SCALAR_TAIL_RAYS", scalar_rays)
+    rng = np.random.default_rng(10)
+    for depth in (0.1, 0.0):
+        loc = Localiser(_holed_office(), LocaliserConfig(impossible_depth_m=depth))
+        poses = [*_poses(rng, 12), Pose2D(-1.0, 5.0, 0.0), Pose2D(21.0, 5.0, math.pi)]
+        for pose in poses:
+            scan = utm_scan(OFFICE_BOXES, pose, 0.0, rng)
+            points = loc._scan_points(scan)
+            wrong = Pose2D(pose.x + rng.normal(0, 1.0), pose.y + rng.normal(0, 1.0), pose.yaw)
+            for at in (pose, wrong):
+                mask, crossing = loc._trace_impossible(points, at)
+                ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
+                assert np.array_equal(mask, ref_mask)
+                assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
 def test_fast_distance_to_map_equals_the_masked_lookup() -> None:
