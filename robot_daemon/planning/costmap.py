@@ -240,7 +240,8 @@ class Costmap:
                 )
         # Marking: endpoints within obstacle_max_range.
         mark = valid & (ranges <= cfg.obstacle_max_range)
-        px, py = ranges[mark] * np.cos(angles[mark]), ranges[mark] * np.sin(angles[mark])
+        cos, sin = scan.trig()
+        px, py = ranges[mark] * cos[mark], ranges[mark] * sin[mark]
         wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
         rows, cols = self.grid.world_to_cell(wx, wy)
         ok = self.grid.in_bounds(rows, cols)
