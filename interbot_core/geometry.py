@@ -25,7 +25,7 @@ def angle_diff(a: float, b: float) -> float:
     return wrap_angle(a - b)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, init=False)
 class Pose2D:
     """A planar pose: position [m] and heading yaw [rad], yaw wrapped to (-pi, pi]."""
 
@@ -33,14 +33,17 @@ class Pose2D:
     y: float
     yaw: float
 
-    def __post_init__(self) -> None:
-        for name in ("x", "y", "yaw"):
-            value = getattr(self, name)
-            if not math.isfinite(value):
-                raise ValueError(f"Pose2D.{name} must be finite, got {value!r}")
-        object.__setattr__(self, "yaw", wrap_angle(float(self.yaw)))
-        object.__setattr__(self, "x", float(self.x))
-        object.__setattr__(self, "y", float(self.y))
+    def __init__(self, x: float, y: float, yaw: float) -> None:
+        # Written out rather than the dataclass's __init__ and a __post_init__ that sets every
+        # field twice: poses are made by the hundred thousand in a simulated tour.
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+            for name, value in (("x", x), ("y", y), ("yaw", yaw)):
+                if not math.isfinite(value):
+                    raise ValueError(f"Pose2D.{name} must be finite, got {value!r}")
+        setattr_ = object.__setattr__
+        setattr_(self, "x", float(x))
+        setattr_(self, "y", float(y))
+        setattr_(self, "yaw", wrap_angle(float(yaw)))
 
     def distance_to(self, other: Pose2D) -> float:
         """Euclidean distance between the two positions [m]."""

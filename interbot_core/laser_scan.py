@@ -7,6 +7,7 @@ The Hokuyo UTM-30LX default: 1081 beams over 270 degrees (0.25 degree steps), 0.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -50,7 +51,13 @@ class LaserScan:
     @property
     def angles(self) -> npt.NDArray[np.float64]:
         """Beam angles in the sensor frame [rad]."""
-        return self.angle_min + self.angle_increment * np.arange(self.ranges.size, dtype=np.float64)
+        return _beam_trig(self.ranges.size, self.angle_min, self.angle_increment)[0].copy()
+
+    def trig(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """``(cos, sin)`` of the beam angles (read-only: shared by every scan of this beam
+        geometry, so a 10 Hz stack computes them once, not in every consumer of every scan)."""
+        _, cos, sin = _beam_trig(self.ranges.size, self.angle_min, self.angle_increment)
+        return cos, sin
 
     def valid(self) -> npt.NDArray[np.bool_]:
         """Mask of beams with a usable return."""
@@ -63,5 +70,18 @@ class LaserScan:
         if max_range is not None:
             mask &= self.ranges <= max_range
         r = self.ranges[mask].astype(np.float64)
-        a = self.angles[mask]
-        return np.column_stack((r * np.cos(a), r * np.sin(a)))
+        cos, sin = self.trig()
+        return np.column_stack((r * cos[mask], r * sin[mask]))
+
+
+@functools.lru_cache(maxsize=8)
+def _beam_trig(
+    n: int, angle_min: float, angle_increment: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Beam angles [rad] of a scan geometry and their cosines and sines, read-only (a pure
+    function of its arguments, kept for the few geometries a process sees)."""
+    angles = angle_min + angle_increment * np.arange(n, dtype=np.float64)
+    cos, sin = np.cos(angles), np.sin(angles)
+    for a in (angles, cos, sin):
+        a.setflags(write=False)
+    return angles, cos, sin

@@ -536,6 +536,11 @@ class Localiser:
         )
         return self._last
 
+    # `_trace_impossible`'s last trace, and whether `_see_through` may reuse it: it asks again
+    # for the trace `on_scan` has just made of the same points at the same pose (speed).
+    _last_trace: tuple[FloatArray, Pose2D, int, npt.NDArray[np.bool_], FloatArray] | None = None
+    _reuse_trace = False
+
     def _see_through(
         self, points: FloatArray, pose: Pose2D, confidence: float, impossible: float
     ) -> float:
@@ -547,10 +552,14 @@ class Localiser:
         opening that end on a mapped surface (``crowded``)."""
         cfg = self.config
         share = 1.0 - impossible
-        if confidence >= cfg.see_through_min_confidence * share:
-            return self.impossible_fraction(points, pose, see_through=True)
-        if confidence >= cfg.see_through_crowded_confidence * share:
-            return self.impossible_fraction(points, pose, see_through=True, crowded=True)
+        self._reuse_trace = True  # the trace of these points at this pose is not traced again
+        try:
+            if confidence >= cfg.see_through_min_confidence * share:
+                return self.impossible_fraction(points, pose, see_through=True)
+            if confidence >= cfg.see_through_crowded_confidence * share:
+                return self.impossible_fraction(points, pose, see_through=True, crowded=True)
+        finally:
+            self._reuse_trace = False
         return impossible
 
     def _keep_odometry_prediction(self) -> None:
@@ -789,9 +798,30 @@ class Localiser:
         clipping both coordinates to the field: every sample beyond that reads the border's
         inf either way. The arithmetic is element for element that of the plain loop, which
         `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as reference.
+        The last ``_SCALAR_TAIL_RAYS`` rays are traced one by one (`_RayWalk`). Within
+        `_see_through` the trace `on_scan` has just made of the same points at the same pose is
+        returned again instead of being traced a second (and a third) time.
         """
         cfg = self.config
-        pts = subsample_points(points, max_beams or cfg.impossible_max_beams)
+        beams = max_beams or cfg.impossible_max_beams
+        last = self._last_trace
+        if (
+            self._reuse_trace
+            and last is not None
+            and last[0] is points
+            and last[1:3] == (pose, beams)
+        ):
+            return last[3].copy(), last[4].copy()  # copies: callers edit the flags
+        out, crossing = self._trace_rays(points, pose, beams)
+        self._last_trace = (points, pose, beams, out.copy(), crossing.copy())
+        return out, crossing
+
+    def _trace_rays(
+        self, points: FloatArray, pose: Pose2D, max_beams: int
+    ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+        """The sphere tracing of `_trace_impossible` (see there)."""
+        cfg = self.config
+        pts = subsample_points(points, max_beams)
         out = np.zeros(pts.shape[0], dtype=bool)
         crossing = np.full(pts.shape[0], np.nan)
         if pts.shape[0] == 0:
@@ -848,7 +878,20 @@ class Localiser:
         t = np.zeros(idx.shape)
         # Up to 30 passes over a few dozen rays: a pass without a hit skips the bookkeeping
         # (np.count_nonzero is the cheapest test).
-        for _ in range(cfg.impossible_max_steps):
+        for step in range(cfg.impossible_max_steps):
+            if t.size <= _SCALAR_TAIL_RAYS:
+                # The last few rays (nine traces in ten run all 30 passes, the last ones on a
+                # handful of grazing rays): one by one in plain Python, which costs less than
+                # a pass's numpy calls on so few.
+                walk = _RayWalk(dist, wp, (col0, row0), (cmax, rmax) if t_exit is None else None)
+                walk.trace(
+                    cfg.impossible_max_steps - step,
+                    (t, limit, direction, idx, t_exit),
+                    (slack, min_step, blocked_below, depth),
+                    out,
+                    crossing,
+                )
+                break
             d = lookup(t, direction, t_exit)
             hit = d < blocked_below
             any_hit = np.count_nonzero(hit) > 0
@@ -1177,6 +1220,95 @@ def _max_eig_2x2(cov: FloatArray) -> float:
     """Largest eigenvalue of the position block of a 3x3 covariance."""
     a, b, d = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
     return 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
+
+
+_SCALAR_TAIL_RAYS = 16  # `_trace_impossible` traces this few rays left one by one
+
+
+class _RayWalk:
+    """`Localiser._trace_impossible`'s passes, one ray at a time in plain Python floats: the
+    same operations in the same order as the numpy passes (a float64 product or sum rounds
+    alike in both; ``int`` truncates as ``astype`` does), so each ray ends, and is judged,
+    exactly as there (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`).
+    ``clip``: the field's last column and row when the laser is off the map (samples clipped
+    to the border), None when each ray's parameter is capped at its exit instead."""
+
+    def __init__(
+        self,
+        dist: FloatArray,
+        width: int,
+        origin: tuple[float, float],
+        clip: tuple[int, int] | None,
+    ) -> None:
+        self.dist = dist
+        self.width = width
+        self.origin = origin
+        self.clip = clip
+
+    def lookup(self, t: float, dcol: float, drow: float, exit_t: float) -> float:
+        """The field at parameter ``t`` of a ray (the numpy pass's ``lookup``); ``exit_t``
+        is inf when the samples are clipped instead."""
+        tt = min(t, exit_t)
+        col = int(tt * dcol + self.origin[0])
+        row = int(tt * drow + self.origin[1])
+        if self.clip is not None:
+            col = max(min(col, self.clip[0]), 0)
+            row = max(min(row, self.clip[1]), 0)
+        value: float = self.dist.item(row * self.width + col)
+        return value
+
+    def trace(
+        self,
+        passes: int,
+        rays: tuple[
+            FloatArray,
+            FloatArray,
+            npt.NDArray[np.complex128],
+            npt.NDArray[np.intp],
+            FloatArray | None,
+        ],
+        steps: tuple[float, float, float, float],
+        out: npt.NDArray[np.bool_],
+        crossing: FloatArray,
+    ) -> None:
+        """Up to ``passes`` more steps of each ray ``(t, limit, direction, index, exit)``;
+        marks ``out`` and ``crossing`` at the index of each one that goes through the map.
+        The lookup is written out in the loop (a call per step costs as much as the step)."""
+        slack, min_step, blocked_below, depth = steps
+        t, limit, direction, idx, t_exit = rays
+        exits = [math.inf] * t.size if t_exit is None else t_exit.tolist()
+        col0, row0 = self.origin
+        item, width, clip = self.dist.item, self.width, self.clip
+        for tk, lim, dc, dr, k, ex in zip(
+            t.tolist(),
+            limit.tolist(),
+            direction.real.tolist(),
+            direction.imag.tolist(),
+            idx.tolist(),
+            exits,
+            strict=True,
+        ):
+            for _ in range(passes):
+                tt = min(tk, ex)
+                col = int(tt * dc + col0)
+                row = int(tt * dr + row0)
+                if clip is not None:
+                    col = max(min(col, clip[0]), 0)
+                    row = max(min(row, clip[1]), 0)
+                d = item(row * width + col)
+                if d < blocked_below and (
+                    depth <= 0.0
+                    or (
+                        self.lookup(tk + 0.5 * depth, dc, dr, ex) < blocked_below
+                        and self.lookup(tk + 1.0 * depth, dc, dr, ex) < blocked_below
+                    )
+                ):
+                    out[k] = True
+                    crossing[k] = tk
+                    break
+                tk += max(d - slack, min_step)
+                if not tk < lim:
+                    break
 
 
 def _exit_parameters(

@@ -240,7 +240,8 @@ class Costmap:
                 )
         # Marking: endpoints within obstacle_max_range.
         mark = valid & (ranges <= cfg.obstacle_max_range)
-        px, py = ranges[mark] * np.cos(angles[mark]), ranges[mark] * np.sin(angles[mark])
+        cos, sin = scan.trig()
+        px, py = ranges[mark] * cos[mark], ranges[mark] * sin[mark]
         wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
         rows, cols = self.grid.world_to_cell(wx, wy)
         ok = self.grid.in_bounds(rows, cols)
@@ -276,7 +277,8 @@ class Costmap:
         c1 = min(col_o + k + 1, max(b[4] for b in boxes), g.width)
         if r0 >= r1 or c0 >= c1:
             return empty, empty
-        live = np.flatnonzero(self._marked_until[r0:r1, c0:c1] > now)
+        # Array methods, not numpy's functions: their Python wrappers cost as much as the work.
+        live = (self._marked_until[r0:r1, c0:c1] > now).ravel().nonzero()[0]
         if live.size == 0:
             return empty, empty
         rows, cols = np.divmod(live, c1 - c0)
@@ -292,7 +294,7 @@ class Costmap:
         k_lo = np.maximum(np.floor((rho - h) / res).astype(np.int64) - 1, 0)
         k_hi = np.minimum(np.ceil((rho + h) / res).astype(np.int64) + 2, t.size)  # exclusive
         # A window may also wrap past the end of the scan into the next turn.
-        wrap = np.flatnonzero(centre + 2.0 * math.pi - half <= angles[-1])
+        wrap = (centre + 2.0 * math.pi - half <= angles[-1]).nonzero()[0]
         if wrap.size:
             centre = np.concatenate((centre, centre[wrap] + 2.0 * math.pi))
             half = np.concatenate((half, half[wrap]))
@@ -301,13 +303,13 @@ class Costmap:
         lo = angles.searchsorted(centre - half)  # methods: without np.searchsorted's wrapper
         n_beams = np.maximum(angles.searchsorted(centre + half, side="right") - lo, 0)
         # (beam, k) candidates: each window's beams, each with the window's k range.
-        cell = np.repeat(np.arange(lo.size), n_beams)
-        beam = np.arange(cell.size) + np.repeat(lo - (np.cumsum(n_beams) - n_beams), n_beams)
+        cell = np.arange(lo.size).repeat(n_beams)
+        beam = np.arange(cell.size) + (lo - (n_beams.cumsum() - n_beams)).repeat(n_beams)
         kk = k_lo[cell][:, None] + np.arange(max(int((k_hi - k_lo).max()), 0))[None, :]
         counts = t.searchsorted(reach, side="left")  # samples with t_k < reach
         real = kk < np.minimum(k_hi[cell], counts[beam])[:, None]
         # Each candidate's beam, row by row (what masking the broadcast beams gives, faster).
-        beam = np.repeat(beam, np.count_nonzero(real, axis=1))
+        beam = beam.repeat(np.count_nonzero(real, axis=1))
         tk = t[kk[real]]
         xs = x + np.cos(angles)[beam] * tk
         ys = y + np.sin(angles)[beam] * tk

@@ -272,7 +272,7 @@ class DWAPlanner:
         w_lo = max(-c.max_angular_speed, w0 - dw)
         w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
         # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
-        v_s = np.repeat(np.linspace(v_lo, v_hi, c.v_samples), c.w_samples)
+        v_s = np.linspace(v_lo, v_hi, c.v_samples).repeat(c.w_samples)
         w_s = np.tile(np.linspace(w_lo, w_hi, c.w_samples), c.v_samples)
         th = w_s[:, None] * times[None, :]
         cos_t, sin_t = np.cos(th), np.sin(th)
@@ -302,7 +302,8 @@ class DWAPlanner:
             path_term = np.minimum(gaps.min(axis=1) / 0.5, 1.0)
         else:
             path_term = np.zeros_like(xe)
-        clear_term = np.clip(1.0 - traj_clearance / CLEARANCE_REF, 0.0, 1.0)
+        # np.clip(x, 0, 1) without its wrapper (the same values, NaN and inf included).
+        clear_term = np.minimum(np.maximum(1.0 - traj_clearance / CLEARANCE_REF, 0.0), 1.0)
         speed_term = (c.max_linear_speed - v_s) / c.max_linear_speed
         score = (
             W_PROGRESS * progress
@@ -312,7 +313,7 @@ class DWAPlanner:
             + W_SPEED * speed_term
         )
         score = np.where(admissible, score, np.inf)
-        best = int(np.argmin(score))
+        best = int(score.argmin())
         return LocalPlan(float(v_s[best]), float(w_s[best]), True, "dwa", clearance, count)
 
     def rotate_to_yaw(
@@ -372,10 +373,10 @@ def _carrot(
     path points from the nearest one up to ``2 * lookahead`` further (robot frame)."""
     if local.shape[0] == 0:
         return np.zeros(2), local
-    nearest = int(np.argmin(np.hypot(local[:, 0], local[:, 1])))
+    nearest = int(np.hypot(local[:, 0], local[:, 1]).argmin())
     ahead = local[nearest:]
     seg = np.hypot(np.diff(ahead[:, 0]), np.diff(ahead[:, 1]))
-    s = np.concatenate(([0.0], np.cumsum(seg)))
+    s = np.concatenate(([0.0], seg.cumsum()))
     if s[-1] <= lookahead:
         carrot = ahead[-1]
     else:
@@ -396,7 +397,7 @@ def obstacle_points_near(
     pose: Pose2D,
 ) -> npt.NDArray[np.float64]:
     """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0)."""
-    rows, cols = np.nonzero(obstacles)
+    rows, cols = obstacles.nonzero()  # the method: np.nonzero's wrapper costs as much
     x = origin_x + (cols + col0 + 0.5) * resolution
     y = origin_y + (rows + row0 + 0.5) * resolution
     return _to_robot_frame(np.column_stack((x, y)), pose)

@@ -262,6 +262,9 @@ class CollisionMonitor:
         self._trig_key: tuple[int, float, float] | None = None
         self._cos = self._sin = np.zeros(0)
         self._px = self._py = np.zeros(0)
+        # `_time_to_contact` of this scan's points per (zone, v, w): the stack filters the same
+        # command twice or more between two scans (its loop runs faster than the laser).
+        self._contacts: dict[tuple[int, float, float, float, float], tuple[float, float]] = {}
         self._stamp = -math.inf
         self._distance = math.inf
         self.scans = 0
@@ -282,6 +285,7 @@ class CollisionMonitor:
         rk = r[keep].astype(np.float64)
         self._px = self._mount.x + rk * self._cos[keep]
         self._py = self._mount.y + rk * self._sin[keep]
+        self._contacts = {}
         self._stamp = now
         self.scans += 1
         self._update_zones()
@@ -334,12 +338,15 @@ class CollisionMonitor:
             if SEVERITY[kind] > SEVERITY[zone]:
                 zone, zone_name = kind, name
 
-        for z in self._zones:
+        for i, z in enumerate(self._zones):
             cfg = z.config
             if cfg.action_type == "approach":
                 if not moving:
                     continue
-                t_free, t_c = self._time_to_contact(z, v, w)
+                key = (i, v, w, math.copysign(1.0, v), math.copysign(1.0, w))  # -0.0 apart
+                if key not in self._contacts:
+                    self._contacts[key] = self._time_to_contact(z, v, w)
+                t_free, t_c = self._contacts[key]
                 ttc = min(ttc, t_c)
                 ratio = min(1.0, t_free / cfg.time_before_collision)
                 if ratio < 1.0:

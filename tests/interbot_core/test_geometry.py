@@ -1,7 +1,10 @@
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -51,3 +54,42 @@ def test_compose_known_values() -> None:
 def test_pose_rejects_non_finite() -> None:
     with pytest.raises(ValueError, match="yaw"):
         Pose2D(0.0, 0.0, float("nan"))
+
+
+@dataclass(frozen=True)
+class _DataclassPose:
+    """`Pose2D` as the dataclass's own __init__ and a __post_init__ built it (before the
+    speed work): the reference for its written-out constructor."""
+
+    x: float
+    y: float
+    yaw: float
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y", "yaw"):
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                raise ValueError(f"Pose2D.{name} must be finite, got {value!r}")
+        object.__setattr__(self, "yaw", wrap_angle(float(self.yaw)))
+        object.__setattr__(self, "x", float(self.x))
+        object.__setattr__(self, "y", float(self.y))
+
+
+@given(finite, finite, angles)
+def test_pose_constructor_equals_the_dataclass_post_init(x: float, y: float, a: float) -> None:
+    for args in ((x, y, a), (int(x), np.float32(y), np.float64(a))):
+        pose, ref = Pose2D(*args), _DataclassPose(*args)
+        assert (pose.x, pose.y, pose.yaw) == (ref.x, ref.y, ref.yaw)
+        assert all(type(v) is float for v in (pose.x, pose.y, pose.yaw))
+    assert Pose2D(x=x, y=y, yaw=a) == Pose2D(x, y, a)
+    assert dataclasses.replace(Pose2D(x, y, a), yaw=a + 7.0).yaw == wrap_angle(a + 7.0)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_pose_constructor_names_the_first_bad_field_as_before(bad: float) -> None:
+    for args in ((bad, 0.0, 0.0), (0.0, bad, 0.0), (0.0, 0.0, bad), (bad, bad, bad)):
+        with pytest.raises(ValueError) as new:
+            Pose2D(*args)
+        with pytest.raises(ValueError) as old:
+            _DataclassPose(*args)
+        assert str(new.value) == str(old.value)

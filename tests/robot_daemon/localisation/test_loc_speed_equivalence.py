@@ -15,6 +15,7 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
+from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import subsample_points
@@ -174,6 +175,28 @@ def test_fast_impossible_trace_equals_the_plain_loop_on_the_isr_map() -> None:
         assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
+@pytest.mark.parametrize("scalar_rays", [0, 10_000])
+def test_impossible_trace_one_ray_at_a_time_equals_the_plain_loop(
+    scalar_rays: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every pass in numpy (0) or every ray in plain Python from the first pass (10 000), on
+    and off the map, with and without the depth test: the plain loop's flags and ranges."""
+    monkeypatch.setattr(localiser_module, "_SCALAR_TAIL_RAYS", scalar_rays)
+    rng = np.random.default_rng(10)
+    for depth in (0.1, 0.0):
+        loc = Localiser(_holed_office(), LocaliserConfig(impossible_depth_m=depth))
+        poses = [*_poses(rng, 12), Pose2D(-1.0, 5.0, 0.0), Pose2D(21.0, 5.0, math.pi)]
+        for pose in poses:
+            scan = utm_scan(OFFICE_BOXES, pose, 0.0, rng)
+            points = loc._scan_points(scan)
+            wrong = Pose2D(pose.x + rng.normal(0, 1.0), pose.y + rng.normal(0, 1.0), pose.yaw)
+            for at in (pose, wrong):
+                mask, crossing = loc._trace_impossible(points, at)
+                ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
+                assert np.array_equal(mask, ref_mask)
+                assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+
+
 def test_fast_distance_to_map_equals_the_masked_lookup() -> None:
     rng = np.random.default_rng(4)
     loc = Localiser(_holed_office())
@@ -282,3 +305,77 @@ def test_background_check_skips_the_search_only_when_no_place_can_fit_better() -
         found = found or reloc.check_standing(utm_scan(ROOM, truth, now, rng), tracked, 0.0, now)
     assert counter.calls >= 1
     assert found is not None and found.pose.distance_to(truth) < 0.1
+
+
+# -- the see-through test reuses the scan's trace ---------------------------------------------
+
+
+class FreshTraces(Localiser):
+    """A localiser that traces every time it is asked (no reuse), counting the traces."""
+
+    traces = 0
+
+    def _trace_impossible(
+        self, points: np.ndarray, pose: Pose2D, max_beams: int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        self.traces += 1
+        return self._trace_rays(points, pose, max_beams or self.config.impossible_max_beams)
+
+
+class CountedTraces(Localiser):
+    """The shipped localiser, counting the rays it actually traces."""
+
+    traces = 0
+
+    def _trace_rays(
+        self, points: np.ndarray, pose: Pose2D, max_beams: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        self.traces += 1
+        return super()._trace_rays(points, pose, max_beams)
+
+
+def test_see_through_reuses_the_trace_of_the_scan_and_estimates_alike() -> None:
+    """A robot facing a door the map has closed, people around (the see-through test runs on
+    most scans, crowded or not): every estimate equals that of tracing each time, with one
+    trace per scan instead of two or three."""
+    door = np.array([[7.0, 7.9, 8.2, 8.2]])
+    truth = Pose2D(7.6, 6.6, math.pi / 2)
+    grid = rasterise(np.vstack([OFFICE_BOXES, door]))
+    people = [
+        square(truth.x + 0.9 * math.cos(a), truth.y + 0.9 * math.sin(a), 0.15)
+        for a in np.linspace(0.75 * math.pi, 2.25 * math.pi, 4)
+    ]
+    estimates = []
+    for kind in (CountedTraces, FreshTraces):
+        loc = kind(grid, LocaliserConfig(map_update=False))
+        rng = np.random.default_rng(1)
+        loc.on_odometry(truth, 0.0)
+        loc.set_initial_pose(truth, 0.0, np.diag([0.02**2, 0.02**2, 0.01**2]))
+        run = []
+        for k in range(1, 16):
+            walkers = people[: k % 5]  # 0 to 4 people: both tiers of the test
+            world = np.vstack([OFFICE_BOXES, *walkers]) if walkers else OFFICE_BOXES
+            pose = Pose2D(truth.x, truth.y, truth.yaw + 0.01 * k)
+            loc.on_odometry(pose, 0.1 * k)
+            est = loc.on_scan(utm_scan(world, pose, 0.1 * k, rng), 0.1 * k)
+            run.append((est.pose, est.state, est.impossible, est.confidence, est.reason))
+        estimates.append((run, loc.traces))
+    (reused, traced_once), (fresh, traced_fresh) = estimates
+    assert reused == fresh
+    assert traced_once == 15  # one trace per scan
+    assert traced_fresh > 20  # the see-through test asked again on most scans
+
+
+def test_see_through_at_another_pose_traces_again() -> None:
+    """Only the trace of the same points at the same pose is reused."""
+    rng = np.random.default_rng(9)
+    loc = CountedTraces(office_grid())
+    fresh = FreshTraces(office_grid())
+    pose = Pose2D(10.0, 5.0, 0.3)
+    points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
+    for at in (Pose2D(10.6, 5.3, 0.3), Pose2D(10.0, 5.0, 0.35)):
+        first = loc.impossible_fraction(points, pose)
+        assert first == fresh.impossible_fraction(points, pose)
+        again = loc._see_through(points, at, 1.0, first)
+        assert again == fresh.impossible_fraction(points, at, see_through=True)
+        assert again != first  # the other pose gives another answer

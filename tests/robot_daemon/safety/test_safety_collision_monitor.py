@@ -198,3 +198,32 @@ def test_configuration_is_nav2_shaped_and_bounds_checked(tmp_path: Path) -> None
     path.write_text("collision_monitor: {polygons: []}\n")
     with pytest.raises(SafetyConfigError, match=r"bad\.yaml"):
         load_safety_config(path)
+
+
+def test_a_command_filtered_again_on_the_same_scan_gives_the_same_result(
+    config: CollisionMonitorConfig,
+) -> None:
+    """The time to contact is kept per scan, zone and command (the stack filters each command
+    twice a scan period): every result equals that of a monitor asked once, signed zeros and
+    a new scan included."""
+    rng = np.random.default_rng(5)
+    kept = CollisionMonitor(config, MOUNT)
+    commands = [(0.5, 0.0), (0.5, -0.0), (-0.0, 0.8), (0.0, 0.8), (0.4, 0.5), (0.4, -0.5)]
+    approached = set()
+    for k in range(12):
+        points = np.vstack([post(float(x), float(y)) for x, y in rng.uniform(-0.9, 0.9, (6, 2))])
+        points = points[np.hypot(points[:, 0], points[:, 1]) > 0.55]  # not inside the robot
+        points = np.vstack([points, wall_x(float(rng.uniform(0.45, 0.8)))])
+        now = 0.1 * k
+        kept.on_scan(scan_of(points, now), now)
+        for v, w in [*commands, *commands[::-1]]:  # each command twice on this scan
+            fresh = CollisionMonitor(config, MOUNT)
+            fresh.on_scan(scan_of(points, now), now)
+            got, want = kept.update(v, w, now), fresh.update(v, w, now)
+            assert got == want
+            if math.isfinite(got.time_to_contact):
+                approached.add(round(got.time_to_contact, 3))
+            assert [math.copysign(1.0, a) for a in (got.linear, got.angular)] == [
+                math.copysign(1.0, a) for a in (want.linear, want.angular)
+            ]
+    assert len(approached) > 5  # the approach zone acted, at many different times
