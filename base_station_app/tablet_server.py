@@ -202,10 +202,6 @@ class TabletServer(QObject):
         return self._port
 
     @property
-    def is_listening(self) -> bool:
-        return bool(self._call.run(self._server.isListening))
-
-    @property
     def is_connected(self) -> bool:
         return self._conn is not None and self._conn.is_connected
 
