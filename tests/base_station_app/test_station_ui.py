@@ -163,7 +163,8 @@ def drag(window, a: tuple[float, float], b: tuple[float, float]) -> None:
 
 def test_goal_by_click_and_drag(qtbot, window, station):
     QTest.mouseClick(window.task_panel.goal_pick_button, Qt.MouseButton.LeftButton)
-    assert window.map_view.pick_mode == "goal"
+    assert window.statusBar().currentMessage().startswith("click the goal on the map")
+    assert window.map_view.cursor().shape() == Qt.CursorShape.CrossCursor
     with qtbot.waitSignal(window.map_view.pose_picked) as blocker:
         drag(window, (0.0, 0.0), (0.0, 5.0))
     mode, pose = blocker.args
@@ -172,7 +173,7 @@ def test_goal_by_click_and_drag(qtbot, window, station):
     assert pose.yaw == pytest.approx(math.pi / 2, abs=0.1)
     (task,) = station.selected.supervisor.queue
     assert isinstance(task, GoToPose) and task.pose == pose
-    assert window.map_view.pick_mode == ""
+    assert window.map_view.cursor().shape() == Qt.CursorShape.ArrowCursor  # picked: back to panning
 
 
 def test_initial_pose_arrow_reaches_robot(qtbot, linked, window, robot):
