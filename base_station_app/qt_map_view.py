@@ -69,13 +69,10 @@ def footprint_xy(
 
 
 def scan_xy(
-    pose: Pose2D,
-    angles: npt.NDArray[np.float64],
-    ranges: npt.NDArray[np.float32],
-    valid: npt.NDArray[np.bool_],
+    pose: Pose2D, angles: npt.NDArray[np.float64], ranges: npt.NDArray[np.float32]
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Scan end points in the map frame; invalid beams become NaN (gaps with connect="finite")."""
-    r = np.where(valid, ranges.astype(np.float64), np.nan)
+    """End points of the beams (``angles``, ``ranges``: the valid ones) in the map frame."""
+    r = ranges.astype(np.float64)
     a = angles + pose.yaw
     return pose.x + r * np.cos(a), pose.y + r * np.sin(a)
 
@@ -276,7 +273,7 @@ class QtMapView(pg.PlotWidget):
         else:
             laser = scan_pose.compose(INTERBOT_LASER_MOUNT)
             valid = scan.valid()
-            xs, ys = scan_xy(laser, scan.angles[valid], scan.ranges[valid], valid[valid])
+            xs, ys = scan_xy(laser, scan.angles[valid], scan.ranges[valid])
             self.scan_item.setData(xs, ys)
 
     def _draw_route(self) -> None:
@@ -323,10 +320,6 @@ class QtMapView(pg.PlotWidget):
         self.tour_item.setData(spots)
 
     # ------------------------------------------------------------------ picking
-    @property
-    def pick_mode(self) -> str:
-        return self._pick_mode
-
     def set_pick_mode(self, mode: str) -> None:
         """ "goal", "initial" or "" (pan and room clicks)."""
         if mode not in ("", "goal", "initial"):

@@ -60,12 +60,8 @@ class TabletRequests:
         clock: Callable[[], float],
     ) -> None:
         self.policy, self._fleet, self._station = policy, fleet, station
-        self._send, self._alert_rules, self._names, self._clock = (
-            tablet_send,
-            alert_rules,
-            names,
-            clock,
-        )
+        self._send, self._alert_rules = tablet_send, alert_rules
+        self._names, self._clock = names, clock
 
     def on_message(self, msg: p.TabletMessage) -> None:
         """One validated request from the tablet (not a speed command), subject to permissions."""

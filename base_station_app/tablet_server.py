@@ -132,7 +132,6 @@ class TabletServer(QObject):
         super().__init__(parent)
         self._clock = clock
         self._host = host
-        self._port = port
         self._robot_name = robot_name
         self.limits = limits
         self._budget = error_budget if error_budget is not None else ErrorBudget()
@@ -157,7 +156,7 @@ class TabletServer(QObject):
         self._newest_speed: Speed | None = None
         self._call = ThreadCall(self)  # public methods run in the server's thread
         self._thread: QThread | None = None
-        self._port = port  # [the port listened on, once listening]
+        self._port = port  # the port listened on, once listening (0: the OS picks)
         self.priority: PriorityOutcome | None = None  # its thread's scheduling (start_thread)
 
     # ------------------------------------------------------------------ its thread
@@ -200,10 +199,6 @@ class TabletServer(QObject):
     @property
     def port(self) -> int:
         return self._port
-
-    @property
-    def is_listening(self) -> bool:
-        return bool(self._call.run(self._server.isListening))
 
     @property
     def is_connected(self) -> bool:

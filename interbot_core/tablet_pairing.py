@@ -215,9 +215,6 @@ class TabletRegistry:
     def code_active(self, now: float) -> bool:
         return self._code is not None and now <= self._code_expires
 
-    def cancel_code(self) -> None:
-        self._code = None
-
     def pair(self, code: str, name: str, now: float) -> tuple[TabletRecord, str]:
         """Check the one-time code; on success issue a token (returned once) and a record."""
         if self._code is None:

@@ -91,7 +91,6 @@ class TabletConnection(QObject):
         self._lossy = True
         self._seq = 0
         self.robot_name = ""
-        self.last_refusal = ""
 
         self._ping_timer = self._timer(ping_interval, self._send_ping)
         self._health_timer = self._timer(health_interval, self._check_health)
@@ -273,6 +272,5 @@ class TabletConnection(QObject):
         self.robot_name_changed.emit(msg.name)
 
     def _on_refused(self, refused: Refused) -> None:
-        self.last_refusal = refused.reason
         logger.warning("Base Station refused the tablet: %s", refused.reason)
         self.refused.emit(refused.reason)

@@ -70,8 +70,9 @@ def test_keys_from_the_station_yaml(keys: Path, tmp_path: Path) -> None:
 
 
 def test_pairing_widget_shows_a_code_and_revokes(qtbot, keys: Path, tmp_path: Path) -> None:
+    now = [time.time()]
     auth = TabletAuthServer.from_files(
-        keys / "station.crt", keys / "station.key", tmp_path / "tablets.json", time.time
+        keys / "station.crt", keys / "station.key", tmp_path / "tablets.json", lambda: now[0]
     )
     widget = QtTabletPairing(auth)
     qtbot.addWidget(widget)
@@ -83,7 +84,7 @@ def test_pairing_widget_shows_a_code_and_revokes(qtbot, keys: Path, tmp_path: Pa
     auth.authorise("pair", auth.offer.code, "lobby")
     assert widget.tablets.count() == 1 and widget.code_label.text() == ""
     widget.pair_button.click()
-    auth.registry.cancel_code()  # as when it expires
+    now[0] += auth.registry.code_ttl + 1.0  # the code expires
     qtbot.waitUntil(lambda: widget.code_label.text() == "", timeout=3000)
     assert widget.qr_label.pixmap().isNull()
     widget.tablets.setCurrentRow(0)

@@ -4,6 +4,7 @@ buttons, room clicks and pose picks on the map, the task queue, configuration (s
 from __future__ import annotations
 
 import math
+import socket
 from pathlib import Path
 
 import pytest
@@ -162,7 +163,8 @@ def drag(window, a: tuple[float, float], b: tuple[float, float]) -> None:
 
 def test_goal_by_click_and_drag(qtbot, window, station):
     QTest.mouseClick(window.task_panel.goal_pick_button, Qt.MouseButton.LeftButton)
-    assert window.map_view.pick_mode == "goal"
+    assert window.statusBar().currentMessage().startswith("click the goal on the map")
+    assert window.map_view.cursor().shape() == Qt.CursorShape.CrossCursor
     with qtbot.waitSignal(window.map_view.pose_picked) as blocker:
         drag(window, (0.0, 0.0), (0.0, 5.0))
     mode, pose = blocker.args
@@ -171,7 +173,7 @@ def test_goal_by_click_and_drag(qtbot, window, station):
     assert pose.yaw == pytest.approx(math.pi / 2, abs=0.1)
     (task,) = station.selected.supervisor.queue
     assert isinstance(task, GoToPose) and task.pose == pose
-    assert window.map_view.pick_mode == ""
+    assert window.map_view.cursor().shape() == Qt.CursorShape.ArrowCursor  # picked: back to panning
 
 
 def test_initial_pose_arrow_reaches_robot(qtbot, linked, window, robot):
@@ -252,7 +254,8 @@ def test_state_panel_and_robots_panel_show_the_robot(qtbot, window, station, rob
 
 def test_close_shuts_the_controller_down(qtbot, window, station):
     window.close()
-    assert not station.tablet.is_listening
+    with pytest.raises(ConnectionRefusedError):  # the tablet port no longer accepts
+        socket.create_connection(("127.0.0.1", station.tablet.port), timeout=2).close()
     assert not station.clock_timer.isActive()
 
 
