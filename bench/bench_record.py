@@ -51,6 +51,7 @@ def _tour_data(seconds: float) -> tuple[list[tuple[float, str, Any]], Any]:
     """(t, kind, payload) for ``seconds`` of a guided tour, at the target rates."""
     from interbot_core.supervisor import GuidedTour
     from interbot_core.topics import Battery, ImageMsg, MuxMsg, Odom, PoseMsg, Topic, Twist
+    from robot_daemon.planning.path_report import plan_message
     from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem, auto_resume_tour
     from robot_daemon.sim.camera_sim import encode_jpeg
     from robot_daemon.stack import Periodic
@@ -83,7 +84,7 @@ def _tour_data(seconds: float) -> tuple[list[tuple[float, str, Any]], Any]:
             path = stack.navigator.path
             if path != last_path:
                 last_path = path
-                items.append((t, "path", path))
+                items.append((t, "state", (Topic.PLAN, plan_message(0, path, t))))
         if due["mux"](t):
             out = stack.last_output
             mux = MuxMsg(out.source, out.reason, out.active_locks, out.linear, out.angular, t)
@@ -181,8 +182,6 @@ def _measure(items: list[tuple[float, str, Any]], seconds: float, tmp: Path) -> 
         start = clock()
         if kind == "state":
             recorder.state(payload[0], payload[1], t)
-        elif kind == "path":
-            recorder.path(payload, t)
         else:
             recorder.json(payload[0], payload[1], t)
         offers.append(clock() - start)

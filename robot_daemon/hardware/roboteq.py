@@ -163,11 +163,6 @@ class DriveGeometry(schema.Declared, frozen=True):
         return left, right
 
     @property
-    def metres_per_count(self) -> float:
-        """Rim travel per encoder count [m] of a wheel of the nominal ``wheel_radius``."""
-        return math.tau * self.wheel_radius / (self.counts_per_rev * self.gear_ratio)
-
-    @property
     def metres_per_count_lr(self) -> tuple[float, float]:
         """(left, right) rim travel per encoder count [m]."""
         k = math.tau / (self.counts_per_rev * self.gear_ratio)
@@ -183,11 +178,6 @@ class DriveGeometry(schema.Declared, frozen=True):
         """Motor shaft rpm for a wheel rim speed [m/s] (``radius`` [m]: nominal if None)."""
         r = self.wheel_radius if radius is None else radius
         return wheel_speed / r * 60.0 / math.tau * self.gear_ratio
-
-    def wheel_speed(self, rpm: float, radius: float | None = None) -> float:
-        """Wheel rim speed [m/s] for a motor rpm (inverse of `motor_rpm`)."""
-        r = self.wheel_radius if radius is None else radius
-        return rpm * math.tau / 60.0 / self.gear_ratio * r
 
 
 @dataclass(frozen=True)

@@ -256,12 +256,6 @@ class MdRequest:
     interval: int
     scans: int
 
-    @property
-    def steps(self) -> int:
-        """Values per scan: ceil((end - start + 1) / cluster), cluster 0 meaning 1."""
-        c = max(self.cluster, 1)
-        return (self.end - self.start) // c + 1
-
 
 def parse_md_request(line: bytes) -> MdRequest:
     """Parse ``MDssssEEEEccirr`` (MD/ME) or ``GDssssEEEEcc`` (GD/GS) without the LF."""

@@ -61,9 +61,7 @@ def parse_live_address(text: str, *, tls: tuple[bytes, bytes] | None = None) -> 
             "Serve on 127.0.0.1 and reach it through an SSH tunnel, or give the daemon "
             "--security (TLS) when it has it."
         )
-    if tls is not None:
-        return LiveServer(host, int(port_text), tls_cert=tls[0], tls_key=tls[1])
-    return LiveServer(host, int(port_text))
+    return LiveServer(host, int(port_text), *(tls or ()))  # with TLS: wss:// only
 
 
 def _is_loopback(host: str) -> bool:
@@ -112,7 +110,7 @@ class RecordingLink(RobotLink):
         robot_id: str,
         recorder: Recorder,
         clock: Callable[[], float],
-        sampler: StackSampler | None = None,
+        sampler: StackSampler,
         **kwargs: Any,
     ) -> None:
         super().__init__(session, robot_id, **kwargs)
@@ -125,8 +123,7 @@ class RecordingLink(RobotLink):
         now = self._clock()
         self.recorder.state(topic, message, now)
         if topic is Topic.POSE:
-            if self._sampler is not None:
-                self._sampler.sample(now)
+            self._sampler.sample(now)
             report = self.recorder.health_report()
             if report is not None:
                 super().publish(Topic.STATUS, Status("warning", report, stamp=now))
@@ -169,10 +166,8 @@ def build_recorder(
     or the defaults. Raises RecordingConfigError or RecorderError.
     """
     config: RecordingConfig | None = None
-    if record_dir is not None:
+    if record_dir is not None or recording:
         config = RecordingConfig.from_mapping(recording or {}, config_dir, directory=record_dir)
-    elif recording:
-        config = RecordingConfig.from_mapping(recording, config_dir)
     if config is None and live is None:
         return None
     rotation = McapRotation(config, robot_id, wall_clock) if config is not None else None

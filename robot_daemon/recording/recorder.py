@@ -24,7 +24,7 @@ import re
 import threading
 import time
 from collections import Counter
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -313,10 +313,6 @@ class Recorder:
         """Anything else, as JSON on ``channel`` (localisation, simulator truth, tasks ...)."""
         self._offer(("json", now, channel, data))
 
-    def path(self, points: Sequence[tuple[float, float]], now: float) -> None:
-        """The planner's current global path (map frame)."""
-        self._offer(("path", now, tuple(points)))
-
     @property
     def port(self) -> int | None:
         return int(self.server.port) if self.server is not None else None
@@ -460,11 +456,6 @@ class Recorder:
             if is_message(data):
                 data = message_dict(data)
             self._log_json(item[2], _jsonable(dict(data)), now)
-        elif kind == "path":
-            points = fc.path_with_headings(item[2])
-            self._log(
-                PLANNED_PATH, PosesInFrameChannel, fc.path_message(t, points), now, latch=True
-            )
         else:
             raise ValueError(f"unknown recorder item {kind!r}")
 

@@ -245,10 +245,9 @@ class HumanDriver:
         path = self.path
         if path is None or start >= len(path) - 1:
             return 0.0, pose.yaw
-        d = path[start + 1 :] - path[start]
         first = math.atan2(*(path[min(start + 3, len(path) - 1)] - path[start])[::-1])
         length = 0.0
-        for k in range(len(d)):
+        for k in range(len(path) - 1 - start):
             step = path[start + k + 1] - path[start + k]
             heading = math.atan2(step[1], step[0])
             if abs(angle_diff(heading, first)) > math.radians(20):
@@ -323,9 +322,7 @@ class HumanDriver:
         dist = np.hypot(*(rest - (pose.x, pose.y)).T)
         ahead = np.nonzero(dist >= LOOKAHEAD)[0]
         carrot = rest[ahead[0]] if len(ahead) else rest[-1]
-        local = Pose2D(float(carrot[0]), float(carrot[1]), 0.0).relative_to(
-            Pose2D(pose.x, pose.y, pose.yaw)
-        )
+        local = Pose2D(float(carrot[0]), float(carrot[1]), 0.0).relative_to(pose)
         bearing = math.atan2(local.y, local.x)
         if abs(bearing) > 0.8:
             return 0.0, math.copysign(min(self.max_angular, 0.3 + abs(bearing)), bearing)

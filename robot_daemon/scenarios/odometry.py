@@ -36,6 +36,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -135,21 +136,12 @@ class CircuitDriver:
         odom = self.system.stack.last_odometry
         return odom.pose if odom is not None else Pose2D(0.0, 0.0, 0.0)
 
-    def _settle(self) -> None:
-        system = self.system
-
-        def tick(now: float) -> bool:
-            system.stack.on_twist("station_vel", 0.0, 0.0, now)
-            return False
-
-        run_ticks(system, tick, SETTLE_S)
-
     def _hold(self, origin: Pose2D) -> float:
         """Heading/lateral hold on the robot's own pose estimate [rad/s]."""
         pose = self.system.stack.pose
         if pose is None:
             return 0.0
-        rel = pose.relative_to(Pose2D(origin.x, origin.y, origin.yaw))
+        rel = pose.relative_to(origin)
         w = -0.6 * rel.y - 1.5 * angle_diff(pose.yaw, origin.yaw)
         return max(-HOLD_MAX_W, min(HOLD_MAX_W, w))
 
@@ -194,7 +186,7 @@ class CircuitDriver:
             logger.warning(
                 "test %d section %d: the robot did not cover %.1f m", test, section, self.distance
             )
-        self._settle_measuring(on_step)
+        self.settle(on_step)
         return SectionResult(
             test,
             section,
@@ -249,7 +241,7 @@ class CircuitDriver:
             return False
 
         run_ticks(system, tick, SECTION_TIMEOUT_FACTOR * expected + 20.0, on_step=on_step)
-        self._settle_measuring(on_step)
+        self.settle(on_step)
         return SectionResult(
             test,
             section,
@@ -263,7 +255,8 @@ class CircuitDriver:
             state["odom"],
         )
 
-    def _settle_measuring(self, on_step: Any) -> None:
+    def settle(self, on_step: Callable[[float], None] | None = None) -> None:
+        """Zero commands for SETTLE_S; ``on_step`` goes on measuring the standstill."""
         system = self.system
 
         def tick(now: float) -> bool:
@@ -303,7 +296,7 @@ def run_model(options: ScenarioOptions, model: str) -> tuple[list[SectionResult]
             f"{start.y:.2f}) of {opts.map_yaml}"
         )
     driver = CircuitDriver(system, start, distance)
-    driver._settle()
+    driver.settle()
     for test, speed in enumerate(LINEAR_SPEEDS[model], start=1):
         driver.circuit(test, speed)
     facts = {

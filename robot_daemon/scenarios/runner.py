@@ -528,33 +528,34 @@ def free_space_distance(grid: OccupancyGrid) -> np.ndarray:
     )
 
 
+def clearance_along(
+    distance: np.ndarray, grid: OccupancyGrid, a: tuple[float, float], b: tuple[float, float]
+) -> float:
+    """The smallest free-space distance [m] on the line a-b (sampled every half cell); 0 when
+    the line leaves the map."""
+    n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (0.5 * grid.resolution)) + 1)
+    rows, cols = grid.world_to_cell(np.linspace(a[0], b[0], n), np.linspace(a[1], b[1], n))
+    if not bool(np.all(grid.in_bounds(rows, cols))):
+        return 0.0
+    return float(distance[rows, cols].min())
+
+
 def straight_segments(
     grid: OccupancyGrid, topo: TopologicalMap, min_clearance: float = 0.7
 ) -> list[StraightSegment]:
-    """Every straight node-to-node segment whose free-space distance stays >= ``min_clearance``,
-    longest first (ties by node ids, so the choice is deterministic)."""
+    """Every straight node-to-node segment whose free-space distance stays >= ``min_clearance``
+    (> 0), longest first (ties by node ids, so the choice is deterministic)."""
     distance = free_space_distance(grid)
     found: list[StraightSegment] = []
     nodes = topo.nodes
     for i, a in enumerate(nodes):
         for b in nodes[i + 1 :]:
-            length = a.pose.distance_to(b.pose)
-            if length < 1.0:
+            if a.pose.distance_to(b.pose) < 1.0:
                 continue
-            n = max(2, int(length / (0.5 * grid.resolution)) + 1)
-            xs = np.linspace(a.pose.x, b.pose.x, n)
-            ys = np.linspace(a.pose.y, b.pose.y, n)
-            rows, cols = grid.world_to_cell(xs, ys)
-            inside = grid.in_bounds(rows, cols)
-            if not bool(np.all(inside)):
-                continue
-            clearance = float(distance[rows, cols].min())
+            ends = (a.pose.x, a.pose.y), (b.pose.x, b.pose.y)
+            clearance = clearance_along(distance, grid, *ends)
             if clearance >= min_clearance:
-                found.append(
-                    StraightSegment(
-                        (a.pose.x, a.pose.y), (b.pose.x, b.pose.y), clearance, (a.id, b.id)
-                    )
-                )
+                found.append(StraightSegment(*ends, clearance, (a.id, b.id)))
     found.sort(key=lambda s: (-round(s.length, 6), s.nodes))
     return found
 

@@ -45,6 +45,7 @@ from robot_daemon.scenarios.runner import (
     ScenarioOptions,
     ScenarioResult,
     SimulatedSystem,
+    clearance_along,
     free_space_distance,
     straight_segments,
 )
@@ -84,17 +85,6 @@ class Outcome:
     through_s: float | None
 
 
-def _clearance_along(
-    distance: np.ndarray, system: SimulatedSystem, a: tuple[float, float], b: tuple[float, float]
-) -> float:
-    grid = system.grid
-    n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (0.5 * grid.resolution)) + 1)
-    rows, cols = grid.world_to_cell(np.linspace(a[0], b[0], n), np.linspace(a[1], b[1], n))
-    if not bool(np.all(grid.in_bounds(rows, cols))):
-        return 0.0
-    return float(distance[rows, cols].min())
-
-
 def _free(system: SimulatedSystem, pose: Pose2D) -> bool:
     sim = system.sim
     return not sim.world.footprint_hits_wall(sim.config.footprint, pose)
@@ -118,7 +108,7 @@ def _door_runs(system: SimulatedSystem, topo: TopologicalMap, distance: np.ndarr
         p = node.pose
         c, s = math.cos(p.yaw), math.sin(p.yaw)
         target = (p.x + DOOR_TARGET * c, p.y + DOOR_TARGET * s)
-        narrow = _clearance_along(distance, system, (p.x, p.y), target)
+        narrow = clearance_along(distance, system.grid, (p.x, p.y), target)
         if not 0.35 <= narrow <= 0.7:  # 0.7-1.4 m wide: a door on the way, not a corridor
             continue
         rows, cols = system.grid.world_to_cell(np.array([target[0]]), np.array([target[1]]))

@@ -269,19 +269,6 @@ class Crowd:
         self._next_id += 1
         return person.person_id
 
-    def get(self, person_id: int) -> Person:
-        """The person with this id."""
-        for p in self._people:
-            if p.person_id == person_id:
-                return p
-        raise KeyError(f"no person with id {person_id}")
-
-    def block(self, person_id: int, duration: float) -> None:
-        """Script a person to stand still where they are for ``duration`` [s]."""
-        p = self.get(person_id)
-        p.state = PersonState.BLOCKING
-        p.timer = duration
-
     def random_route(
         self, n_waypoints: int = 4, min_clearance: float = 0.6
     ) -> list[tuple[float, float]]:

@@ -97,10 +97,6 @@ class Delivery:
     bad: bool  # sent in the bad state (retransmitted)
     position: tuple[float, float]  # [m] where the sender was
 
-    @property
-    def delay(self) -> float:
-        return self.received - self.sent
-
 
 class WifiLink:
     """One direction of a TCP-like connection over the modelled Wi-Fi."""

@@ -17,7 +17,7 @@ def test_defaults_are_valid() -> None:
     config = HardwareConfig.from_mapping({})
     assert config.motors.command == "G"
     assert config.motors.right_channel == 2
-    assert config.motors.geometry.metres_per_count > 0
+    assert config.motors.geometry.metres_per_count_lr[0] > 0
 
 
 def test_deploy_example_parses() -> None:

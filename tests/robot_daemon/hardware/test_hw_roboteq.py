@@ -78,7 +78,7 @@ def test_counter_wrap() -> None:
 
 
 def _counts(metres: float) -> int:
-    return round(metres / GEOM.metres_per_count)
+    return round(metres / GEOM.metres_per_count_lr[0])
 
 
 def test_odometry_straight_line() -> None:

@@ -71,7 +71,7 @@ def test_twist_becomes_channel_commands_and_odometry(
     odom = driver.odometry()
     assert odom is not None
     assert odom.pose.y == pytest.approx(0.0, abs=1e-9)
-    assert odom.linear == pytest.approx(geometry.wheel_speed(expected_rpm), rel=0.25)
+    assert odom.linear == pytest.approx(expected_rpm / geometry.motor_rpm(1.0), rel=0.25)
     driver.set_cmd_vel(0.0, 0.0)
     assert until(lambda: roboteq.applied_rpm == (0.0, 0.0))
 
@@ -82,7 +82,9 @@ def test_odometry_matches_counts_for_a_rotation(
     g = driver.geometry
     base = driver.odometry()
     assert base is not None
-    n = round(math.pi / 2 * g.track / 2 / g.metres_per_count)  # a quarter turn of wheel travel
+    n = round(
+        math.pi / 2 * g.track / 2 / g.metres_per_count_lr[0]
+    )  # a quarter turn of wheel travel
     left, right = roboteq.counts()
     roboteq.set_counts(left - n, right + n)
     assert until(lambda: (o := driver.odometry()) is not None and o.pose.yaw - base.pose.yaw > 1.0)
@@ -100,7 +102,7 @@ def test_counter_wrap_through_the_controller(
     assert until(lambda: driver.status().counters["odometry"] > 3)
     before = driver.odometry()
     assert before is not None
-    n = round(0.25 / g.metres_per_count)
+    n = round(0.25 / g.metres_per_count_lr[0])
     wrapped = (2**31 - 10 + n + 2**31) % 2**32 - 2**31
     roboteq.set_counts(wrapped, wrapped)
     assert until(lambda: (o := driver.odometry()) is not None and o.pose.x - before.pose.x > 0.2)

@@ -152,7 +152,6 @@ def test_md_command_format() -> None:
     assert scip.md_command(0, 1080) == b"MD0000108000000\n"
     req = scip.parse_md_request(b"MD0044072501000")
     assert (req.start, req.end, req.cluster, req.scans) == (44, 725, 1, 0)
-    assert scip.parse_md_request(b"MD0000108003000").steps == 361
 
 
 def test_scan_clock_unwraps_and_stamps_first_beam() -> None:

@@ -25,6 +25,7 @@ from interbot_core.topics import (
     Lock,
     MuxMsg,
     Odom,
+    PlanMsg,
     PoseMsg,
     RouteMsg,
     Status,
@@ -63,7 +64,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         recorder.state(Topic.MAP, grid, 0.0)
         recorder.command(Topic.ROUTE, RouteMsg(7, ((1.0, 2.0, 0.0), (3.0, 2.0, 1.0))), 0.0)
         recorder.command(Topic.STOP, Lock(True, 0.5), 0.5)
-        recorder.path([(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)], 0.1)
+        recorder.state(Topic.PLAN, PlanMsg(7, ((0.0, 0.0), (1.0, 1.0), (2.0, 1.0)), 0.1), 0.1)
         for i in range(int(DURATION * SCAN_HZ)):
             t = i / SCAN_HZ
             scans.append(_scan(t, rng))
@@ -115,6 +116,7 @@ def test_every_channel_is_present_with_its_schema(run: dict[str, Any]) -> None:
         "/mux": ("MuxMsg", "json"),
         "/battery": ("Battery", "json"),
         "/status": ("Status", "json"),
+        "/plan": ("PlanMsg", "json"),
         "/commands": ("interbotCommands", "json"),
     }
     assert {t: s for t, s in schemas.items() if not t.endswith("#descriptor")} == expected
@@ -129,7 +131,7 @@ def test_message_counts_match_duration_and_rates(run: dict[str, Any]) -> None:
     assert counts["/tf"] == DURATION * POSE_HZ + 1
     assert counts["/camera/image/compressed"] == DURATION * CAMERA_HZ
     assert counts["/battery"] == DURATION * BATTERY_HZ
-    assert counts["/map"] == counts["/route"] == counts["/planned_path"] == 1
+    assert counts["/map"] == counts["/route"] == counts["/planned_path"] == counts["/plan"] == 1
     assert counts["/commands"] == 2
     stats = run["summary"].statistics
     assert stats.message_count == sum(counts.values())

@@ -43,11 +43,11 @@ def test_person_walks_through_the_doorway_without_touching_walls() -> None:
     xs = []
     for _ in range(300):
         crowd.step(0.05, FAR_AWAY, FP)
-        xs.append(crowd.get(pid).x)
+        xs.append(crowd.people[pid].x)
         c = crowd.circles()
         assert float(world.clearance(c[0, 0], c[0, 1])) >= 0.25
     assert min(xs) < 3.0 and max(xs) > 7.0  # it crossed to the other room and back
-    doorway = [p for p in crowd.get(pid).path if abs(p[0] - 5.0) < 0.3]
+    doorway = [p for p in crowd.people[pid].path if abs(p[0] - 5.0) < 0.3]
     assert all(1.5 < y < 2.5 for _, y in doorway)
 
 
@@ -78,13 +78,13 @@ def test_person_yields_to_the_robot() -> None:
     robot = Pose2D(2.5, 3.0, 0.0)  # standing in the person's way
     for _ in range(100):
         crowd.step(0.05, robot, FP)
-        p = crowd.get(pid)
+        p = crowd.people[pid]
         assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
-    assert crowd.get(pid).state is PersonState.YIELDING
+    assert crowd.people[pid].state is PersonState.YIELDING
     xs = []
     for _ in range(40):  # the robot has left: the person walks on past where it stood
         crowd.step(0.05, FAR_AWAY, FP)
-        xs.append(crowd.get(pid).x)
+        xs.append(crowd.people[pid].x)
     assert max(xs) > 3.0
 
 
@@ -98,7 +98,7 @@ def test_patient_person_goes_around_a_parked_robot() -> None:
     xs = []
     for _ in range(300):
         crowd.step(0.05, robot, FP)
-        p = crowd.get(pid)
+        p = crowd.people[pid]
         assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
         xs.append(p.x)
     assert max(xs) > 3.5  # got past the robot, which never moved
@@ -115,7 +115,7 @@ def test_person_in_a_doorway_steps_back_and_lets_the_robot_pass() -> None:
     states, door_free = [], []
     for _ in range(400):
         crowd.step(0.05, robot, FP)
-        p = crowd.get(pid)
+        p = crowd.people[pid]
         assert FP.distance_to_point(robot, p.x, p.y) >= p.radius + 0.3 - 1e-9
         states.append(p.state)
         door_free.append(np.hypot(p.x - 5.0, p.y - 2.0) > 0.9)
@@ -134,9 +134,9 @@ def test_blocker_stops_in_front_of_the_robot() -> None:
     states = []
     for _ in range(60):
         crowd.step(0.05, robot, FP)
-        states.append(crowd.get(pid).state)
+        states.append(crowd.people[pid].state)
     assert PersonState.BLOCKING in states
-    p = crowd.get(pid)
+    p = crowd.people[pid]
     assert p.state is PersonState.BLOCKING
     local = Pose2D(p.x, p.y, 0.0).relative_to(robot)
     assert 0.3 < local.x < 0.3 + 2.5 and abs(local.y) < 0.8
@@ -145,13 +145,12 @@ def test_blocker_stops_in_front_of_the_robot() -> None:
 def test_scripted_block() -> None:
     crowd = Crowd(two_rooms(), np.random.default_rng(0))
     pid = crowd.add_person([(1.0, 1.0), (4.0, 3.0)])
-    crowd.block(pid, 1.0)
-    x0 = crowd.get(pid).x
+    person = crowd.people[pid]  # ids count from 0 in creation order
+    person.state, person.timer = PersonState.BLOCKING, 1.0  # as a blocker starts blocking
+    x0 = person.x
     for _ in range(10):
         crowd.step(0.05, FAR_AWAY, FP)
-    assert crowd.get(pid).x == x0
-    with pytest.raises(KeyError):
-        crowd.get(pid + 1)
+    assert person.x == x0
 
 
 def test_crowd_is_deterministic_for_a_seed() -> None:

@@ -12,6 +12,7 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid, load_map
 from robot_daemon.sim.battery import BatteryConfig
 from robot_daemon.sim.odometry_model import OdometryErrorModel
+from robot_daemon.sim.people import PersonState
 from robot_daemon.sim.simulator import SimConfig, SimConfigError, Simulator
 from robot_daemon.sim.world import RectObstacle
 
@@ -55,13 +56,13 @@ def test_driving_into_a_wall_stops_at_it_once() -> None:
 def test_collision_with_person_and_obstacle() -> None:
     sim = make(odometry=OdometryErrorModel.perfect())
     sim.add_person([(8.0, 3.0), (8.0, 3.2)])
-    sim.crowd.block(0, 100.0)
+    person = sim.crowd.people[0]
+    person.state, person.timer = PersonState.BLOCKING, 100.0  # stands where it is
     sim.set_cmd_vel(0.5, 0.0)
     for _ in range(100):
         sim.step(0.1)
         sim.set_cmd_vel(0.5, 0.0)
     assert sim.collisions == 1
-    person = sim.crowd.get(0)
     gap = sim.config.footprint.distance_to_point(sim.true_pose(), person.x, person.y)
     assert gap == pytest.approx(person.radius, abs=0.01)
     sim.teleport(Pose2D(2.0, 1.0, 0.0))
