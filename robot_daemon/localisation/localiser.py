@@ -238,8 +238,9 @@ class LocaliserConfig:
     # whole-log RMS from 3.24 to 3.35 cm; seed 1's world-frame RMS 4.4 -> 4.9 cm (its path
     # changes; the extra error is in a corridor where the map's own error is 5-17 cm).
     # Re-measured on c50fcd2 (session 6, load 8-10): kidnap seed 3 relocalises 7/8 off and
-    # 6/8 on (2 help requests, 0 wrong); with the look-alike rule also on, seed 3's tour is
-    # 3.4 / 9.6 cm and Freiburg 079 3.13 / 3.37 cm.
+    # 6/8 on (2 help requests, 0 wrong); with the look-alike rule also on, ISR seeds 1-3 are
+    # 4.3 / 17.3, 3.3 / 8.2, 3.4 / 9.6 cm (4.4 / 17.4, 3.2 / 8.0, 4.3 / 21.3 with both off)
+    # and Freiburg 079 3.13 / 3.37 cm.
     gate_through_walls: bool = False
     gate_max_sigma_m: float = 0.2
     gate_max_sigma_rad: float = 0.02
