@@ -28,7 +28,12 @@ that turn at most ``learn_max_turn_rad`` (0.2 rad; a turn's own error is not dri
 `learns_from`) keeps both (2026-11-24, load 11-14, beam gating on): the CSAIL revisit RMS
 3.0 cm, 0 lost (2.3 cm with the drift off); ISR seed 1 15/15, 0 losses, RMS 4.6 / max 16.0 cm
 (4.9 / 18.5 off); the campus scans 880-1400 RMS 9.8 cm (10.6 learning from every step,
-17.3 off). Not yet measured on every log and tour, so still off by default.
+17.3 off). Measured on the real logs with ``learn_max_turn_rad`` 0.2 (the bench's methods
+and strides, 2026-11-24, load 5-8; stopped before Örebro, Seattle and the Infinite Corridor's
+whole log once it had failed): RMS revisit / whole Intel 2.8 / 2.3 cm, Freiburg 079 3.1 /
+3.2 (as off), ACES 2.0 / **68 cm** (5 scans lost, 3.3 cm off), CSAIL 3.0 / **11 cm** (1 lost;
+2.3 / 2.3 off), Freiburg campus **9.0** / 9.8 (6.7 / 10.5 off), Infinite Corridor revisit
+**11.7** (10.9 off): worse on four logs, so it stays off.
 
 The drift's and the scale's cross-covariance with each other is not carried (each is
 conditioned on the pose alone): they are driven by different components of the motion
