@@ -51,6 +51,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
     )
     p_scn.add_argument(
+        "--idle-standing",
+        action="store_true",
+        help="kidnap: a robot kidnapped standing at a tour stop is sent no next leg (idle)",
+    )
+    p_scn.add_argument(
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
     )
 

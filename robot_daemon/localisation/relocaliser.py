@@ -171,6 +171,12 @@ class RelocaliserConfig:
     # outscores a cluttered truth on end points, over a whole turn too: ISR kidnap seed 3,
     # truth 0.74-0.95 with 1 % long beams, a corridor 29 m away 0.93-0.96 with 10-13 %).
     explain_veto_long: float = 0.05
+    # ... and at least this many more of them (a count, not only a fraction): where much of
+    # the map is unknown space a place is compared on a dozen beams, and one beam is 6 % of
+    # them (Willow kidnap seed 5: the truth, compared on 17 beams, vetoed for the whole
+    # attempt by one beam through a wall the map has 0.4 m off, against a look-alike 36 m
+    # away compared on 8; both vetoed each other, and the robot asked for help).
+    explain_veto_min_beams: int = 5
     # A look-alike near in quality, verified on this many scans in a row while the best place
     # is still being confirmed, lets the stack start turning at once (`_decide`).
     early_turn_scans: int = 3
@@ -220,6 +226,7 @@ class RelocaliserConfig:
             ("explain_match", self.explain_match, 0.0, 1.0),
             ("explain_long", self.explain_long, 0.0, 1.0),
             ("explain_veto_long", self.explain_veto_long, 0.0, 1.0),
+            ("explain_veto_min_beams", self.explain_veto_min_beams, 0, 10_000),
             ("early_turn_scans", self.early_turn_scans, 1, 1000),
         ]
         for name, value, low, high in checks:
@@ -773,7 +780,8 @@ class Relocaliser:
 
     def _note_vetoes(self, best: Candidate) -> None:
         """Veto ``best`` for this attempt when another tracked place (verified on this scan or
-        not) needs clearly fewer of the current scan's beams to pass through its walls."""
+        not) needs clearly fewer of the current scan's beams to pass through its walls:
+        ``explain_veto_long`` of them, and at least ``explain_veto_min_beams`` beams."""
         cfg = self.config
         if not cfg.explain or len(self._candidates) < 2 or self._is_vetoed(best.pose):
             return
@@ -784,7 +792,12 @@ class Relocaliser:
             if other is best:
                 continue
             o = self._beams(other)
-            if o is not None and o.beams and o.long <= b.long - cfg.explain_veto_long:
+            if (
+                o is not None
+                and o.beams
+                and o.long <= b.long - cfg.explain_veto_long
+                and b.long * b.beams - o.long * o.beams >= cfg.explain_veto_min_beams - 1e-6
+            ):
                 self._vetoed_places.append(best.pose)
                 return
 

@@ -40,6 +40,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
+        idle_standing=bool(getattr(args, "idle_standing", False)),
     )
     try:
         run = load_scenario(args.name)
