@@ -41,6 +41,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -210,6 +211,11 @@ def _drive_somewhere(
         logger.warning("route refused: %s", exc)
 
 
+def _next_leg(run: KidnapRun, system: SimulatedSystem, route_id: int) -> None:
+    """The visitor taps Resume: the tour's next stop (away from where the robot truly is)."""
+    _drive_somewhere(run, system, route_id, system.sim.true_pose())
+
+
 def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAPS) -> _Tally:
     rng = np.random.default_rng(options.seed)
     run = KidnapRun(options, topo, rng)
@@ -247,11 +253,7 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
             # are those of an idle run), away from where the robot now truly stands.
             route_id += 1
             leg_run = KidnapRun(options, topo, np.random.default_rng([options.seed, k, 17]))
-            leg_id = route_id
-            next_leg = (
-                at_stop + TOUR_DWELL_S,
-                lambda: _drive_somewhere(leg_run, system, leg_id, sim.true_pose()),
-            )
+            next_leg = (at_stop + TOUR_DWELL_S, partial(_next_leg, leg_run, system, route_id))
         _watch(system, record, system.now, next_leg)
         tally.records.append(record)
         logger.info("kidnap %d (%s): %s", k, "standing" if standing else "moving", record)
