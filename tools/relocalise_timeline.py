@@ -10,11 +10,16 @@ For each search attempt it prints, in seconds from the attempt's start:
 - ``sbest``: first the last search's verified best (only that one may be accepted);
 - ``clear``: first the best with nothing but ``ripening`` (streak, time) in the way;
 - ``accept``: the attempt ended with a pose (``WRONG`` if far from the truth);
-- then the runs of what blocked the decision, ``reason@t0-t1``, and the turning intervals.
+- then the runs of what blocked the decision, ``reason@t0-t1``, and the turning intervals;
+- with ``--only N`` every scan of attempt N, with the truth's and the strongest rival's
+  expected-scan agreement (``match/long/beams``, ``V``: vetoed in the attempt).
+
+Before the attempts, one line per kidnap (or cold start): standing or driving, the scenario's
+record and the attempts that belong to it.
 
     python tools/relocalise_timeline.py --cold-start --seed 2
     python tools/relocalise_timeline.py --map ../shared/data/maps/willow.yaml \
-        --topo maps/willow_topo.yaml --seed 1 [--only 3]
+        --topo maps/willow_topo.yaml --seed 1 [--only 3] [--idle-standing]
 """
 
 from __future__ import annotations

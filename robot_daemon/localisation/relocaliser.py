@@ -43,12 +43,16 @@ every mode alive until the data removes all but one):
    at least ``view_min_views`` shared views spanning ``view_span_rad`` of turning (a quarter
    turn: the laser's blind sector), the best is ``view_margin`` better on average and no worse
    in ``view_win_fraction`` of them, or ``view_margin_unanimous`` better and no worse in any:
-   a winner consistent over the turn, not on one scan.
+   a winner consistent over the turn, not on one scan; and provided it did not need
+   ``explain_veto_min_beams`` more beams through its walls than the look-alike over those
+   views (people cost the true place end points from every heading, never long beams).
 5. **Beams through walls** (`expected_scan`) are evidence people cannot fake: once another
    tracked place has needed clearly fewer of a scan's beams through its walls than the best
    one, that best place is not accepted for the rest of the attempt (the veto is not judged
    on the current scan alone: a turn passes many headings that tell two places nothing, and
-   one of them must not clear a place the beams have spoken against).
+   one of them must not clear a place the beams have spoken against). It takes at least
+   ``explain_veto_min_beams`` beams, not only a fraction: a place compared on a dozen beams
+   (unknown space all around) is not vetoed by one.
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
