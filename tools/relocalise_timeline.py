@@ -10,11 +10,16 @@ For each search attempt it prints, in seconds from the attempt's start:
 - ``sbest``: first the last search's verified best (only that one may be accepted);
 - ``clear``: first the best with nothing but ``ripening`` (streak, time) in the way;
 - ``accept``: the attempt ended with a pose (``WRONG`` if far from the truth);
-- then the runs of what blocked the decision, ``reason@t0-t1``, and the turning intervals.
+- then the runs of what blocked the decision, ``reason@t0-t1``, and the turning intervals;
+- with ``--only N`` every scan of attempt N, with the truth's and the strongest rival's
+  expected-scan agreement (``match/long/beams``, ``V``: vetoed in the attempt).
+
+Before the attempts, one line per kidnap (or cold start): standing or driving, the scenario's
+record and the attempts that belong to it.
 
     python tools/relocalise_timeline.py --cold-start --seed 2
     python tools/relocalise_timeline.py --map ../shared/data/maps/willow.yaml \
-        --topo maps/willow_topo.yaml --seed 1 [--only 3]
+        --topo maps/willow_topo.yaml --seed 1 [--only 3] [--idle-standing]
 """
 
 from __future__ import annotations
@@ -46,6 +51,16 @@ class Attempt:
 
 _attempts: list[Attempt] = []
 _system: list[SimulatedSystem] = []
+# (teleport time, standing, record, attempts before it) per kidnap or cold start
+_trials: list[tuple[float, bool, kd.KidnapRecord, int]] = []
+_orig_watch = kd._watch
+
+
+def _traced_watch(
+    system: SimulatedSystem, record: kd.KidnapRecord, start: float, *args: Any
+) -> None:
+    _trials.append((start, record.standing, record, len(_attempts)))
+    _orig_watch(system, record, start, *args)
 
 
 class _TracedSystem(SimulatedSystem):
@@ -92,6 +107,13 @@ def _traced_decide(self: rl.Relocaliser, now: float) -> Pose2D | None:
                 for a, b in zip(truth_cand.view_quality[-k:], rival.view_quality[-k:], strict=True)
             ]
             vdiff, vwin = sum(d) / k, sum(x >= 0 for x in d) / k
+    beams = {}
+    if pose is None:  # the scan against the map's prediction (cached per scan: no side effect)
+        for name, cand in (("truth", truth_cand), ("rival", rival)):
+            agreement = None if cand is None else self._beams(cand)
+            if agreement is not None:
+                veto = "V" if self._is_vetoed(cand.pose) else ""
+                beams[name] = f"{agreement.match:.2f}/{agreement.long:.3f}/{agreement.beams}{veto}"
     if pose is not None:
         why = "accepted"
         att.result = pose
@@ -114,6 +136,7 @@ def _traced_decide(self: rl.Relocaliser, now: float) -> Pose2D | None:
             "turning": self.turning,
             "views": len(self._views),
             "exhaustive": self._exhaustive,
+            "beams": " ".join(f"{k}={v}" for k, v in beams.items()) or "-",
         }
     )
     return pose
@@ -157,7 +180,7 @@ def report(att: Attempt, verbose: bool) -> str:
             lines.append(
                 "      t={t:5.1f} {why:42s} n={n} truth q={tq} streak={ts} top={truth_top:d} "
                 "sbest={truth_sbest:d} best={bq} rival={rq} turn={turning:d} views={views} "
-                "exh={exhaustive:d} rival_m={rm} vdiff={vd} vwin={vw}".format(
+                "exh={exhaustive:d} rival_m={rm} vdiff={vd} vwin={vw} match/long/n {beams}".format(
                     rm="-" if r["rival_m"] is None else f"{r['rival_m']:.1f}",
                     vd="-" if r["vdiff"] is None else f"{r['vdiff']:.3f}",
                     vw="-" if r["vwin"] is None else f"{r['vwin']:.2f}",
@@ -177,17 +200,28 @@ def main() -> None:
     parser.add_argument("--topo", type=Path, default=Path("maps/isr_floor0_topo.yaml"))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--cold-start", action="store_true")
+    parser.add_argument("--idle-standing", action="store_true", help="no next leg at a stop")
     parser.add_argument("--only", type=int, default=None, help="print attempt N in detail")
     parser.add_argument("--count", type=int, default=None, help="trials (default: scenario's)")
     args = parser.parse_args()
     options = replace(
         ScenarioOptions(map_yaml=args.map, topo_yaml=args.topo, seed=args.seed),
         cold_start=args.cold_start,
+        idle_standing=args.idle_standing,
     )
     rl.Relocaliser._decide = _traced_decide  # type: ignore[method-assign]
     kd.SimulatedSystem = _TracedSystem  # type: ignore[misc]
+    kd._watch = _traced_watch
     result = kd.run(options, args.count)
     print(result.table)
+    for k, (start, standing, rec, first) in enumerate(_trials):
+        last = _trials[k + 1][3] if k + 1 < len(_trials) else len(_attempts)
+        mine = [f"#{i}" for i in range(first, last) if _attempts[i].since >= start - 1e-6]
+        print(
+            f"trial {k} at {start:.1f} ({'standing' if standing else 'driving'}): "
+            f"detect {rec.detect_s} relocalise {rec.relocalise_s} wrong {rec.wrong} "
+            f"help {rec.help} attempts {' '.join(mine) or '-'}"
+        )
     for i, att in enumerate(_attempts):
         print(f"#{i} " + report(att, args.only == i))
     if any(

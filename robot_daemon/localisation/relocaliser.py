@@ -43,12 +43,16 @@ every mode alive until the data removes all but one):
    at least ``view_min_views`` shared views spanning ``view_span_rad`` of turning (a quarter
    turn: the laser's blind sector), the best is ``view_margin`` better on average and no worse
    in ``view_win_fraction`` of them, or ``view_margin_unanimous`` better and no worse in any:
-   a winner consistent over the turn, not on one scan.
+   a winner consistent over the turn, not on one scan; and provided it did not need
+   ``explain_veto_min_beams`` more beams through its walls than the look-alike over those
+   views (people cost the true place end points from every heading, never long beams).
 5. **Beams through walls** (`expected_scan`) are evidence people cannot fake: once another
    tracked place has needed clearly fewer of a scan's beams through its walls than the best
    one, that best place is not accepted for the rest of the attempt (the veto is not judged
    on the current scan alone: a turn passes many headings that tell two places nothing, and
-   one of them must not clear a place the beams have spoken against).
+   one of them must not clear a place the beams have spoken against). It takes at least
+   ``explain_veto_min_beams`` beams, not only a fraction: a place compared on a dozen beams
+   (unknown space all around) is not vetoed by one.
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
@@ -171,6 +175,12 @@ class RelocaliserConfig:
     # outscores a cluttered truth on end points, over a whole turn too: ISR kidnap seed 3,
     # truth 0.74-0.95 with 1 % long beams, a corridor 29 m away 0.93-0.96 with 10-13 %).
     explain_veto_long: float = 0.05
+    # ... and at least this many more of them (a count, not only a fraction): where much of
+    # the map is unknown space a place is compared on a dozen beams, and one beam is 6 % of
+    # them (Willow kidnap seed 5: the truth, compared on 17 beams, vetoed for the whole
+    # attempt by one beam through a wall the map has 0.4 m off, against a look-alike 36 m
+    # away compared on 8; both vetoed each other, and the robot asked for help).
+    explain_veto_min_beams: int = 5
     # A look-alike near in quality, verified on this many scans in a row while the best place
     # is still being confirmed, lets the stack start turning at once (`_decide`).
     early_turn_scans: int = 3
@@ -220,6 +230,7 @@ class RelocaliserConfig:
             ("explain_match", self.explain_match, 0.0, 1.0),
             ("explain_long", self.explain_long, 0.0, 1.0),
             ("explain_veto_long", self.explain_veto_long, 0.0, 1.0),
+            ("explain_veto_min_beams", self.explain_veto_min_beams, 0, 10_000),
             ("early_turn_scans", self.early_turn_scans, 1, 1000),
         ]
         for name, value, low, high in checks:
@@ -256,6 +267,8 @@ class Candidate:
     scan_quality: float = 0.0  # quality on the last scan, verified or not
     # quality on each view kept since it was found (the last entries of Relocaliser's views)
     view_quality: list[float] = field(default_factory=list)
+    # the expected-scan agreement on the same views (None: not compared, e.g. found later)
+    view_beams: list[BeamAgreement | None] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -449,6 +462,8 @@ class Relocaliser:
         for cand in self._candidates:
             cand.view_quality.append(cand.scan_quality)
             del cand.view_quality[: -cfg.max_views]
+            cand.view_beams.append(self._beams(cand) if cfg.explain else None)
+            del cand.view_beams[: -cfg.max_views]
 
     def view_qualities(self, pose: Pose2D) -> list[float] | None:
         """The quality of the laser pose ``pose`` (now) on every view kept, oldest first, or
@@ -685,6 +700,7 @@ class Relocaliser:
             else:
                 dup = Candidate(v.pose, v.quality, now, wins=win, scan_quality=v.quality)
                 dup.view_quality = seen  # how it explains the views kept before it was found
+                dup.view_beams = [None] * len(seen)  # (their beams were not kept)
                 self._candidates.append(dup)
             if win:
                 self._search_best = dup
@@ -727,9 +743,28 @@ class Relocaliser:
             return False
         diff = np.array(best.view_quality[-k:]) - np.array(other.view_quality[-k:])
         mean, wins = float(np.mean(diff)), float(np.mean(diff >= 0.0))
-        return (mean >= cfg.view_margin and wins >= cfg.view_win_fraction) or (
+        ahead = (mean >= cfg.view_margin and wins >= cfg.view_win_fraction) or (
             wins >= 1.0 and mean >= cfg.view_margin_unanimous
         )
+        return ahead and not self._beams_disagree(best, other, k)
+
+    def _beams_disagree(self, best: Candidate, other: Candidate, k: int) -> bool:
+        """Whether, over the last ``k`` views both were compared on, ``best`` needed
+        ``explain_veto_min_beams`` more beams through its walls than ``other``.
+
+        A lead in end points over a turn is not a win when the beams speak against it: people
+        and furniture the map lacks cost the true place end points from every heading, and a
+        look-alike's walls may catch some of those beams, but they cannot make the true
+        place's beams long (ISR kidnap seed 5, a robot turning at a tour stop: a look-alike
+        63 m away explained 0.93-0.96 of the beams where the truth explained 0.87-0.92, 0.058
+        better on every view of a quarter turn, and was accepted, 63 m wrong; it needed 1-3 %
+        of its beams through walls, the truth 0-1 %)."""
+        cfg = self.config
+        extra = 0.0
+        for b, o in zip(best.view_beams[-k:], other.view_beams[-k:], strict=False):
+            if b is not None and o is not None and b.beams and o.beams:
+                extra += b.long * b.beams - o.long * o.beams
+        return extra >= cfg.explain_veto_min_beams - 1e-6
 
     def _beams(self, cand: Candidate) -> BeamAgreement | None:
         """The current scan against the map's prediction at ``cand`` (once per scan)."""
@@ -768,7 +803,8 @@ class Relocaliser:
 
     def _note_vetoes(self, best: Candidate) -> None:
         """Veto ``best`` for this attempt when another tracked place (verified on this scan or
-        not) needs clearly fewer of the current scan's beams to pass through its walls."""
+        not) needs clearly fewer of the current scan's beams to pass through its walls:
+        ``explain_veto_long`` of them, and at least ``explain_veto_min_beams`` beams."""
         cfg = self.config
         if not cfg.explain or len(self._candidates) < 2 or self._is_vetoed(best.pose):
             return
@@ -779,7 +815,12 @@ class Relocaliser:
             if other is best:
                 continue
             o = self._beams(other)
-            if o is not None and o.beams and o.long <= b.long - cfg.explain_veto_long:
+            if (
+                o is not None
+                and o.beams
+                and o.long <= b.long - cfg.explain_veto_long
+                and b.long * b.beams - o.long * o.beams >= cfg.explain_veto_min_beams - 1e-6
+            ):
                 self._vetoed_places.append(best.pose)
                 return
 

@@ -2,10 +2,19 @@
 
 During a tour with people on the simulated world (the runner's default world), the simulated
 robot is teleported ``KIDNAPS`` times, alternately while standing (its route cancelled and the
-robot stopped) and while driving, between any two places at least ``MIN_KIDNAP_M`` apart:
-topological nodes when the map has a topological graph, random free poses otherwise (Willow
-Garage). Odometry does not see a teleport. For each kidnap the figures are taken from the
-simulator's ground truth (metrics only; nothing of it reaches the robot):
+robot stopped: it stands at a tour stop) and while driving, between any two places at least
+``MIN_KIDNAP_M`` apart: topological nodes when the map has a topological graph, random free
+poses otherwise (Willow Garage). Odometry does not see a teleport.
+
+The tour goes on: ``TOUR_DWELL_S`` after the robot came to rest at its stop, the visitor taps
+Resume and the next leg is sent to the robot, which then serves a command and may look around
+(`look_around`) while it searches. ``idle_standing`` (``--idle-standing``) sends no next leg:
+the robot stays idle, and an idle robot never turns by itself (no motion nobody commanded), so
+it searches standing still. (Today's station holds a tour's next leg until the robot reports a
+pose, `interbot_core.supervisor.Supervisor.update`: with it, a robot kidnapped at a stop turns
+only for the operator's "Relocalise"; the default models a station that hands the leg on.)
+For each kidnap the figures are taken from the simulator's ground truth (metrics only;
+nothing of it reaches the robot):
 
 * ``detected``: the robot's localisation state left ``ok`` within ``WINDOW_S`` (lost or
   searching); ``detect_s``: from the teleport to that moment;
@@ -32,6 +41,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +64,7 @@ CORRECT_M = 0.3  # [m] a relocalisation this close to the truth is right
 WRONG_M = 0.5  # [m] ... this far is wrong
 MIN_CLEARANCE_M = 0.45  # [m] targets this far from walls (the footprint fits)
 DRIVE_S = (8.0, 25.0)  # [s] driving between kidnaps (uniform)
+TOUR_DWELL_S = 5.0  # [s] at a tour stop until the visitor taps Resume (the tour scenario's)
 
 
 @dataclass
@@ -146,12 +157,21 @@ class KidnapRun:
         return Pose2D(place.x, place.y, float(self.rng.uniform(-math.pi, math.pi)))
 
 
-def _watch(system: SimulatedSystem, record: KidnapRecord, start: float) -> None:
-    """Step until relocalised (right or wrong) or WINDOW_S passes; fill ``record``."""
+def _watch(
+    system: SimulatedSystem,
+    record: KidnapRecord,
+    start: float,
+    then: tuple[float, Callable[[], None]] | None = None,
+) -> None:
+    """Step until relocalised (right or wrong) or WINDOW_S passes; fill ``record``.
+    ``then``: (time, action) done once on the way (the tour's next leg)."""
     stack, sim = system.stack, system.sim
     help_before = stack.relocalisation.help_requests
     left_ok = False
     while system.now - start < WINDOW_S:
+        if then is not None and system.now >= then[0] - 1e-9:
+            then[1]()
+            then = None
         system.step()
         state = stack.localisation_state
         if state is not LocaliserState.OK:
@@ -177,15 +197,23 @@ def _operator_fixes(system: SimulatedSystem) -> None:
     system.run_until(lambda: stack.localisation_state is LocaliserState.OK, 2.0)
 
 
-def _drive_somewhere(run: KidnapRun, system: SimulatedSystem, route_id: int) -> None:
-    """Send the robot to a place (a tour-like wander between places)."""
-    pose = system.stack.pose or system.sim.true_pose()
+def _drive_somewhere(
+    run: KidnapRun, system: SimulatedSystem, route_id: int, away_from: Pose2D | None = None
+) -> None:
+    """Send the robot to a place (a tour-like wander between places) at least MIN_KIDNAP_M
+    from ``away_from`` (default: where the robot believes it is)."""
+    pose = away_from or system.stack.pose or system.sim.true_pose()
     goal = run.target(system, pose)
     msg = RouteMsg(route_id, ((goal.x, goal.y, goal.yaw),))
     try:
         system.stack.set_route(msg, system.now)
     except ValueError as exc:  # StackError: goal not free (cannot happen for free places)
         logger.warning("route refused: %s", exc)
+
+
+def _next_leg(run: KidnapRun, system: SimulatedSystem, route_id: int) -> None:
+    """The visitor taps Resume: the tour's next stop (away from where the robot truly is)."""
+    _drive_somewhere(run, system, route_id, system.sim.true_pose())
 
 
 def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAPS) -> _Tally:
@@ -203,9 +231,11 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
         _drive_somewhere(run, system, route_id)
         drive_s = float(rng.uniform(*DRIVE_S))
         system.run_until(lambda: False, drive_s)
+        at_stop = system.now
         if standing:
             stack.cancel_route(system.now, "kidnap scenario: stand still")
             system.run_until(lambda: sim.true_velocity() == (0.0, 0.0), 5.0)
+            at_stop = system.now  # at a tour stop from here
             system.run_until(lambda: False, 1.0)
         else:
             if stack.route is None or stack.route.finished:
@@ -217,7 +247,14 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
         target = run.target(system, sim.true_pose())
         record = KidnapRecord(standing=standing)
         sim.teleport(target)
-        _watch(system, record, system.now)
+        next_leg = None
+        if standing and not options.idle_standing:
+            # The visitor taps Resume: the next stop, from a stream of its own (the kidnaps
+            # are those of an idle run), away from where the robot now truly stands.
+            route_id += 1
+            leg_run = KidnapRun(options, topo, np.random.default_rng([options.seed, k, 17]))
+            next_leg = (at_stop + TOUR_DWELL_S, partial(_next_leg, leg_run, system, route_id))
+        _watch(system, record, system.now, next_leg)
         tally.records.append(record)
         logger.info("kidnap %d (%s): %s", k, "standing" if standing else "moving", record)
         if record.relocalise_s is None:
@@ -276,8 +313,9 @@ def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
             "map": str(options.map_yaml),
             "targets": "topological nodes" if topo is not None else "random free poses",
             "cold_start": cold,
-            # cold starts: a route is given at power-on (the robot serves a command)
-            "commanded": cold,
+            # cold starts: a route is given at power-on (the robot serves a command);
+            # kidnaps: a robot kidnapped standing is sent the tour's next leg after the dwell
+            "commanded": cold or not options.idle_standing,
             "people": options.people,
             "seed": options.seed,
         }

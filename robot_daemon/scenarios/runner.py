@@ -76,6 +76,8 @@ class ScenarioOptions:
     max_sim_time: float = 3600.0  # [s]
     ideal_world: bool = False  # True: the simulator's world IS the map, initial pose exact
     cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
+    # kidnap scenario: a robot kidnapped standing at a tour stop gets no next leg (pure idle)
+    idle_standing: bool = False
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
