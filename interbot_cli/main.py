@@ -48,9 +48,9 @@ def _scenario_arguments(p_scn: argparse.ArgumentParser) -> None:
         "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
     )
     p_scn.add_argument(
-        "--idle-standing",
+        "--tour-resumes",
         action="store_true",
-        help="kidnap: a robot kidnapped standing at a tour stop is sent no next leg (idle)",
+        help="kidnap: a robot kidnapped standing at a tour stop is sent the next leg after a dwell",
     )
     p_scn.add_argument(
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"

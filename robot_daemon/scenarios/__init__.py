@@ -38,7 +38,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
-        idle_standing=bool(getattr(args, "idle_standing", False)),
+        tour_resumes=bool(getattr(args, "tour_resumes", False)),
     )
     if getattr(args, "record", None):
         from dataclasses import replace

@@ -6,13 +6,12 @@ robot stopped: it stands at a tour stop) and while driving, between any two plac
 ``MIN_KIDNAP_M`` apart: topological nodes when the map has a topological graph, random free
 poses otherwise (Willow Garage). Odometry does not see a teleport.
 
-The tour goes on: ``TOUR_DWELL_S`` after the robot came to rest at its stop, the visitor taps
-Resume and the next leg is sent to the robot, which then serves a command and may look around
-(`look_around`) while it searches. ``idle_standing`` (``--idle-standing``) sends no next leg:
-the robot stays idle, and an idle robot never turns by itself (no motion nobody commanded), so
-it searches standing still. (Today's station holds a tour's next leg until the robot reports a
-pose, `interbot_core.supervisor.Supervisor.update`: with it, a robot kidnapped at a stop turns
-only for the operator's "Relocalise"; the default models a station that hands the leg on.)
+A robot kidnapped standing stays idle, as today's station leaves it: the station holds a tour's
+next leg until the robot reports a pose (`interbot_core.supervisor.Supervisor.update`), and an
+idle robot never turns by itself (no motion nobody commanded), so it searches standing still
+and turns only for the operator's "Relocalise". ``tour_resumes`` (``--tour-resumes``) models a
+station that hands the leg on: ``TOUR_DWELL_S`` after the robot came to rest, the next leg is
+sent, the robot serves a command and may look around (`look_around`) while it searches.
 For each kidnap the figures are taken from the simulator's ground truth (metrics only;
 nothing of it reaches the robot):
 
@@ -248,7 +247,7 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
         record = KidnapRecord(standing=standing)
         sim.teleport(target)
         next_leg = None
-        if standing and not options.idle_standing:
+        if standing and options.tour_resumes:
             # The visitor taps Resume: the next stop, from a stream of its own (the kidnaps
             # are those of an idle run), away from where the robot now truly stands.
             route_id += 1
@@ -314,8 +313,8 @@ def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
             "targets": "topological nodes" if topo is not None else "random free poses",
             "cold_start": cold,
             # cold starts: a route is given at power-on (the robot serves a command);
-            # kidnaps: a robot kidnapped standing is sent the tour's next leg after the dwell
-            "commanded": cold or not options.idle_standing,
+            # kidnaps (--tour-resumes): a robot kidnapped standing is sent the next leg after the dwell
+            "commanded": cold or options.tour_resumes,
             "people": options.people,
             "seed": options.seed,
         }

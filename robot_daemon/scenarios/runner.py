@@ -76,8 +76,10 @@ class ScenarioOptions:
     max_sim_time: float = 3600.0  # [s]
     ideal_world: bool = False  # True: the simulator's world IS the map, initial pose exact
     cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
-    # kidnap scenario: a robot kidnapped standing at a tour stop gets no next leg (pure idle)
-    idle_standing: bool = False
+    # kidnap scenario: a robot kidnapped standing at a tour stop is sent the tour's next leg
+    # after a dwell (models a station that hands the leg on while the robot searches; today's
+    # station holds it until the robot has a pose, so the default leaves the robot idle)
+    tour_resumes: bool = False
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 

@@ -35,10 +35,10 @@ def test_a_robot_kidnapped_at_a_tour_stop_looks_around_once_the_next_leg_comes()
 
     options = ScenarioOptions(seed=5)
     topo = topo_for(options.map_yaml, options.topo_yaml)
-    idle = run_kidnaps(replace(options, idle_standing=True), topo, count=1).records[0]
+    idle = run_kidnaps(options, topo, count=1).records[0]
     assert idle.standing and idle.relocalise_s is None and not idle.wrong
     assert idle.help == 1
-    tour = run_kidnaps(options, topo, count=1).records[0]
+    tour = run_kidnaps(replace(options, tour_resumes=True), topo, count=1).records[0]
     assert tour.standing and not tour.wrong
     assert tour.relocalise_s is not None, tour
     assert TOUR_DWELL_S - 1.0 - 0.5 < tour.relocalise_s <= 10.0  # the leg came 3.5-4 s after
