@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
 from dataclasses import replace
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -226,7 +227,8 @@ def test_a_place_seen_through_walls_is_set_aside_and_the_next_search_comes_at_on
 def test_an_inexhaustive_search_is_settled_by_one_with_a_larger_node_budget() -> None:
     grid = rasterise(ROOM, size=(6.0, 5.0))
     laser = Pose2D(2.0, 1.5, 0.4)
-    search = replace(CONFIG.search, max_nodes=100, keep_margin=0.1)  # 100 nodes cut it
+    # 100 nodes cut it
+    search = msgspec.structs.replace(CONFIG.search, max_nodes=100, keep_margin=0.1)
     # Agreement and motion disabled: only an exhaustive search may settle it.
     base = replace(CONFIG, search=search, agree_searches=100, motion_to_trust_m=100.0)
     for proof_nodes, settles in ((100, False), (10**6, True)):
