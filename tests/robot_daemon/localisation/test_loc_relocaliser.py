@@ -9,11 +9,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
-from dataclasses import replace
 
-import msgspec
 import numpy as np
 import pytest
+from msgspec.structs import replace
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import UNKNOWN, OccupancyGrid
@@ -227,8 +226,7 @@ def test_a_place_seen_through_walls_is_set_aside_and_the_next_search_comes_at_on
 def test_an_inexhaustive_search_is_settled_by_one_with_a_larger_node_budget() -> None:
     grid = rasterise(ROOM, size=(6.0, 5.0))
     laser = Pose2D(2.0, 1.5, 0.4)
-    # 100 nodes cut it
-    search = msgspec.structs.replace(CONFIG.search, max_nodes=100, keep_margin=0.1)
+    search = replace(CONFIG.search, max_nodes=100, keep_margin=0.1)  # 100 nodes cut it
     # Agreement and motion disabled: only an exhaustive search may settle it.
     base = replace(CONFIG, search=search, agree_searches=100, motion_to_trust_m=100.0)
     for proof_nodes, settles in ((100, False), (10**6, True)):
