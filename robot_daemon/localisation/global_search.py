@@ -53,11 +53,14 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy import ndimage
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 
@@ -72,77 +75,65 @@ class GlobalSearchConfigError(ValueError):
     """A global-search parameter is outside its allowed range."""
 
 
-@dataclass(frozen=True)
-class GlobalSearchConfig:
+def _span(low: float, high: float, unit: str = "") -> Meta:
+    """The constraint of a float field in [low, high] (in ``unit``)."""
+    return Meta(ge=low, le=high, extra={"unit": unit} if unit else {})
+
+
+class GlobalSearchConfig(schema.Declared, frozen=True):
     """Global search parameters (SI units)."""
 
-    resolution_m: float = 0.10  # search grid; a multiple of the map's resolution
-    likelihood_sigma_m: float = 0.10  # σ of the likelihood field L
-    angular_step_rad: float = math.radians(1.5)  # headings searched: 2π / step
-    max_range_m: float = 30.0  # end points farther than this are not used
-    point_spacing_m: float = 0.25  # voxel filter of the end points (sensor frame)
-    max_points: int = 80  # end points used at most
-    min_points: int = 20  # fewer valid end points: no search (nothing to match)
-    depth: int = 6  # top-level blocks are 2^depth search cells wide
+    ROOT: ClassVar[str] = "GlobalSearchConfig"
+    ERROR: ClassVar[type[Exception]] = GlobalSearchConfigError
+    # search grid; a multiple of the map's resolution
+    resolution_m: Annotated[float, _span(0.01, 1.0, "m")] = 0.10
+    likelihood_sigma_m: Annotated[float, _span(0.01, 2.0, "m")] = 0.10  # σ of the likelihood L
+    # headings searched: 2π / step
+    angular_step_rad: Annotated[float, _span(0.002, 0.5, "rad")] = math.radians(1.5)
+    # end points farther than this are not used
+    max_range_m: Annotated[float, _span(1.0, 100.0, "m")] = 30.0
+    # voxel filter of the end points (sensor frame)
+    point_spacing_m: Annotated[float, _span(0.0, 2.0, "m")] = 0.25
+    max_points: Annotated[int, Meta(ge=10, le=255)] = 80  # end points used at most
+    # fewer valid end points: no search (nothing to match)
+    min_points: Annotated[int, Meta(ge=3, le=255)] = 20
+    depth: Annotated[int, Meta(ge=1, le=10)] = 6  # top-level blocks are 2^depth search cells wide
     # Headings per node at each level, finest (must be 1) to top: a node of level h covers
     # angle_groups[h] neighbouring headings as well as its 2^h x 2^h translations.
     angle_groups: tuple[int, ...] = (1, 1, 2, 4, 4, 8, 8)
-    min_score: float = 0.35  # leaves below this are never hypotheses
+    min_score: Annotated[float, _span(0.0, 1.0)] = 0.35  # leaves below this are never hypotheses
     # Hypotheses scoring at least best - keep_margin are all kept. (0.035 with mid points: they
     # score about 1 at every pose a scan fits, so differences shrink to 2/3 of the end points'.)
-    keep_margin: float = 0.035
-    beam_width: int = 2000  # nodes per level in the greedy first descent
-    redive_above: int = 20000  # a level with more nodes than this gets a fresh dive ...
-    redive_width: int = 200  # ... from this many of its best bounds
-    max_nodes: int = 30000  # nodes kept per level at most (best bounds); beyond: incomplete
-    max_hypotheses: int = 16  # ranked hypotheses returned at most
-    cluster_xy_m: float = 0.6  # near-duplicate: this close in position ...
-    cluster_yaw_rad: float = 0.35  # ... and in heading to a better hypothesis
-    min_clearance_m: float = 0.10  # the laser is at least this far from occupied/unknown
+    keep_margin: Annotated[float, _span(0.0, 1.0)] = 0.035
+    # nodes per level in the greedy first descent
+    beam_width: Annotated[int, Meta(ge=1, le=10000)] = 2000
+    # a level with more nodes than this gets a fresh dive ...
+    redive_above: Annotated[int, Meta(ge=1, le=10**8)] = 20000
+    redive_width: Annotated[int, Meta(ge=1, le=10**6)] = 200  # ... from this many of its best
+    # nodes kept per level at most (best bounds); beyond: incomplete
+    max_nodes: Annotated[int, Meta(ge=100, le=10**8)] = 30000
+    max_hypotheses: Annotated[int, Meta(ge=1, le=1000)] = 16  # ranked hypotheses returned at most
+    # near-duplicate: this close in position ...
+    cluster_xy_m: Annotated[float, _span(0.0, 10.0, "m")] = 0.6
+    # ... and in heading to a better hypothesis
+    cluster_yaw_rad: Annotated[float, _span(0.0, math.pi, "rad")] = 0.35
+    # the laser is at least this far from occupied/unknown
+    min_clearance_m: Annotated[float, _span(0.0, 2.0, "m")] = 0.10
     # End points on unknown cells next to free space (glass, clutter the mapping run did not
     # resolve: Willow Garage) count this much of a hit; 0 = only occupied cells are walls.
-    unknown_weight: float = 0.5
-    max_free_points: int = 40  # beam mid points that must lie in free space (0: end points only)
-    free_min_range_m: float = 1.0  # beams shorter than this give no free-space point
-    free_sigma_m: float = 0.05  # σ_f of the freeness field F
-    unknown_free: float = 0.5  # F on unknown cells and beyond the map
+    unknown_weight: Annotated[float, _span(0.0, 1.0)] = 0.5
+    # beam mid points that must lie in free space (0: end points only)
+    max_free_points: Annotated[int, Meta(ge=0, le=255)] = 40
+    # beams shorter than this give no free-space point
+    free_min_range_m: Annotated[float, _span(0.0, 100.0, "m")] = 1.0
+    free_sigma_m: Annotated[float, _span(0.005, 2.0, "m")] = 0.05  # σ_f of the freeness field F
+    unknown_free: Annotated[float, _span(0.0, 1.0)] = 0.5  # F on unknown cells, beyond the map
     # Nodes above this level count every mid point as 255 (F's largest value: still a bound)
     # instead of reading F: a window that wide holds free space anyway, so reading it costs
     # time and tightens nothing.
-    free_max_level: int = 2
+    free_max_level: Annotated[int, Meta(ge=0, le=10)] = 2
 
-    def __post_init__(self) -> None:
-        checks: list[tuple[str, float, float, float]] = [
-            ("resolution_m", self.resolution_m, 0.01, 1.0),
-            ("likelihood_sigma_m", self.likelihood_sigma_m, 0.01, 2.0),
-            ("angular_step_rad", self.angular_step_rad, 0.002, 0.5),
-            ("max_range_m", self.max_range_m, 1.0, 100.0),
-            ("point_spacing_m", self.point_spacing_m, 0.0, 2.0),
-            ("max_points", self.max_points, 10, 255),
-            ("min_points", self.min_points, 3, 255),
-            ("depth", self.depth, 1, 10),
-            ("min_score", self.min_score, 0.0, 1.0),
-            ("keep_margin", self.keep_margin, 0.0, 1.0),
-            ("beam_width", self.beam_width, 1, 10000),
-            ("max_nodes", self.max_nodes, 100, 10**8),
-            ("redive_above", self.redive_above, 1, 10**8),
-            ("redive_width", self.redive_width, 1, 10**6),
-            ("max_hypotheses", self.max_hypotheses, 1, 1000),
-            ("cluster_xy_m", self.cluster_xy_m, 0.0, 10.0),
-            ("cluster_yaw_rad", self.cluster_yaw_rad, 0.0, math.pi),
-            ("min_clearance_m", self.min_clearance_m, 0.0, 2.0),
-            ("unknown_weight", self.unknown_weight, 0.0, 1.0),
-            ("max_free_points", self.max_free_points, 0, 255),
-            ("free_min_range_m", self.free_min_range_m, 0.0, 100.0),
-            ("free_sigma_m", self.free_sigma_m, 0.005, 2.0),
-            ("unknown_free", self.unknown_free, 0.0, 1.0),
-            ("free_max_level", self.free_max_level, 0, 10),
-        ]
-        for name, value, low, high in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise GlobalSearchConfigError(
-                    f"GlobalSearchConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    def check(self) -> None:
         groups = self.angle_groups
         if len(groups) != self.depth + 1 or groups[0] != 1:
             raise GlobalSearchConfigError(

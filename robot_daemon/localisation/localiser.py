@@ -67,11 +67,15 @@ import logging
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Annotated, ClassVar
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy import ndimage
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
@@ -104,46 +108,56 @@ class LocaliserState(StrEnum):
     SEARCHING = "searching"  # a global search is under way (reported by the stack, issue 16)
 
 
-@dataclass(frozen=True)
-class LocaliserConfig:
+class LocaliserConfig(schema.Declared, frozen=True):
     """Localiser parameters (SI units)."""
 
-    matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)
-    dynamic_map: DynamicMapConfig = field(default_factory=DynamicMapConfig)
-    odometry_scale: OdometryScaleConfig = field(default_factory=OdometryScaleConfig)
-    odometry_yaw_bias: OdometryYawBiasConfig = field(default_factory=OdometryYawBiasConfig)
-    max_range_m: float = 30.0  # beams beyond are ignored
-    hit_tolerance_m: float = 0.10  # an end point this close to the map counts as a hit
-    lost_confidence: float = 0.35  # a scan below this hit fraction is bad
-    degraded_confidence: float = 0.6  # below this hit fraction the state is degraded
-    lost_after_s: float = 1.0  # bad scans for this long -> lost
-    lost_after_scans: int = 5  # ... and at least this many bad scans in a row
-    max_jump_m: float = 0.3  # plausible correction: this + max_jump_gain * odometry step
-    max_jump_rad: float = 0.2
-    max_jump_gain: float = 0.5
+    ROOT: ClassVar[str] = "LocaliserConfig"
+    ERROR: ClassVar[type[Exception]] = LocaliserConfigError
+    matcher: ScanMatcherConfig = msgspec.field(default_factory=ScanMatcherConfig)
+    dynamic_map: DynamicMapConfig = msgspec.field(default_factory=DynamicMapConfig)
+    odometry_scale: OdometryScaleConfig = msgspec.field(default_factory=OdometryScaleConfig)
+    odometry_yaw_bias: OdometryYawBiasConfig = msgspec.field(default_factory=OdometryYawBiasConfig)
+    # beams beyond are ignored
+    max_range_m: Annotated[float, Meta(ge=0.5, le=200.0, extra={"unit": "m"})] = 30.0
+    # an end point this close to the map counts as a hit
+    hit_tolerance_m: Annotated[float, Meta(ge=0.01, le=1.0, extra={"unit": "m"})] = 0.10
+    # a scan below this hit fraction is bad
+    lost_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.35
+    # below this hit fraction the state is degraded
+    degraded_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6
+    # bad scans for this long -> lost
+    lost_after_s: Annotated[float, Meta(ge=0.05, le=60.0, extra={"unit": "s"})] = 1.0
+    # ... and at least this many bad scans in a row
+    lost_after_scans: Annotated[int, Meta(ge=1, le=1000)] = 5
+    # plausible correction: this + max_jump_gain * odometry step
+    max_jump_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 0.3
+    max_jump_rad: Annotated[float, Meta(ge=0.01, le=math.pi, extra={"unit": "rad"})] = 0.2
+    max_jump_gain: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.5
     odom_blend: bool = True  # fuse the match with the odometry prediction (else take the match)
     # Odometry noise per scan step in the robot frame (AMCL's odom_alpha model, simplified):
     # sigma along travel = odom_alpha_trans * d, across = odom_alpha_lat * d, yaw =
     # odom_alpha_rot * |turn| + odom_alpha_rot_per_m * d, plus the random walks below and a
     # floor added every scan.
-    odom_alpha_trans: float = 0.05
-    odom_alpha_lat: float = 0.02
-    odom_alpha_rot: float = 0.05
-    odom_alpha_rot_per_m: float = 0.05  # [rad/m]
-    odom_floor_m: float = 0.002
-    odom_floor_rad: float = 0.001
+    odom_alpha_trans: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
+    odom_alpha_lat: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.02
+    odom_alpha_rot: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
+    odom_alpha_rot_per_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "rad/m"})] = 0.05
+    odom_floor_m: Annotated[float, Meta(ge=1e-5, le=1.0, extra={"unit": "m"})] = 0.002
+    odom_floor_rad: Annotated[float, Meta(ge=1e-6, le=1.0, extra={"unit": "rad"})] = 0.001
     # Random-walk terms: variance grows by walk² per metre travelled, whatever the scan rate
     # (the (alpha * d)² terms alone shrink with the step: at 40 Hz they would let a corridor
     # drive of 10 m claim 4 cm). 0.05 m/sqrt(m) reaches sigma 0.1 m after 4 m of travel the
     # scans do not constrain: before 5 % odometry error reaches 0.3 m.
-    odom_walk_m: float = 0.05  # [m / sqrt(m)] along travel
-    odom_walk_lat_m: float = 0.02  # [m / sqrt(m)] across travel
-    odom_walk_rad: float = 0.01  # [rad / sqrt(m)]
+    # along travel
+    odom_walk_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m / sqrt(m)"})] = 0.05
+    # across travel
+    odom_walk_lat_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m / sqrt(m)"})] = 0.02
+    odom_walk_rad: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "rad / sqrt(m)"})] = 0.01
     # Scan information: each inlier end point measures its distance to the map surface with
     # sigma match_sigma_m; neighbouring beams are correlated (the same wall, the same map
     # error), so at most match_effective_points of them count as independent.
-    match_sigma_m: float = 0.09
-    match_effective_points: float = 40.0
+    match_sigma_m: Annotated[float, Meta(ge=1e-3, le=5.0, extra={"unit": "m"})] = 0.09
+    match_effective_points: Annotated[float, Meta(ge=1.0, le=1e5)] = 40.0
     # The building is not its map: walls drawn or mapped a few centimetres off, rooms moved
     # (issue 12: sigma 3-5 cm), and one wall model for every map. That error is common to all
     # the beams of a scan and to every scan in the same room, so no number of beams or scans
@@ -152,16 +166,22 @@ class LocaliserConfig:
     # uncertainty (`reported_covariance`). Calibrated on the realistic ISR tour, seeds 1-3:
     # NEES per degree of freedom 3.0 / 1.9 / 2.6 without it, 0.87 / 0.52 / 0.74 with 2 cm and
     # 0.002 rad (93-97 % of the samples inside the 95 % region; 3 cm: 0.53 / 0.32 / 0.46).
-    map_sigma_m: float = 0.02
-    map_sigma_rad: float = 0.002
-    initial_sigma_m: float = 0.3  # a person's initial pose (issue 12: up to 0.3 m, 10 degrees)
-    initial_sigma_rad: float = 0.17
-    slide_test_m: float = 0.3  # shift testing the information along the weakest direction
-    slide_turn_rad: float = 0.025  # the slide test also tries the shifted pose turned by ±this
-    slide_max_m: float = 1.5  # the slide test's shift grows with the prior's sigma up to this
-    slide_step_m: float = 0.15  # the slide test's profile samples offsets this far apart
-    slide_better: float = 0.05  # a pose on the slide profile scoring this much better: re-match
-    slide_points: int = 150  # end points the slide test uses
+    map_sigma_m: Annotated[float, Meta(ge=0.0, le=1.0, extra={"unit": "m"})] = 0.02
+    map_sigma_rad: Annotated[float, Meta(ge=0.0, le=0.5, extra={"unit": "rad"})] = 0.002
+    # a person's initial pose (issue 12: up to 0.3 m, 10 degrees)
+    initial_sigma_m: Annotated[float, Meta(ge=1e-3, le=100.0, extra={"unit": "m"})] = 0.3
+    initial_sigma_rad: Annotated[float, Meta(ge=1e-4, le=math.pi, extra={"unit": "rad"})] = 0.17
+    # shift testing the information along the weakest direction
+    slide_test_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 0.3
+    # the slide test also tries the shifted pose turned by ±this
+    slide_turn_rad: Annotated[float, Meta(ge=0.0, le=0.5, extra={"unit": "rad"})] = 0.025
+    # the slide test's shift grows with the prior's sigma up to this
+    slide_max_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 1.5
+    # the slide test's profile samples offsets this far apart
+    slide_step_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 0.15
+    # a pose on the slide profile scoring this much better: re-match
+    slide_better: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
+    slide_points: Annotated[int, Meta(ge=20, le=5000)] = 150  # end points the slide test uses
     # A look-alike of the prediction (`_lookalike_of_prediction`): where the slide test has
     # capped the information along the weak direction, a match more than lookalike_sigma
     # sigmas of the prediction from it there, at a pose the prediction itself fits within
@@ -177,30 +197,46 @@ class LocaliserConfig:
     # 3.9 / 19.5 cm) but Freiburg 079's revisit goes 3.11 -> 3.73 cm. Scores within 1-2 % of
     # 1 counted as equal in the slide test itself fix seed 3 too, but leave the corridors
     # degraded for 310-560 s of the tour (0 s today).
-    lookalike_sigma: float = 0.0
-    lookalike_drop: float = 0.02
-    gate_chi2: float = 16.27  # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
-    degraded_sigma_m: float = 0.1  # largest position sigma above this -> degraded
-    degraded_sigma_rad: float = 0.05  # yaw sigma above this -> degraded
-    ok_after_s: float = 0.3  # good, certain scans for this long before degraded -> ok
-    ok_after_scans: int = 3  # ... and at least this many in a row (at any scan rate)
-    tolerance_m: float = 0.3  # `certainty` is the probability of an error within these
-    tolerance_rad: float = math.radians(10.0)
+    lookalike_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 0.0
+    lookalike_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02
+    # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
+    gate_chi2: Annotated[float, Meta(ge=1.0, le=1e6)] = 16.27
+    # largest position sigma above this -> degraded
+    degraded_sigma_m: Annotated[float, Meta(ge=1e-3, le=100.0, extra={"unit": "m"})] = 0.1
+    # yaw sigma above this -> degraded
+    degraded_sigma_rad: Annotated[float, Meta(ge=1e-4, le=math.pi, extra={"unit": "rad"})] = 0.05
+    # good, certain scans for this long before degraded -> ok
+    ok_after_s: Annotated[float, Meta(ge=0.0, le=60.0, extra={"unit": "s"})] = 0.3
+    # ... and at least this many in a row (at any scan rate)
+    ok_after_scans: Annotated[int, Meta(ge=1, le=1000)] = 3
+    # `certainty` is the probability of an error within these
+    tolerance_m: Annotated[float, Meta(ge=1e-3, le=100.0, extra={"unit": "m"})] = 0.3
+    tolerance_rad: Annotated[float, Meta(ge=1e-3, le=math.pi, extra={"unit": "rad"})] = (
+        math.radians(10.0)
+    )
     map_update: bool = True
-    map_update_min_confidence: float = 0.6  # only learn obstacles while well localised
-    unexplained_m: float = 0.2  # end points farther than this from the map are "unexplained"
-    map_update_max_range_m: float = 8.0
-    lost_impossible: float = 0.05  # a scan with more than this fraction of impossible beams is bad
-    impossible_margin_m: float = 0.3  # a beam this much longer than the map allows is impossible
-    impossible_max_beams: int = 200  # beams traced per scan (fixed stride over the valid ones)
-    impossible_max_steps: int = 30  # sphere-tracing steps; unfinished rays count as possible
-    impossible_min_run: int = 2  # only runs of this many neighbouring impossible beams count
-    impossible_depth_m: float = 0.1  # a ray must stay this long in occupied cells to go through
+    # only learn obstacles while well localised
+    map_update_min_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6
+    # end points farther than this from the map are "unexplained"
+    unexplained_m: Annotated[float, Meta(ge=0.01, le=5.0, extra={"unit": "m"})] = 0.2
+    map_update_max_range_m: Annotated[float, Meta(ge=0.5, le=200.0, extra={"unit": "m"})] = 8.0
+    # a scan with more than this fraction of impossible beams is bad
+    lost_impossible: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05
+    # a beam this much longer than the map allows is impossible
+    impossible_margin_m: Annotated[float, Meta(ge=0.05, le=5.0, extra={"unit": "m"})] = 0.3
+    # beams traced per scan (fixed stride over the valid ones)
+    impossible_max_beams: Annotated[int, Meta(ge=10, le=5000)] = 200
+    # sphere-tracing steps; unfinished rays count as possible
+    impossible_max_steps: Annotated[int, Meta(ge=1, le=1000)] = 30
+    # only runs of this many neighbouring impossible beams count
+    impossible_min_run: Annotated[int, Meta(ge=1, le=100)] = 2
+    # a ray must stay this long in occupied cells to go through
+    impossible_depth_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.1
     # A scan whose beams that do not cross walls fit the map this well (hit fraction over the
     # share of such beams) may see through an opening the map has closed (a glass pane, a door now open): its impossible beams that END on a mapped surface
     # (within see_through_landing_m) are then not counted. A wrong pose rarely fits this well.
-    see_through_min_confidence: float = 0.9
-    see_through_landing_m: float = 0.15
+    see_through_min_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.9
+    see_through_landing_m: Annotated[float, Meta(ge=0.0, le=1.0, extra={"unit": "m"})] = 0.15
     # ... and when all of them cross the map's walls within see_through_opening_m of one another
     # (one door or pane), they may end up to see_through_moved_m from a mapped surface: the
     # furniture behind a pane moves (issue 12: 0.3-0.6 m). Beams ending farther, or crossing
@@ -210,15 +246,15 @@ class LocaliserConfig:
     # 13k occupied ones; the ISR map has none). Off, only occupied cells are surfaces.
     unknown_edges_are_surfaces: bool = True
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
-    see_through_opening_m: float = 1.5
-    see_through_moved_m: float = 0.6
+    see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
+    see_through_moved_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.6
     # In a crowd the hit fraction drops (people are misses), so a scan at the right pose that
     # sees through an opened door fails see_through_min_confidence and was made bad, then lost
     # (realistic ISR tour, seed 1 with beam gating, 365 s: hit fraction 0.71-0.82, impossible
     # 0.08-0.09, 3 cm off the truth, beams through the Mecatronics Lab's extra door). Down to
     # this fit, beams through ONE opening ending on a mapped surface (within
     # see_through_landing_m, not moved furniture) are still not counted.
-    see_through_crowded_confidence: float = 0.6
+    see_through_crowded_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.6
     # Beam gating by expected range (`_gate_through_walls`): after a scan with beams through
     # the map's walls (a pane, a door the map has shut), the next scan's beams that pass
     # through a wall at the prediction are left out of the match, while the prior is tighter
@@ -242,72 +278,8 @@ class LocaliserConfig:
     # 4.3 / 17.3, 3.3 / 8.2, 3.4 / 9.6 cm (4.4 / 17.4, 3.2 / 8.0, 4.3 / 21.3 with both off)
     # and Freiburg 079 3.13 / 3.37 cm.
     gate_through_walls: bool = False
-    gate_max_sigma_m: float = 0.2
-    gate_max_sigma_rad: float = 0.02
-
-    def __post_init__(self) -> None:
-        checks: list[tuple[str, float, float, float]] = [
-            ("max_range_m", self.max_range_m, 0.5, 200.0),
-            ("hit_tolerance_m", self.hit_tolerance_m, 0.01, 1.0),
-            ("lost_confidence", self.lost_confidence, 0.0, 1.0),
-            ("degraded_confidence", self.degraded_confidence, 0.0, 1.0),
-            ("lost_after_s", self.lost_after_s, 0.05, 60.0),
-            ("max_jump_m", self.max_jump_m, 0.01, 10.0),
-            ("max_jump_rad", self.max_jump_rad, 0.01, math.pi),
-            ("max_jump_gain", self.max_jump_gain, 0.0, 10.0),
-            ("odom_alpha_trans", self.odom_alpha_trans, 0.0, 10.0),
-            ("odom_alpha_lat", self.odom_alpha_lat, 0.0, 10.0),
-            ("odom_alpha_rot", self.odom_alpha_rot, 0.0, 10.0),
-            ("odom_alpha_rot_per_m", self.odom_alpha_rot_per_m, 0.0, 10.0),
-            ("odom_floor_m", self.odom_floor_m, 1e-5, 1.0),
-            ("odom_floor_rad", self.odom_floor_rad, 1e-6, 1.0),
-            ("odom_walk_m", self.odom_walk_m, 0.0, 10.0),
-            ("odom_walk_lat_m", self.odom_walk_lat_m, 0.0, 10.0),
-            ("odom_walk_rad", self.odom_walk_rad, 0.0, 10.0),
-            ("match_sigma_m", self.match_sigma_m, 1e-3, 5.0),
-            ("match_effective_points", self.match_effective_points, 1.0, 1e5),
-            ("map_sigma_m", self.map_sigma_m, 0.0, 1.0),
-            ("map_sigma_rad", self.map_sigma_rad, 0.0, 0.5),
-            ("initial_sigma_m", self.initial_sigma_m, 1e-3, 100.0),
-            ("initial_sigma_rad", self.initial_sigma_rad, 1e-4, math.pi),
-            ("gate_chi2", self.gate_chi2, 1.0, 1e6),
-            ("slide_test_m", self.slide_test_m, 0.01, 10.0),
-            ("slide_turn_rad", self.slide_turn_rad, 0.0, 0.5),
-            ("slide_points", self.slide_points, 20, 5000),
-            ("slide_max_m", self.slide_max_m, 0.01, 10.0),
-            ("slide_step_m", self.slide_step_m, 0.01, 10.0),
-            ("slide_better", self.slide_better, 0.0, 10.0),
-            ("lookalike_sigma", self.lookalike_sigma, 0.0, 100.0),
-            ("lookalike_drop", self.lookalike_drop, 0.0, 1.0),
-            ("degraded_sigma_m", self.degraded_sigma_m, 1e-3, 100.0),
-            ("degraded_sigma_rad", self.degraded_sigma_rad, 1e-4, math.pi),
-            ("ok_after_s", self.ok_after_s, 0.0, 60.0),
-            ("tolerance_m", self.tolerance_m, 1e-3, 100.0),
-            ("tolerance_rad", self.tolerance_rad, 1e-3, math.pi),
-            ("map_update_min_confidence", self.map_update_min_confidence, 0.0, 1.0),
-            ("unexplained_m", self.unexplained_m, 0.01, 5.0),
-            ("map_update_max_range_m", self.map_update_max_range_m, 0.5, 200.0),
-            ("lost_impossible", self.lost_impossible, 0.0, 1.0),
-            ("impossible_margin_m", self.impossible_margin_m, 0.05, 5.0),
-            ("impossible_max_beams", self.impossible_max_beams, 10, 5000),
-            ("impossible_max_steps", self.impossible_max_steps, 1, 1000),
-            ("impossible_min_run", self.impossible_min_run, 1, 100),
-            ("lost_after_scans", self.lost_after_scans, 1, 1000),
-            ("ok_after_scans", self.ok_after_scans, 1, 1000),
-            ("impossible_depth_m", self.impossible_depth_m, 0.0, 2.0),
-            ("see_through_min_confidence", self.see_through_min_confidence, 0.0, 1.0),
-            ("see_through_landing_m", self.see_through_landing_m, 0.0, 1.0),
-            ("see_through_opening_m", self.see_through_opening_m, 0.0, 10.0),
-            ("see_through_moved_m", self.see_through_moved_m, 0.0, 2.0),
-            ("see_through_crowded_confidence", self.see_through_crowded_confidence, 0.0, 1.0),
-            ("gate_max_sigma_m", self.gate_max_sigma_m, 0.0, 10.0),
-            ("gate_max_sigma_rad", self.gate_max_sigma_rad, 0.0, math.pi),
-        ]
-        for name, value, low, high in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise LocaliserConfigError(
-                    f"LocaliserConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    gate_max_sigma_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 0.2
+    gate_max_sigma_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.02
 
 
 @dataclass(frozen=True)

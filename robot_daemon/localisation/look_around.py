@@ -27,8 +27,11 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.geometry import angle_diff
 
 logger = logging.getLogger(__name__)
@@ -40,10 +43,11 @@ class LookAroundConfigError(ValueError):
     """A look-around parameter is outside its allowed range."""
 
 
-@dataclass(frozen=True)
-class LookAroundConfig:
+class LookAroundConfig(schema.Declared, frozen=True):
     """Turning in place while the global search is undecided (SI units)."""
 
+    ROOT: ClassVar[str] = "LookAroundConfig"
+    ERROR: ClassVar[type[Exception]] = LookAroundConfigError
     enabled: bool = True
     # [rad/s] a full turn in 7.9 s, scans 4.6° apart at 10 Hz. (At 0.8 rad/s, ISR kidnap
     # seed 3 was once relocalised 29 m wrong: a clean corridor outscored the cluttered truth
@@ -51,31 +55,17 @@ class LookAroundConfig:
     # now holds for the attempt (`relocaliser`), and the same run asks for help instead.
     # With the same rules, 0.5 rad/s left an ISR cold start at 7.4 s and ISR kidnap seed 3
     # at 10.3 s; 0.8 rad/s: every cold start relocalised within 4.4 s.)
-    angular_speed: float = 0.8
-    max_turn_rad: float = 2.0 * math.pi  # at most one full turn per attempt
-    start_after_s: float = 0.5  # [s] undecided this long before turning
+    angular_speed: Annotated[float, Meta(ge=0.05, le=1.0, extra={"unit": "rad/s"})] = 0.8
+    # at most one full turn per attempt
+    max_turn_rad: Annotated[float, Meta(ge=0.0, le=2.0 * math.pi, extra={"unit": "rad"})] = (
+        2.0 * math.pi
+    )
+    # undecided this long before turning
+    start_after_s: Annotated[float, Meta(ge=0.0, le=600.0, extra={"unit": "s"})] = 0.5
     # Turning, but odometry shows less than stall_rad of rotation over stall_s: the robot
     # cannot turn (wedged, the collision monitor holds it); stop commanding and say so.
-    stall_s: float = 3.0
-    stall_rad: float = 0.1
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.enabled, bool):
-            raise LookAroundConfigError(
-                f"LookAroundConfig.enabled must be true or false, got {self.enabled!r}"
-            )
-        checks = [
-            ("angular_speed", self.angular_speed, 0.05, 1.0),
-            ("max_turn_rad", self.max_turn_rad, 0.0, 2.0 * math.pi),
-            ("start_after_s", self.start_after_s, 0.0, 600.0),
-            ("stall_s", self.stall_s, 0.1, 600.0),
-            ("stall_rad", self.stall_rad, 0.0, math.pi),
-        ]
-        for name, value, low, high in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise LookAroundConfigError(
-                    f"LookAroundConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    stall_s: Annotated[float, Meta(ge=0.1, le=600.0, extra={"unit": "s"})] = 3.0
+    stall_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.1
 
 
 class LookAround:

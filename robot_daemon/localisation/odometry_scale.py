@@ -27,11 +27,13 @@ the cross-covariance). It is bounded to ``1 ± max_error``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.localisation.learnt_state import LearntScalar
 
@@ -42,25 +44,17 @@ class OdometryScaleConfigError(ValueError):
     """An odometry-scale parameter is out of range; the message names it."""
 
 
-@dataclass(frozen=True)
-class OdometryScaleConfig:
+class OdometryScaleConfig(schema.Declared, frozen=True):
     """Prior and drift of the odometry's scale (true / odometry translation)."""
 
+    ROOT: ClassVar[str] = "OdometryScaleConfig"
+    ERROR: ClassVar[type[Exception]] = OdometryScaleConfigError
     enabled: bool = True
-    sigma: float = 0.05  # prior sigma of the scale (5 %: between calibrated and uncalibrated)
-    walk_per_sqrt_m: float = 0.002  # the scale drifts (tyre wear, floor): sigma per sqrt(metre)
-    max_error: float = 0.2  # the estimate stays within 1 ± this
-
-    def __post_init__(self) -> None:
-        for name, value, low, high in (
-            ("sigma", self.sigma, 1e-4, 0.5),
-            ("walk_per_sqrt_m", self.walk_per_sqrt_m, 0.0, 0.1),
-            ("max_error", self.max_error, 0.01, 0.5),
-        ):
-            if not (math.isfinite(value) and low <= value <= high):
-                raise OdometryScaleConfigError(
-                    f"OdometryScaleConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    # prior sigma of the scale (5 %: between calibrated and uncalibrated)
+    sigma: Annotated[float, Meta(ge=1e-4, le=0.5)] = 0.05
+    # the scale drifts (tyre wear, floor): sigma per sqrt(metre)
+    walk_per_sqrt_m: Annotated[float, Meta(ge=0.0, le=0.1)] = 0.002
+    max_error: Annotated[float, Meta(ge=0.01, le=0.5)] = 0.2  # the estimate stays within 1 ± this
 
 
 class OdometryScale(LearntScalar):

@@ -43,11 +43,13 @@ conditioned on the pose alone): they are driven by different components of the m
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.localisation.learnt_state import LearntScalar
 
@@ -58,29 +60,22 @@ class OdometryYawBiasConfigError(ValueError):
     """An odometry-drift parameter is out of range; the message names it."""
 
 
-@dataclass(frozen=True)
-class OdometryYawBiasConfig:
+class OdometryYawBiasConfig(schema.Declared, frozen=True):
     """Prior and wander of the odometry's heading drift [rad per metre driven]."""
 
+    ROOT: ClassVar[str] = "OdometryYawBiasConfig"
+    ERROR: ClassVar[type[Exception]] = OdometryYawBiasConfigError
     enabled: bool = False  # off by default: see the module's docstring
-    sigma: float = 0.02  # [rad/m] prior sigma (1 % unequal wheels on a 0.5 m track)
-    walk_per_sqrt_m: float = 0.001  # [rad/m per sqrt(m)] the drift changes (load, floor)
-    max_abs: float = 0.1  # [rad/m] the estimate stays within ± this
+    # prior sigma (1 % unequal wheels on a 0.5 m track)
+    sigma: Annotated[float, Meta(ge=1e-5, le=1.0, extra={"unit": "rad/m"})] = 0.02
+    # the drift changes (load, floor)
+    walk_per_sqrt_m: Annotated[float, Meta(ge=0.0, le=0.1, extra={"unit": "rad/m per sqrt(m)"})] = (
+        0.001
+    )
+    max_abs: Annotated[float, Meta(ge=1e-3, le=1.0, extra={"unit": "rad/m"})] = 0.1  # within ± this
     # Learn only from scan steps turning at most this much [rad]: a turn's own error (slip,
     # a fast turn between a log's 1 Hz scans) is not drift per metre and would teach it wrong.
-    learn_max_turn_rad: float = math.pi
-
-    def __post_init__(self) -> None:
-        for name, value, low, high in (
-            ("sigma", self.sigma, 1e-5, 1.0),
-            ("walk_per_sqrt_m", self.walk_per_sqrt_m, 0.0, 0.1),
-            ("max_abs", self.max_abs, 1e-3, 1.0),
-            ("learn_max_turn_rad", self.learn_max_turn_rad, 0.0, math.pi),
-        ):
-            if not (math.isfinite(value) and low <= value <= high):
-                raise OdometryYawBiasConfigError(
-                    f"OdometryYawBiasConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    learn_max_turn_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = math.pi
 
 
 class OdometryYawBias(LearntScalar):

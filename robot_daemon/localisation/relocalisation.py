@@ -21,10 +21,14 @@ State reported while a search runs: ``searching``; once it has been undecided fo
 from __future__ import annotations
 
 import logging
-import math
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Annotated, ClassVar
 
+import msgspec
+from msgspec import Meta
+
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -35,26 +39,19 @@ from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 logger = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class RelocalisationConfig:
+class RelocalisationConfig(schema.Declared, frozen=True):
     """When to search (SI units); the search and the decision are in ``relocaliser``."""
 
-    relocaliser: RelocaliserConfig = field(default_factory=RelocaliserConfig)
+    ROOT: ClassVar[str] = "RelocalisationConfig"
+    ERROR: ClassVar[type[Exception]] = ValueError
+    relocaliser: RelocaliserConfig = msgspec.field(default_factory=RelocaliserConfig)
     on_unset: bool = True  # search at start-up with the pose unset
     on_lost: bool = True  # search when the localiser reports lost
     background: bool = True  # standing-kidnap check while localised
-    help_radius_m: float = 5.0  # a "Help me!" pose is verified within this box half-width
-    help_verify_s: float = 5.0  # ... and rejected if not confirmed within this long
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.help_radius_m) and 0.5 <= self.help_radius_m <= 100.0):
-            raise ValueError(
-                f"RelocalisationConfig.help_radius_m must be in [0.5, 100], got {self.help_radius_m}"
-            )
-        if not (math.isfinite(self.help_verify_s) and 0.5 <= self.help_verify_s <= 600.0):
-            raise ValueError(
-                f"RelocalisationConfig.help_verify_s must be in [0.5, 600], got {self.help_verify_s}"
-            )
+    # a "Help me!" pose is verified within this box half-width
+    help_radius_m: Annotated[float, Meta(ge=0.5, le=100.0, extra={"unit": "m"})] = 5.0
+    # ... and rejected if not confirmed within this long
+    help_verify_s: Annotated[float, Meta(ge=0.5, le=600.0, extra={"unit": "s"})] = 5.0
 
 
 @dataclass(frozen=True)

@@ -68,10 +68,14 @@ import logging
 import math
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
+from typing import Annotated, ClassVar
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -94,150 +98,121 @@ class RelocaliserConfigError(ValueError):
     """A relocaliser parameter is outside its allowed range."""
 
 
-@dataclass(frozen=True)
-class RelocaliserConfig:
+class RelocaliserConfig(schema.Declared, frozen=True):
     """Relocaliser parameters (SI units)."""
 
-    search: GlobalSearchConfig = field(default_factory=GlobalSearchConfig)
-    search_every_s: float = 1.0  # a fresh global search this often while undecided
-    verify_hypotheses: int = 12  # best search hypotheses verified per search
-    max_candidates: int = 8  # candidates tracked at once (best quality kept)
-    hit_tolerance_m: float = 0.10  # an end point this close to a wall is a hit
-    min_confidence: float = 0.55  # verified: at least this fraction of end points on walls ...
-    max_impossible: float = 0.04  # ... and at most this fraction of beams through walls
-    max_jump_m: float = 0.4  # re-verification moving a candidate farther than this: inconsistent
-    max_jump_rad: float = 0.3
-    drop_after: int = 2  # failed verifications in a row that drop a candidate
-    accept_scans: int = 5  # verified scans in a row needed to accept
-    accept_s: float = 0.8  # ... spanning at least this long [s]
-    margin: float = 0.1  # the runner-up's quality must be this much lower
-    duplicate_xy_m: float = 0.6  # candidates this close (and within duplicate_yaw_rad) merge
-    duplicate_yaw_rad: float = 0.35
-    motion_to_trust_m: float = 2.0  # travel that lets an inexhaustive search be trusted
-    agree_searches: int = 2  # ... or this many searches, each finding the candidate best, ...
-    agree_min_quality: float = 0.7  # ... with at least this quality (a clear fit)
-    help_after_s: float = 20.0  # undecided this long: ask a person ("Help me!")
-    background_every_s: float = 5.0  # standing kidnap check period while localised
-    standing_speed: float = 0.02  # [m/s] below: the robot stands (background check allowed)
-    kidnap_margin: float = 0.15  # another place this much better than the tracked pose: kidnap
-    kidnap_min_distance_m: float = 1.0  # ... and at least this far from it
+    ROOT: ClassVar[str] = "RelocaliserConfig"
+    ERROR: ClassVar[type[Exception]] = RelocaliserConfigError
+    search: GlobalSearchConfig = msgspec.field(default_factory=GlobalSearchConfig)
+    # a fresh global search this often while undecided
+    search_every_s: Annotated[float, Meta(ge=0.05, le=60.0, extra={"unit": "s"})] = 1.0
+    # best search hypotheses verified per search
+    verify_hypotheses: Annotated[int, Meta(ge=1, le=100)] = 12
+    # candidates tracked at once (best quality kept)
+    max_candidates: Annotated[int, Meta(ge=1, le=100)] = 8
+    # an end point this close to a wall is a hit
+    hit_tolerance_m: Annotated[float, Meta(ge=0.01, le=1.0, extra={"unit": "m"})] = 0.10
+    # verified: at least this fraction of end points on walls ...
+    min_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.55
+    # ... and at most this fraction of beams through walls
+    max_impossible: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.04
+    # re-verification moving a candidate farther than this: inconsistent
+    max_jump_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 0.4
+    max_jump_rad: Annotated[float, Meta(ge=0.01, le=math.pi, extra={"unit": "rad"})] = 0.3
+    # failed verifications in a row that drop a candidate
+    drop_after: Annotated[int, Meta(ge=1, le=100)] = 2
+    # verified scans in a row needed to accept
+    accept_scans: Annotated[int, Meta(ge=1, le=1000)] = 5
+    # ... spanning at least this long [s]
+    accept_s: Annotated[float, Meta(ge=0.0, le=60.0, extra={"unit": "s"})] = 0.8
+    # the runner-up's quality must be this much lower
+    margin: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.1
+    # candidates this close (and within duplicate_yaw_rad) merge
+    duplicate_xy_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 0.6
+    duplicate_yaw_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.35
+    # travel that lets an inexhaustive search be trusted
+    motion_to_trust_m: Annotated[float, Meta(ge=0.0, le=100.0, extra={"unit": "m"})] = 2.0
+    # ... or this many searches, each finding the candidate best, ...
+    agree_searches: Annotated[int, Meta(ge=1, le=100)] = 2
+    # ... with at least this quality (a clear fit)
+    agree_min_quality: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.7
+    # undecided this long: ask a person ("Help me!")
+    help_after_s: Annotated[float, Meta(ge=0.0, le=3600.0, extra={"unit": "s"})] = 20.0
+    # standing kidnap check period while localised
+    background_every_s: Annotated[float, Meta(ge=0.1, le=3600.0, extra={"unit": "s"})] = 5.0
+    # below: the robot stands (background check allowed)
+    standing_speed: Annotated[float, Meta(ge=0.0, le=1.0, extra={"unit": "m/s"})] = 0.02
+    # another place this much better than the tracked pose: kidnap
+    kidnap_margin: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.15
+    # ... and at least this far from it
+    kidnap_min_distance_m: Annotated[float, Meta(ge=0.0, le=100.0, extra={"unit": "m"})] = 1.0
     # ... judged on end points at least this far from the laser: a person beside a standing
     # robot covers a sixth of the scan and would make a far look-alike "fit better" (issue 12:
     # realistic ISR tour, seed 1, a person beside the robot at a door the map has open).
-    kidnap_min_range_m: float = 1.5
-    max_range_m: float = 30.0  # end points used for verification
+    kidnap_min_range_m: Annotated[float, Meta(ge=0.0, le=30.0, extra={"unit": "m"})] = 1.5
+    # end points used for verification
+    max_range_m: Annotated[float, Meta(ge=0.5, le=200.0, extra={"unit": "m"})] = 30.0
     # A hypothesis whose beams go through walls this much (fraction) is set aside: the next
     # search, on the next scan, looks for the best places *besides* it, for exclude_s.
-    exclude_impossible: float = 0.2
-    unknown_hit_weight: float = 1.0  # an end point on the edge of unknown space: a hit
-    exclude_s: float = 5.0
-    max_exclusions: int = 400
+    exclude_impossible: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.2
+    # an end point on the edge of unknown space: a hit
+    unknown_hit_weight: Annotated[float, Meta(ge=0.0, le=1.0)] = 1.0
+    exclude_s: Annotated[float, Meta(ge=0.0, le=600.0, extra={"unit": "s"})] = 5.0
+    max_exclusions: Annotated[int, Meta(ge=0, le=100_000)] = 400
     # A candidate ready but for an inexhaustive search gets one search with this node budget
     # per level (exhaustive where the usual budget is not), at most every proof_every_s.
-    proof_max_nodes: int = 600_000
-    proof_every_s: float = 2.0
+    proof_max_nodes: Annotated[int, Meta(ge=1, le=10**8)] = 600_000
+    proof_every_s: Annotated[float, Meta(ge=0.0, le=600.0, extra={"unit": "s"})] = 2.0
     # Views: a scan is kept (with its odometry) each time the robot has turned view_every_rad
     # or moved view_every_m since the last one kept, at most max_views (the newest). A new
     # hypothesis must explain every view (chained back along odometry, each refined), so a
     # look-alike that the robot turning (`look_around`) has already shown wrong is not taken
     # up again by a later search. A view may miss (people in front) at most view_misses
     # times by its hit fraction, never by beams through walls.
-    view_every_rad: float = 0.35
-    view_every_m: float = 0.3
-    max_views: int = 24
-    view_misses: int = 1
+    view_every_rad: Annotated[float, Meta(ge=0.01, le=math.pi, extra={"unit": "rad"})] = 0.35
+    view_every_m: Annotated[float, Meta(ge=0.01, le=10.0, extra={"unit": "m"})] = 0.3
+    max_views: Annotated[int, Meta(ge=0, le=1000)] = 24
+    view_misses: Annotated[int, Meta(ge=0, le=1000)] = 1
     # View verifications per scan at most (~1.5 ms each, on the control loop's thread): a
     # hypothesis that would exceed it waits for the next search (neither taken nor set aside).
-    view_checks_per_scan: int = 36
+    view_checks_per_scan: Annotated[int, Meta(ge=0, le=100_000)] = 36
     # Look-alikes seen from many headings: a candidate within ``margin`` of the best is still
     # outweighed when, over at least view_min_views views they share spanning view_span_rad
     # of turning, the best's quality is view_margin higher on average and no lower in at least
     # view_win_fraction of them (a consistent winner over the whole turn, not one scan).
     # A quarter turn brings the laser's blind sector (360 - 270 degrees) into view: every
     # direction has then been seen once.
-    view_min_views: int = 5
-    view_span_rad: float = 0.5 * math.pi
-    view_margin: float = 0.03
-    view_win_fraction: float = 0.8
+    view_min_views: Annotated[int, Meta(ge=1, le=1000)] = 5
+    view_span_rad: Annotated[float, Meta(ge=0.0, le=4.0 * math.pi, extra={"unit": "rad"})] = (
+        0.5 * math.pi
+    )
+    view_margin: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.03
+    view_win_fraction: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.8
     # ... or no lower on *every* one of them and view_margin_unanimous higher on average: a
     # place that fits better from every heading of the quarter turn (a look-alike 62 m away
     # on ISR fits 0.95-0.99 where the truth fits 1.00: 0.02 better on average, on every view).
-    view_margin_unanimous: float = 0.015
+    view_margin_unanimous: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.015
     # Expected scans (`expected_scan`): a look-alike within ``margin`` no longer blocks when,
     # on the current scan, the best place explains explain_match more of the beams (ending
     # on the walls it expects) *and* the look-alike needs explain_long more of them to pass
     # through its walls. People only shorten beams, so they cannot fake the second.
     explain: bool = True
-    explain_match: float = 0.15
-    explain_long: float = 0.1
+    explain_match: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.15
+    explain_long: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.1
     # ... and the other way round, a veto: the best place is never accepted while another
     # tracked place needs explain_veto_long fewer beams through its walls (a clean look-alike
     # outscores a cluttered truth on end points, over a whole turn too: ISR kidnap seed 3,
     # truth 0.74-0.95 with 1 % long beams, a corridor 29 m away 0.93-0.96 with 10-13 %).
-    explain_veto_long: float = 0.05
+    explain_veto_long: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.05
     # ... and at least this many more of them (a count, not only a fraction): where much of
     # the map is unknown space a place is compared on a dozen beams, and one beam is 6 % of
     # them (Willow kidnap seed 5: the truth, compared on 17 beams, vetoed for the whole
     # attempt by one beam through a wall the map has 0.4 m off, against a look-alike 36 m
     # away compared on 8; both vetoed each other, and the robot asked for help).
-    explain_veto_min_beams: int = 5
+    explain_veto_min_beams: Annotated[int, Meta(ge=0, le=10_000)] = 5
     # A look-alike near in quality, verified on this many scans in a row while the best place
     # is still being confirmed, lets the stack start turning at once (`_decide`).
-    early_turn_scans: int = 3
-
-    def __post_init__(self) -> None:
-        checks: list[tuple[str, float, float, float]] = [
-            ("search_every_s", self.search_every_s, 0.05, 60.0),
-            ("verify_hypotheses", self.verify_hypotheses, 1, 100),
-            ("max_candidates", self.max_candidates, 1, 100),
-            ("hit_tolerance_m", self.hit_tolerance_m, 0.01, 1.0),
-            ("min_confidence", self.min_confidence, 0.0, 1.0),
-            ("max_impossible", self.max_impossible, 0.0, 1.0),
-            ("max_jump_m", self.max_jump_m, 0.01, 10.0),
-            ("max_jump_rad", self.max_jump_rad, 0.01, math.pi),
-            ("drop_after", self.drop_after, 1, 100),
-            ("accept_scans", self.accept_scans, 1, 1000),
-            ("accept_s", self.accept_s, 0.0, 60.0),
-            ("margin", self.margin, 0.0, 1.0),
-            ("duplicate_xy_m", self.duplicate_xy_m, 0.0, 10.0),
-            ("duplicate_yaw_rad", self.duplicate_yaw_rad, 0.0, math.pi),
-            ("motion_to_trust_m", self.motion_to_trust_m, 0.0, 100.0),
-            ("agree_searches", self.agree_searches, 1, 100),
-            ("agree_min_quality", self.agree_min_quality, 0.0, 1.0),
-            ("help_after_s", self.help_after_s, 0.0, 3600.0),
-            ("background_every_s", self.background_every_s, 0.1, 3600.0),
-            ("standing_speed", self.standing_speed, 0.0, 1.0),
-            ("kidnap_margin", self.kidnap_margin, 0.0, 1.0),
-            ("kidnap_min_range_m", self.kidnap_min_range_m, 0.0, 30.0),
-            ("kidnap_min_distance_m", self.kidnap_min_distance_m, 0.0, 100.0),
-            ("max_range_m", self.max_range_m, 0.5, 200.0),
-            ("exclude_impossible", self.exclude_impossible, 0.0, 1.0),
-            ("unknown_hit_weight", self.unknown_hit_weight, 0.0, 1.0),
-            ("exclude_s", self.exclude_s, 0.0, 600.0),
-            ("max_exclusions", self.max_exclusions, 0, 100_000),
-            ("proof_max_nodes", self.proof_max_nodes, 1, 10**8),
-            ("proof_every_s", self.proof_every_s, 0.0, 600.0),
-            ("view_every_rad", self.view_every_rad, 0.01, math.pi),
-            ("view_every_m", self.view_every_m, 0.01, 10.0),
-            ("max_views", self.max_views, 0, 1000),
-            ("view_misses", self.view_misses, 0, 1000),
-            ("view_checks_per_scan", self.view_checks_per_scan, 0, 100_000),
-            ("view_min_views", self.view_min_views, 1, 1000),
-            ("view_span_rad", self.view_span_rad, 0.0, 4.0 * math.pi),
-            ("view_margin", self.view_margin, 0.0, 1.0),
-            ("view_win_fraction", self.view_win_fraction, 0.0, 1.0),
-            ("view_margin_unanimous", self.view_margin_unanimous, 0.0, 1.0),
-            ("explain_match", self.explain_match, 0.0, 1.0),
-            ("explain_long", self.explain_long, 0.0, 1.0),
-            ("explain_veto_long", self.explain_veto_long, 0.0, 1.0),
-            ("explain_veto_min_beams", self.explain_veto_min_beams, 0, 10_000),
-            ("early_turn_scans", self.early_turn_scans, 1, 1000),
-        ]
-        for name, value, low, high in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise RelocaliserConfigError(
-                    f"RelocaliserConfig.{name} must be in [{low}, {high}], got {value}"
-                )
+    early_turn_scans: Annotated[int, Meta(ge=1, le=1000)] = 3
 
 
 @dataclass(frozen=True)

@@ -42,11 +42,14 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from msgspec import Meta
 from scipy import ndimage
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 
@@ -59,64 +62,44 @@ PAD = 2  # cells of M = 0 around each level: clipped points outside read M = 0, 
 INLIER_M = math.exp(-2.0)  # M above this (within 2 sigma of a surface): an inlier end point
 
 
-SURFACES = frozenset({"cell_face", "cell_centre"})
-
-
 class ScanMatcherConfigError(ValueError):
     """A scan matcher parameter is outside its allowed range."""
 
 
-@dataclass(frozen=True)
-class ScanMatcherConfig:
+class ScanMatcherConfig(schema.Declared, frozen=True):
     """Parameters of the multi-resolution matcher."""
 
-    levels: int = 3  # number of map levels (each halves the resolution), 1..5
-    sigma_cells: float = 1.0  # likelihood-field width sigma, in cells of each level
-    iterations: tuple[int, ...] = (3, 3, 4)  # Gauss-Newton iterations, coarse .. fine
-    max_points: int = 400  # end points used on the finest level
-    max_angular_step: float = MAX_ANGULAR_STEP  # [rad]
-    damping: float = 1e-3  # Levenberg damping, relative to trace(H)/3
-    surface: str = "cell_face"  # where a map's surface lies: "cell_face" or "cell_centre"
-    fine_max_iterations: int = 10  # finest level: iterate until converged, at most this
-    converged_m: float = 0.002  # a step below this [m] and converged_rad is converged
-    converged_rad: float = 0.001
+    ROOT: ClassVar[str] = "ScanMatcherConfig"
+    ERROR: ClassVar[type[Exception]] = ScanMatcherConfigError
+    levels: Annotated[int, Meta(ge=1, le=5)] = 3  # map levels (each halves the resolution)
+    # likelihood-field width sigma, in cells of each level
+    sigma_cells: Annotated[float, Meta(ge=0.5, le=10.0)] = 1.0
+    # Gauss-Newton iterations, coarse .. fine: one entry per level
+    iterations: tuple[Annotated[int, Meta(ge=1, le=50)], ...] = (3, 3, 4)
+    max_points: Annotated[int, Meta(ge=20, le=5000)] = 400  # end points used on the finest level
+    max_angular_step: Annotated[float, Meta(ge=0.01, le=1.0, extra={"unit": "rad"})] = (
+        MAX_ANGULAR_STEP
+    )
+    damping: Annotated[float, Meta(ge=0.0, le=1.0)] = 1e-3  # Levenberg damping, / trace(H)/3
+    # where a map's surface lies: "cell_face" or "cell_centre"
+    surface: Annotated[str, schema.one_of("cell_face", "cell_centre")] = "cell_face"
+    # finest level: iterate until converged, at most this
+    fine_max_iterations: Annotated[int, Meta(ge=1, le=100)] = 10
+    # a step below converged_m and converged_rad is converged
+    converged_m: Annotated[float, Meta(gt=0.0, le=1.0, extra={"unit": "m"})] = 0.002
+    converged_rad: Annotated[float, Meta(gt=0.0, le=1.0, extra={"unit": "rad"})] = 0.001
     # Scale [m] of the surface orientation (`surface_tensor`) that gives each inlier's normal
     # for the match information: the Gaussian-weighted scatter of the finest level's surface
     # nodes within about 3 times this. 0.15 m over-smoothed the realistic world's door jambs and
     # furniture (ISR tour seeds 1 and 3 lost); 0.05 m (one cell) no longer sees a dotted wall's
     # direction (`test_match_information_along_a_dotted_corridor_is_small`).
-    tensor_sigma_m: float = 0.10
+    tensor_sigma_m: Annotated[float, Meta(ge=0.01, le=2.0, extra={"unit": "m"})] = 0.10
 
-    def __post_init__(self) -> None:
-        if not 1 <= self.levels <= 5:
-            raise ScanMatcherConfigError(f"levels must be 1..5, got {self.levels}")
-        if not 0.5 <= self.sigma_cells <= 10.0:
-            raise ScanMatcherConfigError(f"sigma_cells must be 0.5..10, got {self.sigma_cells}")
-        if len(self.iterations) != self.levels or not all(1 <= i <= 50 for i in self.iterations):
+    def check(self) -> None:
+        if len(self.iterations) != self.levels:
             raise ScanMatcherConfigError(
-                f"iterations needs one entry 1..50 per level ({self.levels}), got {self.iterations}"
-            )
-        if not 20 <= self.max_points <= 5000:
-            raise ScanMatcherConfigError(f"max_points must be 20..5000, got {self.max_points}")
-        if not 0.01 <= self.max_angular_step <= 1.0:
-            raise ScanMatcherConfigError(
-                f"max_angular_step must be 0.01..1 rad, got {self.max_angular_step}"
-            )
-        if not 1 <= self.fine_max_iterations <= 100:
-            raise ScanMatcherConfigError(
-                f"fine_max_iterations must be 1..100, got {self.fine_max_iterations}"
-            )
-        if not (0.0 < self.converged_m <= 1.0 and 0.0 < self.converged_rad <= 1.0):
-            raise ScanMatcherConfigError("converged_m and converged_rad must be in (0, 1]")
-        if not 0.01 <= self.tensor_sigma_m <= 2.0:
-            raise ScanMatcherConfigError(
-                f"tensor_sigma_m must be 0.01..2 m, got {self.tensor_sigma_m}"
-            )
-        if not 0.0 <= self.damping <= 1.0:
-            raise ScanMatcherConfigError(f"damping must be 0..1, got {self.damping}")
-        if self.surface not in SURFACES:
-            raise ScanMatcherConfigError(
-                f"surface must be one of {sorted(SURFACES)}, got {self.surface!r}"
+                f"ScanMatcherConfig.iterations needs one entry per level ({self.levels}), "
+                f"got {self.iterations}"
             )
 
 

@@ -11,7 +11,8 @@ pose far from the truth is refused; one at the truth is confirmed."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+
+from msgspec.structs import replace
 
 from interbot_core.geometry import Pose2D
 from interbot_core.topics import RouteMsg

@@ -9,8 +9,7 @@ tour, seed 3: the Meeting Room's pane; see `LocaliserConfig.gate_through_walls`)
 
 from __future__ import annotations
 
-import dataclasses
-
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D
@@ -66,7 +65,7 @@ def _max_error_along(config: LocaliserConfig) -> float:
 def test_beams_through_a_pane_onto_moved_furniture_do_not_drag_the_pose() -> None:
     config = LocaliserConfig(map_update=False, gate_through_walls=True)
     gated = _max_error_along(config)
-    ungated = _max_error_along(dataclasses.replace(config, gate_through_walls=False))
+    ungated = _max_error_along(msgspec.structs.replace(config, gate_through_walls=False))
     assert gated < 0.05
     assert gated < 0.5 * ungated  # the gate, not luck, keeps it: without it the pose is dragged
 
@@ -77,5 +76,5 @@ def test_no_gate_while_the_heading_is_uncertain() -> None:
     fast turns between 1 Hz scans: gated, it was lost). With the bound at 0 the run is the
     ungated one, to the bit."""
     config = LocaliserConfig(map_update=False, gate_through_walls=True, gate_max_sigma_rad=0.0)
-    ungated = dataclasses.replace(config, gate_through_walls=False)
+    ungated = msgspec.structs.replace(config, gate_through_walls=False)
     assert _max_error_along(config) == _max_error_along(ungated)

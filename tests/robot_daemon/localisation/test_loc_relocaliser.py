@@ -9,10 +9,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future
-from dataclasses import replace
 
 import numpy as np
 import pytest
+from msgspec.structs import replace
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import UNKNOWN, OccupancyGrid
