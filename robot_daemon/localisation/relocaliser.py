@@ -275,7 +275,9 @@ class Relocaliser:
         self._dist = self.search_engine.fine_distance
         self.expected_scan = ExpectedScan(grid)
         self._scan: LaserScan | None = None  # the scan being decided on
-        self._agreement: dict[int, BeamAgreement] = {}  # per candidate (id) on that scan
+        # per candidate on that scan: id -> (the candidate, its pose, the agreement); holding the
+        # candidate keeps its id from being reused by a new one within the scan
+        self._agreement: dict[int, tuple[Candidate, Pose2D, BeamAgreement]] = {}
         self._blocked_dist = self.search_engine.fine_blocked_distance
         self._candidates: list[Candidate] = []
         self._active = False
@@ -745,10 +747,11 @@ class Relocaliser:
         """The current scan against the map's prediction at ``cand`` (once per scan)."""
         if self._scan is None:
             return None
-        key = id(cand)
-        if key not in self._agreement:
-            self._agreement[key] = self.expected_scan.agreement(self._scan, cand.pose)
-        return self._agreement[key]
+        kept = self._agreement.get(id(cand))
+        if kept is None or kept[0] is not cand or kept[1] != cand.pose:
+            kept = (cand, cand.pose, self.expected_scan.agreement(self._scan, cand.pose))
+            self._agreement[id(cand)] = kept
+        return kept[2]
 
     def _explains_better(self, pose: Pose2D, other: Pose2D) -> bool:
         """`_out_explained` for two laser poses on the current scan (not cached)."""
