@@ -71,7 +71,7 @@ class QtTabletPanel(QWidget):
 
         task = QGroupBox("Tablet's task")
         self.task_label = QLabel("none")
-        self.override_button = button("Take over", controller.tablet_task_override)
+        self.override_button = button("Take over", self._override)
         self.stop_button = button("Stop (pause)", controller.tablet_requests.stop_task)
         self.cancel_button = button("Cancel", controller.tablet_requests.cancel_task)
         buttons = row(self.override_button, self.stop_button, self.cancel_button)
@@ -107,11 +107,16 @@ class QtTabletPanel(QWidget):
             box.blockSignals(True)
             box.setChecked(allows(c.tablet_policy.permissions, kind))
             box.blockSignals(False)
-        task = c.tablet_task
+        task = c.tablet_requests.task
         self.task_label.setText("none" if task is None else describe_task(task, c.names))
         for b in (self.override_button, self.stop_button, self.cancel_button):
             b.setEnabled(task is not None)
         self._refresh_watchdog()
+
+    def _override(self) -> None:
+        """The operator takes the tablet's task over: it continues as a station task."""
+        if self._controller.tablet_requests.override():
+            self.refresh()
 
     def _on_latency(self, rtt: float) -> None:
         values = np.array(self._controller.latencies) * 1000.0

@@ -179,7 +179,7 @@ class QtTaskPanel(QWidget):
     def refresh(self) -> None:
         c = self._controller
         task = c.selected.supervisor.current_task
-        who = " (tablet)" if c.tablet_task is not None else ""
+        who = " (tablet)" if c.tablet_requests.task is not None else ""
         self.current_label.setText(
             "Now: idle" if task is None else f"Now: {describe_task(task, c.names)}{who}"
         )

@@ -877,16 +877,6 @@ class StationController(QObject):
         self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
         self.tablet_changed.emit()
 
-    @property
-    def tablet_task(self) -> Task | None:
-        """The selected robot's running task if the tablet ordered it."""
-        return self.tablet_requests.task
-
-    def tablet_task_override(self) -> None:
-        """The operator takes the tablet's task over: it continues as a station task."""
-        if self.tablet_requests.override():
-            self.tablet_changed.emit()
-
     def on_tablet_message(self, msg: p.TabletMessage) -> None:
         """A validated tablet message: a request (tablet_requests.py) or a speed command."""
         if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)

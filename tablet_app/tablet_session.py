@@ -34,7 +34,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Final
 
 from interbot_core.protocol import (
     Cancel,
@@ -159,21 +159,10 @@ class TabletSession:
     # ------------------------------------------------------------------ station messages
     def on_message(self, msg: StationMessage, now: float) -> None:
         """One validated message from the station, to the method for its type below."""
-        handlers: dict[type, Callable[[Any], None]] = {
-            Pose: self.on_pose,
-            InitialPose: self.on_initial_pose,
-            Localisation: self.on_localisation,
-            GoalStatus: lambda m: self.on_goal_status(m, now),
-            TourState: self.on_tour_state,
-            ShowRequest: self.on_show_request,
-            Cancel: self.on_cancel,
-            Permissions: self.on_permissions,
-            StatusInfo: self.on_status,
-            ErrorReport: self.on_error,
-        }
-        handler = handlers.get(type(msg))
-        if handler is not None:
-            handler(msg)
+        if isinstance(msg, GoalStatus):
+            self.on_goal_status(msg, now)
+        elif (handler := _HANDLERS.get(type(msg))) is not None:
+            handler(self, msg)
 
     def on_robot_name(self, name: str) -> None:
         """The station names the robot this tablet drives (at connect, and on a switch)."""
@@ -402,3 +391,17 @@ def _distance_in(text: str) -> float | None:
             except ValueError:
                 return None
     return None
+
+
+# Built once (not per message): the handler of each station message type but GoalStatus.
+_HANDLERS: Final[dict[type, Callable[[TabletSession, Any], None]]] = {
+    Pose: TabletSession.on_pose,
+    InitialPose: TabletSession.on_initial_pose,
+    Localisation: TabletSession.on_localisation,
+    TourState: TabletSession.on_tour_state,
+    ShowRequest: TabletSession.on_show_request,
+    Cancel: TabletSession.on_cancel,
+    Permissions: TabletSession.on_permissions,
+    StatusInfo: TabletSession.on_status,
+    ErrorReport: TabletSession.on_error,
+}

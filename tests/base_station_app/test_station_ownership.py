@@ -69,7 +69,7 @@ def test_the_tablet_stop_cancels_its_own_task(
     t.send({"goal": 9})
     qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
-    assert station.tablet_task == GoTo(9)
+    assert station.tablet_requests.task == GoTo(9)
     t.send({"stop": True})
     qtbot.waitUntil(lambda: station.selected.supervisor.current_task is None, timeout=3000)
     assert t.of("cancel") == []  # the tablet did it: no "cancelled by the operator"

@@ -59,7 +59,7 @@ def test_thesis_client_goal_without_newlines_drives_a_route(
     assert robot.of("route")[0].node_ids[-1] == 7
     qtbot.waitUntil(lambda: bool(t.of("goal")), timeout=3000)
     assert t.of("goal")[-1] == {"goal": 7, "reached": False, "tourReached": False}
-    assert station.tablet_task == GoTo(7)
+    assert station.tablet_requests.task == GoTo(7)
     assert not station.tablet.greeted
 
 
@@ -281,7 +281,7 @@ def test_malfunction_goes_to_status_log_and_cancel_by_operator(
     t.send({"goal": 9})
     qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
-    assert station.tablet_task == GoTo(9)
+    assert station.tablet_requests.task == GoTo(9)
     station.tablet_requests.cancel_task()
     qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)
     assert station.selected.supervisor.current_task is None
