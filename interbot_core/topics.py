@@ -646,40 +646,25 @@ class ImageMsg(Checked, frozen=True):
         return f"ImageMsg(stamp={self.stamp}, width={self.width}, height={self.height})"
 
 
-_IMAGE = struct.Struct("<2sBBdHHBI")  # preamble, stamp, width, height, format (1 JPEG), length
-_IMAGE_JPEG = 1
-
-
 def encode_image(image: ImageMsg) -> bytes:
-    """Binary image: header then the JPEG bytes."""
-    head = _IMAGE.pack(
-        BINARY_MAGIC,
-        BINARY_VERSION,
-        BinaryKind.IMAGE,
-        image.stamp,
-        image.width,
-        image.height,
-        _IMAGE_JPEG,
-        len(image.jpeg),
-    )
-    return head + image.jpeg
+    """Binary image: the preamble, then a MessagePack map of the fields (the JPEG as bin)."""
+    preamble = _PREAMBLE.pack(BINARY_MAGIC, BINARY_VERSION, BinaryKind.IMAGE)
+    return preamble + msgspec.msgpack.encode(image)
 
 
 def decode_image(payload: bytes) -> ImageMsg:
-    """Inverse of `encode_image`."""
+    """Inverse of `encode_image`; the fields are checked as the declaration says."""
     payload = bytes(payload)
+    if len(payload) > MAX_IMAGE_BYTES + 64:  # the JPEG and a few bytes of fields
+        raise TopicDecodeError(f"image: {len(payload)} bytes, more than a JPEG may have")
     _check_preamble(payload, BinaryKind.IMAGE, "image")
-    if len(payload) < _IMAGE.size:
-        raise TopicDecodeError(f"image: truncated header ({len(payload)} < {_IMAGE.size} bytes)")
-    _, _, _, stamp, width, height, fmt, length = _IMAGE.unpack_from(payload)
-    if fmt != _IMAGE_JPEG:
-        raise TopicDecodeError(f"image: unknown format {fmt} (1 = JPEG)")
-    if length > MAX_IMAGE_BYTES or len(payload) != _IMAGE.size + length:
-        raise TopicDecodeError(f"image: {len(payload)} bytes, header says {_IMAGE.size + length}")
     try:
-        return ImageMsg(stamp, width, height, payload[_IMAGE.size :])
-    except MessageValueError as exc:
-        raise TopicDecodeError(f"image: {exc}") from exc
+        fields = msgspec.msgpack.decode(payload[_PREAMBLE.size :])
+        image = schema.convert(fields, ImageMsg, "image")
+        image.check()
+    except (msgspec.DecodeError, ValueError) as exc:  # truncated, SchemaError, not JPEG
+        raise TopicDecodeError(f"image: {exc}") from None
+    return image
 
 
 # --------------------------------------------------------------------------- topic table

@@ -8,6 +8,7 @@ import math
 import struct
 import zlib
 
+import msgspec
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +19,7 @@ from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     ALIVE_WILDCARD,
     COMMAND_TOPICS,
+    MAX_IMAGE_BYTES,
     MAX_JSON_BYTES,
     STATE_TOPICS,
     TOPIC_SPECS,
@@ -344,10 +346,15 @@ def test_image_round_trips_and_rejects_non_jpeg() -> None:
     image = ImageMsg(3.5, 640, 480, JPEG)
     payload = encode_image(image)
     assert decode(Topic.IMAGE, payload) == image
-    with pytest.raises(TopicDecodeError, match="header says"):
+    with pytest.raises(TopicDecodeError, match="truncated"):
         decode_image(payload[:-1])
     with pytest.raises(TopicDecodeError, match="JPEG"):
         decode_image(payload[: -len(JPEG)] + b"PNG." + JPEG[4:])
+    zero_width = msgspec.msgpack.encode({"stamp": 1.0, "width": 0, "height": 3, "jpeg": JPEG})
+    with pytest.raises(TopicDecodeError, match=r"image\.width = 0 is outside .* 1\.\.65535"):
+        decode_image(payload[:4] + zero_width)
+    with pytest.raises(TopicDecodeError, match="more than a JPEG may have"):
+        decode_image(payload[:4] + bytes(MAX_IMAGE_BYTES + 64))
     with pytest.raises(MessageValueError, match="width"):
         ImageMsg(0.0, 0, 480, JPEG)
 
