@@ -266,9 +266,6 @@ class TabletServer(QObject):
         self.protocol_error.emit(f"tablet does not read ({queued} bytes queued): disconnected")
         conn.abort()  # disconnected() follows and frees the slot
 
-    def ping(self) -> None:
-        self._call.run(self._ping_now)
-
     def _ping_now(self) -> None:
         if not self.is_connected:
             return

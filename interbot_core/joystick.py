@@ -156,11 +156,6 @@ class JoystickState:
         self._pressed_at = (float(x), float(y))
         return self.command
 
-    def move(self, x: float, y: float) -> tuple[float, float]:
-        if self._pressed_at is None:
-            return (0.0, 0.0)
-        return self.press(x, y)
-
     def release(self) -> tuple[float, float]:
         self._pressed_at = None
         return (0.0, 0.0)

@@ -60,10 +60,6 @@ class QtKeyboard(Retranslated, QWidget):
     def set_target(self, line_edit: QLineEdit) -> None:
         self._target = line_edit
 
-    @property
-    def shift(self) -> bool:
-        return self._shift
-
     def _tap(self, name: str) -> None:
         if name == SHIFT:
             self._set_shift(not self._shift)

@@ -54,10 +54,9 @@ def test_validation() -> None:
 
 def test_state_press_move_release() -> None:
     joy = JoystickState(C[0], C[1], R, 0.5, 1.0)
-    assert joy.move(200.0, 50.0) == (0.0, 0.0)  # no press yet
     assert not joy.pressed
     assert joy.press(200.0, 50.0) == pytest.approx((0.5, 0.0))
-    assert joy.move(100.0, 150.0) == pytest.approx((0.0, 1.0))
+    assert joy.press(100.0, 150.0) == pytest.approx((0.0, 1.0))  # a drag presses again
     assert joy.set_limits(0.2, 0.4) == pytest.approx((0.0, 0.4))
     joy.set_geometry(100.0, 150.0, 50.0)
     assert joy.command == (0.0, 0.0)
