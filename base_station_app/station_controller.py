@@ -219,7 +219,6 @@ class StationController(QObject):
         self.clock_periods = PeriodStats(5000)
         self.latencies: deque[float] = deque(maxlen=300)
         self._permissions_sent: p.Permissions | None = None
-        self._last_clock: float | None = None
         self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
         self._log_requested.connect(self.log)
         # Sending to the robots and what each must hear: the stop, config, assist (fleet_link.py).
@@ -340,10 +339,6 @@ class StationController(QObject):
     @property
     def link(self) -> StationLink | None:
         return self.robot_link.link
-
-    @property
-    def watch(self) -> FleetWatch | None:
-        return self.robot_link.watch
 
     @property
     def estop_latched(self) -> bool:
@@ -498,8 +493,8 @@ class StationController(QObject):
             for topic, message in (link.poll_state() if display else {}).items():
                 selected.state.apply(topic, message)
                 self.alert_rules.on_message(selected.robot_id or "?", message, self.clock())
-            if self.watch is not None:
-                for msg in self.watch.poll():
+            if self.robot_link.watch is not None:
+                for msg in self.robot_link.watch.poll():
                     self._on_state_message(msg)
             for mirror in self.fleet.all():
                 self.events.robot_progress(mirror)
@@ -530,10 +525,8 @@ class StationController(QObject):
                 mirror.online = True
             self.log("info", f"robot {event.robot_id} is online")
             self.robot_link.sync_watch()
-            if self.link is not None and event.robot_id != self.selected_robot:
-                self.link.request_state(event.robot_id)  # watched: ask its route, as below
-            if self.selected_robot == event.robot_id and self.link is not None:
-                self.link.request_state()  # it came back (restart?): ask, never assume
+            if self.link is not None:  # ask its route (a restart?): never assume
+                self.link.request_state(event.robot_id)
             mirror.connected(now)
             self.robots_changed.emit()
         elif isinstance(event, RobotLeft):
@@ -562,9 +555,7 @@ class StationController(QObject):
     def tick(self) -> None:
         """The control loop (thesis Fig. 5.12): speed, pose (every robot), communication."""
         now = self.clock()
-        if self._last_clock is not None:
-            self.clock_periods.add_period(max(0.0, now - self._last_clock))
-        self._last_clock = now
+        self.clock_periods.add_arrival(now)
         self._choose_robot()
         for mirror in self.fleet.all():
             self.robot_link.resend_pending(mirror)

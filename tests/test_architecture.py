@@ -778,3 +778,58 @@ def test_the_declared_once_rule_catches_a_copy(tmp_path: Path) -> None:
         encoding="utf-8",
     )
     assert classes_with_fields(copy, PERMISSION_FIELDS) == {"TabletPermissions"}
+
+
+# Issue 13 (a thin composition root): the station controller wires its parts (fleet, link,
+# arbiter, tablet policy, alerts, ...) to Qt and keeps no state of its own beyond them. What
+# it may still change after construction: the operator's configuration (handed to every part
+# on a change) and what permissions the tablet was last sent (so only changes are sent). A
+# new piece of state belongs in the part that owns it.
+CONTROLLER_OWN_STATE = {"config", "_permissions_sent"}
+
+
+def _assigned(node: ast.AST) -> list[ast.expr]:
+    """The targets of an assignment statement (tuples unpacked), else nothing."""
+    if isinstance(node, ast.Assign):
+        targets = list(node.targets)
+    elif isinstance(node, ast.AnnAssign | ast.AugAssign):
+        targets = [node.target]
+    else:
+        return []
+    while any(isinstance(t, ast.Tuple) for t in targets):
+        targets = [e for t in targets for e in (t.elts if isinstance(t, ast.Tuple) else [t])]
+    return targets
+
+
+def state_written_after_init(path: Path, class_name: str) -> set[str]:
+    """Attributes ``self.name`` (not ``self.part.name``) that methods other than ``__init__``
+    of ``class_name`` assign."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    (cls,) = (n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
+    methods = [f for f in cls.body if isinstance(f, ast.FunctionDef) and f.name != "__init__"]
+    return {
+        target.attr
+        for method in methods
+        for node in ast.walk(method)
+        for target in _assigned(node)
+        if isinstance(target, ast.Attribute)
+        and isinstance(target.value, ast.Name)
+        and target.value.id == "self"
+    }
+
+
+def test_the_station_controller_keeps_no_state_of_its_own() -> None:
+    path = REPO / "base_station_app/station_controller.py"
+    assert state_written_after_init(path, "StationController") == CONTROLLER_OWN_STATE
+
+
+def test_the_own_state_rule_sees_a_counter_kept_in_a_method(tmp_path: Path) -> None:
+    part = tmp_path / "part.py"
+    part.write_text(
+        "class Root:\n"
+        "    def __init__(self):\n        self.parts = []\n        self.n = 0\n"
+        "    def tick(self):\n        self.n += 1\n        self.parts[0].x = 1\n"
+        "    def reset(self):\n        self.seen: int = 0\n",
+        encoding="utf-8",
+    )
+    assert state_written_after_init(part, "Root") == {"n", "seen"}
