@@ -12,7 +12,6 @@ while playing, re-anchored at every play, pause, speed change and seek. Pure: ``
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, ClassVar, Final, TypeVar
 
 import msgspec
@@ -52,14 +51,6 @@ def robot_of_state_key(key_expr: str) -> str:
     return validate_robot_id(parts[1])
 
 
-def _finite(name: str, value: object, lo: float, hi: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ReplayError(f"{name} must be a finite number, got {value!r}")
-    if not lo <= value <= hi:
-        raise ReplayError(f"{name} = {value} is outside [{lo}, {hi}]")
-    return float(value)
-
-
 Speed = Annotated[float, Meta(ge=SPEED_MIN, le=SPEED_MAX)]
 RecordingTime = Annotated[float, Meta(ge=0.0, le=1e9, extra={"unit": "s"})]
 
@@ -74,7 +65,7 @@ class ReplayCommand(schema.Declared, frozen=True):
 
     def check(self) -> None:
         if self.action == "speed":
-            _finite("speed", self.value, SPEED_MIN, SPEED_MAX)
+            schema.checked(self.value, Speed, "speed", ReplayError)
 
 
 class ReplayState(schema.Declared, frozen=True):
@@ -109,13 +100,11 @@ def _decode(cls: type[T], payload: bytes) -> T:
 
 
 def decode_command(payload: bytes) -> ReplayCommand:
-    command: ReplayCommand = _decode(ReplayCommand, payload)
-    return command
+    return _decode(ReplayCommand, payload)
 
 
 def decode_state(payload: bytes) -> ReplayState:
-    state: ReplayState = _decode(ReplayState, payload)
-    return state
+    return _decode(ReplayState, payload)
 
 
 class ReplayClock:
@@ -124,8 +113,8 @@ class ReplayClock:
     def __init__(
         self, duration: float, now: float, *, speed: float = 1.0, playing: bool = True
     ) -> None:
-        self.duration = _finite("duration", duration, 0.0, 1e9)
-        self.speed = _finite("speed", speed, SPEED_MIN, SPEED_MAX)
+        self.duration: float = schema.checked(duration, RecordingTime, "duration", ReplayError)
+        self.speed: float = schema.checked(speed, Speed, "speed", ReplayError)
         self.playing = playing
         self._anchor = 0.0
         self._wall_anchor = now
