@@ -13,9 +13,15 @@ from __future__ import annotations
 
 import enum
 import logging
-import math
+from typing import Annotated
+
+from msgspec import Meta
+
+from interbot_core import schema
 
 logger = logging.getLogger(__name__)
+
+Limit = Annotated[float, Meta(gt=0.0, le=schema.FINITE)]  # a speed limit, > 0
 
 
 class Direction(enum.Enum):
@@ -42,11 +48,8 @@ class TeleopInput:
         return self._angular_max
 
     def set_limits(self, linear_max: float, angular_max: float) -> None:
-        for name, value in (("linear_max", linear_max), ("angular_max", angular_max)):
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"teleop {name} must be finite and > 0, got {value!r}")
-        self._linear_max = float(linear_max)
-        self._angular_max = float(angular_max)
+        self._linear_max = schema.checked(linear_max, Limit, "teleop linear_max")
+        self._angular_max = schema.checked(angular_max, Limit, "teleop angular_max")
 
     @property
     def active(self) -> bool:

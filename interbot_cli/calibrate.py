@@ -20,10 +20,12 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import msgspec
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D, angle_diff
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.topological_map import TopologicalMapError, load_topological_map
@@ -55,31 +57,31 @@ TELEOP_TOPIC = "station_vel"  # commands enter through the multiplexer, as in th
 DEFAULT_START_NODE = 1  # SW corner of ISR floor 0, facing east along the south corridor
 
 
-@dataclass(frozen=True)
-class RoutineConfig:
+Metres = Annotated[float, Meta(ge=0.5, le=30.0, extra={"unit": "m"})]
+Seconds = Annotated[float, Meta(ge=0.5, le=10.0, extra={"unit": "s"})]
+
+
+class RoutineConfig(schema.Declared, frozen=True, kw_only=True):
     """Test Scenario 1 as driven here (thesis: 26 m corridor, 0.6 m/s and 0.6 rad/s)."""
 
-    distance: float = 5.0  # [m] each straight run
-    linear_speed: float = 0.4  # [m/s]
-    angular_speed: float = 0.6  # [rad/s]
-    turns: float = 1.0  # full turns per rotation section
-    settle: float = 1.5  # [s] standstill before and after each section
-    average_window: float = 0.6  # [s] reference estimates averaged at standstill
-    timeout_factor: float = 2.0  # a section aborts after this many times its nominal time
+    ROOT: ClassVar[str] = "RoutineConfig"
+    ERROR: ClassVar[type[Exception]] = CalibrationError
+    distance: Metres = 5.0  # each straight run
+    linear_speed: Annotated[float, Meta(ge=0.05, le=0.8, extra={"unit": "m/s"})] = 0.4
+    angular_speed: Annotated[float, Meta(ge=0.1, le=1.5, extra={"unit": "rad/s"})] = 0.6
+    turns: Annotated[float, Meta(ge=0.25, le=5.0)] = 1.0  # full turns per rotation section
+    settle: Seconds = 1.5  # standstill before and after each section
+    # reference estimates averaged at standstill (at most ``settle``)
+    average_window: Annotated[float, Meta(ge=0.1, le=10.0, extra={"unit": "s"})] = 0.6
+    # a section aborts after this many times its nominal time
+    timeout_factor: Annotated[float, Meta(ge=1.2, le=10.0)] = 2.0
 
-    def __post_init__(self) -> None:
-        checks = [
-            ("distance", self.distance, 0.5, 30.0),
-            ("linear_speed", self.linear_speed, 0.05, 0.8),
-            ("angular_speed", self.angular_speed, 0.1, 1.5),
-            ("turns", self.turns, 0.25, 5.0),
-            ("settle", self.settle, 0.5, 10.0),
-            ("average_window", self.average_window, 0.1, self.settle),
-            ("timeout_factor", self.timeout_factor, 1.2, 10.0),
-        ]
-        for name, value, low, high in checks:
-            if not (math.isfinite(value) and low <= value <= high):
-                raise CalibrationError(f"RoutineConfig.{name} must be in [{low}, {high}]")
+    def check(self) -> None:
+        if self.average_window > self.settle:
+            raise CalibrationError(
+                f"RoutineConfig.average_window = {self.average_window} s is longer than "
+                f"settle = {self.settle} s"
+            )
 
 
 @dataclass

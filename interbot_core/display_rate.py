@@ -14,29 +14,25 @@ arrived between two frames are coalesced (only the newest of each is drawn).
 from __future__ import annotations
 
 import math
+from typing import Annotated
+
+from msgspec import Meta
+
+from interbot_core import schema
 
 #: [Hz] the station's default drawing rate (issue 14: 10-20 Hz, coalesced).
 DEFAULT_DISPLAY_HZ = 15.0
 MIN_DISPLAY_HZ = 1.0
 MAX_DISPLAY_HZ = 60.0
 _EPS_S = 1e-9  # [s] sums of periods in floating point land a hair early
+DisplayHz = Annotated[float, Meta(ge=MIN_DISPLAY_HZ, le=MAX_DISPLAY_HZ, extra={"unit": "Hz"})]
 
 
 class DisplayRate:
     """At most ``max_hz`` frames a second; polls in between are coalesced into the next frame."""
 
     def __init__(self, max_hz: float = DEFAULT_DISPLAY_HZ) -> None:
-        if (
-            isinstance(max_hz, bool)
-            or not isinstance(max_hz, int | float)
-            or not math.isfinite(max_hz)
-            or not MIN_DISPLAY_HZ <= max_hz <= MAX_DISPLAY_HZ
-        ):
-            raise ValueError(
-                f"display rate must be within [{MIN_DISPLAY_HZ:g}, {MAX_DISPLAY_HZ:g}] Hz, "
-                f"got {max_hz!r}"
-            )
-        self.period_s = 1.0 / float(max_hz)
+        self.period_s = 1.0 / schema.checked(max_hz, DisplayHz, "display rate")
         self._last: float | None = None
         self.frames = 0
         """Frames allowed so far."""

@@ -7,19 +7,21 @@ bucket empty is refused. Pure: time is passed in.
 
 from __future__ import annotations
 
-import math
+from typing import Annotated
+
+from msgspec import Meta
+
+from interbot_core import schema
+
+Rate = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "messages/s"})]
 
 
 class TokenBucket:
     """``allow(now)`` is True while the sender keeps to ``rate`` [1/s] with bursts of ``burst``."""
 
     def __init__(self, rate: float, burst: int) -> None:
-        if not (math.isfinite(rate) and rate > 0.0):
-            raise ValueError(f"rate must be finite and > 0 messages/s, got {rate!r}")
-        if burst < 1:
-            raise ValueError(f"burst must be >= 1 message, got {burst!r}")
-        self.rate = float(rate)
-        self.burst = int(burst)
+        self.rate: float = schema.checked(rate, Rate, "TokenBucket.rate")
+        self.burst: int = schema.checked(burst, Annotated[int, Meta(ge=1)], "TokenBucket.burst")
         self._tokens = float(burst)
         self._last: float | None = None
         self.refused = 0

@@ -23,11 +23,16 @@ is passed in.
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Annotated
+
+from msgspec import Meta
+
+from interbot_core import schema
 
 MAX_CEILING_S = 1.0
+Ceiling = Annotated[float, Meta(gt=0.0, le=MAX_CEILING_S, extra={"unit": "s"})]
 """[s] the largest latency ceiling the station accepts (issue 11: a stale command never drives
 for longer than this)."""
 
@@ -59,9 +64,7 @@ class SpeedFreshness:
 
     @ceiling_s.setter
     def ceiling_s(self, value: float) -> None:
-        if not (math.isfinite(value) and 0.0 < value <= MAX_CEILING_S):
-            raise ValueError(f"ceiling must be in (0, {MAX_CEILING_S}] s, got {value!r}")
-        self._ceiling = float(value)
+        self._ceiling: float = schema.checked(value, Ceiling, "SpeedFreshness.ceiling_s")
 
     def reset(self) -> None:
         """A new connection: forget the order and the clock offset."""

@@ -20,9 +20,12 @@ import logging
 import re
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import Annotated
 
 import zenoh
+from msgspec import Meta
 
+from interbot_core import schema
 from interbot_link.errors import (
     InsecureEndpointError,
     LinkConfigError,
@@ -150,8 +153,7 @@ def session_config(
 
 
 def check_lease(lease_ms: int) -> None:
-    if isinstance(lease_ms, bool) or not isinstance(lease_ms, int) or not 500 <= lease_ms <= 60000:
-        raise LinkConfigError(f"lease_ms must be an integer in 500..60000, got {lease_ms!r}")
+    schema.checked(lease_ms, Annotated[int, Meta(ge=500, le=60000)], "lease_ms", LinkConfigError)
 
 
 def build_config(
