@@ -816,11 +816,11 @@ class StationController(QObject):
     def press(self, direction: Direction) -> None:
         if self.estop_latched:
             return
-        self.arbiter.keys.press(direction)
+        self.arbiter.press(direction)
         self._teleop_changed()
 
     def release(self, direction: Direction) -> None:
-        self.arbiter.keys.release(direction)
+        self.arbiter.release(direction)
         self._teleop_changed()
 
     def set_joystick(self, linear: float, angular: float, pressed: bool) -> None:

@@ -18,26 +18,20 @@ from __future__ import annotations
 import logging
 import threading
 from collections import Counter
-from dataclasses import dataclass, field
 
 import zenoh
 
 from interbot_core.topics import (
-    COMMAND_TOPICS,
     STATE_TOPICS,
     TOPIC_SPECS,
     Topic,
     TopicError,
     decode,
-    encode,
-    key,
-    robot_wildcard,
     validate_robot_id,
 )
-from interbot_link.qos import declare_publisher
 from interbot_link.robot import LinkClosedError
 from interbot_link.session import LinkError
-from interbot_link.station import StateMessage
+from interbot_link.station import Followed, StateMessage
 
 logger = logging.getLogger(__name__)
 
@@ -54,20 +48,6 @@ class NotWatchedError(LinkError):
     """A command for a robot that is not watched."""
 
 
-@dataclass
-class _Watched:
-    rings: dict[Topic, zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]]
-    events: zenoh.Subscriber[None]
-    publishers: dict[Topic, zenoh.Publisher] = field(default_factory=dict)
-
-    def undeclare(self) -> None:
-        for ring in self.rings.values():
-            ring.undeclare()
-        self.events.undeclare()
-        for pub in self.publishers.values():
-            pub.undeclare()
-
-
 class FleetWatch:
     """Light subscriptions and command publishers for several robots on one session."""
 
@@ -76,7 +56,7 @@ class FleetWatch:
         self._lock = threading.Lock()
         self._raw: list[tuple[str, str, bytes]] = []
         self._capacity = queue_capacity
-        self._watched: dict[str, _Watched] = {}
+        self._watched: dict[str, Followed] = {}
         self._closed = False
         self.decode_errors: Counter[str] = Counter()
         self.overflow = 0
@@ -95,13 +75,7 @@ class FleetWatch:
         for robot_id in sorted(wanted - set(self._watched)):
             self._watched[robot_id] = self._declare(robot_id)
 
-    def _declare(self, robot_id: str) -> _Watched:
-        session = self._session
-        rings = {
-            topic: session.declare_subscriber(key(robot_id, topic), zenoh.handlers.RingChannel(1))
-            for topic in WATCH_TOPICS
-        }
-
+    def _declare(self, robot_id: str) -> Followed:
         def on_event(sample: zenoh.Sample) -> None:
             name = str(sample.key_expr).rsplit("/", 1)[-1]
             if name in _EVENT_NAMES and sample.kind == zenoh.SampleKind.PUT:
@@ -111,15 +85,8 @@ class FleetWatch:
                         return
                     self._raw.append((robot_id, name, sample.payload.to_bytes()))
 
-        events = session.declare_subscriber(
-            robot_wildcard(robot_id), on_event, allowed_origin=zenoh.Locality.REMOTE
-        )
-        publishers = {
-            topic: declare_publisher(session, key(robot_id, topic), topic)
-            for topic in COMMAND_TOPICS
-        }
         logger.info("station watches robot %r", robot_id)
-        return _Watched(rings, events, publishers)
+        return Followed.declare(self._session, robot_id, WATCH_TOPICS, on_event)
 
     def _decode(self, robot_id: str, name: str, payload: bytes) -> StateMessage | None:
         try:
@@ -151,12 +118,7 @@ class FleetWatch:
         watched = self._watched.get(robot_id)
         if watched is None:
             raise NotWatchedError(f"robot {robot_id!r} is not watched")
-        if topic not in COMMAND_TOPICS:
-            raise TopicError(f"{topic} is not a command topic")
-        publisher = watched.publishers[topic]
-        publisher.put(encode(topic, message))
-        status = publisher.matching_status
-        return bool(getattr(status, "matching", status))
+        return watched.send(topic, message)
 
     def close(self) -> None:
         """Undeclare everything; idempotent."""

@@ -80,6 +80,53 @@ class StateMessage:
 
 LinkEvent = RobotAppeared | RobotLeft | StateMessage
 
+
+@dataclass
+class Followed:
+    """What a station declares for one robot it follows: rings of one for its newest state,
+    one wildcard subscriber for its events (one zenoh thread, so their order is kept; the
+    callback ignores other topics by name), and a publisher per command topic."""
+
+    rings: dict[Topic, zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]]
+    events: zenoh.Subscriber[None]
+    publishers: dict[Topic, zenoh.Publisher]
+
+    @classmethod
+    def declare(
+        cls,
+        session: zenoh.Session,
+        robot_id: str,
+        ring_topics: frozenset[Topic],
+        on_event: Callable[[zenoh.Sample], None],
+    ) -> Followed:
+        return cls(
+            {
+                t: session.declare_subscriber(key(robot_id, t), zenoh.handlers.RingChannel(1))
+                for t in ring_topics
+            },
+            session.declare_subscriber(
+                robot_wildcard(robot_id), on_event, allowed_origin=zenoh.Locality.REMOTE
+            ),
+            {t: declare_publisher(session, key(robot_id, t), t) for t in COMMAND_TOPICS},
+        )
+
+    def send(self, topic: Topic, message: object) -> bool:
+        """Publish a command; True if a robot subscriber matched it (False: nobody heard it)."""
+        if topic not in COMMAND_TOPICS:
+            raise TopicError(f"{topic} is not a command topic")
+        publisher = self.publishers[topic]
+        publisher.put(encode(topic, message))
+        status = publisher.matching_status  # a MatchingStatus in 1.10 (the stub says bool)
+        return bool(getattr(status, "matching", status))
+
+    def undeclare(self) -> None:
+        for ring in self.rings.values():
+            ring.undeclare()
+        self.events.undeclare()
+        for pub in self.publishers.values():
+            pub.undeclare()
+
+
 _Raw = tuple[str, str, bytes] | RobotAppeared | RobotLeft  # (robot_id, topic, payload) or event
 
 
@@ -101,9 +148,7 @@ class StationLink:
         self._robots: set[str] = set()
         self._heard: set[str] = set()  # robots the liveliness subscriber has reported
         self._selected: str | None = None
-        self._rings: dict[Topic, zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]] = {}
-        self._event_subs: list[zenoh.Subscriber[None]] = []
-        self._publishers: dict[Topic, zenoh.Publisher] = {}
+        self._followed: Followed | None = None
         self._closed = False
         self.decode_errors: Counter[str] = Counter()
         """Dropped payloads per topic name."""
@@ -203,38 +248,16 @@ class StationLink:
         if robot_id is None:
             return
         validate_robot_id(robot_id)
-        session = self._session
-        for topic in LATEST_TOPICS:
-            self._rings[topic] = session.declare_subscriber(
-                key(robot_id, topic), zenoh.handlers.RingChannel(1)
-            )
-        # Event topics share one wildcard subscriber (one zenoh callback thread), so route
-        # progress and status arrive in the order the robot sent them; the callback ignores
-        # the other topics by name without touching their payloads.
-        self._event_subs.append(
-            session.declare_subscriber(
-                robot_wildcard(robot_id),
-                self._on_event_sample(robot_id),
-                allowed_origin=zenoh.Locality.REMOTE,
-            )
-        )
-        for topic in COMMAND_TOPICS:
-            self._publishers[topic] = declare_publisher(session, key(robot_id, topic), topic)
+        on_event = self._on_event_sample(robot_id)
+        self._followed = Followed.declare(self._session, robot_id, LATEST_TOPICS, on_event)
         self._selected = robot_id
         self.request_state(robot_id)
         logger.info("station follows robot %r", robot_id)
 
     def _unselect(self) -> None:
-        for ring in self._rings.values():
-            ring.undeclare()
-        for sub in self._event_subs:
-            sub.undeclare()
-        for pub in self._publishers.values():
-            pub.undeclare()
-        self._rings.clear()
-        self._event_subs.clear()
-        self._publishers.clear()
-        self._selected = None
+        if self._followed is not None:
+            self._followed.undeclare()
+        self._followed, self._selected = None, None
 
     # ------------------------------------------------------------------ receiving
 
@@ -265,8 +288,8 @@ class StationLink:
     def poll_state(self) -> dict[Topic, object]:
         """The newest message of each high-rate topic that has a new one since the last call."""
         fresh: dict[Topic, object] = {}
-        robot_id = self._selected
-        for topic, ring in self._rings.items():
+        robot_id, followed = self._selected, self._followed
+        for topic, ring in (followed.rings if followed is not None else {}).items():
             sample = ring.try_recv()
             if sample is None or robot_id is None:
                 continue
@@ -295,12 +318,8 @@ class StationLink:
         False means nobody received it (robot gone or not yet connected): the UI should say so.
         """
         self._target(None)
-        if topic not in COMMAND_TOPICS:
-            raise TopicError(f"{topic} is not a command topic")
-        publisher = self._publishers[topic]
-        publisher.put(encode(topic, message))
-        status = publisher.matching_status  # a MatchingStatus in 1.10 (the stub says bool)
-        return bool(getattr(status, "matching", status))
+        assert self._followed is not None  # a robot is selected
+        return self._followed.send(topic, message)
 
     # ------------------------------------------------------------------ lifetime
 

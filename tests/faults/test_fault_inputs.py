@@ -281,7 +281,7 @@ def test_hostile_config_messages_are_refused_with_a_reason(rig, daemon, observer
     refused = len(HOSTILE)
     # A duplicate key on zenoh ({"linear": 0.1, ..., "linear": 0.45}) is dropped, as on TCP.
     before = time.monotonic()
-    publisher = station.link._publishers[Topic.STATION_VEL]
+    publisher = station.link._followed.publishers[Topic.STATION_VEL]
     for _ in range(5):
         publisher.put(b'{"linear":0.1,"angular":0.0,"stamp":0,"linear":0.45}')
         rig.qtbot.wait(20)
