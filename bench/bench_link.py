@@ -76,7 +76,7 @@ def _bench(
             time.sleep(0.05)  # and for the subscription to reach the robot
             latencies: list[float] = []
             for i in range(samples + warmup):
-                link.publish(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, stamp=time.perf_counter()))
+                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, stamp=time.perf_counter()))
                 sample = sub.recv()
                 pose = decode(Topic.POSE, sample.payload.to_bytes())
                 arrived = time.perf_counter()

@@ -281,9 +281,7 @@ class Daemon:
         except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
             logger.warning("refused %s command: %s", topic.value, exc)
             if link is not None:
-                link.publish(
-                    Topic.STATUS, Status("error", f"refused {topic.value}: {exc}", stamp=now)
-                )
+                link.publish_status(Status("error", f"refused {topic.value}: {exc}", stamp=now))
 
     def _route_for_goal(self, goal: GoalMsg) -> RouteMsg:
         """A route for a single goal: through the topological map to a node, or straight.
@@ -309,11 +307,10 @@ class Daemon:
             confidence = estimate.confidence if estimate is not None else 0.0
             state = stack.reported_localisation
             if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
-                link.publish(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, now, state, 0.0))
+                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, state, 0.0))
             else:
                 cov = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
-                link.publish(
-                    Topic.POSE,
+                link.publish_pose(
                     PoseMsg(
                         pose.x,
                         pose.y,
@@ -322,26 +319,26 @@ class Daemon:
                         state,
                         confidence,
                         tuple(cov.ravel().tolist()),
-                    ),
+                    )
                 )
             odom = stack.last_odometry
             if odom is not None:
                 p = odom.pose
-                link.publish(Topic.ODOM, Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
+                link.publish_odom(Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
             with stack.motion_lock:  # in order with the command thread's mux samples
                 out = stack.last_output
-                link.publish(Topic.CMD_VEL, Twist(out.linear, out.angular, now))
-                link.publish(Topic.MUX, mux_message(out, now))
+                link.publish_cmd_vel(Twist(out.linear, out.angular, now))
+                link.publish_mux(mux_message(out, now))
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
             jpeg = stack.last_jpeg
-            link.publish(Topic.IMAGE, ImageMsg(now, *_jpeg_size(jpeg), jpeg))
+            link.publish_image(ImageMsg(now, *_jpeg_size(jpeg), jpeg))
         if due["battery"](now) and stack.last_battery is not None:
             b = stack.last_battery
-            link.publish(Topic.BATTERY, Battery(b.voltage, b.current, b.state_of_charge, now))
+            link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
-            link.publish(Topic.MAP, stack.localiser.updated_grid())
+            link.publish_map(stack.localiser.updated_grid())
         if due["safety"](now):
             link.publish(Topic.SAFETY, safety_message(stack, now))
         status_due = due["status"](now)
@@ -350,9 +347,9 @@ class Daemon:
             self._publish_plan(link, now)
             for level, text in self._health.changes(self.backend.device_status()):
                 logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
-                link.publish(Topic.STATUS, Status(level, text, stamp=now))
+                link.publish_status(Status(level, text, stamp=now))
         for event in stack.drain_events():
-            link.publish(Topic.STATUS, Status(event.level, event.text, stamp=event.stamp))
+            link.publish_status(Status(event.level, event.text, stamp=event.stamp))
 
     def _publish_plan(self, link: RobotLink, now: float) -> None:
         """The navigator's path, when it changed (the snapshot keeps it for late stations)."""
@@ -362,7 +359,7 @@ class Daemon:
         key = (plan.route_id, plan.points)
         if key != self._plan_key:
             self._plan_key = key
-            link.publish(Topic.PLAN, plan)
+            link.publish_plan(plan)
 
     def _publish_route(self, link: RobotLink, force: bool) -> None:
         route = self.stack.route
@@ -370,19 +367,19 @@ class Daemon:
             # Say "no route" too: a station that reconnects learns that the robot has none.
             if force or self._progress_key is None:
                 self._progress_key = (0, 0, "idle")
-                link.publish(Topic.ROUTE_PROGRESS, RouteProgress(0, 0, False, "idle", "", self.now))
+                link.publish_route_progress(RouteProgress(0, 0, False, "idle", "", self.now))
             return
         key = (route.route_id, route.index, route.state)
         if key != self._progress_key or force:
             self._progress_key = key
             reason = route.reason or (self.stack.suspended_reason or "")
-            link.publish(Topic.ROUTE_PROGRESS, route_progress(route, reason, self.now))
+            link.publish_route_progress(route_progress(route, reason, self.now))
 
     # -- the loop ------------------------------------------------------------------------------
 
     def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
         """Run until ``stop`` is set."""
-        link.publish(Topic.MAP, self.grid)
+        link.publish_map(self.grid)
         done = threading.Event()  # the command thread stops with the loop, however it ends
         commands = threading.Thread(
             target=self._command_loop, args=(link, done), name="motion-commands", daemon=True
@@ -446,7 +443,7 @@ class Daemon:
                     self.handle(command, link)
                 now = self.now
                 out = self.stack.apply_output(now)
-                link.publish(Topic.MUX, mux_message(out, now))
+                link.publish_mux(mux_message(out, now))
         except Exception as exc:  # report and stop, as the loop does (its route is its own)
             self._on_component_error(exc, link, abort_route=False)
 
@@ -501,7 +498,7 @@ class Daemon:
         try:
             if abort_route:
                 self.stack.abort_route(self.now, text)
-            link.publish(Topic.STATUS, Status("error", text, stamp=self.now))
+            link.publish_status(Status("error", text, stamp=self.now))
         except Exception:  # reporting must not take the loop down
             logger.exception("could not report the component error")
 
