@@ -29,6 +29,7 @@ that makes a float field refuse NaN and ±inf (msgspec has no ``allow_inf_nan`` 
 from __future__ import annotations
 
 import contextvars
+import dataclasses
 import json
 import math
 import re
@@ -243,17 +244,18 @@ def explain(exc: msgspec.ValidationError, data: object, type_: Any, root: str) -
         return SchemaError("type", where, f"{where} key {describe(bad)} must be a {rule}")
     path = _join(root, tokens)
     value = _value_at(data, tokens)
-    info = _unwrap(_type_at(_type_info(type_), tokens))
+    at = _type_info(_hint_at(type_, tokens))  # the field's declared type, Meta included
+    info = _unwrap(at)
     if what.startswith("Object missing required field") or what.startswith(
         "Object contains unknown field"
     ):
         return _field_problem(what, value, info, path)
-    unit = _unit(_type_at(_type_info(type_), tokens))
-    choices = _extra(_type_at(_type_info(type_), tokens), "one_of")
+    unit = _unit(at)
+    choices = _extra(at, "one_of")
     if choices:  # a wrong type or a string outside them: either way, say the choices
         allowed = ", ".join(choices)
         return SchemaError("type", path, f"{path} must be one of {allowed}; got {describe(value)}")
-    form = _extra(_type_at(_type_info(type_), tokens), "format")
+    form = _extra(at, "format")
     if isinstance(info, mi.StrType) and what.startswith("Expected `str` matching"):
         form = form or f"a string matching {info.pattern}"
         return SchemaError("type", path, f"{path} must be {form}, got {describe(value)}")
@@ -392,9 +394,9 @@ def _expected(info: mi.Type, unit: str = "") -> str:
     return type(info).__name__.removesuffix("Type").lower()
 
 
-@cache
 def _type_info(type_: Any) -> mi.Type:
-    return mi.type_info(type_)
+    """msgspec's view of a declared type (Any where the walk could not tell)."""
+    return mi.type_info(Any if type_ is None else type_)
 
 
 def _unwrap(info: mi.Type) -> mi.Type:
@@ -427,25 +429,6 @@ def _extra(info: mi.Type, name: str) -> Any:
             return None
 
 
-def _type_at(info: mi.Type, tokens: Sequence[str | int]) -> mi.Type:
-    for token in tokens:
-        info = _unwrap(info)
-        if isinstance(info, mi.StructType | mi.DataclassType) and isinstance(token, str):
-            by_name = {f.encode_name: f.type for f in info.fields}
-            if token not in by_name:
-                return mi.AnyType()
-            info = by_name[token]
-        elif isinstance(info, mi.VarTupleType | mi.ListType | mi.FrozenSetType | mi.SetType):
-            info = info.item_type
-        elif isinstance(info, mi.TupleType) and isinstance(token, int):
-            info = info.item_types[token] if token < len(info.item_types) else mi.AnyType()
-        elif isinstance(info, mi.DictType):
-            info = info.value_type
-        else:
-            return mi.AnyType()
-    return info
-
-
 def _strip(hint: Any) -> Any:
     """``X`` of ``Annotated[X, ...]`` and of ``X | None``."""
     while True:
@@ -469,6 +452,8 @@ def _hint_at(type_: Any, tokens: Sequence[str | int]) -> Any:
         origin = typing.get_origin(hint)
         if isinstance(hint, type) and issubclass(hint, msgspec.Struct):
             hint = {f.encode_name: f.type_ for f in _fields(hint)}.get(str(token))
+        elif dataclasses.is_dataclass(hint):
+            hint = typing.get_type_hints(hint, include_extras=True).get(str(token))
         elif origin is dict:
             hint = typing.get_args(hint)[1]
         elif origin is tuple and typing.get_args(hint)[-1:] != (Ellipsis,):
