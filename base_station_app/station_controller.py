@@ -34,6 +34,11 @@ The parts it composes (issue 13: each named after what it owns, Qt-free and unit
   permissions and ownership (its Stop cancels only what it ordered);
 * `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
 
+Beyond its parts it keeps only the operator's configuration and the permissions last sent to
+the tablet (`tests/test_architecture.py` holds it to that): a new piece of state goes to the part
+that owns it. Its slots stay here because they must run in the Qt thread (the tablet server's
+signals arrive queued from the tablet thread).
+
 The selected robot is followed closely by `StationLink` (every topic); the others by a
 `FleetWatch` (pose, plan, battery, multiplexer, safety, route progress, status) that also carries
 their commands. The tablet and the operator's keys act on the selected robot only.
