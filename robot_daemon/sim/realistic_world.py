@@ -33,7 +33,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, ClassVar
@@ -103,20 +103,6 @@ class WorldVariation(schema.Declared, frozen=True):
 
 
 @dataclass(frozen=True)
-class GlassPanel:
-    """An axis-aligned pane [m]: solid to the robot, mostly transparent to the laser."""
-
-    x0: float
-    y0: float
-    x1: float
-    y1: float
-
-    def __post_init__(self) -> None:
-        if not (self.x0 < self.x1 and self.y0 < self.y1):
-            raise WorldVariationError(f"GlassPanel needs x0 < x1 and y0 < y1, got {self}")
-
-
-@dataclass(frozen=True)
 class Item:
     """A piece of clutter: an oriented rectangle [m] (centre, size along its axes, yaw)."""
 
@@ -133,7 +119,7 @@ class SimWorldSpec:
     """The simulator's building: its own grid, glass, clutter and what differs from the map."""
 
     grid: OccupancyGrid  # walls and furniture at ``resolution`` (unknown = wall)
-    glass: tuple[GlassPanel, ...]
+    glass: tuple[Rect, ...]  # panes: solid to the robot, mostly transparent to the laser
     items: tuple[Item, ...]
     notes: tuple[str, ...]  # human-readable list of the differences (logged)
 
@@ -152,6 +138,10 @@ def plan_beside(map_yaml: Path) -> Path | None:
 
 def _shift(rect: Rect, dx: float, dy: float) -> Rect:
     return Rect(rect.x0 + dx, rect.y0 + dy, rect.x1 + dx, rect.y1 + dy)
+
+
+def _furniture(name: str, rect: Rect) -> Furniture:
+    return Furniture((rect.x0, rect.x1), (rect.y0, rect.y1), name)
 
 
 def _opens(plan: FloorPlan, room: Room) -> bool:
@@ -179,7 +169,7 @@ def _displace_plan(
         shifted = dataclasses.replace(
             room,
             rect=_shift(room.rect, dx, dy),
-            furniture=tuple(Furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture),
+            furniture=tuple(_furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture),
         )
         if not _opens(moved, shifted):  # a door no longer reaches its corridor: keep the room
             shifted, dx, dy = room, 0.0, 0.0
@@ -212,20 +202,8 @@ def _open_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[s
         if opened >= n:
             break
         room = rooms[int(i)]
-        if not room.doors:
-            continue
-        first = room.doors[0]
-        length = room.rect.width if first.wall in ("north", "south") else room.rect.height
-        for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
-            if abs(offset - first.offset) < 2.0:
-                continue
-            door = Door(first.wall, float(offset), 0.9)
-            trial = dataclasses.replace(room, doors=(*room.doors, door))
-            try:
-                door_opening(plan, trial, len(trial.doors) - 1)
-                zone = door_approach_zone(trial, len(trial.doors) - 1)
-            except FloorPlanError:
-                continue
+        for trial, _ in _wall_openings(plan, room, rng, 0.9, 2.0):
+            zone = door_approach_zone(trial, len(trial.doors) - 1)
             if any(f.rect.overlaps(zone) for f in room.furniture):
                 continue
             rooms[int(i)] = trial
@@ -254,7 +232,7 @@ def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
             inside = inner.contains(rect) and not any(rect.overlaps(z) for z in zones)
             if inside and not any(rect.overlaps(o, 0.3) for o in others):
                 furniture = list(room.furniture)
-                furniture[k] = Furniture(item.name, rect)
+                furniture[k] = _furniture(item.name, rect)
                 rooms[int(i)] = dataclasses.replace(room, furniture=tuple(furniture))
                 notes.append(f"{item.name!r} in {room.name!r} moved {dist:.2f} m")
                 moved += 1
@@ -262,37 +240,48 @@ def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
     return dataclasses.replace(plan, rooms=tuple(rooms))
 
 
+def _wall_openings(
+    plan: FloorPlan, room: Room, rng: np.random.Generator, width: float, spacing: float
+) -> Iterator[tuple[Room, Rect]]:
+    """``room`` with one more door of ``width`` [m] in the wall of its first door, at least
+    ``spacing`` [m] from it, and that door's opening: tried at 8 random offsets, yielding those
+    that reach a corridor (none for a room without doors)."""
+    if not room.doors:
+        return
+    first = room.doors[0]
+    length = room.rect.width if first.wall in ("north", "south") else room.rect.height
+    for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
+        if abs(offset - first.offset) < spacing:
+            continue
+        trial = dataclasses.replace(
+            room, doors=(*room.doors, Door(first.wall, float(offset), width))
+        )
+        try:
+            opening = door_opening(plan, trial, len(trial.doors) - 1)
+        except FloorPlanError:
+            continue
+        yield trial, opening
+
+
 def _glass_panels(
     plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]
-) -> list[GlassPanel]:
+) -> list[Rect]:
     """Wall sections (1.2 m, the width a door could have) between a room and its corridor."""
-    panels: list[GlassPanel] = []
+    panels: list[Rect] = []
     for i in rng.permutation(len(plan.rooms)):
         if len(panels) >= n:
             break
         room = plan.rooms[int(i)]
-        if not room.doors:
-            continue
-        first = room.doors[0]
-        length = room.rect.width if first.wall in ("north", "south") else room.rect.height
-        for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
-            if abs(offset - first.offset) < 1.8:
-                continue
-            pane = Door(first.wall, float(offset), 1.2)
-            trial = dataclasses.replace(room, doors=(*room.doors, pane))
-            try:
-                rect = door_opening(plan, trial, len(trial.doors) - 1)
-            except FloorPlanError:
-                continue
-            panels.append(GlassPanel(rect.x0, rect.y0, rect.x1, rect.y1))
-            notes.append(f"glass in the {first.wall} wall of {room.name!r}")
+        for _, rect in _wall_openings(plan, room, rng, 1.2, 1.8):
+            panels.append(rect)
+            notes.append(f"glass in the {room.doors[0].wall} wall of {room.name!r}")
             break
     return panels
 
 
 def world_from_plan(
     plan: FloorPlan, rng: np.random.Generator, variation: WorldVariation
-) -> tuple[OccupancyGrid, list[GlassPanel], list[str]]:
+) -> tuple[OccupancyGrid, list[Rect], list[str]]:
     """The plan drawn again at ``variation.resolution``, displaced, doors and tables changed."""
     notes: list[str] = []
     displaced, rms = _displace_plan(plan, rng, variation.wall_sigma)
