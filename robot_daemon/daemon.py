@@ -302,25 +302,16 @@ class Daemon:
     def publish(self, link: RobotLink) -> None:
         now, stack, due = self.now, self.stack, self._due
         if due["pose"](now):
-            pose = stack.pose
-            estimate = stack.last_estimate
+            pose, estimate = stack.pose, stack.last_estimate
             confidence = estimate.confidence if estimate is not None else 0.0
-            state = stack.reported_localisation
+            cov: tuple[float, ...] = ()
             if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
-                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, state, 0.0))
+                pose, confidence = Pose2D(0.0, 0.0, 0.0), 0.0
             else:
-                cov = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
-                link.publish_pose(
-                    PoseMsg(
-                        pose.x,
-                        pose.y,
-                        pose.yaw,
-                        now,
-                        state,
-                        confidence,
-                        tuple(cov.ravel().tolist()),
-                    )
-                )
+                clipped = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
+                cov = tuple(clipped.ravel().tolist())
+            state = stack.reported_localisation
+            link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
             odom = stack.last_odometry
             if odom is not None:
                 p = odom.pose

@@ -130,24 +130,24 @@ def message_dict(message: object) -> dict[str, Any]:
         value = getattr(message, name)
         if isinstance(value, bytes | np.ndarray):
             continue
-        out[name] = _jsonable(value)
+        out[name] = jsonable(value)
     return out
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """JSON-ready: tuples to lists, numpy scalars to Python, NaN/inf to null (JSON has neither)."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
     if isinstance(value, tuple | list):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, np.generic):
-        return _jsonable(value.item())
+        return jsonable(value.item())
     if is_message(value):
         return message_dict(value)
     if hasattr(value, "value") and not isinstance(value, int | float | str | bool):
-        return _jsonable(value.value)  # enums
+        return jsonable(value.value)  # enums
     return value
 
 
@@ -455,7 +455,7 @@ class Recorder:
             data = item[3]
             if is_message(data):
                 data = message_dict(data)
-            self._log_json(item[2], _jsonable(dict(data)), now)
+            self._log_json(item[2], jsonable(dict(data)), now)
         else:
             raise ValueError(f"unknown recorder item {kind!r}")
 

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from interbot_core.geometry import Pose2D, angle_diff
+from robot_daemon.recording.recorder import jsonable
 from robot_daemon.scenarios.runner import (
     ScenarioOptions,
     ScenarioResult,
@@ -392,15 +393,4 @@ def run(options: ScenarioOptions) -> ScenarioResult:
             f"collisions {facts['collisions']}; simulated {facts['sim_time_s']:.0f} s; "
             f"stretch between nodes {facts['segment_nodes']}, D = {facts['distance_m']:.2f} m"
         )
-    return ScenarioResult("odometry", "\n".join(tables), _json_safe(figures))
-
-
-def _json_safe(value: Any) -> Any:
-    """NaN -> None so the JSON line stays standard."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_json_safe(v) for v in value]
-    return value
+    return ScenarioResult("odometry", "\n".join(tables), jsonable(figures))  # NaN -> null

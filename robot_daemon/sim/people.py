@@ -34,12 +34,12 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from msgspec import Meta
 from scipy import sparse
 from scipy.sparse import csgraph
 
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
+from interbot_core.schema import within
 from robot_daemon.sim.diff_drive import RobotFootprint
 from robot_daemon.sim.world import World
 
@@ -62,12 +62,8 @@ class PersonState(Enum):
     BLOCKING = "blocking"
 
 
-def _within(low: float, high: float, unit: str = "") -> Meta:
-    return Meta(ge=low, le=high, extra={"unit": unit} if unit else None)
-
-
-Probability = Annotated[float, _within(0.0, 1.0)]
-Seconds = Annotated[float, _within(0.0, 600.0, "s")]
+Probability = Annotated[float, within(0.0, 1.0)]
+Seconds = Annotated[float, within(0.0, 600.0, "s")]
 Span = tuple[float, float]  # (lo, hi) with 0 <= lo <= hi
 
 
@@ -76,7 +72,7 @@ class CrowdConfig(schema.Declared, frozen=True):
 
     ROOT: ClassVar[str] = "CrowdConfig"
     ERROR: ClassVar[type[Exception]] = PeopleConfigError
-    radius: Annotated[float, _within(0.05, 1.0, "m")] = 0.25
+    radius: Annotated[float, within(0.05, 1.0, "m")] = 0.25
     speed_range: Span = (0.8, 1.3)  # [m/s]
     pause_probability: Probability = 0.3  # at each route waypoint
     pause_range: Span = (1.0, 4.0)  # [s]
@@ -86,13 +82,13 @@ class CrowdConfig(schema.Declared, frozen=True):
     # leave would wait for each other forever)
     yield_patience: Seconds = 3.0
     # [m] from the robot body, stepping back in a stand-off
-    give_way_clearance: Annotated[float, _within(0.0, 10.0, "m")] = 1.2
+    give_way_clearance: Annotated[float, within(0.0, 10.0, "m")] = 1.2
     give_way_s: Seconds = 8.0  # [s] the person lets the robot pass, then walks on
     blocker_probability: Probability = 0.5  # per encounter, for people flagged as blockers
     blocker_trigger: float = 2.5  # [m] ahead of the robot
     blocker_duration: Span = (3.0, 8.0)  # [s]
     blocker_cooldown: float = 15.0  # [s] before the same person blocks again
-    lattice: Annotated[float, _within(0.05, 1.0, "m")] = 0.2  # roadmap pitch for route planning
+    lattice: Annotated[float, within(0.05, 1.0, "m")] = 0.2  # roadmap pitch for route planning
 
     def check(self) -> None:
         for name in ("speed_range", "pause_range", "blocker_duration"):

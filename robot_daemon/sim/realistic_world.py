@@ -45,6 +45,7 @@ from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from interbot_core.schema import within
 from interbot_core.topological_map import TopologicalMap
 from robot_daemon.sim.floor_plan import (
     Door,
@@ -72,12 +73,8 @@ class WorldVariationError(ValueError):
     """A world-variation parameter is out of range; the message names it."""
 
 
-def _metres(low: float, high: float) -> Meta:
-    return Meta(ge=low, le=high, extra={"unit": "m"})
-
-
 Count = Annotated[int, Meta(ge=0, le=200)]
-Clearance = Annotated[float, _metres(0.0, 5.0)]
+Clearance = Annotated[float, within(0.0, 5.0, "m")]
 
 
 class WorldVariation(schema.Declared, frozen=True):
@@ -86,11 +83,11 @@ class WorldVariation(schema.Declared, frozen=True):
     ROOT: ClassVar[str] = "WorldVariation"
     ERROR: ClassVar[type[Exception]] = WorldVariationError
 
-    resolution: Annotated[float, _metres(0.005, 0.05)] = 0.02  # cell of the world's drawing
+    resolution: Annotated[float, within(0.005, 0.05, "m")] = 0.02  # cell of the world's drawing
     # room / wall displacement, per axis (~5 cm in 2-D)
-    wall_sigma: Annotated[float, _metres(0.0, 0.2)] = 0.035
+    wall_sigma: Annotated[float, within(0.0, 0.2, "m")] = 0.035
     # lattice of the displacement field (grid sources)
-    warp_length: Annotated[float, _metres(0.5, 50.0)] = 4.0
+    warp_length: Annotated[float, within(0.5, 50.0, "m")] = 4.0
     boxes: Count = 6
     chairs: Count = 6
     corridor_items: Count = 4
