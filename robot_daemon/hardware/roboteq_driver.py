@@ -33,7 +33,7 @@ from typing import Any
 
 import serial
 
-from robot_daemon.backend import BatteryReading, DeviceStatus
+from robot_daemon.backend import BatteryReading, DeviceStatus, OdometryReading
 from robot_daemon.hardware import roboteq
 from robot_daemon.hardware.config import BatteryConfig, MotorsConfig
 from robot_daemon.hardware.driver_thread import DriverThread
@@ -89,7 +89,7 @@ class RoboteqDriver(DriverThread):
         )
         self._wake = threading.Event()
         self._pending: tuple[float, float, float] | None = None  # (linear, angular, stamp)
-        self._odometry: roboteq.OdometryState | None = None
+        self._odometry: OdometryReading | None = None
         self._battery: BatteryReading | None = None
         self._faults = 0
         self._clamping = False
@@ -109,7 +109,7 @@ class RoboteqDriver(DriverThread):
             self._pending = (linear, angular, self.clock())
         self._wake.set()
 
-    def odometry(self) -> roboteq.OdometryState | None:
+    def odometry(self) -> OdometryReading | None:
         with self._lock:
             return self._odometry
 
