@@ -17,7 +17,6 @@ from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.schema import within
-from robot_daemon.planning.costmap import CostmapConfig
 from robot_daemon.planning.global_planner import GlobalPlannerConfig
 
 
@@ -69,10 +68,15 @@ class PlannerConfig(schema.Declared, frozen=True):
     # Costmap (Nav2 inflation layer and obstacle layer).
     inflation_radius: Annotated[float, within(0.05, 3.0, "m")] = 0.6
     cost_scaling_factor: Annotated[float, within(0.1, 50.0, "1/m")] = 5.0
-    obstacle_persistence: Annotated[float, within(0.0, 60.0, "s")] = 2.0
+    # how long a laser mark lives without a new hit
+    obstacle_persistence: Annotated[float, within(0.01, 60.0, "s")] = 2.0
     obstacle_max_range: Range = 4.0
     raytrace_max_range: Range = 5.0
-    allow_unknown: bool = False  # Nav2's allow_unknown (its default is True): see CostmapConfig
+    # Nav2's planner ``allow_unknown`` (its default is True) with the static layer's
+    # ``track_unknown_space``: unknown cells are then not obstacles (not inflated) but cost
+    # UNKNOWN_COST, the most a traversable cell costs, so paths cross them only where nothing
+    # known will do. False: unknown is lethal.
+    allow_unknown: bool = False
     # Global planner.
     planning_resolution: Annotated[float, within(0.025, 0.5, "m")] = 0.1
     cost_weight: Annotated[float, within(0.0, 1e4)] = 100.0
@@ -148,17 +152,6 @@ class PlannerConfig(schema.Declared, frozen=True):
                 f"unknown PlannerConfig field(s) {unknown}; known: {sorted(known)}"
             )
         return msgspec.structs.replace(self, **changes)
-
-    def costmap_config(self) -> CostmapConfig:
-        return CostmapConfig(
-            inscribed_radius=self.inscribed_radius,
-            inflation_radius=self.inflation_radius,
-            cost_scaling_factor=self.cost_scaling_factor,
-            obstacle_persistence=self.obstacle_persistence,
-            obstacle_max_range=self.obstacle_max_range,
-            raytrace_max_range=self.raytrace_max_range,
-            allow_unknown=self.allow_unknown,
-        )
 
     def global_planner_config(self) -> GlobalPlannerConfig:
         return GlobalPlannerConfig(

@@ -92,7 +92,7 @@ class Navigator:
     def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
         self.grid = grid
         self.config = config or PlannerConfig()
-        self.costmap = Costmap(grid, self.config.costmap_config())
+        self.costmap = Costmap(grid, self.config)
         self._make_planners()
         self._goals: tuple[Pose2D, ...] = ()
         self._index = 0
@@ -123,7 +123,7 @@ class Navigator:
         """Change parameters at run time (validated; raises :class:`PlannerConfigError`)."""
         new = self.config.replace(**changes)
         self.config = new
-        self.costmap.reconfigure(new.costmap_config())
+        self.costmap.reconfigure(new)
         self._make_planners()
         if "goal_xy_tolerance" in changes:
             self._xy_tolerance = new.goal_xy_tolerance

@@ -175,7 +175,7 @@ class HumanDriver:
         self._joystick: deque[tuple[float, float, float]] = deque()  # (due, linear, angular)
         config = PlannerConfig()
         self.planner = GlobalPlanner(system.grid, config.global_planner_config())
-        self.costs = Costmap(system.grid, config.costmap_config()).static_costs
+        self.costs = Costmap(system.grid, config).static_costs
         self.path: np.ndarray | None = None
         self._path_target: tuple[float, float] | None = None
         self._planned_at = -math.inf
