@@ -17,7 +17,6 @@ from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.schema import within
-from robot_daemon.planning.global_planner import GlobalPlannerConfig
 
 
 class PlannerConfigError(ValueError):
@@ -152,10 +151,3 @@ class PlannerConfig(schema.Declared, frozen=True):
                 f"unknown PlannerConfig field(s) {unknown}; known: {sorted(known)}"
             )
         return msgspec.structs.replace(self, **changes)
-
-    def global_planner_config(self) -> GlobalPlannerConfig:
-        return GlobalPlannerConfig(
-            planning_resolution=self.planning_resolution,
-            cost_weight=self.cost_weight,
-            sample_spacing=self.path_spacing,
-        )

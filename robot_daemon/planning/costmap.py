@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -33,9 +32,7 @@ from scipy import ndimage
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
-
-if TYPE_CHECKING:
-    from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
 
@@ -105,12 +102,8 @@ class Costmap:
     """
 
     def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
-        if config is None:  # (imported here: the planner's configuration imports this module)
-            from robot_daemon.planning.config import PlannerConfig
-
-            config = PlannerConfig()
         self.grid = grid
-        self.config = config
+        self.config = config or PlannerConfig()
         self.resolution = grid.resolution
         self._build_static()
         # Time [s] until which each cell holds a live laser obstacle (-inf: none).

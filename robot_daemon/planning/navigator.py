@@ -38,6 +38,7 @@ from robot_daemon.planning.bottleneck import free_width, widest_way
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.costmap import LETHAL, Costmap
 from robot_daemon.planning.global_planner import (
+    WINDOW_MARGIN,
     GlobalPlanner,
     GoalBlockedError,
     PlanningError,
@@ -116,7 +117,7 @@ class Navigator:
     # -- commands from the daemon ------------------------------------------------------------
 
     def _make_planners(self) -> None:
-        self.global_planner = GlobalPlanner(self.grid, self.config.global_planner_config())
+        self.global_planner = GlobalPlanner(self.grid, self.config)
         self.local_planner = DWAPlanner(self.config)
 
     def reconfigure(self, **changes: Any) -> PlannerConfig:
@@ -313,7 +314,7 @@ class Navigator:
         (`bottleneck`), searched in the global planner's window: the "where and why" of an
         unreachable goal."""
         grid = self.grid
-        margin = self.global_planner.config.window_margin or max(grid.size_m)
+        margin = WINDOW_MARGIN
         xs, ys = (pose.x, target.x), (pose.y, target.y)
         rows, cols = grid.world_to_cell(
             [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]

@@ -174,7 +174,7 @@ class HumanDriver:
         self._view: tuple[Pose2D | None, LaserScan | None] = (None, None)
         self._joystick: deque[tuple[float, float, float]] = deque()  # (due, linear, angular)
         config = PlannerConfig()
-        self.planner = GlobalPlanner(system.grid, config.global_planner_config())
+        self.planner = GlobalPlanner(system.grid, config)
         self.costs = Costmap(system.grid, config).static_costs
         self.path: np.ndarray | None = None
         self._path_target: tuple[float, float] | None = None
