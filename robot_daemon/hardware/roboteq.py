@@ -28,14 +28,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, ClassVar
 
 import numpy as np
-from msgspec import Meta
 
-from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.backend import OdometryReading
+from robot_daemon.hardware.config import MotorsConfig
 from robot_daemon.sim.battery import OCV_CELL, OCV_SOC
 from robot_daemon.sim.diff_drive import integrate_arc, wheel_speeds
 
@@ -136,48 +134,6 @@ def fault_names(flags: int) -> list[str]:
 # -- kinematics -------------------------------------------------------------------------------
 
 
-Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE)]
-
-
-class DriveGeometry(schema.Declared, frozen=True):
-    """The kinematic parameters (the ones tuned in the thesis §6.1.1.2 calibration).
-
-    ``wheel_radius_left`` / ``wheel_radius_right`` override ``wheel_radius`` for one wheel: the
-    odometry calibration (UMBmark, `robot_daemon.calibration`) finds the two radii separately,
-    since unequal wheels are what makes a straight run curve.
-    """
-
-    ROOT: ClassVar[str] = "DriveGeometry"
-    ERROR: ClassVar[type[Exception]] = ValueError
-
-    wheel_radius: Positive  # [m]
-    track: Positive  # [m] distance between the wheel contact points
-    counts_per_rev: Positive  # encoder counts per motor turn (quadrature: 4 x PPR)
-    gear_ratio: Positive  # motor turns per wheel turn
-    max_rpm: Positive  # motor rpm that !G 1000 means (the controller's MXRPM)
-    wheel_radius_left: Positive | None = None  # [m] None: wheel_radius
-    wheel_radius_right: Positive | None = None  # [m] None: wheel_radius
-
-    @property
-    def radii(self) -> tuple[float, float]:
-        """(left, right) wheel radius [m]."""
-        left = self.wheel_radius if self.wheel_radius_left is None else self.wheel_radius_left
-        right = self.wheel_radius if self.wheel_radius_right is None else self.wheel_radius_right
-        return left, right
-
-    @property
-    def metres_per_count_lr(self) -> tuple[float, float]:
-        """(left, right) rim travel per encoder count [m]."""
-        k = math.tau / (self.counts_per_rev * self.gear_ratio)
-        left, right = self.radii
-        return k * left, k * right
-
-    def motor_rpm(self, wheel_speed: float, radius: float | None = None) -> float:
-        """Motor shaft rpm for a wheel rim speed [m/s] (``radius`` [m]: nominal if None)."""
-        r = self.wheel_radius if radius is None else radius
-        return wheel_speed / r * 60.0 / math.tau * self.gear_ratio
-
-
 @dataclass(frozen=True)
 class WheelCommand:
     """What to send for one twist: the two channel values, and whether it was clamped."""
@@ -189,7 +145,7 @@ class WheelCommand:
 
 
 def twist_to_command(
-    geometry: DriveGeometry, linear: float, angular: float, kind: str
+    geometry: MotorsConfig, linear: float, angular: float, kind: str
 ) -> WheelCommand:
     """Body twist -> channel values for ``!G`` (per mille of max rpm) or ``!S`` (rpm).
 
@@ -226,7 +182,7 @@ def counter_delta(new: int, old: int) -> int:
 class WheelOdometry:
     """Integrates absolute encoder counts into an ``odom`` pose (starts at the origin)."""
 
-    def __init__(self, geometry: DriveGeometry, left_sign: int = 1, right_sign: int = 1) -> None:
+    def __init__(self, geometry: MotorsConfig, left_sign: int = 1, right_sign: int = 1) -> None:
         self.geometry = geometry
         self.left_sign = left_sign
         self.right_sign = right_sign

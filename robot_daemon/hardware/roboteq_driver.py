@@ -81,7 +81,7 @@ class RoboteqDriver(DriverThread):
         )
         self.config = config
         self.battery_config = battery or BatteryConfig()
-        self.geometry = config.geometry
+        self.geometry = config  # the drive's kinematics
         self.clock = clock
         self.serial_factory = serial_factory
         self.odometry_model = roboteq.WheelOdometry(
