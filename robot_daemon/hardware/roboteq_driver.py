@@ -65,20 +65,9 @@ class RoboteqDriver(DriverThread):
         clock: Clock = time.monotonic,
         serial_factory: SerialFactory = serial.Serial,
     ) -> None:
-        super().__init__(
-            f"motors {config.port}",
-            (
-                "commands",
-                "clamped",
-                "zero_first",
-                "odometry",
-                "malformed",
-                "nacks",
-                "timeouts",
-                "disconnects",
-                "connects",
-            ),
-        )
+        work = ("commands", "clamped", "zero_first", "odometry")
+        faults = ("malformed", "nacks", "timeouts", "disconnects")
+        super().__init__(f"motors {config.port}", (*work, *faults, "connects"))
         self.config = config
         self.battery_config = battery or BatteryConfig()
         self.geometry = config  # the drive's kinematics
