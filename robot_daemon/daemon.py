@@ -69,7 +69,7 @@ from interbot_link.command_priority import (
     raise_current_thread,
 )
 from robot_daemon.backend import RobotBackend
-from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.config import DaemonConfig
 from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
@@ -78,7 +78,6 @@ from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
-from robot_daemon.safety.collision_monitor import SafetyConfigError
 from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
@@ -131,14 +130,11 @@ def build_hardware_backend(config: DaemonConfig) -> RobotBackend:
 
     Their drivers stamp data with ``time.monotonic()``, the daemon's clock on a real robot.
     """
-    from robot_daemon.hardware.config import HardwareConfig, HardwareConfigError
+    from robot_daemon.hardware.config import HardwareConfig
     from robot_daemon.hardware.hardware_backend import HardwareBackend
 
-    try:
-        hardware = HardwareConfig.from_mapping(config.hardware, config.source)
-    except HardwareConfigError as exc:
-        raise ConfigError(str(exc)) from None
-    return HardwareBackend(hardware)
+    # a HardwareConfigError is a ConfigError
+    return HardwareBackend(HardwareConfig.from_mapping(config.hardware, config.source))
 
 
 class Daemon:
@@ -156,10 +152,8 @@ class Daemon:
         self.options = options = options or DaemonOptions()
         self._clock = clock
         self.grid = load_map(config.map_yaml)
-        try:
-            motion_guard = load_safety_config(config.safety_yaml)
-        except SafetyConfigError as exc:
-            raise ConfigError(str(exc)) from None
+        # A bad safety (or hardware) section is a ConfigError: the daemon does not start.
+        motion_guard = load_safety_config(config.safety_yaml)
         self.topo: TopologicalMap | None = None
         self.route_planner: RoutePlanner | None = None
         if config.topo_yaml.exists():

@@ -23,9 +23,10 @@ import msgspec
 from msgspec import Meta
 
 from interbot_core import schema
+from robot_daemon.config import ConfigError
 
 
-class HardwareConfigError(ValueError):
+class HardwareConfigError(ConfigError):
     """Invalid ``hardware:`` configuration; the message names the key."""
 
 

@@ -45,6 +45,7 @@ from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.schema import within
+from robot_daemon.config import ConfigError
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     PolygonError,
@@ -70,8 +71,9 @@ ESCAPE_TOLERANCE = 2e-4  # [m] range noise allowed in that test
 DEFAULT_FOOTPRINT = ((0.30, 0.275), (-0.30, 0.275), (-0.30, -0.275), (0.30, -0.275))
 
 
-class SafetyConfigError(ValueError):
-    """The collision monitor / assisted teleoperation configuration is invalid; says where."""
+class SafetyConfigError(ConfigError):
+    """The collision monitor / assisted teleoperation configuration is invalid; says where
+    (a robot configuration error: the daemon refuses to start)."""
 
 
 Points = Annotated[
