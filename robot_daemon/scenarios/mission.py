@@ -137,9 +137,7 @@ def choose_checkpoints(
         ("P2", leg2, 1 / 3, None),
         ("P3", leg2, 2 / 3, None),
     ):
-        first = (
-            origin if origin is not None else (topo.node(leg[0]).pose.x, topo.node(leg[0]).pose.y)
-        )
+        first = origin or (topo.node(leg[0]).pose.x, topo.node(leg[0]).pose.y)
         nodes = leg if origin is not None else leg[1:]
         points = _polyline(topo, nodes, first)
         seg = np.hypot(*np.diff(points, axis=0).T)

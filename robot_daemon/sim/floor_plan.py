@@ -138,23 +138,6 @@ class Door(_Entry, frozen=True):
     ]
 
 
-@dataclass(frozen=True)
-class Room:
-    """A room: its free floor rectangle, doors, furniture and what the tablet shows."""
-
-    name: str
-    rect: Rect
-    doors: tuple[Door, ...]
-    furniture: tuple[Furniture, ...] = ()
-    info: str = ""
-    tour: bool = False
-    requests: bool = False
-    home: bool = False
-    inside: tuple[float, float] | None = None  # [m] node inside the room (request rooms)
-    name_pt: str = ""  # the tablet's Portuguese texts (empty: the English one is shown)
-    info_pt: str = ""
-
-
 class _PointEntry(_Entry, frozen=True):
     x: schema.Finite  # [m]
     y: schema.Finite  # [m]
@@ -236,32 +219,20 @@ class Furniture(_RectEntry, frozen=True):
     name: Name = "furniture"
 
 
-class _RoomEntry(_RectEntry, frozen=True):
+class Room(_RectEntry, frozen=True):
+    """A room: its free floor rectangle, doors, furniture and what the tablet shows (the texts
+    may be None: not given)."""
+
     name: Name
     doors: Annotated[tuple[Door, ...], Meta(min_length=1)]  # at least one to a corridor
     furniture: tuple[Furniture, ...] = ()
     info: Text = ""
-    info_pt: Text = ""
+    info_pt: Text = ""  # the tablet's Portuguese texts (empty: the English one is shown)
     name_pt: Text = ""
     tour: bool = False
     requests: bool = False
     home: bool = False
-    inside: _PointEntry | None = None
-
-    def room(self) -> Room:
-        return Room(
-            name=self.name,
-            rect=self.rect,
-            doors=self.doors,
-            furniture=self.furniture,
-            info=self.info or "",
-            tour=self.tour,
-            requests=self.requests,
-            home=self.home,
-            inside=None if self.inside is None else (self.inside.x, self.inside.y),
-            name_pt=self.name_pt or "",
-            info_pt=self.info_pt or "",
-        )
+    inside: _PointEntry | None = None  # [m] node inside the room (request rooms)
 
 
 class _MapEntry(_Entry, frozen=True):
@@ -288,7 +259,7 @@ class PlanFile(_Entry, frozen=True):
     corridors: tuple[Area, ...] = ()
     courtyards: tuple[Area, ...] = ()
     waypoints: tuple[Waypoint, ...] = ()
-    rooms: tuple[_RoomEntry, ...] = ()
+    rooms: tuple[Room, ...] = ()
     ring: tuple[Name, ...] = ()
     arcs: tuple[
         Annotated[tuple[Name, ...], Meta(min_length=2, extra={"format": "a chain of node names"})],
@@ -339,7 +310,7 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
         building=top.building.rect,
         corridors=top.corridors,
         courtyards=top.courtyards,
-        rooms=tuple(room.room() for room in top.rooms),
+        rooms=top.rooms,
         waypoints=top.waypoints,
         ring=top.ring,
         arcs=top.arcs,
@@ -432,7 +403,7 @@ def _validate_room(plan: FloorPlan, room: Room) -> None:
             "inside the room where requests are handed over"
         )
     if room.inside is not None:
-        x, y = room.inside
+        x, y = room.inside.x, room.inside.y
         if not room.rect.contains_point(x, y):
             raise FloorPlanError(f"{src}: {label}: 'inside' ({x}, {y}) lies outside the room")
         for f, item in enumerate(room.furniture):

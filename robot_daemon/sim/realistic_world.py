@@ -33,12 +33,14 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import typing
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, ClassVar
 
 import cv2
+import msgspec
 import numpy as np
 import numpy.typing as npt
 from msgspec import Meta
@@ -63,6 +65,7 @@ from robot_daemon.sim.floor_plan import (
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+Placed = typing.TypeVar("Placed", Room, Furniture)
 
 CHAIR_SIDE = 0.42  # [m] leg square of an office chair
 CHAIR_LEG = 0.03  # [m] leg (or castor column) width
@@ -133,12 +136,10 @@ def plan_beside(map_yaml: Path) -> Path | None:
     return candidate if candidate.exists() else None
 
 
-def _shift(rect: Rect, dx: float, dy: float) -> Rect:
-    return Rect(rect.x0 + dx, rect.y0 + dy, rect.x1 + dx, rect.y1 + dy)
-
-
-def _furniture(name: str, rect: Rect) -> Furniture:
-    return Furniture((rect.x0, rect.x1), (rect.y0, rect.y1), name)
+def _shifted(item: Placed, dx: float, dy: float) -> Placed:
+    """A room or a piece of furniture moved by (dx, dy) [m]."""
+    x, y = item.x, item.y
+    return msgspec.structs.replace(item, x=(x[0] + dx, x[1] + dx), y=(y[0] + dy, y[1] + dy))
 
 
 def _opens(plan: FloorPlan, room: Room) -> bool:
@@ -163,11 +164,8 @@ def _displace_plan(
     offsets: list[float] = []
     for room in plan.rooms:
         dx, dy = (float(v) for v in rng.normal(0.0, sigma, 2))
-        shifted = dataclasses.replace(
-            room,
-            rect=_shift(room.rect, dx, dy),
-            furniture=tuple(_furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture),
-        )
+        furniture = tuple(_shifted(f, dx, dy) for f in room.furniture)
+        shifted = msgspec.structs.replace(_shifted(room, dx, dy), furniture=furniture)
         if not _opens(moved, shifted):  # a door no longer reaches its corridor: keep the room
             shifted, dx, dy = room, 0.0, 0.0
         rooms.append(shifted)
@@ -187,7 +185,7 @@ def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
     rooms = list(plan.rooms)
     for i in rng.permutation(candidates)[:n]:
         room = rooms[int(i)]
-        rooms[int(i)] = dataclasses.replace(room, doors=room.doors[1:])
+        rooms[int(i)] = msgspec.structs.replace(room, doors=room.doors[1:])
         notes.append(f"door of {room.name!r} closed (open in the map)")
     return dataclasses.replace(plan, rooms=tuple(rooms))
 
@@ -224,13 +222,14 @@ def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
         for _ in range(20):
             angle = rng.uniform(-math.pi, math.pi)
             dist = rng.uniform(0.3, 0.6)
-            rect = _shift(item.rect, dist * math.cos(angle), dist * math.sin(angle))
+            moved_item = _shifted(item, dist * math.cos(angle), dist * math.sin(angle))
+            rect = moved_item.rect
             others = [f.rect for j, f in enumerate(room.furniture) if j != k]
             inside = inner.contains(rect) and not any(rect.overlaps(z) for z in zones)
             if inside and not any(rect.overlaps(o, 0.3) for o in others):
                 furniture = list(room.furniture)
-                furniture[k] = _furniture(item.name, rect)
-                rooms[int(i)] = dataclasses.replace(room, furniture=tuple(furniture))
+                furniture[k] = moved_item
+                rooms[int(i)] = msgspec.structs.replace(room, furniture=tuple(furniture))
                 notes.append(f"{item.name!r} in {room.name!r} moved {dist:.2f} m")
                 moved += 1
                 break
@@ -250,7 +249,7 @@ def _wall_openings(
     for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
         if abs(offset - first.offset) < spacing:
             continue
-        trial = dataclasses.replace(
+        trial = msgspec.structs.replace(
             room, doors=(*room.doors, Door(first.wall, float(offset), width))
         )
         try:
