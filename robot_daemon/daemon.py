@@ -29,6 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D
@@ -194,18 +195,10 @@ class Daemon:
         self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
         if options.relocalise:
             self.stack.relocalisation.run_searches_in(self._search_thread)
-        self._due = {
-            name: Periodic(hz)
-            for name, hz in (
-                ("pose", rates.pose_hz),
-                ("scan", rates.scan_hz),
-                ("status", rates.status_hz),
-                ("battery", rates.battery_hz),
-                ("image", rates.image_hz),
-                ("map", 1.0 / MAP_REPUBLISH_PERIOD),
-                ("safety", SAFETY_HZ),
-            )
-        }
+        # What is published when: robot.yaml's rates by name ("pose", "scan", ...), the map, safety.
+        due_hz = {key.removesuffix("_hz"): v for key, v in msgspec.structs.asdict(rates).items()}
+        due_hz |= {"map": 1.0 / MAP_REPUBLISH_PERIOD, "safety": SAFETY_HZ}
+        self._due = {name: Periodic(hz) for name, hz in due_hz.items()}
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
