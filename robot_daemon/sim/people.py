@@ -283,13 +283,11 @@ class Crowd:
         )
         return [(float(roadmap.xy[k, 0]), float(roadmap.xy[k, 1])) for k in picks]
 
-    def spawn(self, n: int, n_waypoints: int = 4, blocker_fraction: float = 0.3) -> list[int]:
+    def spawn(self, n: int, n_waypoints: int = 4, blocker_fraction: float = 0.3) -> None:
         """Add ``n`` people on generated routes; about ``blocker_fraction`` of them block."""
-        ids = []
         for _ in range(n):
             route = self.random_route(n_waypoints)
-            ids.append(self.add_person(route, blocker=bool(self._rng.random() < blocker_fraction)))
-        return ids
+            self.add_person(route, blocker=bool(self._rng.random() < blocker_fraction))
 
     # --- stepping ---------------------------------------------------------------------------
 
