@@ -271,14 +271,11 @@ class Recorder:
                 raise RecorderError(
                     f"cannot serve Foxglove on {live.host}:{live.port}: {exc}"
                 ) from None
+            scheme = "wss" if live.tls_cert else "ws"
+            logger.info("Foxglove live view on %s://%s:%d", scheme, live.host, self.port)
         self._chunk_bytes = CHUNK_BYTES
         if rotation is not None:  # several chunks per file, so the size check is not too coarse
             self._chunk_bytes = max(4096, min(CHUNK_BYTES, rotation.config.max_file_bytes // 16))
-        if self.server is not None:
-            scheme = "wss" if live is not None and live.tls_cert else "ws"
-            logger.info(
-                "Foxglove live view on %s://%s:%d", scheme, live.host if live else "", self.port
-            )
         try:
             self._open_first_file()
         except RecorderError:

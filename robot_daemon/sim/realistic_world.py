@@ -174,13 +174,9 @@ def _displace_plan(
     return dataclasses.replace(moved, rooms=tuple(rooms)), rms
 
 
-def _protected_rooms(plan: FloorPlan) -> set[str]:
-    """Rooms whose doors must stay open: nodes inside them, or home."""
-    return {r.name for r in plan.rooms if r.inside is not None or r.home}
-
-
 def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
-    protected = _protected_rooms(plan)
+    # Doors that stay open: of rooms with a node inside them, and of home.
+    protected = {r.name for r in plan.rooms if r.inside is not None or r.home}
     candidates = [i for i, r in enumerate(plan.rooms) if r.doors and r.name not in protected]
     rooms = list(plan.rooms)
     for i in rng.permutation(candidates)[:n]:
