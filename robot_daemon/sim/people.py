@@ -206,15 +206,10 @@ class Crowd:
         self.world = world
         self.config = config or CrowdConfig()
         self._rng = rng
-        self._people: list[Person] = []
+        self.people: list[Person] = []  # in creation order
         self._next_id = 0
         self._roadmap: Roadmap | None = None
         self._roadmap_version = -1
-
-    @property
-    def people(self) -> tuple[Person, ...]:
-        """The people, in creation order."""
-        return tuple(self._people)
 
     def roadmap(self) -> Roadmap:
         """The walking roadmap for the current walls (rebuilt after an obstacle is added)."""
@@ -225,9 +220,9 @@ class Crowd:
 
     def circles(self) -> FloatArray:
         """(N, 3) rows of x [m], y [m], radius [m]."""
-        if not self._people:
+        if not self.people:
             return np.empty((0, 3))
-        return np.array([(p.x, p.y, p.radius) for p in self._people], dtype=np.float64)
+        return np.array([(p.x, p.y, p.radius) for p in self.people], dtype=np.float64)
 
     def add_person(
         self,
@@ -261,7 +256,7 @@ class Crowd:
             y=float(path[0, 1]),
             target=1 % len(path),
         )
-        self._people.append(person)
+        self.people.append(person)
         self._next_id += 1
         return person.person_id
 
@@ -293,7 +288,7 @@ class Crowd:
 
     def step(self, dt: float, robot_pose: Pose2D, footprint: RobotFootprint) -> None:
         """Advance every person by dt [s] given the robot's true pose."""
-        for p in self._people:
+        for p in self.people:
             self._step_person(p, dt, robot_pose, footprint)
 
     def _in_front_of_robot(self, p: Person, robot_pose: Pose2D, footprint: RobotFootprint) -> bool:
