@@ -111,8 +111,8 @@ def time_global(grid: OccupancyGrid, pairs: list[Any], repeats: int) -> tuple[li
 def time_local(grid: OccupancyGrid, start: tuple[float, float], goal: tuple[float, float], cycles: int) -> tuple[list[float], list[float]]:  # fmt: skip
     """Local cycles while driving the path with a perfect kinematic robot."""
     config = PlannerConfig()
-    costmap = Costmap(grid, config.costmap_config())
-    path = np.asarray(GlobalPlanner(grid, config.global_planner_config()).plan(costmap.costs(0.0), start, goal))  # fmt: skip
+    costmap = Costmap(grid, config)
+    path = np.asarray(GlobalPlanner(grid, config).plan(costmap.costs(0.0), start, goal))  # fmt: skip
     dwa = DWAPlanner(config)
     heading = math.atan2(path[3, 1] - path[0, 1], path[3, 0] - path[0, 0])
     pose, command = Pose2D(start[0], start[1], heading), (0.0, 0.0)

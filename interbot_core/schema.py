@@ -53,6 +53,15 @@ Finite = typing.Annotated[float, msgspec.Meta(ge=-FINITE, le=FINITE)]
 """A finite float."""
 
 
+def within(low: float, high: float, unit: str = "", *, low_open: bool = False) -> msgspec.Meta:
+    """The constraint ``[low, high]`` (``(low, high]`` when ``low_open``) of a number, with the
+    unit its errors name."""
+    extra = {"unit": unit} if unit else None
+    if low_open:
+        return msgspec.Meta(gt=low, le=high, extra=extra)
+    return msgspec.Meta(ge=low, le=high, extra=extra)
+
+
 def one_of(*choices: str) -> msgspec.Meta:
     """The constraint of a ``str`` field that takes one of ``choices``.
 

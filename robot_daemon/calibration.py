@@ -39,6 +39,7 @@ import numpy as np
 from msgspec import Meta
 
 from interbot_core import schema
+from robot_daemon.sim.diff_drive import wheel_speeds
 
 logger = logging.getLogger(__name__)
 
@@ -138,12 +139,6 @@ class OdometryCorrection:
         )
 
 
-def wheel_arcs(distance: float, rotation: float, track: float) -> tuple[float, float]:
-    """Measured wheel arcs (L, R) [m] behind an odometry motion: ``d ∓ θ B / 2``."""
-    half = 0.5 * rotation * track
-    return distance - half, distance + half
-
-
 def estimate_correction(
     segments: list[SegmentMeasurement] | tuple[SegmentMeasurement, ...], track: float
 ) -> OdometryCorrection:
@@ -175,7 +170,8 @@ def estimate_correction(
     rows: list[list[float]] = []
     rhs: list[float] = []
     for s in straights + rotations:
-        left, right = wheel_arcs(s.odom_distance, s.odom_rotation, track)
+        # the measured wheel arcs (L, R) behind the odometry motion: d ∓ θ B / 2
+        left, right = wheel_speeds(s.odom_distance, s.odom_rotation, track)
         size = max(abs(left), abs(right))
         if s.kind is SegmentKind.STRAIGHT:
             # d_ref = (k_l L + k_r R) / 2

@@ -29,6 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D
@@ -69,7 +70,7 @@ from interbot_link.command_priority import (
     raise_current_thread,
 )
 from robot_daemon.backend import RobotBackend
-from robot_daemon.config import ConfigError, DaemonConfig
+from robot_daemon.config import DaemonConfig
 from robot_daemon.device_health import DeviceHealth
 from robot_daemon.link_security import link_security
 from robot_daemon.localisation.localiser import LocaliserConfig
@@ -78,7 +79,6 @@ from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.planning.path_report import plan_message
-from robot_daemon.safety.collision_monitor import SafetyConfigError
 from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
 from robot_daemon.sim.simulator import SimConfig, Simulator
@@ -131,14 +131,11 @@ def build_hardware_backend(config: DaemonConfig) -> RobotBackend:
 
     Their drivers stamp data with ``time.monotonic()``, the daemon's clock on a real robot.
     """
-    from robot_daemon.hardware.config import HardwareConfig, HardwareConfigError
+    from robot_daemon.hardware.config import HardwareConfig
     from robot_daemon.hardware.hardware_backend import HardwareBackend
 
-    try:
-        hardware = HardwareConfig.from_mapping(config.hardware, config.source)
-    except HardwareConfigError as exc:
-        raise ConfigError(str(exc)) from None
-    return HardwareBackend(hardware)
+    # a HardwareConfigError is a ConfigError
+    return HardwareBackend(HardwareConfig.from_mapping(config.hardware, config.source))
 
 
 class Daemon:
@@ -156,10 +153,8 @@ class Daemon:
         self.options = options = options or DaemonOptions()
         self._clock = clock
         self.grid = load_map(config.map_yaml)
-        try:
-            motion_guard = load_safety_config(config.safety_yaml)
-        except SafetyConfigError as exc:
-            raise ConfigError(str(exc)) from None
+        # A bad safety (or hardware) section is a ConfigError: the daemon does not start.
+        motion_guard = load_safety_config(config.safety_yaml)
         self.topo: TopologicalMap | None = None
         self.route_planner: RoutePlanner | None = None
         if config.topo_yaml.exists():
@@ -200,18 +195,10 @@ class Daemon:
         self._search_thread = ThreadPoolExecutor(1, thread_name_prefix="global-search")
         if options.relocalise:
             self.stack.relocalisation.run_searches_in(self._search_thread)
-        self._due = {
-            name: Periodic(hz)
-            for name, hz in (
-                ("pose", rates.pose_hz),
-                ("scan", rates.scan_hz),
-                ("status", rates.status_hz),
-                ("battery", rates.battery_hz),
-                ("image", rates.image_hz),
-                ("map", 1.0 / MAP_REPUBLISH_PERIOD),
-                ("safety", SAFETY_HZ),
-            )
-        }
+        # What is published when: robot.yaml's rates by name ("pose", "scan", ...), the map, safety.
+        due_hz = {key.removesuffix("_hz"): v for key, v in msgspec.structs.asdict(rates).items()}
+        due_hz |= {"map": 1.0 / MAP_REPUBLISH_PERIOD, "safety": SAFETY_HZ}
+        self._due = {name: Periodic(hz) for name, hz in due_hz.items()}
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
@@ -302,25 +289,16 @@ class Daemon:
     def publish(self, link: RobotLink) -> None:
         now, stack, due = self.now, self.stack, self._due
         if due["pose"](now):
-            pose = stack.pose
-            estimate = stack.last_estimate
+            pose, estimate = stack.pose, stack.last_estimate
             confidence = estimate.confidence if estimate is not None else 0.0
-            state = stack.reported_localisation
+            cov: tuple[float, ...] = ()
             if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
-                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, now, state, 0.0))
+                pose, confidence = Pose2D(0.0, 0.0, 0.0), 0.0
             else:
-                cov = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
-                link.publish_pose(
-                    PoseMsg(
-                        pose.x,
-                        pose.y,
-                        pose.yaw,
-                        now,
-                        state,
-                        confidence,
-                        tuple(cov.ravel().tolist()),
-                    )
-                )
+                clipped = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
+                cov = tuple(clipped.ravel().tolist())
+            state = stack.reported_localisation
+            link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
             odom = stack.last_odometry
             if odom is not None:
                 p = odom.pose

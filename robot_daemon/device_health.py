@@ -36,12 +36,8 @@ class DeviceHealth:
                 before = self._contacts.get(device.name, contacts)
                 if contacts > before:
                     new = contacts - before
-                    lines.append(
-                        (
-                            "error",
-                            f"collision: {device.name} stalled against an obstacle "
-                            f"({new} new contact{'s' if new > 1 else ''}, {contacts} since start)",
-                        )
-                    )
+                    count = f"{new} new contact{'s' if new > 1 else ''}, {contacts} since start"
+                    text = f"collision: {device.name} stalled against an obstacle ({count})"
+                    lines.append(("error", text))
                 self._contacts[device.name] = contacts
         return lines

@@ -66,8 +66,7 @@ class SimBackend:
         self.sim.set_cmd_vel(linear, angular)
 
     def read_odometry(self, now: float) -> OdometryReading:
-        odom = self.sim.odometry()
-        return OdometryReading(odom.stamp, odom.pose, odom.linear, odom.angular)
+        return self.sim.odometry()
 
     def read_scan(self, now: float) -> LaserScan | None:
         if not self.sim.scan_due() or self.sim.time + 1e-9 < self._next_scan:

@@ -164,6 +164,7 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
         ey = opening.corridor_face[1] + ny * plan.entrance_distance
         area = tuple((float(p[0]), float(p[1])) for p in room.rect.polygon())
         facing_door = wrap_angle(math.atan2(-ny, -nx)) + 0.0  # no -0.0
+        info, name_pt, info_pt = room.info or "", room.name_pt or "", room.info_pt or ""
         if room.inside is None:
             nodes.append(
                 PlanNode(
@@ -173,13 +174,13 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                     facing_door,
                     "entrance",
                     room.name,
-                    room.info,
+                    info,
                     room.tour,
                     room.requests,
                     room.home,
                     area,
-                    room.name_pt,
-                    room.info_pt,
+                    name_pt,
+                    info_pt,
                 )
             )
             continue
@@ -191,13 +192,13 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                 facing_door,
                 "entrance",
                 room.name,
-                room.info,
+                info,
                 area=area,
-                name_pt=f"{room.name_pt} (porta)" if room.name_pt else "",
-                info_pt=room.info_pt,
+                name_pt=f"{name_pt} (porta)" if name_pt else "",
+                info_pt=info_pt,
             )
         )
-        ix, iy = room.inside
+        ix, iy = room.inside.x, room.inside.y
         fx, fy = opening.room_face
         nodes.append(
             PlanNode(
@@ -207,13 +208,13 @@ def plan_nodes(plan: FloorPlan) -> list[PlanNode]:
                 wrap_angle(math.atan2(iy - fy, ix - fx)),
                 "inside",
                 room.name,
-                room.info,
+                info,
                 room.tour,
                 room.requests,
                 room.home,
                 area,
-                room.name_pt,
-                room.info_pt,
+                name_pt,
+                info_pt,
             )
         )
     for waypoint in plan.waypoints:

@@ -15,6 +15,7 @@ Optional keys have the defaults shown in the declarations below.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Annotated, Any, ClassVar, Literal
 
@@ -22,10 +23,10 @@ import msgspec
 from msgspec import Meta
 
 from interbot_core import schema
-from robot_daemon.hardware.roboteq import DriveGeometry
+from robot_daemon.config import ConfigError
 
 
-class HardwareConfigError(ValueError):
+class HardwareConfigError(ConfigError):
     """Invalid ``hardware:`` configuration; the message names the key."""
 
 
@@ -75,17 +76,27 @@ class MotorsConfig(_Section, frozen=True):
     poll_hz: Annotated[float, Meta(ge=1, le=200)] = 50.0  # encoder polling rate
     reconnect_delay: Delay = 1.0
 
+    # The kinematics (the parameters tuned in the thesis §6.1.1.2 calibration): the per-wheel
+    # radii override ``wheel_radius``, since unequal wheels are what makes a straight run curve.
+
     @property
-    def geometry(self) -> DriveGeometry:
-        return DriveGeometry(
-            float(self.wheel_radius),
-            float(self.track),
-            float(self.counts_per_rev),
-            float(self.gear_ratio),
-            float(self.max_rpm),
-            None if self.wheel_radius_left is None else float(self.wheel_radius_left),
-            None if self.wheel_radius_right is None else float(self.wheel_radius_right),
-        )
+    def radii(self) -> tuple[float, float]:
+        """(left, right) wheel radius [m]."""
+        left = self.wheel_radius if self.wheel_radius_left is None else self.wheel_radius_left
+        right = self.wheel_radius if self.wheel_radius_right is None else self.wheel_radius_right
+        return left, right
+
+    @property
+    def metres_per_count_lr(self) -> tuple[float, float]:
+        """(left, right) rim travel per encoder count [m]."""
+        k = math.tau / (self.counts_per_rev * self.gear_ratio)
+        left, right = self.radii
+        return k * left, k * right
+
+    def motor_rpm(self, wheel_speed: float, radius: float | None = None) -> float:
+        """Motor shaft rpm for a wheel rim speed [m/s] (``radius`` [m]: nominal if None)."""
+        r = self.wheel_radius if radius is None else radius
+        return wheel_speed / r * 60.0 / math.tau * self.gear_ratio
 
     @property
     def right_channel(self) -> int:

@@ -58,10 +58,7 @@ class HardwareBackend:
             self.motors.set_cmd_vel(linear, angular)
 
     def read_odometry(self, now: float) -> OdometryReading | None:
-        state = self.motors.odometry()
-        if state is None:
-            return None
-        return OdometryReading(state.stamp, state.pose, state.linear, state.angular)
+        return self.motors.odometry()
 
     def read_scan(self, now: float) -> LaserScan | None:
         seq, scan = self.laser.latest()

@@ -108,19 +108,9 @@ class HokuyoDriver(DriverThread):
         serial_factory: SerialFactory = serial.Serial,
         reply_timeout: float = 0.5,
     ) -> None:
+        failures = ("malformed", "stalls", "disconnects", "handshake_failures")
         super().__init__(
-            f"laser {config.port}",
-            (
-                "scans",
-                "bad_sum",
-                "truncated",
-                "bad_status",
-                "malformed",
-                "stalls",
-                "disconnects",
-                "handshake_failures",
-                "connects",
-            ),
+            f"laser {config.port}", ("scans", *DROPPED_AS.values(), *failures, "connects")
         )
         self.config = config
         self.reply_timeout = reply_timeout  # [s] for each handshake reply

@@ -28,13 +28,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, ClassVar
 
 import numpy as np
-from msgspec import Meta
 
-from interbot_core import schema
 from interbot_core.geometry import Pose2D
+from robot_daemon.backend import OdometryReading
+from robot_daemon.hardware.config import MotorsConfig
+from robot_daemon.sim.battery import OCV_CELL, OCV_SOC
+from robot_daemon.sim.diff_drive import integrate_arc, wheel_speeds
 
 CR = b"\r"
 G_LIMIT = 1000  # !G range is -1000..1000
@@ -133,53 +134,6 @@ def fault_names(flags: int) -> list[str]:
 # -- kinematics -------------------------------------------------------------------------------
 
 
-Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE)]
-
-
-class DriveGeometry(schema.Declared, frozen=True):
-    """The kinematic parameters (the ones tuned in the thesis §6.1.1.2 calibration).
-
-    ``wheel_radius_left`` / ``wheel_radius_right`` override ``wheel_radius`` for one wheel: the
-    odometry calibration (UMBmark, `robot_daemon.calibration`) finds the two radii separately,
-    since unequal wheels are what makes a straight run curve.
-    """
-
-    ROOT: ClassVar[str] = "DriveGeometry"
-    ERROR: ClassVar[type[Exception]] = ValueError
-
-    wheel_radius: Positive  # [m]
-    track: Positive  # [m] distance between the wheel contact points
-    counts_per_rev: Positive  # encoder counts per motor turn (quadrature: 4 x PPR)
-    gear_ratio: Positive  # motor turns per wheel turn
-    max_rpm: Positive  # motor rpm that !G 1000 means (the controller's MXRPM)
-    wheel_radius_left: Positive | None = None  # [m] None: wheel_radius
-    wheel_radius_right: Positive | None = None  # [m] None: wheel_radius
-
-    @property
-    def radii(self) -> tuple[float, float]:
-        """(left, right) wheel radius [m]."""
-        left = self.wheel_radius if self.wheel_radius_left is None else self.wheel_radius_left
-        right = self.wheel_radius if self.wheel_radius_right is None else self.wheel_radius_right
-        return left, right
-
-    @property
-    def metres_per_count_lr(self) -> tuple[float, float]:
-        """(left, right) rim travel per encoder count [m]."""
-        k = math.tau / (self.counts_per_rev * self.gear_ratio)
-        left, right = self.radii
-        return k * left, k * right
-
-    def wheel_speeds(self, linear: float, angular: float) -> tuple[float, float]:
-        """(v_l, v_r) [m/s] for a body twist."""
-        half = angular * self.track / 2.0
-        return linear - half, linear + half
-
-    def motor_rpm(self, wheel_speed: float, radius: float | None = None) -> float:
-        """Motor shaft rpm for a wheel rim speed [m/s] (``radius`` [m]: nominal if None)."""
-        r = self.wheel_radius if radius is None else radius
-        return wheel_speed / r * 60.0 / math.tau * self.gear_ratio
-
-
 @dataclass(frozen=True)
 class WheelCommand:
     """What to send for one twist: the two channel values, and whether it was clamped."""
@@ -191,7 +145,7 @@ class WheelCommand:
 
 
 def twist_to_command(
-    geometry: DriveGeometry, linear: float, angular: float, kind: str
+    geometry: MotorsConfig, linear: float, angular: float, kind: str
 ) -> WheelCommand:
     """Body twist -> channel values for ``!G`` (per mille of max rpm) or ``!S`` (rpm).
 
@@ -200,7 +154,7 @@ def twist_to_command(
     """
     if not (math.isfinite(linear) and math.isfinite(angular)):
         linear = angular = 0.0
-    v_l, v_r = geometry.wheel_speeds(linear, angular)
+    v_l, v_r = wheel_speeds(linear, angular, geometry.track)
     r_l, r_r = geometry.radii
     rpm_l, rpm_r = geometry.motor_rpm(v_l, r_l), geometry.motor_rpm(v_r, r_r)
     peak = max(abs(rpm_l), abs(rpm_r))
@@ -225,52 +179,30 @@ def counter_delta(new: int, old: int) -> int:
     return (new - old + COUNTER_MODULUS // 2) % COUNTER_MODULUS - COUNTER_MODULUS // 2
 
 
-def integrate_arc(pose: Pose2D, ds: float, dtheta: float) -> Pose2D:
-    """Move ``pose`` by ``ds`` along an arc turning ``dtheta`` (exact for constant curvature)."""
-    theta = pose.yaw
-    if abs(dtheta) < 1e-9:
-        # Second-order expansion of the arc formulas (exact in the limit).
-        dx = ds * math.cos(theta + dtheta / 2.0)
-        dy = ds * math.sin(theta + dtheta / 2.0)
-    else:
-        radius = ds / dtheta
-        dx = radius * (math.sin(theta + dtheta) - math.sin(theta))
-        dy = radius * (math.cos(theta) - math.cos(theta + dtheta))
-    return Pose2D(pose.x + dx, pose.y + dy, theta + dtheta)
-
-
-@dataclass(frozen=True)
-class OdometryState:
-    stamp: float  # [s]
-    pose: Pose2D
-    linear: float  # [m/s]
-    angular: float  # [rad/s]
-
-
 class WheelOdometry:
     """Integrates absolute encoder counts into an ``odom`` pose (starts at the origin)."""
 
-    def __init__(self, geometry: DriveGeometry, left_sign: int = 1, right_sign: int = 1) -> None:
+    def __init__(self, geometry: MotorsConfig, left_sign: int = 1, right_sign: int = 1) -> None:
         self.geometry = geometry
         self.left_sign = left_sign
         self.right_sign = right_sign
         self._counts: tuple[int, int] | None = None
-        self._state: OdometryState | None = None
+        self._state: OdometryReading | None = None
 
     @property
-    def state(self) -> OdometryState | None:
+    def state(self) -> OdometryReading | None:
         return self._state
 
     def rebase(self) -> None:
         """Forget the last counts (after a reconnect: the controller may have reset them)."""
         self._counts = None
 
-    def update(self, left_counts: int, right_counts: int, stamp: float) -> OdometryState:
+    def update(self, left_counts: int, right_counts: int, stamp: float) -> OdometryReading:
         """Add the motion since the previous counts; the first call only sets the reference."""
         if self._counts is None or self._state is None:
             self._counts = (left_counts, right_counts)
             pose = self._state.pose if self._state else Pose2D(0.0, 0.0, 0.0)
-            self._state = OdometryState(stamp, pose, 0.0, 0.0)
+            self._state = OdometryReading(stamp, pose, 0.0, 0.0)
             return self._state
         g = self.geometry
         m_l, m_r = g.metres_per_count_lr
@@ -281,18 +213,16 @@ class WheelOdometry:
         dtheta = (d_r - d_l) / g.track
         dt = stamp - self._state.stamp
         linear, angular = (ds / dt, dtheta / dt) if dt > 0 else (0.0, 0.0)
-        self._state = OdometryState(
-            stamp, integrate_arc(self._state.pose, ds, dtheta), linear, angular
+        self._state = OdometryReading(
+            stamp, integrate_arc(self._state.pose, ds, dtheta, 1.0), linear, angular
         )
         return self._state
 
 
 # -- battery ----------------------------------------------------------------------------------
 
-# Li-ion (NMC) open-circuit voltage per cell against state of charge; the same curve as the
-# simulator's BMS model (robot_daemon/sim/battery.py), an assumption: the thesis gives none.
-_OCV_SOC = np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
-_OCV_CELL = np.array([3.0, 3.3, 3.45, 3.55, 3.62, 3.68, 3.73, 3.8, 3.88, 3.97, 4.07, 4.2])
+# Li-ion (NMC) open-circuit voltage per cell against state of charge: the simulated BMS's curve
+# (`robot_daemon.sim.battery`), an assumption: the thesis gives none.
 
 
 def state_of_charge(
@@ -300,4 +230,4 @@ def state_of_charge(
 ) -> float:
     """SOC [0, 1] from the terminal voltage, corrected for the I R drop (Rint model)."""
     cell_ocv = (voltage + current * internal_resistance) / cells
-    return float(np.interp(cell_ocv, _OCV_CELL, _OCV_SOC))
+    return float(np.interp(cell_ocv, OCV_CELL, OCV_SOC))

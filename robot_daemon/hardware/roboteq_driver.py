@@ -33,7 +33,7 @@ from typing import Any
 
 import serial
 
-from robot_daemon.backend import BatteryReading, DeviceStatus
+from robot_daemon.backend import BatteryReading, DeviceStatus, OdometryReading
 from robot_daemon.hardware import roboteq
 from robot_daemon.hardware.config import BatteryConfig, MotorsConfig
 from robot_daemon.hardware.driver_thread import DriverThread
@@ -65,23 +65,12 @@ class RoboteqDriver(DriverThread):
         clock: Clock = time.monotonic,
         serial_factory: SerialFactory = serial.Serial,
     ) -> None:
-        super().__init__(
-            f"motors {config.port}",
-            (
-                "commands",
-                "clamped",
-                "zero_first",
-                "odometry",
-                "malformed",
-                "nacks",
-                "timeouts",
-                "disconnects",
-                "connects",
-            ),
-        )
+        work = ("commands", "clamped", "zero_first", "odometry")
+        faults = ("malformed", "nacks", "timeouts", "disconnects")
+        super().__init__(f"motors {config.port}", (*work, *faults, "connects"))
         self.config = config
         self.battery_config = battery or BatteryConfig()
-        self.geometry = config.geometry
+        self.geometry = config  # the drive's kinematics
         self.clock = clock
         self.serial_factory = serial_factory
         self.odometry_model = roboteq.WheelOdometry(
@@ -89,7 +78,7 @@ class RoboteqDriver(DriverThread):
         )
         self._wake = threading.Event()
         self._pending: tuple[float, float, float] | None = None  # (linear, angular, stamp)
-        self._odometry: roboteq.OdometryState | None = None
+        self._odometry: OdometryReading | None = None
         self._battery: BatteryReading | None = None
         self._faults = 0
         self._clamping = False
@@ -109,7 +98,7 @@ class RoboteqDriver(DriverThread):
             self._pending = (linear, angular, self.clock())
         self._wake.set()
 
-    def odometry(self) -> roboteq.OdometryState | None:
+    def odometry(self) -> OdometryReading | None:
         with self._lock:
             return self._odometry
 

@@ -247,7 +247,7 @@ def md_command(start: int, end: int, cluster: int = 0, interval: int = 0, scans:
 
 @dataclass(frozen=True)
 class MdRequest:
-    """The parameters of an MD/GD echo or command (count/remaining only for MD)."""
+    """The parameters of an MD/MS echo or command (the driver streams: it never sends GD)."""
 
     command: str
     start: int
@@ -258,24 +258,12 @@ class MdRequest:
 
 
 def parse_md_request(line: bytes) -> MdRequest:
-    """Parse ``MDssssEEEEccirr`` (MD/ME) or ``GDssssEEEEcc`` (GD/GS) without the LF."""
+    """Parse ``MDssssEEEEccirr`` (MD/MS) without the LF."""
     text = line.decode("ascii", errors="replace")
-    cmd = text[:2]
-    try:
-        if cmd in ("MD", "MS") and len(text) == 15:
-            return MdRequest(
-                cmd,
-                int(text[2:6]),
-                int(text[6:10]),
-                int(text[10:12]),
-                int(text[12]),
-                int(text[13:15]),
-            )
-        if cmd in ("GD", "GS") and len(text) == 12:
-            return MdRequest(cmd, int(text[2:6]), int(text[6:10]), int(text[10:12]), 0, 1)
-    except ValueError:
-        pass
-    raise ScipError(f"{text!r} is not an MD/MS/GD/GS request")
+    fields = (text[2:6], text[6:10], text[10:12], text[12:13], text[13:15])
+    if text[:2] not in ("MD", "MS") or len(text) != 15 or not all(f.isdigit() for f in fields):
+        raise ScipError(f"{text!r} is not an MD/MS request")
+    return MdRequest(text[:2], *(int(f) for f in fields))
 
 
 @dataclass(frozen=True)
@@ -288,7 +276,7 @@ class ScanFrame:
 
 
 def parse_scan_frame(lines: list[bytes], steps: int, chars: int = 3) -> ScanFrame:
-    """Decode a streamed MD scan or a GD reply given as lines (echo, status, timestamp, data).
+    """Decode a streamed MD scan given as lines (echo, status, timestamp, data).
 
     The layout is checked before the sums, so a line that lost bytes raises
     `ScipTruncatedError` and a corrupted byte `ScipChecksumError`; either way nothing of the
@@ -299,8 +287,7 @@ def parse_scan_frame(lines: list[bytes], steps: int, chars: int = 3) -> ScanFram
     echo = lines[0]
     request = parse_md_request(echo)
     status = parse_status(lines[1])
-    expected_status = STATUS_STREAM if request.command in ("MD", "MS") else STATUS_OK
-    if status != expected_status:
+    if status != STATUS_STREAM:
         raise ScipStatusError(request.command, status)
     if len(lines[2]) != TIMESTAMP_CHARS + 1:
         raise ScipTruncatedError(f"timestamp line {lines[2]!r} must be 4 characters and a sum")

@@ -24,17 +24,15 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from msgspec import Meta
 from scipy import ndimage
 
-from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.planning.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
 
@@ -48,44 +46,6 @@ INSCRIBED = 253
 MAX_NON_LETHAL = 252
 FREE_COST = 0
 UNKNOWN_COST = MAX_NON_LETHAL  # allow_unknown: the dearest traversable cell
-
-
-class CostmapConfigError(ValueError):
-    """A costmap parameter is out of range; the message names the field and the allowed range."""
-
-
-Positive = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
-
-
-class CostmapConfig(schema.Declared, frozen=True):
-    """Inflation and obstacle-layer parameters (Nav2 names in comments); every number finite and
-    > 0, the inflation radius at least the inscribed one."""
-
-    ROOT: ClassVar[str] = "costmap"
-    ERROR: ClassVar[type[Exception]] = CostmapConfigError
-
-    inscribed_radius: Positive = 0.275  # half the robot width (0.55 m)
-    inflation_radius: Positive = 0.6  # inflation_radius
-    cost_scaling_factor: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "1/m"})] = (
-        5.0
-    )
-    # how long a laser mark lives without a new hit
-    obstacle_persistence: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})] = (
-        2.0
-    )
-    obstacle_max_range: Positive = 4.0  # obstacle_max_range: beams beyond do not mark
-    raytrace_max_range: Positive = 5.0  # raytrace_max_range: beams clear up to here
-    # Nav2's planner ``allow_unknown`` with the static layer's ``track_unknown_space``: unknown
-    # cells are then not obstacles (not inflated) but cost UNKNOWN_COST, the most a traversable
-    # cell costs, so paths cross them only where nothing known will do. False: unknown is lethal.
-    allow_unknown: bool = False
-
-    def check(self) -> None:
-        if self.inflation_radius < self.inscribed_radius:
-            raise CostmapConfigError(
-                f"costmap.inflation_radius = {self.inflation_radius!r} m must be >= "
-                f"inscribed_radius ({self.inscribed_radius} m)"
-            )
 
 
 def inflation_cost(
@@ -141,9 +101,9 @@ class Costmap:
     ignored at read time, so nothing needs a timer.
     """
 
-    def __init__(self, grid: OccupancyGrid, config: CostmapConfig | None = None) -> None:
+    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
         self.grid = grid
-        self.config = config or CostmapConfig()
+        self.config = config or PlannerConfig()
         self.resolution = grid.resolution
         self._build_static()
         # Time [s] until which each cell holds a live laser obstacle (-inf: none).
@@ -174,7 +134,7 @@ class Costmap:
         self._static_costs = self._costs_from_distance(self._static_distance)
         self._static_costs.setflags(write=False)
 
-    def reconfigure(self, config: CostmapConfig) -> None:
+    def reconfigure(self, config: PlannerConfig) -> None:
         """Adopt new inflation / obstacle parameters (recomputes the static layer if needed)."""
         old = self.config
         self.config = config

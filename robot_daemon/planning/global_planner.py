@@ -31,16 +31,14 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from msgspec import Meta
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from interbot_core import schema
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import INSCRIBED, LETHAL, MAX_NON_LETHAL
 
 logger = logging.getLogger(__name__)
@@ -70,30 +68,11 @@ class NoPathError(PlanningError):
     """Start and goal are in different free regions of the costmap."""
 
 
-class GlobalPlannerConfigError(ValueError):
-    """A global planner parameter is out of range."""
-
-
-Metres = Annotated[float, Meta(ge=0.0, le=schema.FINITE, extra={"unit": "m"})]
-PositiveMetres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
-
-
-class GlobalPlannerConfig(schema.Declared, frozen=True):
-    """Parameters of :class:`GlobalPlanner` (finite; sizes > 0, margins >= 0)."""
-
-    ROOT: ClassVar[str] = "global planner"
-    ERROR: ClassVar[type[Exception]] = GlobalPlannerConfigError
-
-    planning_resolution: PositiveMetres = 0.1  # coarse grid (rounded to a multiple of the map's)
-    # step cost = len * (1 + cost / cost_weight)
-    cost_weight: Annotated[float, Meta(gt=0.0, le=schema.FINITE)] = 100.0
-    sample_spacing: PositiveMetres = 0.25  # spacing of the returned points
-    snap_radius: Metres = 0.5  # how far a start/goal in inscribed space may be moved
-    smooth: bool = True
-    # Search first in the box around start and goal grown by this margin (0: whole map); only
-    # if that box holds no path is the whole map searched. Legs between topological nodes are
-    # 5-20 m, so this cuts a plan on a 70 x 35 m floor from ~50 ms to a few ms.
-    window_margin: Metres = 8.0
+SNAP_RADIUS = 0.5  # [m] how far a start/goal in inscribed space may be moved
+# [m] Search first in the box around start and goal grown by this margin; only if that box holds
+# no path is the whole map searched. Legs between topological nodes are 5-20 m, so this cuts a
+# plan on a 70 x 35 m floor from ~50 ms to a few ms.
+WINDOW_MARGIN = 8.0
 
 
 def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.uint8]:
@@ -260,9 +239,11 @@ def _search_box(
 class GlobalPlanner:
     """Plans map-frame paths on cost grids with the geometry of ``grid``."""
 
-    def __init__(self, grid: OccupancyGrid, config: GlobalPlannerConfig | None = None) -> None:
+    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
+        """``config``: its planning_resolution, cost_weight (step cost = length x (1 + cost /
+        cost_weight)) and path_spacing (of the returned points)."""
         self.grid = grid
-        self.config = config or GlobalPlannerConfig()
+        self.config = config or PlannerConfig()
         self.factor = max(1, round(self.config.planning_resolution / grid.resolution))
         self.coarse_resolution = self.factor * grid.resolution
 
@@ -292,9 +273,7 @@ class GlobalPlanner:
                 f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is in an obstacle, unknown space or outside"
                 f" {grid.source}; pick a goal in free space"
             )
-        windows: list[tuple[int, int, int, int] | None] = [None]
-        if self.config.window_margin > 0.0:
-            windows.insert(0, self._window(start, goal, costs.shape))
+        windows = [self._window(start, goal, costs.shape), None]
         for window in windows:
             r0, r1, c0, c1 = window or (0, costs.shape[0], 0, costs.shape[1])
             coarse = coarsen_costs(costs[r0:r1, c0:c1], self.factor)
@@ -327,9 +306,8 @@ class GlobalPlanner:
             points[-1] = goal
         if len(points) == 1:
             points = np.vstack((points, points))
-        if self.config.smooth:
-            points = shortcut(points, costs, grid)
-        resampled = resample(points, self.config.sample_spacing)
+        points = shortcut(points, costs, grid)
+        resampled = resample(points, self.config.path_spacing)
         return [(float(x), float(y)) for x, y in resampled]
 
     def _fine_cost(self, costs: npt.NDArray[np.uint8], point: tuple[float, float]) -> int:
@@ -343,7 +321,7 @@ class GlobalPlanner:
     ) -> tuple[int, int, int, int]:
         """Fine-grid (row0, row1, col0, col1) of the search box, aligned to coarse blocks."""
         grid, f = self.grid, self.factor
-        margin = self.config.window_margin
+        margin = WINDOW_MARGIN
         xs, ys = (start[0], goal[0]), (start[1], goal[1])
         rows, cols = grid.world_to_cell(
             [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
@@ -370,7 +348,7 @@ class GlobalPlanner:
         h, w = coarse.shape
         if 0 <= row < h and 0 <= col < w and coarse[row, col] < INSCRIBED:
             return row, col
-        k = max(1, math.ceil(self.config.snap_radius / res))
+        k = max(1, math.ceil(SNAP_RADIUS / res))
         r0, r1 = max(row - k, 0), min(row + k + 1, h)
         c0, c1 = max(col - k, 0), min(col + k + 1, w)
         window = coarse[r0:r1, c0:c1]
@@ -380,13 +358,13 @@ class GlobalPlanner:
             cy = grid.origin_y + (rr + r0 + offset[0] + 0.5) * res
             d = np.hypot(cx - point[0], cy - point[1])
             best = int(np.argmin(d))
-            if d[best] <= self.config.snap_radius + res:
+            if d[best] <= SNAP_RADIUS + res:
                 logger.debug("%s snapped %.2f m to a free cell", name, float(d[best]))
                 return int(rr[best] + r0), int(cc[best] + c0)
         error = StartBlockedError if name == "start" else GoalBlockedError
         raise error(
             f"{name} ({point[0]:.2f}, {point[1]:.2f}) is within the robot's inscribed radius of an"
-            f" obstacle and no free cell lies within {self.config.snap_radius} m"
+            f" obstacle and no free cell lies within {SNAP_RADIUS} m"
         )
 
 

@@ -38,6 +38,7 @@ from robot_daemon.planning.bottleneck import free_width, widest_way
 from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.costmap import LETHAL, Costmap
 from robot_daemon.planning.global_planner import (
+    WINDOW_MARGIN,
     GlobalPlanner,
     GoalBlockedError,
     PlanningError,
@@ -92,7 +93,7 @@ class Navigator:
     def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
         self.grid = grid
         self.config = config or PlannerConfig()
-        self.costmap = Costmap(grid, self.config.costmap_config())
+        self.costmap = Costmap(grid, self.config)
         self._make_planners()
         self._goals: tuple[Pose2D, ...] = ()
         self._index = 0
@@ -116,14 +117,14 @@ class Navigator:
     # -- commands from the daemon ------------------------------------------------------------
 
     def _make_planners(self) -> None:
-        self.global_planner = GlobalPlanner(self.grid, self.config.global_planner_config())
+        self.global_planner = GlobalPlanner(self.grid, self.config)
         self.local_planner = DWAPlanner(self.config)
 
     def reconfigure(self, **changes: Any) -> PlannerConfig:
         """Change parameters at run time (validated; raises :class:`PlannerConfigError`)."""
         new = self.config.replace(**changes)
         self.config = new
-        self.costmap.reconfigure(new.costmap_config())
+        self.costmap.reconfigure(new)
         self._make_planners()
         if "goal_xy_tolerance" in changes:
             self._xy_tolerance = new.goal_xy_tolerance
@@ -313,7 +314,7 @@ class Navigator:
         (`bottleneck`), searched in the global planner's window: the "where and why" of an
         unreachable goal."""
         grid = self.grid
-        margin = self.global_planner.config.window_margin or max(grid.size_m)
+        margin = WINDOW_MARGIN
         xs, ys = (pose.x, target.x), (pose.y, target.y)
         rows, cols = grid.world_to_cell(
             [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]

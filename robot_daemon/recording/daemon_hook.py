@@ -11,7 +11,6 @@ localiser has one). The planner's path is the daemon's own ``plan`` topic (``/pl
 from __future__ import annotations
 
 import dataclasses
-import ipaddress
 import logging
 import time
 from collections.abc import Callable
@@ -23,6 +22,7 @@ import zenoh
 from interbot_core.laser_scan import LaserScan
 from interbot_core.topics import RangeEncoding, Status, Topic
 from interbot_link import Command, RobotLink
+from interbot_link.security import is_loopback_host
 from robot_daemon.config import ConfigError, DaemonConfig
 from robot_daemon.recording.config import RecordingConfig, RecordingConfigError
 from robot_daemon.recording.recorder import LiveServer, McapRotation, Recorder, RecorderError
@@ -54,7 +54,7 @@ def parse_live_address(text: str, *, tls: tuple[bytes, bytes] | None = None) -> 
     host = host.strip("[]") or "127.0.0.1"
     if not port_text.isdigit() or not 0 <= int(port_text) <= 65535:
         raise LiveAddressError(f"--foxglove {text!r}: the port must be 0..65535 ([HOST:]PORT)")
-    if not _is_loopback(host) and tls is None:
+    if not is_loopback_host(host) and tls is None:
         raise LiveAddressError(
             f"--foxglove {text!r}: refused to serve the robot's map, camera and pose on "
             f"{host}, which is not loopback: the Foxglove server has no authentication. "
@@ -62,15 +62,6 @@ def parse_live_address(text: str, *, tls: tuple[bytes, bytes] | None = None) -> 
             "--security (TLS) when it has it."
         )
     return LiveServer(host, int(port_text), *(tls or ()))  # with TLS: wss:// only
-
-
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 class StackSampler:

@@ -26,9 +26,7 @@ from foxglove.messages import (
     Vector2,
     Vector3,
 )
-from foxglove.messages import (
-    LaserScan as FoxgloveLaserScan,
-)
+from foxglove.messages import LaserScan as FoxgloveLaserScan
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan

@@ -130,24 +130,24 @@ def message_dict(message: object) -> dict[str, Any]:
         value = getattr(message, name)
         if isinstance(value, bytes | np.ndarray):
             continue
-        out[name] = _jsonable(value)
+        out[name] = jsonable(value)
     return out
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """JSON-ready: tuples to lists, numpy scalars to Python, NaN/inf to null (JSON has neither)."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
     if isinstance(value, tuple | list):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, np.generic):
-        return _jsonable(value.item())
+        return jsonable(value.item())
     if is_message(value):
         return message_dict(value)
     if hasattr(value, "value") and not isinstance(value, int | float | str | bool):
-        return _jsonable(value.value)  # enums
+        return jsonable(value.value)  # enums
     return value
 
 
@@ -271,14 +271,11 @@ class Recorder:
                 raise RecorderError(
                     f"cannot serve Foxglove on {live.host}:{live.port}: {exc}"
                 ) from None
+            scheme = "wss" if live.tls_cert else "ws"
+            logger.info("Foxglove live view on %s://%s:%d", scheme, live.host, self.port)
         self._chunk_bytes = CHUNK_BYTES
         if rotation is not None:  # several chunks per file, so the size check is not too coarse
             self._chunk_bytes = max(4096, min(CHUNK_BYTES, rotation.config.max_file_bytes // 16))
-        if self.server is not None:
-            scheme = "wss" if live is not None and live.tls_cert else "ws"
-            logger.info(
-                "Foxglove live view on %s://%s:%d", scheme, live.host if live else "", self.port
-            )
         try:
             self._open_first_file()
         except RecorderError:
@@ -455,7 +452,7 @@ class Recorder:
             data = item[3]
             if is_message(data):
                 data = message_dict(data)
-            self._log_json(item[2], _jsonable(dict(data)), now)
+            self._log_json(item[2], jsonable(dict(data)), now)
         else:
             raise ValueError(f"unknown recorder item {kind!r}")
 

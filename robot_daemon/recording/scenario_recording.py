@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 SCENARIO = "station (scenario)"
 TRUTH = "/truth"
 TASKS = "/tasks"
-STATE_HZ, SCAN_HZ, MUX_HZ, BATTERY_HZ = 20.0, 10.0, 5.0, 1.0
+RATES_HZ = {"state": 20.0, "scan": 10.0, "mux": 5.0, "battery": 1.0}  # the daemon's rates
 
 
 class ScenarioRecorder:
@@ -56,15 +56,7 @@ class ScenarioRecorder:
         """Start recording ``system`` (after whatever was recorded before)."""
         self._offset = self._end + 1.0 if self._system is not None else 0.0
         self._system = system
-        self._due = {
-            name: Periodic(hz)
-            for name, hz in (
-                ("state", STATE_HZ),
-                ("scan", SCAN_HZ),
-                ("mux", MUX_HZ),
-                ("battery", BATTERY_HZ),
-            )
-        }
+        self._due = {name: Periodic(hz) for name, hz in RATES_HZ.items()}
         self._events_seen = 0
         self._route_key: tuple[int, int, str] | None = None
         self._route_id: int | None = None

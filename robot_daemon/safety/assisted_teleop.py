@@ -40,6 +40,7 @@ import numpy as np
 from msgspec import Meta
 
 from interbot_core import schema
+from interbot_core.schema import within
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     arc_poses,
@@ -60,7 +61,6 @@ from robot_daemon.safety.collision_monitor import (
     check_points,
     convert_section,
     parse_points,
-    within,
 )
 
 logger = logging.getLogger(__name__)

@@ -44,6 +44,8 @@ from msgspec import Meta
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
+from interbot_core.schema import within
+from robot_daemon.config import ConfigError
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
     PolygonError,
@@ -69,14 +71,9 @@ ESCAPE_TOLERANCE = 2e-4  # [m] range noise allowed in that test
 DEFAULT_FOOTPRINT = ((0.30, 0.275), (-0.30, 0.275), (-0.30, -0.275), (0.30, -0.275))
 
 
-class SafetyConfigError(ValueError):
-    """The collision monitor / assisted teleoperation configuration is invalid; says where."""
-
-
-def within(low: float, high: float, unit: str = "", *, low_open: bool = False) -> Meta:
-    """``[low, high]`` (``(low, high]`` when ``low_open``), with the unit errors name."""
-    extra = {"unit": unit} if unit else None
-    return Meta(gt=low, le=high, extra=extra) if low_open else Meta(ge=low, le=high, extra=extra)
+class SafetyConfigError(ConfigError):
+    """The collision monitor / assisted teleoperation configuration is invalid; says where
+    (a robot configuration error: the daemon refuses to start)."""
 
 
 Points = Annotated[

@@ -321,10 +321,7 @@ def run_trial(
         if sender.done:
             return True
         payload = (sender.section, linear, angular, now, position())
-        if tablet_link is not None:
-            tablet_link.send(now, payload, payload[4])
-        else:
-            station_link.send(now, payload, payload[4])
+        (tablet_link or station_link).send(now, payload, payload[4])  # the controller's link
         return False
 
     def on_step(now: float) -> None:

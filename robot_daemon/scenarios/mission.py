@@ -137,9 +137,7 @@ def choose_checkpoints(
         ("P2", leg2, 1 / 3, None),
         ("P3", leg2, 2 / 3, None),
     ):
-        first = (
-            origin if origin is not None else (topo.node(leg[0]).pose.x, topo.node(leg[0]).pose.y)
-        )
+        first = origin or (topo.node(leg[0]).pose.x, topo.node(leg[0]).pose.y)
         nodes = leg if origin is not None else leg[1:]
         points = _polyline(topo, nodes, first)
         seg = np.hypot(*np.diff(points, axis=0).T)
@@ -174,8 +172,8 @@ class HumanDriver:
         self._view: tuple[Pose2D | None, LaserScan | None] = (None, None)
         self._joystick: deque[tuple[float, float, float]] = deque()  # (due, linear, angular)
         config = PlannerConfig()
-        self.planner = GlobalPlanner(system.grid, config.global_planner_config())
-        self.costs = Costmap(system.grid, config.costmap_config()).static_costs
+        self.planner = GlobalPlanner(system.grid, config)
+        self.costs = Costmap(system.grid, config).static_costs
         self.path: np.ndarray | None = None
         self._path_target: tuple[float, float] | None = None
         self._planned_at = -math.inf
@@ -208,31 +206,27 @@ class HumanDriver:
                 self.path = np.asarray([(pose.x, pose.y), key], dtype=np.float64)
             self._path_target, self._planned_at = key, now
 
+    def _points(self) -> np.ndarray:
+        """The end points of the scan the operator sees, in the robot frame (none: no scan)."""
+        scan = self._view[1]
+        return scan.points() if scan is not None else np.empty((0, 2))
+
     def _front_range(self) -> float:
         """Free range [m] straight ahead in the robot's published scan (a 0.7 m wide lane)."""
-        scan = self._view[1]
-        if scan is None:
-            return math.inf
-        pts = scan.points()
+        pts = self._points()
         if len(pts) == 0:
             return math.inf
         lane = (pts[:, 0] > 0.0) & (np.abs(pts[:, 1]) < 0.35)
         return float(pts[lane, 0].min()) if np.any(lane) else math.inf
 
     def _side_clearance(self) -> float:
-        scan = self._view[1]
-        if scan is None:
-            return math.inf
-        pts = scan.points()
+        pts = self._points()
         side = (np.abs(pts[:, 0]) < 0.5) & (np.abs(pts[:, 1]) > 0.0)
         return float(np.abs(pts[side, 1]).min()) if np.any(side) else math.inf
 
     def _freer_side(self) -> float:
         """+1 if there is more room to the left within 1 m ahead in the scan, else -1."""
-        scan = self._view[1]
-        if scan is None:
-            return 1.0
-        pts = scan.points()
+        pts = self._points()
         ahead = (pts[:, 0] > -0.2) & (pts[:, 0] < 1.0)
         left = pts[ahead & (pts[:, 1] > 0), 1]
         right = -pts[ahead & (pts[:, 1] < 0), 1]

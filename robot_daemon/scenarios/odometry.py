@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from interbot_core.geometry import Pose2D, angle_diff
+from robot_daemon.recording.recorder import jsonable
 from robot_daemon.scenarios.runner import (
     ScenarioOptions,
     ScenarioResult,
@@ -58,6 +59,8 @@ END_MARGIN = 1.0  # [m] kept free at each end of the stretch
 ANGULAR_SPEED = 0.6  # [rad/s] thesis Tables 6.1/6.2
 LINEAR_SPEEDS = {"uncalibrated": (0.6, 0.3), "calibrated": (0.42, 0.30)}  # [m/s] tests 1, 2
 SETTLE_S = 1.5  # [s] standstill between sections
+# A section's measurements (its state), in the order of SectionResult's last four fields.
+MEASURED = ("measured", "odom_at", "true", "odom")
 HOLD_MAX_W = 0.2  # [rad/s] heading/lateral hold on straight sections
 SECTION_TIMEOUT_FACTOR = 2.0  # a section gives up after this many expected durations
 
@@ -187,18 +190,8 @@ class CircuitDriver:
                 "test %d section %d: the robot did not cover %.1f m", test, section, self.distance
             )
         self.settle(on_step)
-        return SectionResult(
-            test,
-            section,
-            "linear",
-            speed,
-            self.distance,
-            expected,
-            state["measured"],
-            state["odom_at"],
-            state["true"],
-            state["odom"],
-        )
+        measured = (state[key] for key in MEASURED)
+        return SectionResult(test, section, "linear", speed, self.distance, expected, *measured)
 
     def rotation(self, test: int, section: int, rate: float, face_after: float) -> SectionResult:
         """Turn 2 pi at ``rate`` (timed), continue until facing ``face_after`` (not timed)."""
@@ -242,18 +235,8 @@ class CircuitDriver:
 
         run_ticks(system, tick, SECTION_TIMEOUT_FACTOR * expected + 20.0, on_step=on_step)
         self.settle(on_step)
-        return SectionResult(
-            test,
-            section,
-            "angular",
-            rate,
-            target,
-            expected,
-            state["measured"],
-            state["odom_at"],
-            state["true"],
-            state["odom"],
-        )
+        measured = (state[key] for key in MEASURED)
+        return SectionResult(test, section, "angular", rate, target, expected, *measured)
 
     def settle(self, on_step: Callable[[float], None] | None = None) -> None:
         """Zero commands for SETTLE_S; ``on_step`` goes on measuring the standstill."""
@@ -392,15 +375,4 @@ def run(options: ScenarioOptions) -> ScenarioResult:
             f"collisions {facts['collisions']}; simulated {facts['sim_time_s']:.0f} s; "
             f"stretch between nodes {facts['segment_nodes']}, D = {facts['distance_m']:.2f} m"
         )
-    return ScenarioResult("odometry", "\n".join(tables), _json_safe(figures))
-
-
-def _json_safe(value: Any) -> Any:
-    """NaN -> None so the JSON line stays standard."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_json_safe(v) for v in value]
-    return value
+    return ScenarioResult("odometry", "\n".join(tables), jsonable(figures))  # NaN -> null

@@ -134,10 +134,7 @@ def _corner_runs(system: SimulatedSystem, topo: TopologicalMap) -> list[Run]:
         if len(nbrs) != 2:
             continue
         p = node.pose
-        dirs = []
-        for n in nbrs:
-            q = topo.node(n).pose
-            dirs.append(math.atan2(q.y - p.y, q.x - p.x))
+        dirs = [math.atan2(q.y - p.y, q.x - p.x) for q in (topo.node(n).pose for n in nbrs)]
         turn = abs(angle_diff(dirs[0], dirs[1]))
         if not math.radians(60) <= turn <= math.radians(120):
             continue
@@ -285,13 +282,8 @@ def drive(system: SimulatedSystem, run: Run) -> Outcome:
         ):
             break
     stack.on_twist("station_vel", 0.0, 0.0, system.now)
-    return Outcome(
-        run,
-        sim.collisions - collisions0,
-        clearance,
-        _progress(run, run.start, sim.true_pose()),
-        through,
-    )
+    progress = _progress(run, run.start, sim.true_pose())
+    return Outcome(run, sim.collisions - collisions0, clearance, progress, through)
 
 
 def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:

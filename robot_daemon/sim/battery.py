@@ -27,8 +27,8 @@ from interbot_core import schema
 
 logger = logging.getLogger(__name__)
 
-_OCV_SOC = np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
-_OCV_CELL = np.array([3.0, 3.3, 3.45, 3.55, 3.62, 3.68, 3.73, 3.8, 3.88, 3.97, 4.07, 4.2])  # [V]
+OCV_SOC = np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0])
+OCV_CELL = np.array([3.0, 3.3, 3.45, 3.55, 3.62, 3.68, 3.73, 3.8, 3.88, 3.97, 4.07, 4.2])  # [V]
 
 
 class BatteryConfigError(ValueError):
@@ -78,7 +78,7 @@ class BatteryState:
 
 def open_circuit_cell_voltage(soc: float) -> float:
     """Cell open-circuit voltage [V] at a state of charge (clamped to [0, 1])."""
-    return float(np.interp(min(max(soc, 0.0), 1.0), _OCV_SOC, _OCV_CELL))
+    return float(np.interp(min(max(soc, 0.0), 1.0), OCV_SOC, OCV_CELL))
 
 
 class Battery:

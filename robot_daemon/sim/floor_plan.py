@@ -48,6 +48,14 @@ DOOR_APPROACH_SIDE = 0.3  # [m] furniture-free margin either side of the door
 WALLS = ("north", "south", "east", "west")
 
 
+# The plan file, declared (msgspec): types carry the rules a single value can break; the geometry
+# across items is `validate_floor_plan`'s.
+Name = Annotated[str, Meta(pattern=r"\S", extra={"format": "a non-empty string"})]
+Span = tuple[schema.Finite, schema.Finite]  # [min, max] along one axis [m]
+Metres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
+Text = Annotated[str | None, Meta(extra={"format": "a string"})]
+
+
 class FloorPlanError(ValueError):
     """A floor plan is malformed or inconsistent; the message names the file, item and field."""
 
@@ -114,56 +122,31 @@ class Rect:
         ]
 
 
-@dataclass(frozen=True)
-class Door:
+class _Entry(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    pass
+
+
+class Door(_Entry, frozen=True):
     """A door in one wall of a room: ``offset`` [m] from the wall's west/south end to its centre
-    (checked as read: `_DoorEntry`)."""
+    (its fields checked as the plan is read, not when built in Python)."""
 
-    wall: str
-    offset: float  # [m]
-    width: float  # [m]
-
-
-@dataclass(frozen=True)
-class Furniture:
-    """An obstacle inside a room (table, shelf, bench), drawn as occupied."""
-
-    name: str
-    rect: Rect
+    wall: Annotated[str, schema.one_of(*WALLS)]
+    offset: schema.Finite  # [m]
+    # [m] (1e-9: a width computed as 1.2000000000000002 is 1.2)
+    width: Annotated[
+        float, Meta(ge=DOOR_WIDTH_MIN - 1e-9, le=DOOR_WIDTH_MAX + 1e-9, extra={"unit": "m"})
+    ]
 
 
-@dataclass(frozen=True)
-class Room:
-    """A room: its free floor rectangle, doors, furniture and what the tablet shows."""
-
-    name: str
-    rect: Rect
-    doors: tuple[Door, ...]
-    furniture: tuple[Furniture, ...] = ()
-    info: str = ""
-    tour: bool = False
-    requests: bool = False
-    home: bool = False
-    inside: tuple[float, float] | None = None  # [m] node inside the room (request rooms)
-    name_pt: str = ""  # the tablet's Portuguese texts (empty: the English one is shown)
-    info_pt: str = ""
+class _PointEntry(_Entry, frozen=True):
+    x: schema.Finite  # [m]
+    y: schema.Finite  # [m]
 
 
-@dataclass(frozen=True)
-class Area:
-    """A named rectangle: a corridor floor or a courtyard."""
-
-    name: str
-    rect: Rect
-
-
-@dataclass(frozen=True)
-class Waypoint:
+class Waypoint(_PointEntry, frozen=True):
     """A corridor junction node that is not a room (tour: false)."""
 
-    name: str
-    x: float  # [m]
-    y: float  # [m]
+    name: Name
 
 
 @dataclass(frozen=True)
@@ -215,78 +198,41 @@ class FloorPlan:
 # ---------------------------------------------------------------------------- parsing
 
 
-# The plan file, declared (msgspec): types carry the rules a single value can break; the geometry
-# across items is `validate_floor_plan`'s.
-Name = Annotated[str, Meta(pattern=r"\S", extra={"format": "a non-empty string"})]
-Span = tuple[schema.Finite, schema.Finite]  # [min, max] along one axis [m]
-Metres = Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "m"})]
-Text = Annotated[str | None, Meta(extra={"format": "a string"})]
-
-
-class _Entry(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
-    pass
-
-
 class _RectEntry(_Entry, frozen=True):
     x: Span
     y: Span
 
+    @property
     def rect(self) -> Rect:
         return Rect(self.x[0], self.y[0], self.x[1], self.y[1])
 
 
-class _AreaEntry(_RectEntry, frozen=True):
+class Area(_RectEntry, frozen=True):
+    """A named rectangle: a corridor floor or a courtyard."""
+
     name: Name
 
 
-class _FurnitureEntry(_RectEntry, frozen=True):
+class Furniture(_RectEntry, frozen=True):
+    """An obstacle inside a room (table, shelf, bench), drawn as occupied."""
+
     name: Name = "furniture"
 
 
-class _DoorEntry(_Entry, frozen=True):
-    wall: Annotated[str, schema.one_of(*WALLS)]
-    offset: schema.Finite  # [m]
-    # [m] (1e-9: a width computed as 1.2000000000000002 is 1.2)
-    width: Annotated[
-        float, Meta(ge=DOOR_WIDTH_MIN - 1e-9, le=DOOR_WIDTH_MAX + 1e-9, extra={"unit": "m"})
-    ]
+class Room(_RectEntry, frozen=True):
+    """A room: its free floor rectangle, doors, furniture and what the tablet shows (the texts
+    may be None: not given)."""
 
-
-class _PointEntry(_Entry, frozen=True):
-    x: schema.Finite
-    y: schema.Finite
-
-
-class _WaypointEntry(_PointEntry, frozen=True):
     name: Name
-
-
-class _RoomEntry(_RectEntry, frozen=True):
-    name: Name
-    doors: Annotated[tuple[_DoorEntry, ...], Meta(min_length=1)]  # at least one to a corridor
-    furniture: tuple[_FurnitureEntry, ...] = ()
+    doors: Annotated[tuple[Door, ...], Meta(min_length=1)]  # at least one to a corridor
+    furniture: tuple[Furniture, ...] = ()
     info: Text = ""
-    info_pt: Text = ""
+    info_pt: Text = ""  # the tablet's Portuguese texts (empty: the English one is shown)
     name_pt: Text = ""
     tour: bool = False
     requests: bool = False
     home: bool = False
-    inside: _PointEntry | None = None
-
-    def room(self) -> Room:
-        return Room(
-            name=self.name,
-            rect=self.rect(),
-            doors=tuple(Door(d.wall, d.offset, d.width) for d in self.doors),
-            furniture=tuple(Furniture(f.name, f.rect()) for f in self.furniture),
-            info=self.info or "",
-            tour=self.tour,
-            requests=self.requests,
-            home=self.home,
-            inside=None if self.inside is None else (self.inside.x, self.inside.y),
-            name_pt=self.name_pt or "",
-            info_pt=self.info_pt or "",
-        )
+    inside: _PointEntry | None = None  # [m] node inside the room (request rooms)
 
 
 class _MapEntry(_Entry, frozen=True):
@@ -310,10 +256,10 @@ class PlanFile(_Entry, frozen=True):
     entrance_distance: Metres = 0.9
     arc_clearance: Metres = 0.3
     node_clearance: Metres = 0.35
-    corridors: tuple[_AreaEntry, ...] = ()
-    courtyards: tuple[_AreaEntry, ...] = ()
-    waypoints: tuple[_WaypointEntry, ...] = ()
-    rooms: tuple[_RoomEntry, ...] = ()
+    corridors: tuple[Area, ...] = ()
+    courtyards: tuple[Area, ...] = ()
+    waypoints: tuple[Waypoint, ...] = ()
+    rooms: tuple[Room, ...] = ()
     ring: tuple[Name, ...] = ()
     arcs: tuple[
         Annotated[tuple[Name, ...], Meta(min_length=2, extra={"format": "a chain of node names"})],
@@ -349,7 +295,7 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
         rect_of += [(f"room {room.name!r} furniture ({f.name})", f) for f in room.furniture]
     for label, entry in rect_of:
         try:
-            entry.rect()
+            entry.rect  # noqa: B018 (built to be checked)
         except ValueError as exc:
             raise FloorPlanError(f"{source}: {label}: 'x'/'y': {exc}") from None
     plan = FloorPlan(
@@ -361,11 +307,11 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
         height_m=top.map.size[1],
         map_file=top.outputs.map,
         topological_file=top.outputs.topological,
-        building=top.building.rect(),
-        corridors=tuple(Area(a.name, a.rect()) for a in top.corridors),
-        courtyards=tuple(Area(a.name, a.rect()) for a in top.courtyards),
-        rooms=tuple(room.room() for room in top.rooms),
-        waypoints=tuple(Waypoint(w.name, w.x, w.y) for w in top.waypoints),
+        building=top.building.rect,
+        corridors=top.corridors,
+        courtyards=top.courtyards,
+        rooms=top.rooms,
+        waypoints=top.waypoints,
         ring=top.ring,
         arcs=top.arcs,
         entrance_distance=top.entrance_distance,
@@ -457,7 +403,7 @@ def _validate_room(plan: FloorPlan, room: Room) -> None:
             "inside the room where requests are handed over"
         )
     if room.inside is not None:
-        x, y = room.inside
+        x, y = room.inside.x, room.inside.y
         if not room.rect.contains_point(x, y):
             raise FloorPlanError(f"{src}: {label}: 'inside' ({x}, {y}) lies outside the room")
         for f, item in enumerate(room.furniture):

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from typing import Annotated, ClassVar
 
 import numpy as np
@@ -119,16 +118,6 @@ def true_body_velocity(
 def true_track_width(model: OdometryErrorModel, track_width: float) -> float:
     """The real track width [m] given the believed one."""
     return track_width / model.track_scale
-
-
-@dataclass(frozen=True)
-class OdometryReading:
-    """One odometry message: odom-frame pose and body velocities measured over the last update."""
-
-    stamp: float  # [s] simulated time
-    pose: Pose2D  # base_link in odom
-    linear: float  # [m/s]
-    angular: float  # [rad/s]
 
 
 class WheelOdometry:

@@ -34,12 +34,12 @@ from typing import Annotated, ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from msgspec import Meta
 from scipy import sparse
 from scipy.sparse import csgraph
 
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
+from interbot_core.schema import within
 from robot_daemon.sim.diff_drive import RobotFootprint
 from robot_daemon.sim.world import World
 
@@ -62,12 +62,8 @@ class PersonState(Enum):
     BLOCKING = "blocking"
 
 
-def _within(low: float, high: float, unit: str = "") -> Meta:
-    return Meta(ge=low, le=high, extra={"unit": unit} if unit else None)
-
-
-Probability = Annotated[float, _within(0.0, 1.0)]
-Seconds = Annotated[float, _within(0.0, 600.0, "s")]
+Probability = Annotated[float, within(0.0, 1.0)]
+Seconds = Annotated[float, within(0.0, 600.0, "s")]
 Span = tuple[float, float]  # (lo, hi) with 0 <= lo <= hi
 
 
@@ -76,7 +72,7 @@ class CrowdConfig(schema.Declared, frozen=True):
 
     ROOT: ClassVar[str] = "CrowdConfig"
     ERROR: ClassVar[type[Exception]] = PeopleConfigError
-    radius: Annotated[float, _within(0.05, 1.0, "m")] = 0.25
+    radius: Annotated[float, within(0.05, 1.0, "m")] = 0.25
     speed_range: Span = (0.8, 1.3)  # [m/s]
     pause_probability: Probability = 0.3  # at each route waypoint
     pause_range: Span = (1.0, 4.0)  # [s]
@@ -86,13 +82,13 @@ class CrowdConfig(schema.Declared, frozen=True):
     # leave would wait for each other forever)
     yield_patience: Seconds = 3.0
     # [m] from the robot body, stepping back in a stand-off
-    give_way_clearance: Annotated[float, _within(0.0, 10.0, "m")] = 1.2
+    give_way_clearance: Annotated[float, within(0.0, 10.0, "m")] = 1.2
     give_way_s: Seconds = 8.0  # [s] the person lets the robot pass, then walks on
     blocker_probability: Probability = 0.5  # per encounter, for people flagged as blockers
     blocker_trigger: float = 2.5  # [m] ahead of the robot
     blocker_duration: Span = (3.0, 8.0)  # [s]
     blocker_cooldown: float = 15.0  # [s] before the same person blocks again
-    lattice: Annotated[float, _within(0.05, 1.0, "m")] = 0.2  # roadmap pitch for route planning
+    lattice: Annotated[float, within(0.05, 1.0, "m")] = 0.2  # roadmap pitch for route planning
 
     def check(self) -> None:
         for name in ("speed_range", "pause_range", "blocker_duration"):
@@ -210,15 +206,10 @@ class Crowd:
         self.world = world
         self.config = config or CrowdConfig()
         self._rng = rng
-        self._people: list[Person] = []
+        self.people: list[Person] = []  # in creation order
         self._next_id = 0
         self._roadmap: Roadmap | None = None
         self._roadmap_version = -1
-
-    @property
-    def people(self) -> tuple[Person, ...]:
-        """The people, in creation order."""
-        return tuple(self._people)
 
     def roadmap(self) -> Roadmap:
         """The walking roadmap for the current walls (rebuilt after an obstacle is added)."""
@@ -229,9 +220,9 @@ class Crowd:
 
     def circles(self) -> FloatArray:
         """(N, 3) rows of x [m], y [m], radius [m]."""
-        if not self._people:
+        if not self.people:
             return np.empty((0, 3))
-        return np.array([(p.x, p.y, p.radius) for p in self._people], dtype=np.float64)
+        return np.array([(p.x, p.y, p.radius) for p in self.people], dtype=np.float64)
 
     def add_person(
         self,
@@ -265,7 +256,7 @@ class Crowd:
             y=float(path[0, 1]),
             target=1 % len(path),
         )
-        self._people.append(person)
+        self.people.append(person)
         self._next_id += 1
         return person.person_id
 
@@ -287,19 +278,17 @@ class Crowd:
         )
         return [(float(roadmap.xy[k, 0]), float(roadmap.xy[k, 1])) for k in picks]
 
-    def spawn(self, n: int, n_waypoints: int = 4, blocker_fraction: float = 0.3) -> list[int]:
+    def spawn(self, n: int, n_waypoints: int = 4, blocker_fraction: float = 0.3) -> None:
         """Add ``n`` people on generated routes; about ``blocker_fraction`` of them block."""
-        ids = []
         for _ in range(n):
             route = self.random_route(n_waypoints)
-            ids.append(self.add_person(route, blocker=bool(self._rng.random() < blocker_fraction)))
-        return ids
+            self.add_person(route, blocker=bool(self._rng.random() < blocker_fraction))
 
     # --- stepping ---------------------------------------------------------------------------
 
     def step(self, dt: float, robot_pose: Pose2D, footprint: RobotFootprint) -> None:
         """Advance every person by dt [s] given the robot's true pose."""
-        for p in self._people:
+        for p in self.people:
             self._step_person(p, dt, robot_pose, footprint)
 
     def _in_front_of_robot(self, p: Person, robot_pose: Pose2D, footprint: RobotFootprint) -> bool:

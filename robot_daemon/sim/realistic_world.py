@@ -33,18 +33,21 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Sequence
+import typing
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, ClassVar
 
 import cv2
+import msgspec
 import numpy as np
 import numpy.typing as npt
 from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from interbot_core.schema import within
 from interbot_core.topological_map import TopologicalMap
 from robot_daemon.sim.floor_plan import (
     Door,
@@ -62,6 +65,7 @@ from robot_daemon.sim.floor_plan import (
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+Placed = typing.TypeVar("Placed", Room, Furniture)
 
 CHAIR_SIDE = 0.42  # [m] leg square of an office chair
 CHAIR_LEG = 0.03  # [m] leg (or castor column) width
@@ -72,12 +76,8 @@ class WorldVariationError(ValueError):
     """A world-variation parameter is out of range; the message names it."""
 
 
-def _metres(low: float, high: float) -> Meta:
-    return Meta(ge=low, le=high, extra={"unit": "m"})
-
-
 Count = Annotated[int, Meta(ge=0, le=200)]
-Clearance = Annotated[float, _metres(0.0, 5.0)]
+Clearance = Annotated[float, within(0.0, 5.0, "m")]
 
 
 class WorldVariation(schema.Declared, frozen=True):
@@ -86,11 +86,11 @@ class WorldVariation(schema.Declared, frozen=True):
     ROOT: ClassVar[str] = "WorldVariation"
     ERROR: ClassVar[type[Exception]] = WorldVariationError
 
-    resolution: Annotated[float, _metres(0.005, 0.05)] = 0.02  # cell of the world's drawing
+    resolution: Annotated[float, within(0.005, 0.05, "m")] = 0.02  # cell of the world's drawing
     # room / wall displacement, per axis (~5 cm in 2-D)
-    wall_sigma: Annotated[float, _metres(0.0, 0.2)] = 0.035
+    wall_sigma: Annotated[float, within(0.0, 0.2, "m")] = 0.035
     # lattice of the displacement field (grid sources)
-    warp_length: Annotated[float, _metres(0.5, 50.0)] = 4.0
+    warp_length: Annotated[float, within(0.5, 50.0, "m")] = 4.0
     boxes: Count = 6
     chairs: Count = 6
     corridor_items: Count = 4
@@ -100,20 +100,6 @@ class WorldVariation(schema.Declared, frozen=True):
     glass_panels: Count = 2
     route_clearance: Clearance = 0.65  # clutter keeps this far from topological arcs
     node_clearance: Clearance = 1.0  # clutter keeps this far from topological nodes
-
-
-@dataclass(frozen=True)
-class GlassPanel:
-    """An axis-aligned pane [m]: solid to the robot, mostly transparent to the laser."""
-
-    x0: float
-    y0: float
-    x1: float
-    y1: float
-
-    def __post_init__(self) -> None:
-        if not (self.x0 < self.x1 and self.y0 < self.y1):
-            raise WorldVariationError(f"GlassPanel needs x0 < x1 and y0 < y1, got {self}")
 
 
 @dataclass(frozen=True)
@@ -133,7 +119,7 @@ class SimWorldSpec:
     """The simulator's building: its own grid, glass, clutter and what differs from the map."""
 
     grid: OccupancyGrid  # walls and furniture at ``resolution`` (unknown = wall)
-    glass: tuple[GlassPanel, ...]
+    glass: tuple[Rect, ...]  # panes: solid to the robot, mostly transparent to the laser
     items: tuple[Item, ...]
     notes: tuple[str, ...]  # human-readable list of the differences (logged)
 
@@ -150,8 +136,10 @@ def plan_beside(map_yaml: Path) -> Path | None:
     return candidate if candidate.exists() else None
 
 
-def _shift(rect: Rect, dx: float, dy: float) -> Rect:
-    return Rect(rect.x0 + dx, rect.y0 + dy, rect.x1 + dx, rect.y1 + dy)
+def _shifted(item: Placed, dx: float, dy: float) -> Placed:
+    """A room or a piece of furniture moved by (dx, dy) [m]."""
+    x, y = item.x, item.y
+    return msgspec.structs.replace(item, x=(x[0] + dx, x[1] + dx), y=(y[0] + dy, y[1] + dy))
 
 
 def _opens(plan: FloorPlan, room: Room) -> bool:
@@ -176,11 +164,8 @@ def _displace_plan(
     offsets: list[float] = []
     for room in plan.rooms:
         dx, dy = (float(v) for v in rng.normal(0.0, sigma, 2))
-        shifted = dataclasses.replace(
-            room,
-            rect=_shift(room.rect, dx, dy),
-            furniture=tuple(Furniture(f.name, _shift(f.rect, dx, dy)) for f in room.furniture),
-        )
+        furniture = tuple(_shifted(f, dx, dy) for f in room.furniture)
+        shifted = msgspec.structs.replace(_shifted(room, dx, dy), furniture=furniture)
         if not _opens(moved, shifted):  # a door no longer reaches its corridor: keep the room
             shifted, dx, dy = room, 0.0, 0.0
         rooms.append(shifted)
@@ -189,18 +174,14 @@ def _displace_plan(
     return dataclasses.replace(moved, rooms=tuple(rooms)), rms
 
 
-def _protected_rooms(plan: FloorPlan) -> set[str]:
-    """Rooms whose doors must stay open: nodes inside them, or home."""
-    return {r.name for r in plan.rooms if r.inside is not None or r.home}
-
-
 def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
-    protected = _protected_rooms(plan)
+    # Doors that stay open: of rooms with a node inside them, and of home.
+    protected = {r.name for r in plan.rooms if r.inside is not None or r.home}
     candidates = [i for i, r in enumerate(plan.rooms) if r.doors and r.name not in protected]
     rooms = list(plan.rooms)
     for i in rng.permutation(candidates)[:n]:
         room = rooms[int(i)]
-        rooms[int(i)] = dataclasses.replace(room, doors=room.doors[1:])
+        rooms[int(i)] = msgspec.structs.replace(room, doors=room.doors[1:])
         notes.append(f"door of {room.name!r} closed (open in the map)")
     return dataclasses.replace(plan, rooms=tuple(rooms))
 
@@ -212,20 +193,8 @@ def _open_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[s
         if opened >= n:
             break
         room = rooms[int(i)]
-        if not room.doors:
-            continue
-        first = room.doors[0]
-        length = room.rect.width if first.wall in ("north", "south") else room.rect.height
-        for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
-            if abs(offset - first.offset) < 2.0:
-                continue
-            door = Door(first.wall, float(offset), 0.9)
-            trial = dataclasses.replace(room, doors=(*room.doors, door))
-            try:
-                door_opening(plan, trial, len(trial.doors) - 1)
-                zone = door_approach_zone(trial, len(trial.doors) - 1)
-            except FloorPlanError:
-                continue
+        for trial, _ in _wall_openings(plan, room, rng, 0.9, 2.0):
+            zone = door_approach_zone(trial, len(trial.doors) - 1)
             if any(f.rect.overlaps(zone) for f in room.furniture):
                 continue
             rooms[int(i)] = trial
@@ -249,50 +218,62 @@ def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
         for _ in range(20):
             angle = rng.uniform(-math.pi, math.pi)
             dist = rng.uniform(0.3, 0.6)
-            rect = _shift(item.rect, dist * math.cos(angle), dist * math.sin(angle))
+            moved_item = _shifted(item, dist * math.cos(angle), dist * math.sin(angle))
+            rect = moved_item.rect
             others = [f.rect for j, f in enumerate(room.furniture) if j != k]
             inside = inner.contains(rect) and not any(rect.overlaps(z) for z in zones)
             if inside and not any(rect.overlaps(o, 0.3) for o in others):
                 furniture = list(room.furniture)
-                furniture[k] = Furniture(item.name, rect)
-                rooms[int(i)] = dataclasses.replace(room, furniture=tuple(furniture))
+                furniture[k] = moved_item
+                rooms[int(i)] = msgspec.structs.replace(room, furniture=tuple(furniture))
                 notes.append(f"{item.name!r} in {room.name!r} moved {dist:.2f} m")
                 moved += 1
                 break
     return dataclasses.replace(plan, rooms=tuple(rooms))
 
 
+def _wall_openings(
+    plan: FloorPlan, room: Room, rng: np.random.Generator, width: float, spacing: float
+) -> Iterator[tuple[Room, Rect]]:
+    """``room`` with one more door of ``width`` [m] in the wall of its first door, at least
+    ``spacing`` [m] from it, and that door's opening: tried at 8 random offsets, yielding those
+    that reach a corridor (none for a room without doors)."""
+    if not room.doors:
+        return
+    first = room.doors[0]
+    length = room.rect.width if first.wall in ("north", "south") else room.rect.height
+    for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
+        if abs(offset - first.offset) < spacing:
+            continue
+        trial = msgspec.structs.replace(
+            room, doors=(*room.doors, Door(first.wall, float(offset), width))
+        )
+        try:
+            opening = door_opening(plan, trial, len(trial.doors) - 1)
+        except FloorPlanError:
+            continue
+        yield trial, opening
+
+
 def _glass_panels(
     plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]
-) -> list[GlassPanel]:
+) -> list[Rect]:
     """Wall sections (1.2 m, the width a door could have) between a room and its corridor."""
-    panels: list[GlassPanel] = []
+    panels: list[Rect] = []
     for i in rng.permutation(len(plan.rooms)):
         if len(panels) >= n:
             break
         room = plan.rooms[int(i)]
-        if not room.doors:
-            continue
-        first = room.doors[0]
-        length = room.rect.width if first.wall in ("north", "south") else room.rect.height
-        for offset in rng.uniform(0.8, max(length - 0.8, 0.81), 8):
-            if abs(offset - first.offset) < 1.8:
-                continue
-            pane = Door(first.wall, float(offset), 1.2)
-            trial = dataclasses.replace(room, doors=(*room.doors, pane))
-            try:
-                rect = door_opening(plan, trial, len(trial.doors) - 1)
-            except FloorPlanError:
-                continue
-            panels.append(GlassPanel(rect.x0, rect.y0, rect.x1, rect.y1))
-            notes.append(f"glass in the {first.wall} wall of {room.name!r}")
+        for _, rect in _wall_openings(plan, room, rng, 1.2, 1.8):
+            panels.append(rect)
+            notes.append(f"glass in the {room.doors[0].wall} wall of {room.name!r}")
             break
     return panels
 
 
 def world_from_plan(
     plan: FloorPlan, rng: np.random.Generator, variation: WorldVariation
-) -> tuple[OccupancyGrid, list[GlassPanel], list[str]]:
+) -> tuple[OccupancyGrid, list[Rect], list[str]]:
     """The plan drawn again at ``variation.resolution``, displaced, doors and tables changed."""
     notes: list[str] = []
     displaced, rms = _displace_plan(plan, rng, variation.wall_sigma)

@@ -37,13 +37,13 @@ from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.backend import OdometryReading
 from robot_daemon.sim.battery import Battery, BatteryConfig, BatteryState
 from robot_daemon.sim.camera_sim import CameraConfig, CameraSim
 from robot_daemon.sim.diff_drive import DiffDrive, DiffDriveConfig, RobotFootprint, integrate_arc
 from robot_daemon.sim.laser_sim import LaserConfig, LaserSim
 from robot_daemon.sim.odometry_model import (
     OdometryErrorModel,
-    OdometryReading,
     WheelOdometry,
     true_body_velocity,
     true_track_width,

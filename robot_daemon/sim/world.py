@@ -97,7 +97,7 @@ class World:
             raise WorldConfigError(f"{grid.source}: only maps with origin yaw 0 are supported")
         self.grid = grid
         self.resolution = grid.resolution
-        self._obstacles: list[RectObstacle] = list(obstacles)
+        self.obstacles: list[RectObstacle] = list(obstacles)  # added static obstacles
         self.glass: tuple[tuple[float, float, float, float], ...] = tuple(
             (float(a), float(b), float(c), float(d)) for a, b, c, d in glass
         )
@@ -111,14 +111,9 @@ class World:
         self.version = 0  # bumped whenever the walls change
         self._rebuild()
 
-    @property
-    def obstacles(self) -> tuple[RectObstacle, ...]:
-        """The added static obstacles."""
-        return tuple(self._obstacles)
-
     def add_obstacle(self, rect: RectObstacle) -> None:
         """Place a new static obstacle (not in the a-priori map) and rebuild the distance field."""
-        self._obstacles.append(rect)
+        self.obstacles.append(rect)
         self._rebuild()
 
     def _rasterise(self, mask: npt.NDArray[np.uint8], rect: RectObstacle) -> None:
@@ -136,7 +131,7 @@ class World:
     def _rebuild(self) -> None:
         grid = self.grid
         mask = np.zeros((grid.height, grid.width), dtype=np.uint8)
-        for rect in self._obstacles:
+        for rect in self.obstacles:
             self._rasterise(mask, rect)
         blocked = grid.blocked() | (mask > 0)
         glass = np.zeros_like(blocked)
@@ -166,7 +161,7 @@ class World:
         logger.debug(
             "world %s: %d obstacles, %d blocked cells",
             grid.source,
-            len(self._obstacles),
+            len(self.obstacles),
             int(padded.sum()),
         )
 

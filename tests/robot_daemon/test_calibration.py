@@ -25,8 +25,8 @@ from robot_daemon.calibration import (
     estimate_correction,
     format_table,
     summarise,
-    wheel_arcs,
 )
+from robot_daemon.sim.diff_drive import wheel_speeds
 
 TRACK = 0.46  # [m] believed
 
@@ -49,7 +49,7 @@ def synthetic_routine(
         (SegmentKind.STRAIGHT, -distance, 0.0),
         (SegmentKind.ROTATION, 0.0, -math.tau),
     ):
-        left, right = wheel_arcs(d_odom, th_odom, TRACK)
+        left, right = wheel_speeds(d_odom, th_odom, TRACK)  # the wheel arcs
         d_true = 0.5 * (k_left * left + k_right * right)
         th_true = (k_right * right - k_left * left) / (k_track * TRACK)
         command = 0.4 if kind is SegmentKind.STRAIGHT else 0.6

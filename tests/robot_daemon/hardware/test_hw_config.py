@@ -17,7 +17,7 @@ def test_defaults_are_valid() -> None:
     config = HardwareConfig.from_mapping({})
     assert config.motors.command == "G"
     assert config.motors.right_channel == 2
-    assert config.motors.geometry.metres_per_count_lr[0] > 0
+    assert config.motors.metres_per_count_lr[0] > 0
 
 
 def test_deploy_example_parses() -> None:
@@ -64,5 +64,5 @@ def test_per_wheel_radii_reach_the_drive_geometry() -> None:
     config = HardwareConfig.from_mapping(
         {"motors": {"wheel_radius": 0.1, "wheel_radius_left": 0.0995, "wheel_radius_right": 0.1012}}
     )
-    assert config.motors.geometry.radii == (0.0995, 0.1012)
-    assert HardwareConfig.from_mapping({}).motors.geometry.radii == (0.1, 0.1)
+    assert config.motors.radii == (0.0995, 0.1012)
+    assert HardwareConfig.from_mapping({}).motors.radii == (0.1, 0.1)

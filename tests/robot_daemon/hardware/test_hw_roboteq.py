@@ -11,10 +11,9 @@ from hypothesis import strategies as st
 
 from interbot_core.geometry import Pose2D
 from robot_daemon.hardware import roboteq
+from robot_daemon.hardware.config import MotorsConfig
 
-GEOM = roboteq.DriveGeometry(
-    wheel_radius=0.1, track=0.5, counts_per_rev=2048, gear_ratio=20, max_rpm=3000
-)
+GEOM = MotorsConfig(wheel_radius=0.1, track=0.5, counts_per_rev=2048, gear_ratio=20, max_rpm=3000)
 
 
 def test_command_strings() -> None:

@@ -119,7 +119,9 @@ def test_full_gd_reply_is_3369_bytes() -> None:
     assert len(frame) == 3369
     lines = scip.split_frame(frame)
     assert all(len(line) == 65 for line in lines[3:-1])
-    decoded = scip.parse_scan_frame(lines, 1081)
+    with pytest.raises(scip.ScipError, match="not an MD/MS request"):  # the driver streams (MD)
+        scip.parse_scan_frame(lines, 1081)
+    decoded = scip.parse_scan_frame(_md_frame(ranges), 1081)  # the same data lines, streamed
     assert decoded.ranges_mm.tolist() == ranges.tolist()
 
 

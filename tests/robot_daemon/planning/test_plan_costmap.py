@@ -12,12 +12,11 @@ from hypothesis import strategies as st
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from robot_daemon.planning.config import PlannerConfig, PlannerConfigError
 from robot_daemon.planning.costmap import (
     INSCRIBED,
     LETHAL,
     Costmap,
-    CostmapConfig,
-    CostmapConfigError,
     inflation_cost,
 )
 
@@ -91,7 +90,7 @@ def test_unknown_cells_are_lethal() -> None:
 
 def test_laser_marks_then_expires_and_ray_clears() -> None:
     grid = empty_grid()
-    cm = Costmap(grid, CostmapConfig(obstacle_persistence=2.0))
+    cm = Costmap(grid, PlannerConfig(obstacle_persistence=2.0))
     pose = Pose2D(1.0, 2.0, 0.0)
     cm.update(0.0, pose, scan_towards([1.5, 1.5, 1.5]))  # hits at about x = 2.5
     assert cost_at(cm, 0.1, 2.5, 2.0) == LETHAL
@@ -122,7 +121,7 @@ def test_static_walls_are_never_cleared_and_clear_forgets_live_marks() -> None:
 
 
 def test_beyond_obstacle_range_does_not_mark() -> None:
-    cm = Costmap(empty_grid(12.0, 4.0), CostmapConfig(obstacle_max_range=4.0))
+    cm = Costmap(empty_grid(12.0, 4.0), PlannerConfig(obstacle_max_range=4.0))
     cm.update(0.0, Pose2D(0.5, 2.0, 0.0), scan_towards([5.0, 5.0, 5.0]))
     assert cost_at(cm, 0.0, 5.5, 2.0) == 0
 
@@ -154,15 +153,16 @@ def test_door_of_0_9_m_stays_passable() -> None:
 @pytest.mark.parametrize(
     "changes",
     [
-        {"inscribed_radius": 0.0},
+        {"robot_width": 0.0},
         {"inflation_radius": 0.1},
         {"cost_scaling_factor": math.nan},
-        {"obstacle_persistence": -1.0},
+        {"obstacle_persistence": 0.0},
     ],
 )
 def test_invalid_costmap_config_names_the_field(changes: dict[str, float]) -> None:
-    with pytest.raises(CostmapConfigError, match=next(iter(changes))):
-        CostmapConfig(**changes)
+    """The costmap is configured by the planner's configuration, which names the field."""
+    with pytest.raises(PlannerConfigError, match=next(iter(changes))):
+        PlannerConfig(**changes)
 
 
 def test_allow_unknown_makes_unknown_traversable_at_the_highest_cost() -> None:
@@ -174,8 +174,8 @@ def test_allow_unknown_makes_unknown_traversable_at_the_highest_cost() -> None:
     grid = OccupancyGrid(cells, 0.05, 0.0, 0.0)
     strict = Costmap(grid).costs(0.0)
     assert strict[10, 25] == LETHAL and strict[10, 17] >= 253  # lethal and inflated
-    nav2 = Costmap(grid, CostmapConfig(allow_unknown=True))
+    nav2 = Costmap(grid, PlannerConfig(allow_unknown=True))
     costs = nav2.costs(0.0)
     assert costs[10, 25] == UNKNOWN_COST and costs[10, 17] == 0  # dear, not inflated
-    nav2.reconfigure(CostmapConfig(allow_unknown=False))
+    nav2.reconfigure(PlannerConfig(allow_unknown=False))
     assert nav2.costs(0.0)[10, 25] == LETHAL

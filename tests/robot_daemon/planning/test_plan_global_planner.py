@@ -13,10 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid, load_map
+from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import INSCRIBED, Costmap
 from robot_daemon.planning.global_planner import (
     GlobalPlanner,
-    GlobalPlannerConfig,
     GoalBlockedError,
     NoPathError,
     StartBlockedError,
@@ -175,7 +175,7 @@ def test_fine_grid_planning_agrees() -> None:
     grid = office()
     costs = Costmap(grid).costs(0.0)
     coarse = GlobalPlanner(grid).plan(costs, (1.0, 1.0), (9.0, 5.0))
-    fine = GlobalPlanner(grid, GlobalPlannerConfig(planning_resolution=RES)).plan(
+    fine = GlobalPlanner(grid, PlannerConfig(planning_resolution=RES)).plan(
         costs, (1.0, 1.0), (9.0, 5.0)
     )
     length = lambda p: float(np.hypot(*np.diff(np.asarray(p), axis=0).T).sum())  # noqa: E731

@@ -102,8 +102,8 @@ def test_real_building_graph_is_drivable(name: str, shared_data: Path) -> None:
     assert len(topo.tour_nodes()) >= 10
     grid = load_map(topo.map_yaml_path)
     config = PlannerConfig()
-    costs = Costmap(grid, config.costmap_config()).costs(0.0)
-    planner = GlobalPlanner(grid, config.global_planner_config())
+    costs = Costmap(grid, config).costs(0.0)
+    planner = GlobalPlanner(grid, config)
     for u, v, weight in topo.weighted_arcs():
         a, b = topo.node(u).pose, topo.node(v).pose
         path = planner.plan(costs, (a.x, a.y), (b.x, b.y))

@@ -283,8 +283,8 @@ class HokuyoEmulator(EmulatorThread):
 
     def _handle_measurement(self, line: bytes, now: float) -> None:
         try:
-            req = scip.parse_md_request(line)
-        except scip.ScipError:
+            req = _parse_gd_request(line) if line[:2] == b"GD" else scip.parse_md_request(line)
+        except (scip.ScipError, ValueError):
             self._reply(line, "0C")  # malformed parameters
             return
         p = self.params
@@ -327,3 +327,10 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def _parse_gd_request(line: bytes) -> scip.MdRequest:
+    """``GDssssEEEEcc``: one scan (the driver only streams, so the product parses MD only)."""
+    if len(line) != 12:
+        raise ValueError(f"{line!r} is not a GD request")
+    return scip.MdRequest("GD", int(line[2:6]), int(line[6:10]), int(line[10:12]), 0, 1)
