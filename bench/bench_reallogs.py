@@ -3,7 +3,10 @@
 Two methods of `tests/robot_daemon/localisation/log_replay.py` (the real-data tests use the same code):
 
 * ``revisit``: map the first half of a log with its logged (GMapping-corrected) poses, localise
-  the later scans that come back to the mapped area. Not every log revisits (ACES and CSAIL
+  the later scans that come back to the mapped area, in runs; two runs are one where the path
+  between them stays within 2 m of the first pass (`log_replay.revisit_runs`; until session 7
+  such a run was cut and restarted from a person's initial pose, mid-corridor on the
+  Infinite Corridor). Not every log revisits (ACES and CSAIL
   hardly do): ``reallog_<log>_revisit_scans`` is then 0 and the other revisit figures absent.
 * ``whole``: every ``stride``-th scan builds the map, the scans half-way between them are
   localised forward through the *whole* log in one run (easier than a revisit: neighbouring
