@@ -37,6 +37,7 @@ returns): an indication of the floor, not a correction. ``quick`` (the smoke tes
 only Intel and Freiburg 079 with coarser strides. Skipped, returning {}, when ../shared/data/laser_logs is absent.
 
     .venv/bin/interbot bench --only reallogs --json
+    .venv/bin/python bench/bench_reallogs.py freiburg_campus   # one log (or several) alone
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ import logging
 import math
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 _spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
@@ -111,7 +113,11 @@ def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def run(quick: bool = False) -> dict[str, float]:
+def run(quick: bool = False, logs: Sequence[str] | None = None) -> dict[str, float]:
+    """Every log's figures (``logs``: only these keys of `CASES`, e.g. to iterate on one)."""
+    unknown = sorted(set(logs or ()) - set(CASES))
+    if unknown:
+        raise ValueError(f"unknown log(s) {unknown}: choose from {sorted(CASES)}")
     if not LOGS.is_dir():
         print(f"  bench_reallogs skipped: {LOGS} is absent (see ../shared/data/README.md)")
         return {}
@@ -119,7 +125,7 @@ def run(quick: bool = False) -> dict[str, float]:
     silent = 0.0
     with common.quiet_logs():
         for key, (stem, revisit, whole, revisit_quick, whole_quick) in CASES.items():
-            if quick and key not in QUICK_LOGS:
+            if (quick and key not in QUICK_LOGS) or (logs and key not in logs):
                 continue
             path = LOGS / f"{stem}-corrected.log.gz"
             if not path.is_file():
@@ -152,4 +158,4 @@ def run(quick: bool = False) -> dict[str, float]:
 
 
 if __name__ == "__main__":
-    print(json.dumps(run(), indent=2))  # command-line output
+    print(json.dumps(run(logs=sys.argv[1:] or None), indent=2))  # command-line output

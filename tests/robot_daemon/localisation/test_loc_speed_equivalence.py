@@ -18,7 +18,7 @@ from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid,
 from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
-from robot_daemon.localisation.scan_matcher import subsample_points
+from robot_daemon.localisation.scan_matcher import ScanMatcher, ScanMatcherConfig, subsample_points
 from tests.robot_daemon.localisation.synthetic_office import (
     OFFICE_BOXES,
     office_grid,
@@ -379,3 +379,35 @@ def test_see_through_at_another_pose_traces_again() -> None:
         again = loc._see_through(points, at, 1.0, first)
         assert again == fresh.impossible_fraction(points, at, see_through=True)
         assert again != first  # the other pose gives another answer
+
+
+def corner_table_reference(field: np.ndarray) -> np.ndarray:
+    """`LikelihoodLevel.corners` rebuilt from the whole field: per node (i, j) the values at
+    (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1), zero beyond the field's last row/column."""
+    h, w = field.shape
+    nxt = np.zeros((h + 1, w + 1))
+    nxt[:h, :w] = field
+    return np.stack(
+        (nxt[:h, :w], nxt[:h, 1:], nxt[1:, :w], nxt[1:, 1:]),
+    ).reshape(4, h * w)
+
+
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_obstacles_added_rebuild_the_corner_table_as_a_whole_rebuild_would(surface: str) -> None:
+    """`add_obstacles` rebuilds only the corners around each new obstacle (speed); the table
+    must equal one rebuilt from the whole field, on every level, obstacles at the map's edges
+    and outside it included."""
+    grid = office_grid()
+    loc = Localiser(grid, LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)))
+    rng = np.random.default_rng(4)
+    x0, y0 = grid.origin_x, grid.origin_y
+    x1, y1 = x0 + grid.width * grid.resolution, y0 + grid.height * grid.resolution
+    xs = np.concatenate((rng.uniform(x0, x1, 40), [x0, x1 - 1e-3, x0 + 0.01, x1 + 1.0, x0 - 0.2]))
+    ys = np.concatenate((rng.uniform(y0, y1, 40), [y0, y1 - 1e-3, y1 - 0.01, y0 + 0.5, y0 + 0.5]))
+    loc.matcher.add_obstacles(xs, ys)
+    for level in loc.matcher.levels:
+        assert np.array_equal(level.corners, corner_table_reference(level.field))
+    fresh = ScanMatcher(grid, loc.matcher.config).levels
+    assert all(
+        not np.array_equal(a.field, b.field) for a, b in zip(loc.matcher.levels, fresh, strict=True)
+    )
