@@ -18,7 +18,14 @@ from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid,
 from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
-from robot_daemon.localisation.scan_matcher import ScanMatcher, ScanMatcherConfig, subsample_points
+from robot_daemon.localisation.scan_matcher import (
+    MatchResult,
+    ScanMatcher,
+    ScanMatcherConfig,
+    subsample_points,
+)
+from tests.robot_daemon.localisation.carmen_log import read_laser_records
+from tests.robot_daemon.localisation.log_replay import log_config, map_of
 from tests.robot_daemon.localisation.synthetic_office import (
     OFFICE_BOXES,
     office_grid,
@@ -411,3 +418,98 @@ def test_obstacles_added_rebuild_the_corner_table_as_a_whole_rebuild_would(surfa
     assert all(
         not np.array_equal(a.field, b.field) for a, b in zip(loc.matcher.levels, fresh, strict=True)
     )
+
+
+def _same_match(a: MatchResult, b: MatchResult) -> bool:
+    """Two match results equal bit for bit (pose, H, score, counts, information)."""
+    return (
+        (a.pose.x, a.pose.y, a.pose.yaw) == (b.pose.x, b.pose.y, b.pose.yaw)
+        and np.array_equal(a.hessian, b.hessian)
+        and a.score == b.score
+        and (a.n_points, a.n_inliers) == (b.n_points, b.n_inliers)
+        and np.array_equal(a.normal_info, b.normal_info)
+    )
+
+
+def _starts_around(prior: Pose2D, sxy: float, syaw: float) -> list[Pose2D]:
+    """`Localiser._match_from_starts`'s 25 starts, and two off the map."""
+    starts = [
+        Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw)
+        for dyaw in (0.0, -0.5 * syaw, 0.5 * syaw, -syaw, syaw)
+        for dx, dy in ((0.0, 0.0), (sxy, 0.0), (-sxy, 0.0), (0.0, sxy), (0.0, -sxy))
+    ]
+    return [*starts, Pose2D(-50.0, 3.0, 0.2), Pose2D(prior.x, 500.0, -3.0)]
+
+
+@pytest.mark.parametrize("start_level", [None, 1, 0])
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_match_many_equals_one_match_per_start(surface: str, start_level: int | None) -> None:
+    """`ScanMatcher.match_many` (the starts' iterations stacked) gives every start the result
+    `match` gives it alone, on scans of the synthetic office from poses 0.15 m and 10 degrees
+    off (starts that converge at different iterations, and starts off the map)."""
+    rng = np.random.default_rng(12)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for truth in _poses(rng, 4):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, truth.yaw + math.radians(10.0))
+        starts = _starts_around(prior, 0.15, math.radians(10.0))
+        many = matcher.match_many(points, starts, start_level)
+        assert len(many) == len(starts)
+        for start, result in zip(starts, many, strict=True):
+            assert _same_match(result, matcher.match(points, start, start_level))
+
+
+class OneStartAtATime(Localiser):
+    """The first match from its starts one by one: the loop `_match_from_starts` had."""
+
+    def _match_from_starts(self, points: np.ndarray, prior: Pose2D, cov: np.ndarray) -> MatchResult:
+        sxy = 0.5 * math.sqrt(max(float(cov[0, 0]), float(cov[1, 1])))
+        syaw = math.sqrt(max(float(cov[2, 2]), 0.0))
+        best = self.matcher.match(points, prior)
+        for start in _starts_around(prior, sxy, syaw)[1:25]:
+            result = self.matcher.match(points, start)
+            if result.score > best.score:
+                best = result
+        return best
+
+
+def test_first_matches_from_stacked_starts_estimate_as_one_by_one() -> None:
+    """A localiser re-set every few scans (each time 0.2 m and 8 degrees off, as a person sets
+    a pose): every estimate, covariance and state equals that of matching the starts one by
+    one."""
+    grid = office_grid()
+    runs = []
+    for kind in (Localiser, OneStartAtATime):
+        loc = kind(grid)
+        scan_rng = np.random.default_rng(6)
+        run = []
+        for k, truth in enumerate(_poses(np.random.default_rng(7), 12)):
+            loc.on_odometry(truth, float(k))
+            if k % 3 == 0:
+                off = Pose2D(truth.x + 0.2, truth.y - 0.1, truth.yaw - math.radians(8.0))
+                loc.set_initial_pose(off, float(k))
+            est = loc.on_scan(utm_scan(OFFICE_BOXES, truth, float(k), scan_rng), float(k) + 0.5)
+            assert est.pose is not None
+            run.append((est.pose, est.state, est.score, est.covariance.tolist(), est.reason))
+        runs.append(run)
+    assert runs[0] == runs[1]
+
+
+@pytest.mark.realdata
+def test_match_many_equals_one_match_per_start_on_a_real_log() -> None:
+    """The same on the Intel lab's log (a map of its first 300 scans, every second one, in the
+    log's cell-centre convention), from 25 starts around ten other scans' logged poses."""
+    path = (
+        Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/intel-corrected.log.gz"
+    )
+    if not path.is_file():
+        pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
+    records = read_laser_records(path)[:300]
+    loc = Localiser(map_of(records[::2]), log_config())
+    for record in records[1::30]:
+        points = loc._scan_points(record.scan)
+        starts = _starts_around(record.pose, 0.15, math.radians(10.0))
+        for start, result in zip(starts, loc.matcher.match_many(points, starts), strict=True):
+            assert _same_match(result, loc.matcher.match(points, start))
