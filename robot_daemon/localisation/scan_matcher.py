@@ -257,8 +257,8 @@ class LikelihoodLevel:
         fy = v - i
         k = i * w
         k += j
-        c = self.corners
-        return fx, fy, c[0].take(k), c[1].take(k), c[2].take(k), c[3].take(k)
+        m00, m01, m10, m11 = self.corners.take(k, axis=-1)  # one gather, a row per corner
+        return fx, fy, m00, m01, m10, m11
 
     def value(self, px: FloatArray, py: FloatArray) -> FloatArray:
         """Bilinear M alone at map-frame points: `interpolate`'s first output, the same
@@ -396,11 +396,12 @@ def downsample_occupied(occ: npt.NDArray[np.bool_], factor: int) -> npt.NDArray[
     return out
 
 
-def _solve3(h: FloatArray, g: FloatArray) -> tuple[float, float, float]:
-    """Solve the 3x3 symmetric system H Δ = g by Cramer's rule (cheaper than LAPACK here)."""
-    a, b, c = float(h[0, 0]), float(h[0, 1]), float(h[0, 2])
-    d, e, f = float(h[1, 1]), float(h[1, 2]), float(h[2, 2])
-    g0, g1, g2 = float(g[0]), float(g[1]), float(g[2])
+def _solve3(
+    a: float, b: float, c: float, d: float, e: float, f: float, g: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """Solve the 3x3 symmetric system H Δ = g by Cramer's rule (cheaper than LAPACK here);
+    ``H = [[a, b, c], [b, d, e], [c, e, f]]``."""
+    g0, g1, g2 = g
     co0 = d * f - e * e
     co1 = c * e - b * f
     co2 = b * e - c * d
@@ -529,14 +530,14 @@ class ScanMatcher:
                     break
                 r = 1.0 - m
                 jt = gy * rx - gx * ry  # ∇M · ∂S/∂ψ
-                h = _hessian(gx, gy, jt)
+                # H and g as Python floats (the same values: numpy's float64 arithmetic on
+                # scalars is IEEE double arithmetic as Python's), without numpy's per-element
+                # indexing and scalar overhead.
+                (h00, h01, h02), (_, h11, h12), (_, _, h22) = _hessian(gx, gy, jt).tolist()
                 add = np.add.reduce  # ndarray.sum without its wrapper: the same sums
-                g = np.array([add(gx * r), add(gy * r), add(jt * r)])
-                lam = cfg.damping * (h[0, 0] + h[1, 1] + h[2, 2]) / 3.0 + 1e-9
-                h[0, 0] += lam
-                h[1, 1] += lam
-                h[2, 2] += lam
-                dx, dy, dth = _solve3(h, g)
+                g = (float(add(gx * r)), float(add(gy * r)), float(add(jt * r)))
+                lam = cfg.damping * (h00 + h11 + h22) / 3.0 + 1e-9
+                dx, dy, dth = _solve3(h00 + lam, h01, h02, h11 + lam, h12, h22 + lam, g)
                 dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
                 converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
                 px += dx

@@ -19,9 +19,12 @@ from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import (
+    PAD,
+    LikelihoodLevel,
     MatchResult,
     ScanMatcher,
     ScanMatcherConfig,
+    normal_information,
     subsample_points,
 )
 from tests.robot_daemon.localisation.carmen_log import read_laser_records
@@ -513,3 +516,98 @@ def test_match_many_equals_one_match_per_start_on_a_real_log() -> None:
         starts = _starts_around(record.pose, 0.15, math.radians(10.0))
         for start, result in zip(starts, loc.matcher.match_many(points, starts), strict=True):
             assert _same_match(result, loc.matcher.match(points, start))
+
+
+def interpolate_reference(level: LikelihoodLevel, px: np.ndarray, py: np.ndarray) -> tuple:
+    """Bilinear M and ∇M with numpy's clip, floor and one gather per corner."""
+    inv = 1.0 / level.resolution
+    h, w = level.field.shape
+    u = np.clip((px - level.origin_x) * inv + (PAD - level.lattice_offset), 0.0, w - 1.001)
+    v = np.clip((py - level.origin_y) * inv + (PAD - level.lattice_offset), 0.0, h - 1.001)
+    j, i = np.floor(u).astype(np.intp), np.floor(v).astype(np.intp)
+    fx, fy = u - j, v - i
+    m00, m01, m10, m11 = (level.corners[c][i * w + j] for c in range(4))
+    a, b = m00 + fx * (m01 - m00), m10 + fx * (m11 - m10)
+    return a + fy * (b - a), (m01 - m00 + fy * ((m11 - m10) - (m01 - m00))) * inv, (b - a) * inv
+
+
+def match_reference(
+    matcher: ScanMatcher, points: np.ndarray, initial: Pose2D, start_level: int | None = None
+) -> MatchResult:
+    """`ScanMatcher.match` as plain numpy: the Gauss-Newton step from arrays (H, g), the
+    damping added to H's diagonal in place."""
+    cfg = matcher.config
+    fine = subsample_points(points, cfg.max_points)
+    px, py, yaw = initial.x, initial.y, initial.yaw
+    n_levels = len(matcher.levels)
+    first = n_levels - 1 if start_level is None else start_level
+    for li in range(first, -1, -1):
+        level = matcher.levels[li]
+        pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
+        sx, sy = pts[:, 0].copy(), pts[:, 1].copy()
+        n_iter = cfg.iterations[n_levels - 1 - li]
+        n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
+        converged = False
+        for it in range(n_max + (1 if li == 0 else 0)):
+            c, s = math.cos(yaw), math.sin(yaw)
+            rx, ry = c * sx - s * sy, s * sx + c * sy
+            m, gx, gy = interpolate_reference(level, rx + px, ry + py)
+            jt = gy * rx - gx * ry
+            jac = np.stack((gx, gy, jt))
+            h = jac @ jac.T
+            if li == 0 and (it == n_max or (it >= n_iter and converged)):
+                tensor = level.tensor_at(rx + px, ry + py)
+                info, n_in = normal_information(m, gx, gy, rx, ry, tensor)
+                score = float(np.add.reduce(m)) / m.size
+                return MatchResult(Pose2D(px, py, yaw), h, score, len(fine), info, n_in)
+            r = 1.0 - m
+            g = np.array([np.add.reduce(gx * r), np.add.reduce(gy * r), np.add.reduce(jt * r)])
+            lam = cfg.damping * (h[0, 0] + h[1, 1] + h[2, 2]) / 3.0 + 1e-9
+            h[np.diag_indices(3)] += lam
+            (a, b, cc), (_, d, e), (_, _, f) = h
+            co0, co1, co2 = d * f - e * e, cc * e - b * f, b * e - cc * d
+            det = a * co0 + b * co1 + cc * co2
+            if not abs(det) > 1e-300:
+                dx = dy = dth = 0.0
+            else:
+                dx = (g[0] * co0 + g[1] * co1 + g[2] * co2) / det
+                dy = (g[0] * co1 + g[1] * (a * f - cc * cc) + g[2] * (b * cc - a * e)) / det
+                dth = (g[0] * co2 + g[1] * (b * cc - a * e) + g[2] * (a * d - b * b)) / det
+            dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
+            converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
+            px, py, yaw = float(px + dx), float(py + dy), float(yaw + dth)
+    raise AssertionError("the finest level always ends the match")
+
+
+@pytest.mark.parametrize("start_level", [None, 1, 0])
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_match_equals_its_plain_numpy_version(surface: str, start_level: int | None) -> None:
+    """`ScanMatcher.match` (its step in Python floats, one gather for the four corners) gives
+    the plain numpy version's result bit for bit, from good and poor starts and off the map."""
+    rng = np.random.default_rng(3)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for truth in _poses(rng, 5):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x - 0.12, truth.y + 0.05, truth.yaw + math.radians(6.0))
+        for start in _starts_around(prior, 0.15, math.radians(10.0))[::4]:
+            expected = match_reference(matcher, points, start, start_level)
+            assert _same_match(matcher.match(points, start, start_level), expected)
+
+
+@pytest.mark.realdata
+def test_match_equals_its_plain_numpy_version_on_a_real_log() -> None:
+    """The same on the Intel lab's log (cell-centre map of its first 300 scans)."""
+    path = (
+        Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/intel-corrected.log.gz"
+    )
+    if not path.is_file():
+        pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
+    records = read_laser_records(path)[:300]
+    loc = Localiser(map_of(records[::2]), log_config())
+    for record in records[1::15]:
+        points = loc._scan_points(record.scan)
+        for start_level in (None, 1):
+            expected = match_reference(loc.matcher, points, record.pose, start_level)
+            assert _same_match(loc.matcher.match(points, record.pose, start_level), expected)
