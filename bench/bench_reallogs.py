@@ -3,7 +3,10 @@
 Two methods of `tests/robot_daemon/localisation/log_replay.py` (the real-data tests use the same code):
 
 * ``revisit``: map the first half of a log with its logged (GMapping-corrected) poses, localise
-  the later scans that come back to the mapped area. Not every log revisits (ACES and CSAIL
+  the later scans that come back to the mapped area, in runs; two runs are one where the path
+  between them stays within 2 m of the first pass (`log_replay.revisit_runs`; until session 7
+  such a run was cut and restarted from a person's initial pose, mid-corridor on the
+  Infinite Corridor). Not every log revisits (ACES and CSAIL
   hardly do): ``reallog_<log>_revisit_scans`` is then 0 and the other revisit figures absent.
 * ``whole``: every ``stride``-th scan builds the map, the scans half-way between them are
   localised forward through the *whole* log in one run (easier than a revisit: neighbouring
@@ -19,8 +22,11 @@ Keys ``reallog_<log>_<method>_<figure>`` with figures ``scans``, ``rms_m``, ``me
 ``max_m``, ``heading_rms_deg``, ``lost_scans``, ``degraded_scans``, ``silent_failures`` (error
 > 0.3 m or > 10 degrees reported ``ok``: the figure that must be 0), ``nees_mean`` (3 if the
 covariance is calibrated), ``nees_within_95`` (0.95 if calibrated), ``ms_median``, ``ms_p99``
-(wall clock per `Localiser.on_scan`, covariance included) and ``odometry_only_rms_m``; and
-``reallog_all_silent_failures`` over every log and method.
+(wall clock per `Localiser.on_scan` alone, covariance included: the replay's map building,
+odometry and scoring are outside it), ``ms_p99_tracking`` (the p99 without the scans just
+after a re-set pose: their first match runs from 25 starts, and on the Freiburg campus, 12
+re-sets in 1003 scans, they alone make the p99), ``set_pose_scans`` (how many) and
+``odometry_only_rms_m``; and ``reallog_all_silent_failures`` over every log and method.
 
 Two figures check the reference itself, not the localiser (`log_replay.reference_check`; they
 change no other figure): ``reference_offset_rms_m``, the RMS distance from each logged pose to
@@ -37,6 +43,7 @@ returns): an indication of the floor, not a correction. ``quick`` (the smoke tes
 only Intel and Freiburg 079 with coarser strides. Skipped, returning {}, when ../shared/data/laser_logs is absent.
 
     .venv/bin/interbot bench --only reallogs --json
+    .venv/bin/python bench/bench_reallogs.py freiburg_campus   # one log (or several) alone
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ import logging
 import math
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 _spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
@@ -99,6 +107,8 @@ FIGURES = (
     "nees_within_95",
     "ms_median",
     "ms_p99",
+    "ms_p99_tracking",
+    "set_pose_scans",
     "odometry_only_rms_m",
     "reference_offset_rms_m",
     "estimate_fits_better",
@@ -111,7 +121,11 @@ def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def run(quick: bool = False) -> dict[str, float]:
+def run(quick: bool = False, logs: Sequence[str] | None = None) -> dict[str, float]:
+    """Every log's figures (``logs``: only these keys of `CASES`, e.g. to iterate on one)."""
+    unknown = sorted(set(logs or ()) - set(CASES))
+    if unknown:
+        raise ValueError(f"unknown log(s) {unknown}: choose from {sorted(CASES)}")
     if not LOGS.is_dir():
         print(f"  bench_reallogs skipped: {LOGS} is absent (see ../shared/data/README.md)")
         return {}
@@ -119,7 +133,7 @@ def run(quick: bool = False) -> dict[str, float]:
     silent = 0.0
     with common.quiet_logs():
         for key, (stem, revisit, whole, revisit_quick, whole_quick) in CASES.items():
-            if quick and key not in QUICK_LOGS:
+            if (quick and key not in QUICK_LOGS) or (logs and key not in logs):
                 continue
             path = LOGS / f"{stem}-corrected.log.gz"
             if not path.is_file():
@@ -152,4 +166,4 @@ def run(quick: bool = False) -> dict[str, float]:
 
 
 if __name__ == "__main__":
-    print(json.dumps(run(), indent=2))  # command-line output
+    print(json.dumps(run(logs=sys.argv[1:] or None), indent=2))  # command-line output

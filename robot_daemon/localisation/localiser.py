@@ -926,15 +926,18 @@ class Localiser:
         ±0.5 sigma in x and y; the best score wins (the Kalman gate still applies)."""
         sxy = 0.5 * math.sqrt(max(float(cov[0, 0]), float(cov[1, 1])))
         syaw = math.sqrt(max(float(cov[2, 2]), 0.0))
-        best = self.matcher.match(points, prior)
+        starts = [prior]
         for dyaw in (0.0, -0.5 * syaw, 0.5 * syaw, -syaw, syaw):
             for dx, dy in ((0.0, 0.0), (sxy, 0.0), (-sxy, 0.0), (0.0, sxy), (0.0, -sxy)):
                 if dyaw == 0.0 and dx == 0.0 and dy == 0.0:
                     continue
-                start = Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw)
-                result = self.matcher.match(points, start)
-                if result.score > best.score:
-                    best = result
+                starts.append(Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw))
+        # All starts at once (`ScanMatcher.match_many`: the same results as one by one).
+        results = self.matcher.match_many(points, starts)
+        best = results[0]
+        for result in results[1:]:
+            if result.score > best.score:
+                best = result
         return best
 
     def _propagate(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:

@@ -3,10 +3,11 @@
 The method lives in `tests/robot_daemon/localisation/log_replay.py` (shared with bench/bench_reallogs.py).
 A map is built with `grid_from_scans` from the first part of a log and its logged (GMapping-
 corrected) poses. The scans of the later part that revisit the mapped area (logged pose within
-1 m of a mapping pose) are localised in runs, each run starting from its first logged pose, with
-odometry made from the logged pose increments with 5 % scale error, a yaw bias of 0.02 rad per
-metre and Gaussian noise (1 cm, 0.005 rad per step). Errors are against the logged poses, which
-are themselves SLAM estimates (a few centimetres), not ground truth.
+1 m of a mapping pose) are localised in runs (two runs are one where the path between them stays
+within 2 m of one), each run starting from its first logged pose, with odometry made from the logged pose
+increments with 5 % scale error, a yaw bias of 0.02 rad per metre and Gaussian noise (1 cm,
+0.005 rad per step). Errors are against the logged poses, which are themselves SLAM estimates
+(a few centimetres), not ground truth.
 """
 
 from __future__ import annotations

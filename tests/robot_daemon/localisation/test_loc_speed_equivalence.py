@@ -18,7 +18,17 @@ from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid,
 from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
-from robot_daemon.localisation.scan_matcher import subsample_points
+from robot_daemon.localisation.scan_matcher import (
+    PAD,
+    LikelihoodLevel,
+    MatchResult,
+    ScanMatcher,
+    ScanMatcherConfig,
+    normal_information,
+    subsample_points,
+)
+from tests.robot_daemon.localisation.carmen_log import read_laser_records
+from tests.robot_daemon.localisation.log_replay import log_config, map_of
 from tests.robot_daemon.localisation.synthetic_office import (
     OFFICE_BOXES,
     office_grid,
@@ -379,3 +389,225 @@ def test_see_through_at_another_pose_traces_again() -> None:
         again = loc._see_through(points, at, 1.0, first)
         assert again == fresh.impossible_fraction(points, at, see_through=True)
         assert again != first  # the other pose gives another answer
+
+
+def corner_table_reference(field: np.ndarray) -> np.ndarray:
+    """`LikelihoodLevel.corners` rebuilt from the whole field: per node (i, j) the values at
+    (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1), zero beyond the field's last row/column."""
+    h, w = field.shape
+    nxt = np.zeros((h + 1, w + 1))
+    nxt[:h, :w] = field
+    return np.stack(
+        (nxt[:h, :w], nxt[:h, 1:], nxt[1:, :w], nxt[1:, 1:]),
+    ).reshape(4, h * w)
+
+
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_obstacles_added_rebuild_the_corner_table_as_a_whole_rebuild_would(surface: str) -> None:
+    """`add_obstacles` rebuilds only the corners around each new obstacle (speed); the table
+    must equal one rebuilt from the whole field, on every level, obstacles at the map's edges
+    and outside it included."""
+    grid = office_grid()
+    loc = Localiser(grid, LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)))
+    rng = np.random.default_rng(4)
+    x0, y0 = grid.origin_x, grid.origin_y
+    x1, y1 = x0 + grid.width * grid.resolution, y0 + grid.height * grid.resolution
+    xs = np.concatenate((rng.uniform(x0, x1, 40), [x0, x1 - 1e-3, x0 + 0.01, x1 + 1.0, x0 - 0.2]))
+    ys = np.concatenate((rng.uniform(y0, y1, 40), [y0, y1 - 1e-3, y1 - 0.01, y0 + 0.5, y0 + 0.5]))
+    loc.matcher.add_obstacles(xs, ys)
+    for level in loc.matcher.levels:
+        assert np.array_equal(level.corners, corner_table_reference(level.field))
+    fresh = ScanMatcher(grid, loc.matcher.config).levels
+    assert all(
+        not np.array_equal(a.field, b.field) for a, b in zip(loc.matcher.levels, fresh, strict=True)
+    )
+
+
+def _same_match(a: MatchResult, b: MatchResult) -> bool:
+    """Two match results equal bit for bit (pose, H, score, counts, information)."""
+    return (
+        (a.pose.x, a.pose.y, a.pose.yaw) == (b.pose.x, b.pose.y, b.pose.yaw)
+        and np.array_equal(a.hessian, b.hessian)
+        and a.score == b.score
+        and (a.n_points, a.n_inliers) == (b.n_points, b.n_inliers)
+        and np.array_equal(a.normal_info, b.normal_info)
+    )
+
+
+def _starts_around(prior: Pose2D, sxy: float, syaw: float) -> list[Pose2D]:
+    """`Localiser._match_from_starts`'s 25 starts, and two off the map."""
+    starts = [
+        Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw)
+        for dyaw in (0.0, -0.5 * syaw, 0.5 * syaw, -syaw, syaw)
+        for dx, dy in ((0.0, 0.0), (sxy, 0.0), (-sxy, 0.0), (0.0, sxy), (0.0, -sxy))
+    ]
+    return [*starts, Pose2D(-50.0, 3.0, 0.2), Pose2D(prior.x, 500.0, -3.0)]
+
+
+@pytest.mark.parametrize("start_level", [None, 1, 0])
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_match_many_equals_one_match_per_start(surface: str, start_level: int | None) -> None:
+    """`ScanMatcher.match_many` (the starts' iterations stacked) gives every start the result
+    `match` gives it alone, on scans of the synthetic office from poses 0.15 m and 10 degrees
+    off (starts that converge at different iterations, and starts off the map)."""
+    rng = np.random.default_rng(12)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for truth in _poses(rng, 4):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, truth.yaw + math.radians(10.0))
+        starts = _starts_around(prior, 0.15, math.radians(10.0))
+        many = matcher.match_many(points, starts, start_level)
+        assert len(many) == len(starts)
+        for start, result in zip(starts, many, strict=True):
+            assert _same_match(result, matcher.match(points, start, start_level))
+
+
+class OneStartAtATime(Localiser):
+    """The first match from its starts one by one: the loop `_match_from_starts` had."""
+
+    def _match_from_starts(self, points: np.ndarray, prior: Pose2D, cov: np.ndarray) -> MatchResult:
+        sxy = 0.5 * math.sqrt(max(float(cov[0, 0]), float(cov[1, 1])))
+        syaw = math.sqrt(max(float(cov[2, 2]), 0.0))
+        best = self.matcher.match(points, prior)
+        for start in _starts_around(prior, sxy, syaw)[1:25]:
+            result = self.matcher.match(points, start)
+            if result.score > best.score:
+                best = result
+        return best
+
+
+def test_first_matches_from_stacked_starts_estimate_as_one_by_one() -> None:
+    """A localiser re-set every few scans (each time 0.2 m and 8 degrees off, as a person sets
+    a pose): every estimate, covariance and state equals that of matching the starts one by
+    one."""
+    grid = office_grid()
+    runs = []
+    for kind in (Localiser, OneStartAtATime):
+        loc = kind(grid)
+        scan_rng = np.random.default_rng(6)
+        run = []
+        for k, truth in enumerate(_poses(np.random.default_rng(7), 12)):
+            loc.on_odometry(truth, float(k))
+            if k % 3 == 0:
+                off = Pose2D(truth.x + 0.2, truth.y - 0.1, truth.yaw - math.radians(8.0))
+                loc.set_initial_pose(off, float(k))
+            est = loc.on_scan(utm_scan(OFFICE_BOXES, truth, float(k), scan_rng), float(k) + 0.5)
+            assert est.pose is not None
+            run.append((est.pose, est.state, est.score, est.covariance.tolist(), est.reason))
+        runs.append(run)
+    assert runs[0] == runs[1]
+
+
+@pytest.mark.realdata
+def test_match_many_equals_one_match_per_start_on_a_real_log() -> None:
+    """The same on the Intel lab's log (a map of its first 300 scans, every second one, in the
+    log's cell-centre convention), from 25 starts around ten other scans' logged poses."""
+    path = (
+        Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/intel-corrected.log.gz"
+    )
+    if not path.is_file():
+        pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
+    records = read_laser_records(path)[:300]
+    loc = Localiser(map_of(records[::2]), log_config())
+    for record in records[1::30]:
+        points = loc._scan_points(record.scan)
+        starts = _starts_around(record.pose, 0.15, math.radians(10.0))
+        for start, result in zip(starts, loc.matcher.match_many(points, starts), strict=True):
+            assert _same_match(result, loc.matcher.match(points, start))
+
+
+def interpolate_reference(level: LikelihoodLevel, px: np.ndarray, py: np.ndarray) -> tuple:
+    """Bilinear M and ∇M with numpy's clip, floor and one gather per corner."""
+    inv = 1.0 / level.resolution
+    h, w = level.field.shape
+    u = np.clip((px - level.origin_x) * inv + (PAD - level.lattice_offset), 0.0, w - 1.001)
+    v = np.clip((py - level.origin_y) * inv + (PAD - level.lattice_offset), 0.0, h - 1.001)
+    j, i = np.floor(u).astype(np.intp), np.floor(v).astype(np.intp)
+    fx, fy = u - j, v - i
+    m00, m01, m10, m11 = (level.corners[c][i * w + j] for c in range(4))
+    a, b = m00 + fx * (m01 - m00), m10 + fx * (m11 - m10)
+    return a + fy * (b - a), (m01 - m00 + fy * ((m11 - m10) - (m01 - m00))) * inv, (b - a) * inv
+
+
+def match_reference(
+    matcher: ScanMatcher, points: np.ndarray, initial: Pose2D, start_level: int | None = None
+) -> MatchResult:
+    """`ScanMatcher.match` as plain numpy: the Gauss-Newton step from arrays (H, g), the
+    damping added to H's diagonal in place."""
+    cfg = matcher.config
+    fine = subsample_points(points, cfg.max_points)
+    px, py, yaw = initial.x, initial.y, initial.yaw
+    n_levels = len(matcher.levels)
+    first = n_levels - 1 if start_level is None else start_level
+    for li in range(first, -1, -1):
+        level = matcher.levels[li]
+        pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
+        sx, sy = pts[:, 0].copy(), pts[:, 1].copy()
+        n_iter = cfg.iterations[n_levels - 1 - li]
+        n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
+        converged = False
+        for it in range(n_max + (1 if li == 0 else 0)):
+            c, s = math.cos(yaw), math.sin(yaw)
+            rx, ry = c * sx - s * sy, s * sx + c * sy
+            m, gx, gy = interpolate_reference(level, rx + px, ry + py)
+            jt = gy * rx - gx * ry
+            jac = np.stack((gx, gy, jt))
+            h = jac @ jac.T
+            if li == 0 and (it == n_max or (it >= n_iter and converged)):
+                tensor = level.tensor_at(rx + px, ry + py)
+                info, n_in = normal_information(m, gx, gy, rx, ry, tensor)
+                score = float(np.add.reduce(m)) / m.size
+                return MatchResult(Pose2D(px, py, yaw), h, score, len(fine), info, n_in)
+            r = 1.0 - m
+            g = np.array([np.add.reduce(gx * r), np.add.reduce(gy * r), np.add.reduce(jt * r)])
+            lam = cfg.damping * (h[0, 0] + h[1, 1] + h[2, 2]) / 3.0 + 1e-9
+            h[np.diag_indices(3)] += lam
+            (a, b, cc), (_, d, e), (_, _, f) = h
+            co0, co1, co2 = d * f - e * e, cc * e - b * f, b * e - cc * d
+            det = a * co0 + b * co1 + cc * co2
+            if not abs(det) > 1e-300:
+                dx = dy = dth = 0.0
+            else:
+                dx = (g[0] * co0 + g[1] * co1 + g[2] * co2) / det
+                dy = (g[0] * co1 + g[1] * (a * f - cc * cc) + g[2] * (b * cc - a * e)) / det
+                dth = (g[0] * co2 + g[1] * (b * cc - a * e) + g[2] * (a * d - b * b)) / det
+            dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
+            converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
+            px, py, yaw = float(px + dx), float(py + dy), float(yaw + dth)
+    raise AssertionError("the finest level always ends the match")
+
+
+@pytest.mark.parametrize("start_level", [None, 1, 0])
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_match_equals_its_plain_numpy_version(surface: str, start_level: int | None) -> None:
+    """`ScanMatcher.match` (its step in Python floats, one gather for the four corners) gives
+    the plain numpy version's result bit for bit, from good and poor starts and off the map."""
+    rng = np.random.default_rng(3)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for truth in _poses(rng, 5):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x - 0.12, truth.y + 0.05, truth.yaw + math.radians(6.0))
+        for start in _starts_around(prior, 0.15, math.radians(10.0))[::4]:
+            expected = match_reference(matcher, points, start, start_level)
+            assert _same_match(matcher.match(points, start, start_level), expected)
+
+
+@pytest.mark.realdata
+def test_match_equals_its_plain_numpy_version_on_a_real_log() -> None:
+    """The same on the Intel lab's log (cell-centre map of its first 300 scans)."""
+    path = (
+        Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/intel-corrected.log.gz"
+    )
+    if not path.is_file():
+        pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
+    records = read_laser_records(path)[:300]
+    loc = Localiser(map_of(records[::2]), log_config())
+    for record in records[1::15]:
+        points = loc._scan_points(record.scan)
+        for start_level in (None, 1):
+            expected = match_reference(loc.matcher, points, record.pose, start_level)
+            assert _same_match(loc.matcher.match(points, record.pose, start_level), expected)
