@@ -48,9 +48,11 @@ def _scenario_arguments(p_scn: argparse.ArgumentParser) -> None:
         "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
     )
     p_scn.add_argument(
-        "--tour-resumes",
+        "--idle-after-kidnap",
         action="store_true",
-        help="kidnap: a robot kidnapped standing at a tour stop is sent the next leg after a dwell",
+        help="kidnap: a robot kidnapped standing at a tour stop stays idle (default: the "
+        "station's supervisor sends it the next leg after a dwell, which it plans from the "
+        "pose it finds)",
     )
     p_scn.add_argument(
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"
