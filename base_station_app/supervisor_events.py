@@ -40,6 +40,7 @@ from interbot_core.supervisor import (
     RobotCondition,
     RouteCancelled,
     RouteStarted,
+    SupervisorState,
     TaskFinished,
     TaskStarted,
     TourStopReached,
@@ -209,5 +210,8 @@ class SupervisorEvents:
             yaw_tolerance=cfg.yaw_tolerance,
         )
         mirror.route_sent(self._link.send_to(mirror, Topic.ROUTE, msg))
-        self.log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
+        text = f"route {msg.route_id}: nodes {list(msg.node_ids)}"
+        if mirror.supervisor.state is SupervisorState.WAITING_FOR_POSE:
+            text += " (the goal alone: the robot plans to it from the position it finds)"
+        self.log_for(mirror, "info", text)
         self._notices.route_sent(msg)

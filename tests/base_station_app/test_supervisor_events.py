@@ -167,6 +167,10 @@ def test_a_robot_that_lost_its_pose_is_sent_its_next_leg_as_the_goal_alone(rig: 
     goal = rig.topo.node(3).pose
     assert [(r.waypoints, r.node_ids) for r in routes] == [(((goal.x, goal.y, goal.yaw),), (3,))]
     assert a.status_text(estop_latched=False) == "waiting for pose"
+    assert rig.logs[-1] == (
+        "info",
+        "route 42: nodes [3] (the goal alone: the robot plans to it from the position it finds)",
+    )
     a.state.apply(Topic.POSE, _pose("ok"))  # found: it plans; nothing is re-sent
     rig.events.update_poses(3.0)
     assert len([t for _, t, _ in rig.link.sent if t is Topic.ROUTE]) == 1
