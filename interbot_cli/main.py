@@ -45,7 +45,16 @@ def _scenario_arguments(p_scn: argparse.ArgumentParser) -> None:
     )
     p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
     p_scn.add_argument(
-        "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
+        "--cold-start",
+        action="store_true",
+        help="kidnap: power on with the pose unset instead; the operator presses the station's "
+        '"Relocalise" at once (a command: the robot may turn to look around)',
+    )
+    p_scn.add_argument(
+        "--idle-at-power-on",
+        action="store_true",
+        help='kidnap --cold-start: nobody presses "Relocalise"; the idle robot searches '
+        "standing still (no motion nobody commanded)",
     )
     p_scn.add_argument(
         "--idle-after-kidnap",

@@ -39,6 +39,7 @@ def main(args: argparse.Namespace) -> int:
         ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
         idle_after_kidnap=bool(getattr(args, "idle_after_kidnap", False)),
+        idle_at_power_on=bool(getattr(args, "idle_at_power_on", False)),
     )
     if getattr(args, "record", None):
         from dataclasses import replace

@@ -31,15 +31,18 @@ nothing of it reaches the robot):
 
 A kidnap not resolved within ``WINDOW_S`` is resolved by the operator (the true pose is set) so
 the run goes on. ``--cold-start`` instead starts the robot ``COLD_STARTS`` times with its pose
-unset at random free poses and reports the same figures (``detected`` is then every trial). The
-robot is switched on and given its task at once: a route to a place at least ``MIN_KIDNAP_M``
-away, sent at power-on (the operator's tour), so it serves a command and may look around
-(`look_around`); it cannot drive before it knows where it is. Every time is from power-on
-(simulated time 0, pose unset). That route is sent to the robot directly: it models an
-operator's command at power-on, which the station's supervisor does not send to a robot that
-never had a pose (thesis §5.2.2.1; its "Relocalise" is what makes such a robot turn).
-``commanded=False`` (`run_cold_starts`) leaves it idle instead: nobody asked it to move, so it
-searches standing still.
+unset at random free poses and reports the same figures (``detected`` is then every trial);
+every time is from power-on (simulated time 0, pose unset). At power-on the operator presses
+the station's "Relocalise" (`SimulatedSystem.relocalise`: the station's button sends the link's
+``Relocalise``, the daemon calls `RobotStack.relocalise`), which is what the shipped system
+offers a robot that never had a pose: the station's supervisor sends no route to it (thesis
+§5.2.2.1: the initial pose is set, or found, first). That is a command, so the robot may turn to
+look around (`look_around`, reason "request"). ``idle_at_power_on`` (``--idle-at-power-on``):
+nobody presses anything; the robot searches standing still (no motion nobody commanded) and
+asks for help where one standing scan fits several places.
+
+``relocalise_s_list`` / ``detect_s_list`` are the times of every relocalised / detected trial,
+so runs can be pooled (the targets are over all kidnaps, not per seed).
 """
 
 from __future__ import annotations
@@ -107,6 +110,9 @@ class _Tally:
             "detect_s_max": stat(det, np.max),
             "relocalise_s_median": stat(rel, np.median),
             "relocalise_s_max": stat(rel, np.max),
+            # every trial's time, to pool runs (the median over all kidnaps of all seeds)
+            "detect_s_list": det,
+            "relocalise_s_list": rel,
             # The targets: kidnaps relocalised within 10 s, cold starts within 5 s.
             "relocalised_within_5s": sum(t <= 5.0 for t in rel),
             "relocalised_within_10s": sum(t <= 10.0 for t in rel),
@@ -301,26 +307,37 @@ def _start_pose(run: KidnapRun, options: ScenarioOptions) -> Pose2D | None:
     return Pose2D(float(x), float(y), 0.0)
 
 
-def run_cold_starts(
-    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS, commanded: bool = True
-) -> _Tally:
-    """``count`` power-ons at random free poses; ``commanded``: a route is given at power-on."""
+def cold_start_poses(options: ScenarioOptions, count: int = COLD_STARTS) -> list[Pose2D]:
+    """Where the robot is switched on: ``count`` random free poses facing random directions."""
     rng = np.random.default_rng(options.seed)
-    run = KidnapRun(options, topo, rng)
     from interbot_core.occupancy_grid import load_map
 
     free = free_poses(load_map(options.map_yaml), MIN_CLEARANCE_M)
-    tally = _Tally()
-    for k in range(count):
+    poses = []
+    for _ in range(count):
         x, y = free[int(rng.integers(free.shape[0]))]
-        start = Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
-        system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
+        poses.append(Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi))))
+    return poses
+
+
+def power_on(options: ScenarioOptions, topo: Path | None, k: int, start: Pose2D) -> SimulatedSystem:
+    """Cold start ``k``: a system switched on at ``start`` with its pose unset; the operator
+    presses "Relocalise" at once unless ``options.idle_at_power_on``."""
+    run = KidnapRun(options, topo, np.random.default_rng(options.seed))
+    system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
+    if not options.idle_at_power_on:
+        system.relocalise()  # the station's "Relocalise", pressed at power-on
+    return system
+
+
+def run_cold_starts(
+    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS
+) -> _Tally:
+    """``count`` power-ons at random free poses (`cold_start_poses`, `power_on`)."""
+    tally = _Tally()
+    for k, start in enumerate(cold_start_poses(options, count)):
+        system = power_on(options, topo, k, start)
         record = KidnapRecord(standing=True)
-        if commanded:
-            # Drawn from its own stream, so the start poses are those of an idle run.
-            goal_rng = np.random.default_rng([options.seed, k, 16])
-            goal = KidnapRun(options, topo, goal_rng).target(system, start)
-            system.stack.set_route(RouteMsg(1, ((goal.x, goal.y, goal.yaw),)), system.now)
         _watch(system, record, system.now)
         tally.records.append(record)
         logger.info("cold start %d at %s: %s", k, start, record)
@@ -341,16 +358,20 @@ def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
             "map": str(options.map_yaml),
             "targets": "topological nodes" if topo is not None else "random free poses",
             "cold_start": cold,
-            # cold starts: a route is given at power-on (the robot serves a command);
-            # kidnaps: a robot kidnapped standing gets its next leg from the station's
-            # supervisor after the dwell (not with --idle-after-kidnap)
-            "commanded": cold or not options.idle_after_kidnap,
+            # cold starts: the operator presses "Relocalise" at power-on (not with
+            # --idle-at-power-on); kidnaps: a robot kidnapped standing gets its next leg from
+            # the station's supervisor after the dwell (not with --idle-after-kidnap)
+            "commanded": not options.idle_at_power_on if cold else not options.idle_after_kidnap,
             "people": options.people,
             "seed": options.seed,
         }
     )
     f = figures
-    title = "cold start anywhere" if cold else "kidnapped robot (standing and moving)"
+    if cold:
+        pressed = "idle at power-on" if options.idle_at_power_on else '"Relocalise" at power-on'
+        title = f"cold start anywhere, {pressed}"
+    else:
+        title = "kidnapped robot (standing and moving)"
     table = "\n".join(
         [
             f"Kidnap scenario (issue 16): {title} on {options.map_yaml.name}",

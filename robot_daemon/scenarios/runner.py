@@ -80,6 +80,9 @@ class ScenarioOptions:
     # kidnap scenario: a robot kidnapped standing at a tour stop stays idle (nobody asks for
     # the next leg; by default the station's supervisor hands it on after a dwell)
     idle_after_kidnap: bool = False
+    # kidnap scenario --cold-start: nobody presses "Relocalise" at power-on (the robot searches
+    # standing still; by default the operator presses it at once)
+    idle_at_power_on: bool = False
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
@@ -380,6 +383,12 @@ class SimulatedSystem:
         A person clicking the pose on the map is off by ``initial_pose_error`` (realistic world).
         """
         self.stack.set_initial_pose(self.start_pose.compose(self.initial_pose_error), self.now)
+
+    def relocalise(self) -> None:
+        """The operator presses the station's "Relocalise" (`StationController.relocalise`):
+        the link's ``Relocalise`` reaches the daemon, which calls `RobotStack.relocalise`, as
+        here. A command: the robot searches the whole map and may turn to look around."""
+        self.stack.relocalise(self.now)
 
     def _route_message(self, started: RouteStarted) -> RouteMsg:
         self._route_ids += 1
