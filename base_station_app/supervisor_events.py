@@ -2,7 +2,8 @@
 
 Each robot has its own `Supervisor` (queue, tour, requests: per-robot supervision); its
 events say what to do, and this object does it for the robot they came from: send the whole
-route once (a fresh random id, the configured tolerances), cancel it, pause at a tour stop
+route once (a fresh random id, the configured tolerances; to a robot that lost its pose, the
+goal alone: `Supervisor.update`), cancel it, pause at a tour stop
 (§5.3.6), show a request. The tablet is bound to the selected robot, so only that robot's
 events reach it; another robot that needs the operator (a tour stop, a request) raises a
 "waiting" alert naming it instead. The robot owns its route (issue 11): its progress report
@@ -36,8 +37,10 @@ from interbot_core.supervisor import (
     RequestDeclined,
     RequestShown,
     RequestTimedOut,
+    RobotCondition,
     RouteCancelled,
     RouteStarted,
+    SupervisorState,
     TaskFinished,
     TaskStarted,
     TourStopReached,
@@ -91,9 +94,20 @@ class SupervisorEvents:
 
     # ------------------------------------------------------------------ the robot's word
     def update_poses(self, now: float) -> None:
-        """Every robot's supervisor sees its own robot's pose (the clock's pose section)."""
+        """Every robot's supervisor sees its own robot's pose (the clock's pose section), and
+        whether a lost robot may be handed its next leg (`RobotCondition`)."""
         for mirror in self._fleet.all():
-            self.handle(mirror.supervisor.update(now, mirror.state.localised_pose), mirror)
+            state = mirror.state
+            update = mirror.supervisor.update(now, state.localised_pose, self.condition(mirror))
+            self.handle(update, mirror)
+
+    def condition(self, mirror: RobotMirror) -> RobotCondition:
+        """What the supervisor needs beside the pose: connected, stopped (the robot's word or
+        the operator's stop), and looking for a pose it had (the pose message's ``known``)."""
+        pose = mirror.state.pose
+        finding = pose is not None and pose.state in ("lost", "searching", "turning") and pose.known
+        stopped = self._link.estop_latched or bool(mirror.state.estop_engaged)
+        return RobotCondition(mirror.online, stopped, finding)
 
     def robot_progress(self, mirror: RobotMirror) -> None:
         """The robot judges arrival (issue 13): its report on our route drives the supervisor,
@@ -196,5 +210,8 @@ class SupervisorEvents:
             yaw_tolerance=cfg.yaw_tolerance,
         )
         mirror.route_sent(self._link.send_to(mirror, Topic.ROUTE, msg))
-        self.log_for(mirror, "info", f"route {msg.route_id}: nodes {list(msg.node_ids)}")
+        text = f"route {msg.route_id}: nodes {list(msg.node_ids)}"
+        if mirror.supervisor.state is SupervisorState.WAITING_FOR_POSE:
+            text += " (the goal alone: the robot plans to it from the position it finds)"
+        self.log_for(mirror, "info", text)
         self._notices.route_sent(msg)

@@ -45,12 +45,23 @@ def _scenario_arguments(p_scn: argparse.ArgumentParser) -> None:
     )
     p_scn.add_argument("--json", action="store_true", help="last line: one JSON object")
     p_scn.add_argument(
-        "--cold-start", action="store_true", help="kidnap: start with the pose unset instead"
+        "--cold-start",
+        action="store_true",
+        help="kidnap: power on with the pose unset instead; the operator presses the station's "
+        '"Relocalise" at once (a command: the robot may turn to look around)',
     )
     p_scn.add_argument(
-        "--tour-resumes",
+        "--idle-at-power-on",
         action="store_true",
-        help="kidnap: a robot kidnapped standing at a tour stop is sent the next leg after a dwell",
+        help='kidnap --cold-start: nobody presses "Relocalise"; the idle robot searches '
+        "standing still (no motion nobody commanded)",
+    )
+    p_scn.add_argument(
+        "--idle-after-kidnap",
+        action="store_true",
+        help="kidnap: a robot kidnapped standing at a tour stop stays idle (default: the "
+        "station's supervisor sends it the next leg after a dwell, which it plans from the "
+        "pose it finds)",
     )
     p_scn.add_argument(
         "--record", metavar="FILE.mcap", help="record the run (with the simulator's truth) to MCAP"

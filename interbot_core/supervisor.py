@@ -10,7 +10,19 @@ frame or ``None`` while the robot is not localised) and user commands, and acts 
 Rules
 -----
 * Tasks run one at a time in queue order. A task starts only while the robot is localised
-  (``pose`` not ``None``; thesis §5.2.2.1: no autonomous motion before the initial pose is set).
+  (``pose`` not ``None``; thesis §5.2.2.1: no autonomous motion before the initial pose is set),
+  or while it looks for a pose it had (below).
+* A lost robot gets its next leg (issue 16). When a leg is due (a queued task, the tour's next
+  stop, a delivery's next room) and the robot is not localised but had a pose and looks for it
+  again (:class:`RobotCondition`: connected, not stopped, lost / searching / turning with a
+  known pose), the leg is sent as the goal alone: a one-waypoint route to the goal node's pose
+  (the last waypoint a planned route would have), which the robot's navigator drives to from
+  the pose it finds (A* on its map). Not the topological route: it starts from the station's
+  last pose, which after a kidnap is somewhere else, and the navigator drives every waypoint in
+  order. The robot turns for that command while it searches (`look_around`) and drives only
+  once localised; the station shows ``waiting_for_pose`` meanwhile and sends nothing more (the
+  robot owns its route). Never at start-up (the robot never had a pose: thesis §5.2.2.1, the
+  operator sets it or presses "Relocalise"), nor while disconnected, stopped, paused or held.
 * Routes come from :class:`~interbot_core.route_planner.RoutePlanner` (Algorithms 2 and 5) and
   are sent whole to the robot with the tolerances of :class:`SupervisorConfig`. The robot judges
   progress (``robot_daemon.planning.goal_checker``: intermediate goals within
@@ -228,6 +240,25 @@ class SupervisorConfig(schema.Declared, frozen=True):
     request_timeout: Annotated[float, Meta(gt=0.0, le=schema.FINITE, extra={"unit": "s"})] = 120.0
 
 
+@dataclass(frozen=True)
+class RobotCondition:
+    """What the station knows of its robot besides a localised pose (`Supervisor.update`).
+
+    ``finding``: the robot reports lost, searching or turning with the pose it had (the pose
+    message's ``known``): it was localised and looks for itself again. False at start-up, when
+    it never had a pose (thesis §5.2.2.1) and while it is localised.
+    """
+
+    connected: bool
+    stopped: bool  # emergency stop engaged (the robot's report or the operator's intent)
+    finding: bool
+
+    @property
+    def may_take_a_leg(self) -> bool:
+        """Whether a leg may be sent to it while it is not localised."""
+        return self.connected and not self.stopped and self.finding
+
+
 class SupervisorState(enum.StrEnum):
     IDLE = "idle"
     WAITING_FOR_POSE = "waiting_for_pose"
@@ -275,6 +306,7 @@ class Supervisor:
         self._goal_node: int | None = None
         self._goal_pose: Pose2D | None = None
         self._route: RouteStarted | None = None
+        self._blind = False  # the route went to a robot that was not localised (goal alone)
         self._index = 0  # the waypoint the robot reports heading for
         self._tour_stops: tuple[int, ...] = ()
         self._visited: list[int] = []
@@ -301,6 +333,8 @@ class Supervisor:
             return SupervisorState.AWAITING_RESPONSE
         if self._phase is _Phase.NEED_ROUTE and not self._localized:
             return SupervisorState.WAITING_FOR_POSE
+        if self._blind and not self._localized:
+            return SupervisorState.WAITING_FOR_POSE  # the goal is sent; the robot finds itself
         return SupervisorState.PAUSED if self._paused else SupervisorState.NAVIGATING
 
     @property
@@ -362,6 +396,8 @@ class Supervisor:
         """Straight-line distance from the last pose to the current target [m]."""
         if self._route is None or self._pose is None or self._phase is not _Phase.FOLLOWING:
             return None
+        if self._blind and not self._localized:
+            return None  # from a pose the robot no longer vouches for
         return self._pose.distance_to(self._route.waypoints[self._index])
 
     # ------------------------------------------------------------------ commands
@@ -494,27 +530,47 @@ class Supervisor:
 
     # ------------------------------------------------------------------ the clock
 
-    def update(self, now: float, pose: Pose2D | None) -> list[Event]:
+    def update(
+        self, now: float, pose: Pose2D | None, robot: RobotCondition | None = None
+    ) -> list[Event]:
         """One control-loop step (thesis ``clock()``): start tasks, plan routes, time out.
 
         ``pose`` is the robot pose in the ``map`` frame, or ``None`` while it is not localised
-        (tasks and route planning then wait; a running route keeps its state).
+        (a running route keeps its state). Tasks and legs then wait, unless ``robot`` says it
+        looks for a pose it had and may take a leg: the goal alone is sent (module docstring).
         """
         if not math.isfinite(now):
             raise ValueError(f"now must be a finite time [s], got {now!r}")
         self._localized = pose is not None
         if pose is not None:
             self._pose = pose
+            self._blind = False
+        blind = (
+            pose is None
+            and robot is not None
+            and robot.may_take_a_leg
+            and not self._paused
+            and not self._held
+        )
         events: list[Event] = []
         # A task may finish within this step (goal already reached, time-out), so the next one
         # may start at once; each pass either leaves a task running or consumes one from the queue.
         for _ in range(len(self._queue) + 1):
             if self._task is None:
-                if not self._queue or pose is None or self._held:
+                if not self._queue or self._held:
                     break
-                self._start_next(pose, events)
+                if pose is None and not blind:
+                    break
+                # A tour's order starts at the stop nearest the robot: when it is lost, nearest
+                # the last pose the station saw (none: the tour waits for a pose).
+                where = pose if pose is not None else self._pose
+                if where is None and isinstance(self._queue[0], GuidedTour):
+                    break
+                self._start_next(where, events)
             if self._phase is _Phase.NEED_ROUTE and pose is not None:
                 self._start_route(pose, events)
+            elif self._phase is _Phase.NEED_ROUTE and blind:
+                self._send_goal_alone(events)
             if (
                 self._phase is _Phase.AWAITING_RESPONSE
                 and self._deadline is not None
@@ -570,7 +626,7 @@ class Supervisor:
         self._goal_pose = pose
         self._phase = _Phase.NEED_ROUTE
 
-    def _start_next(self, pose: Pose2D, events: list[Event]) -> None:
+    def _start_next(self, pose: Pose2D | None, events: list[Event]) -> None:
         task = self._queue.pop(0)
         self._task = task
         events += [TaskStarted(task), QueueChanged(self.queue)]
@@ -584,6 +640,7 @@ class Supervisor:
         elif isinstance(task, Delivery):
             self._set_goal(task.room)
         else:
+            assert pose is not None  # update() starts a tour only with a pose
             self._tour_stops = tuple(self.planner.tour_order(pose))
             self._set_goal(self._tour_stops[0])
 
@@ -605,6 +662,20 @@ class Supervisor:
         self._route = RouteStarted(waypoints, node_ids, self._goal_node)
         self._index = 0
         self._phase = _Phase.FOLLOWING
+        events.append(self._route)
+
+    def _send_goal_alone(self, events: list[Event]) -> None:
+        """The leg to a robot that is not localised: its goal, which it plans to from the pose
+        it finds (module docstring)."""
+        node = self._goal_node
+        goal = self.topo.nodes[node].pose if node is not None else self._goal_pose
+        if goal is None:  # pragma: no cover - _set_goal always sets one
+            raise AssertionError("a goal without node or pose")
+        self._route = RouteStarted((goal,), (node,), node)
+        self._index = 0
+        self._phase = _Phase.FOLLOWING
+        self._blind = True
+        logger.info("robot not localised: sent it the goal alone (%s)", goal)
         events.append(self._route)
 
     def _arrived(self, now: float, events: list[Event]) -> None:

@@ -15,11 +15,14 @@ For each search attempt it prints, in seconds from the attempt's start:
   expected-scan agreement (``match/long/beams``, ``V``: vetoed in the attempt).
 
 Before the attempts, one line per kidnap (or cold start): standing or driving, the scenario's
-record and the attempts that belong to it.
+record and the attempts that belong to it. The attempt's reason says which case it is: a cold
+start with the operator's "Relocalise" pressed at power-on (the scenario's default) searches as
+``request`` (a command: it may turn); with ``--idle-at-power-on`` as ``start-up`` (it searches
+standing still); a kidnap as ``lost`` or ``kidnap`` (it turns only once a leg is waiting).
 
-    python tools/relocalise_timeline.py --cold-start --seed 2
+    python tools/relocalise_timeline.py --cold-start --seed 2 [--idle-at-power-on]
     python tools/relocalise_timeline.py --map ../shared/data/maps/willow.yaml \
-        --topo maps/willow_topo.yaml --seed 1 [--only 3] [--tour-resumes]
+        --topo maps/willow_topo.yaml --seed 1 [--only 3] [--idle-after-kidnap]
 """
 
 from __future__ import annotations
@@ -200,14 +203,20 @@ def main() -> None:
     parser.add_argument("--topo", type=Path, default=Path("maps/isr_floor0_topo.yaml"))
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--cold-start", action="store_true")
-    parser.add_argument("--tour-resumes", action="store_true", help="next leg after a stop's dwell")
+    parser.add_argument(
+        "--idle-after-kidnap", action="store_true", help="no next leg after a standing kidnap"
+    )
+    parser.add_argument(
+        "--idle-at-power-on", action="store_true", help='no "Relocalise" at a cold start'
+    )
     parser.add_argument("--only", type=int, default=None, help="print attempt N in detail")
     parser.add_argument("--count", type=int, default=None, help="trials (default: scenario's)")
     args = parser.parse_args()
     options = replace(
         ScenarioOptions(map_yaml=args.map, topo_yaml=args.topo, seed=args.seed),
         cold_start=args.cold_start,
-        tour_resumes=args.tour_resumes,
+        idle_after_kidnap=args.idle_after_kidnap,
+        idle_at_power_on=args.idle_at_power_on,
     )
     rl.Relocaliser._decide = _traced_decide  # type: ignore[method-assign]
     kd.SimulatedSystem = _TracedSystem  # type: ignore[misc]

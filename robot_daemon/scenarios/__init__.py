@@ -38,7 +38,8 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         ideal_world=bool(getattr(args, "ideal_world", False)),
         cold_start=bool(getattr(args, "cold_start", False)),
-        tour_resumes=bool(getattr(args, "tour_resumes", False)),
+        idle_after_kidnap=bool(getattr(args, "idle_after_kidnap", False)),
+        idle_at_power_on=bool(getattr(args, "idle_at_power_on", False)),
     )
     if getattr(args, "record", None):
         from dataclasses import replace

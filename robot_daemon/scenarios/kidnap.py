@@ -6,12 +6,17 @@ robot stopped: it stands at a tour stop) and while driving, between any two plac
 ``MIN_KIDNAP_M`` apart: topological nodes when the map has a topological graph, random free
 poses otherwise (Willow Garage). Odometry does not see a teleport.
 
-A robot kidnapped standing stays idle, as today's station leaves it: the station holds a tour's
-next leg until the robot reports a pose (`interbot_core.supervisor.Supervisor.update`), and an
-idle robot never turns by itself (no motion nobody commanded), so it searches standing still
-and turns only for the operator's "Relocalise". ``tour_resumes`` (``--tour-resumes``) models a
-station that hands the leg on: ``TOUR_DWELL_S`` after the robot came to rest, the next leg is
-sent, the robot serves a command and may look around (`look_around`) while it searches.
+A robot kidnapped standing at a tour stop gets its next leg from the station, as the shipped
+station gives it: ``TOUR_DWELL_S`` after the robot came to rest the visitor asks for the next
+place (a `GoTo` of the graph's node, a `GoToPose` without a graph) through the system's real
+`Supervisor`. If the robot reports a pose then, the supervisor plans the route from it; if it
+lost the pose it had (lost, searching, turning), the supervisor sends the goal alone
+(`Supervisor.update`, issue 16): the robot serves a command, may turn to look around
+(`look_around`) while it searches and plans from the pose it finds. After the kidnap is
+settled the task is cancelled and the scenario's own wander goes on. ``idle_after_kidnap``
+(``--idle-after-kidnap``) leaves the robot idle instead (nobody asks for the next leg): an idle
+robot never turns by itself (no motion nobody commanded), so it searches standing still and
+turns only for the operator's "Relocalise". Driving kidnaps are the same in both.
 For each kidnap the figures are taken from the simulator's ground truth (metrics only;
 nothing of it reaches the robot):
 
@@ -26,12 +31,18 @@ nothing of it reaches the robot):
 
 A kidnap not resolved within ``WINDOW_S`` is resolved by the operator (the true pose is set) so
 the run goes on. ``--cold-start`` instead starts the robot ``COLD_STARTS`` times with its pose
-unset at random free poses and reports the same figures (``detected`` is then every trial). The
-robot is switched on and given its task at once: a route to a place at least ``MIN_KIDNAP_M``
-away, sent at power-on (the operator's tour), so it serves a command and may look around
-(`look_around`); it cannot drive before it knows where it is. Every time is from power-on
-(simulated time 0, pose unset). ``commanded=False`` (`run_cold_starts`) leaves it idle instead:
-nobody asked it to move, so it searches standing still.
+unset at random free poses and reports the same figures (``detected`` is then every trial);
+every time is from power-on (simulated time 0, pose unset). At power-on the operator presses
+the station's "Relocalise" (`SimulatedSystem.relocalise`: the station's button sends the link's
+``Relocalise``, the daemon calls `RobotStack.relocalise`), which is what the shipped system
+offers a robot that never had a pose: the station's supervisor sends no route to it (thesis
+§5.2.2.1: the initial pose is set, or found, first). That is a command, so the robot may turn to
+look around (`look_around`, reason "request"). ``idle_at_power_on`` (``--idle-at-power-on``):
+nobody presses anything; the robot searches standing still (no motion nobody commanded) and
+asks for help where one standing scan fits several places.
+
+``relocalise_s_list`` / ``detect_s_list`` are the times of every relocalised / detected trial,
+so runs can be pooled (the targets are over all kidnaps, not per seed).
 """
 
 from __future__ import annotations
@@ -48,6 +59,7 @@ import numpy as np
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
+from interbot_core.supervisor import GoTo, GoToPose
 from interbot_core.topics import RouteMsg
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO
 from robot_daemon.localisation.localiser import LocaliserState
@@ -64,6 +76,7 @@ WRONG_M = 0.5  # [m] ... this far is wrong
 MIN_CLEARANCE_M = 0.45  # [m] targets this far from walls (the footprint fits)
 DRIVE_S = (8.0, 25.0)  # [s] driving between kidnaps (uniform)
 TOUR_DWELL_S = 5.0  # [s] at a tour stop until the visitor taps Resume (the tour scenario's)
+WANDER_ROUTE_IDS = 10_000  # the scenario's own routes: ids apart from the station's (1, 2, ...)
 
 
 @dataclass
@@ -97,6 +110,9 @@ class _Tally:
             "detect_s_max": stat(det, np.max),
             "relocalise_s_median": stat(rel, np.median),
             "relocalise_s_max": stat(rel, np.max),
+            # every trial's time, to pool runs (the median over all kidnaps of all seeds)
+            "detect_s_list": det,
+            "relocalise_s_list": rel,
             # The targets: kidnaps relocalised within 10 s, cold starts within 5 s.
             "relocalised_within_5s": sum(t <= 5.0 for t in rel),
             "relocalised_within_10s": sum(t <= 10.0 for t in rel),
@@ -155,6 +171,19 @@ class KidnapRun:
         place = options[int(self.rng.integers(len(options)))]
         return Pose2D(place.x, place.y, float(self.rng.uniform(-math.pi, math.pi)))
 
+    def next_task(self, system: SimulatedSystem, away_from: Pose2D) -> GoTo | GoToPose:
+        """The visitor's next place as a station task: a node of the graph at least
+        MIN_KIDNAP_M away, or without a graph a free pose (`target`)."""
+        if not self.topo_given:
+            return GoToPose(self.target(system, away_from))
+        ids = [
+            n.id
+            for n in system.topo.nodes
+            if system.sim.world.clearance_at(n.pose.x, n.pose.y) >= 0.35
+            and n.pose.distance_to(away_from) >= MIN_KIDNAP_M
+        ]
+        return GoTo(ids[int(self.rng.integers(len(ids)))])
+
 
 def _watch(
     system: SimulatedSystem,
@@ -196,12 +225,10 @@ def _operator_fixes(system: SimulatedSystem) -> None:
     system.run_until(lambda: stack.localisation_state is LocaliserState.OK, 2.0)
 
 
-def _drive_somewhere(
-    run: KidnapRun, system: SimulatedSystem, route_id: int, away_from: Pose2D | None = None
-) -> None:
+def _drive_somewhere(run: KidnapRun, system: SimulatedSystem, route_id: int) -> None:
     """Send the robot to a place (a tour-like wander between places) at least MIN_KIDNAP_M
-    from ``away_from`` (default: where the robot believes it is)."""
-    pose = away_from or system.stack.pose or system.sim.true_pose()
+    from where it believes it is."""
+    pose = system.stack.pose or system.sim.true_pose()
     goal = run.target(system, pose)
     msg = RouteMsg(route_id, ((goal.x, goal.y, goal.yaw),))
     try:
@@ -210,9 +237,17 @@ def _drive_somewhere(
         logger.warning("route refused: %s", exc)
 
 
-def _next_leg(run: KidnapRun, system: SimulatedSystem, route_id: int) -> None:
-    """The visitor taps Resume: the tour's next stop (away from where the robot truly is)."""
-    _drive_somewhere(run, system, route_id, system.sim.true_pose())
+def _station_next_leg(run: KidnapRun, system: SimulatedSystem) -> None:
+    """The visitor asks for the next place (away from where the robot truly is): a task for
+    the station's supervisor, which sends the robot its leg (module docstring)."""
+    system.apply(system.supervisor.submit(run.next_task(system, system.sim.true_pose())))
+
+
+def _station_task_ends(system: SimulatedSystem) -> None:
+    """The kidnap is settled: the station's task (if any) is cancelled, so the scenario's own
+    wander goes on."""
+    system.apply(system.supervisor.cancel())
+    system.apply(system.supervisor.clear_queue())
 
 
 def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAPS) -> _Tally:
@@ -223,7 +258,7 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
     system = probe
     stack, sim = system.stack, system.sim
     system.localise()
-    route_id = 0
+    route_id = WANDER_ROUTE_IDS
     for k in range(count):
         standing = k % 2 == 0
         route_id += 1
@@ -247,13 +282,13 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
         record = KidnapRecord(standing=standing)
         sim.teleport(target)
         next_leg = None
-        if standing and options.tour_resumes:
-            # The visitor taps Resume: the next stop, from a stream of its own (the kidnaps
-            # are those of an idle run), away from where the robot now truly stands.
-            route_id += 1
+        if standing and not options.idle_after_kidnap:
+            # The visitor asks for the next stop, from a stream of its own (the kidnaps are
+            # those of an idle run), away from where the robot now truly stands.
             leg_run = KidnapRun(options, topo, np.random.default_rng([options.seed, k, 17]))
-            next_leg = (at_stop + TOUR_DWELL_S, partial(_next_leg, leg_run, system, route_id))
+            next_leg = (at_stop + TOUR_DWELL_S, partial(_station_next_leg, leg_run, system))
         _watch(system, record, system.now, next_leg)
+        _station_task_ends(system)
         tally.records.append(record)
         logger.info("kidnap %d (%s): %s", k, "standing" if standing else "moving", record)
         if record.relocalise_s is None:
@@ -272,26 +307,37 @@ def _start_pose(run: KidnapRun, options: ScenarioOptions) -> Pose2D | None:
     return Pose2D(float(x), float(y), 0.0)
 
 
-def run_cold_starts(
-    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS, commanded: bool = True
-) -> _Tally:
-    """``count`` power-ons at random free poses; ``commanded``: a route is given at power-on."""
+def cold_start_poses(options: ScenarioOptions, count: int = COLD_STARTS) -> list[Pose2D]:
+    """Where the robot is switched on: ``count`` random free poses facing random directions."""
     rng = np.random.default_rng(options.seed)
-    run = KidnapRun(options, topo, rng)
     from interbot_core.occupancy_grid import load_map
 
     free = free_poses(load_map(options.map_yaml), MIN_CLEARANCE_M)
-    tally = _Tally()
-    for k in range(count):
+    poses = []
+    for _ in range(count):
         x, y = free[int(rng.integers(free.shape[0]))]
-        start = Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))
-        system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
+        poses.append(Pose2D(float(x), float(y), float(rng.uniform(-math.pi, math.pi))))
+    return poses
+
+
+def power_on(options: ScenarioOptions, topo: Path | None, k: int, start: Pose2D) -> SimulatedSystem:
+    """Cold start ``k``: a system switched on at ``start`` with its pose unset; the operator
+    presses "Relocalise" at once unless ``options.idle_at_power_on``."""
+    run = KidnapRun(options, topo, np.random.default_rng(options.seed))
+    system = SimulatedSystem(replace(run.sys_options, seed=options.seed + k), start_pose=start)
+    if not options.idle_at_power_on:
+        system.relocalise()  # the station's "Relocalise", pressed at power-on
+    return system
+
+
+def run_cold_starts(
+    options: ScenarioOptions, topo: Path | None, count: int = COLD_STARTS
+) -> _Tally:
+    """``count`` power-ons at random free poses (`cold_start_poses`, `power_on`)."""
+    tally = _Tally()
+    for k, start in enumerate(cold_start_poses(options, count)):
+        system = power_on(options, topo, k, start)
         record = KidnapRecord(standing=True)
-        if commanded:
-            # Drawn from its own stream, so the start poses are those of an idle run.
-            goal_rng = np.random.default_rng([options.seed, k, 16])
-            goal = KidnapRun(options, topo, goal_rng).target(system, start)
-            system.stack.set_route(RouteMsg(1, ((goal.x, goal.y, goal.yaw),)), system.now)
         _watch(system, record, system.now)
         tally.records.append(record)
         logger.info("cold start %d at %s: %s", k, start, record)
@@ -312,15 +358,20 @@ def run(options: ScenarioOptions, count: int | None = None) -> ScenarioResult:
             "map": str(options.map_yaml),
             "targets": "topological nodes" if topo is not None else "random free poses",
             "cold_start": cold,
-            # cold starts: a route is given at power-on (the robot serves a command);
-            # kidnaps (--tour-resumes): a robot kidnapped standing is sent the next leg after the dwell
-            "commanded": cold or options.tour_resumes,
+            # cold starts: the operator presses "Relocalise" at power-on (not with
+            # --idle-at-power-on); kidnaps: a robot kidnapped standing gets its next leg from
+            # the station's supervisor after the dwell (not with --idle-after-kidnap)
+            "commanded": not options.idle_at_power_on if cold else not options.idle_after_kidnap,
             "people": options.people,
             "seed": options.seed,
         }
     )
     f = figures
-    title = "cold start anywhere" if cold else "kidnapped robot (standing and moving)"
+    if cold:
+        pressed = "idle at power-on" if options.idle_at_power_on else '"Relocalise" at power-on'
+        title = f"cold start anywhere, {pressed}"
+    else:
+        title = "kidnapped robot (standing and moving)"
     table = "\n".join(
         [
             f"Kidnap scenario (issue 16): {title} on {options.map_yaml.name}",

@@ -9,8 +9,8 @@ exact initial pose) for comparison.
 `SimulatedSystem` wires what runs on three machines in the thesis into one loop: the simulator
 (the robot's body and sensors), the `RobotStack` (the Processing Unit: localiser, navigator,
 multiplexer) stepped at the daemon's 50 Hz, and the station's `Supervisor` driven at the
-``clock()`` period of 100 ms, whose route/pause/cancel events go to the stack as the zenoh link
-would carry them. `Metrics` samples the simulator's ground truth, for figures only: nothing from
+``clock()`` period of 100 ms, given what the station is given (`SimulatedSystem.station_view`),
+whose route/pause/cancel events go to the stack as the zenoh link would carry them. `Metrics` samples the simulator's ground truth, for figures only: nothing from
 it reaches the robot.
 """
 
@@ -34,6 +34,7 @@ from interbot_core.supervisor import (
     Event,
     PauseNavigation,
     RequestShown,
+    RobotCondition,
     RouteCancelled,
     RouteStarted,
     Supervisor,
@@ -54,7 +55,7 @@ from robot_daemon.sim.realistic_world import SimWorldSpec, build_sim_world, plan
 from robot_daemon.sim.simulator import SimConfig, Simulator
 from robot_daemon.sim.world import RectObstacle
 from robot_daemon.sim_backend import SimBackend
-from robot_daemon.stack import RobotStack, StackConfig
+from robot_daemon.stack import STOP_TOPIC, RobotStack, StackConfig
 
 if TYPE_CHECKING:
     from robot_daemon.recording.scenario_recording import ScenarioRecorder
@@ -76,10 +77,12 @@ class ScenarioOptions:
     max_sim_time: float = 3600.0  # [s]
     ideal_world: bool = False  # True: the simulator's world IS the map, initial pose exact
     cold_start: bool = False  # kidnap scenario: start with the pose unset (issue 16)
-    # kidnap scenario: a robot kidnapped standing at a tour stop is sent the tour's next leg
-    # after a dwell (models a station that hands the leg on while the robot searches; today's
-    # station holds it until the robot has a pose, so the default leaves the robot idle)
-    tour_resumes: bool = False
+    # kidnap scenario: a robot kidnapped standing at a tour stop stays idle (nobody asks for
+    # the next leg; by default the station's supervisor hands it on after a dwell)
+    idle_after_kidnap: bool = False
+    # kidnap scenario --cold-start: nobody presses "Relocalise" at power-on (the robot searches
+    # standing still; by default the operator presses it at once)
+    idle_at_power_on: bool = False
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
@@ -381,6 +384,12 @@ class SimulatedSystem:
         """
         self.stack.set_initial_pose(self.start_pose.compose(self.initial_pose_error), self.now)
 
+    def relocalise(self) -> None:
+        """The operator presses the station's "Relocalise" (`StationController.relocalise`):
+        the link's ``Relocalise`` reaches the daemon, which calls `RobotStack.relocalise`, as
+        here. A command: the robot searches the whole map and may turn to look around."""
+        self.stack.relocalise(self.now)
+
     def _route_message(self, started: RouteStarted) -> RouteMsg:
         self._route_ids += 1
         cfg = self.supervisor.config
@@ -409,6 +418,19 @@ class SimulatedSystem:
             for hook in self.hooks:
                 hook(self, event)
 
+    def station_view(self) -> tuple[Pose2D | None, RobotCondition]:
+        """What the station's supervisor is given, as the station takes it from the robot's
+        pose message (`RobotState.localised_pose`, `SupervisorEvents.condition`): the pose only
+        while ok or degraded; and whether the robot looks for a pose it had (lost, searching
+        or turning with a pose), connected (one loop here) and not stopped."""
+        stack = self.stack
+        state, pose = stack.reported_localisation, stack.pose
+        localised = pose if state in ("ok", "degraded") else None
+        finding = pose is not None and state in ("lost", "searching", "turning")
+        with stack.motion_lock:
+            stopped = any(lock.topic == STOP_TOPIC for lock in stack.mux.active_locks(self.now))
+        return localised, RobotCondition(True, stopped, finding)
+
     def _station_clock(self) -> None:
         due = [item for item in self.pending if item[0] <= self.now + 1e-9]
         for item in due:
@@ -426,7 +448,7 @@ class SimulatedSystem:
                     self.apply(self.supervisor.robot_route_succeeded(self.now))
                 elif route.state == "aborted":
                     self.apply(self.supervisor.robot_route_aborted(route.reason))
-        self.apply(self.supervisor.update(self.now, self.stack.pose))
+        self.apply(self.supervisor.update(self.now, *self.station_view()))
         wall, cpu = self._wall_clock(), time.process_time()
         self.metrics.sample(self.sim, self.stack, CLOCK_DT)
         # The metrics' ground-truth matching is not the robot's work: out of the RTFs.

@@ -16,7 +16,7 @@ from interbot_core import protocol as p
 from interbot_core.route_mirror import RouteLost
 from interbot_core.route_planner import RoutePlanner
 from interbot_core.supervisor import GoTo, RequestShown, SupervisorConfig, TourStopReached
-from interbot_core.topics import RouteMsg, RouteProgress, Topic
+from interbot_core.topics import MuxMsg, PoseMsg, RouteMsg, RouteProgress, Topic
 from interbot_core.topological_map import TopologicalMap
 
 
@@ -26,6 +26,7 @@ class FakeFleetLink:
     def __init__(self) -> None:
         self.sent: list[tuple[str | None, Topic, object]] = []
         self.heard = True
+        self.estop_latched = False  # the operator's stop (FleetLink's)
 
     def send_to(self, mirror: RobotMirror, topic: Topic, message: object) -> bool:
         self.sent.append((mirror.robot_id, topic, message))
@@ -143,3 +144,66 @@ def test_requests_are_numbered_and_another_robots_raises_an_alert(rig: Rig) -> N
     assert rig.a.shown_request == (1, shown) and rig.b.shown_request == (2, shown)
     assert rig.tablet == [p.ShowRequest(1, "coffee", 5, 2)]
     assert [a.robot for a in rig.alerts.unacknowledged] == ["b"]
+
+
+def _pose(state: str, known: bool = True) -> PoseMsg:
+    """The robot's pose message: with the pose it had, or a start-up search's (no pose)."""
+    if known:
+        return PoseMsg(19.0, 0.5, 0.0, 5.0, state, 0.3, (0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01))
+    return PoseMsg(0.0, 0.0, 0.0, 5.0, state, 0.0)
+
+
+def test_a_robot_that_lost_its_pose_is_sent_its_next_leg_as_the_goal_alone(rig: Rig) -> None:
+    """Issue 16: the clock's pose section gives the supervisor the robot's condition; a robot
+    searching with the pose it had gets the due leg once, as its goal node's pose."""
+    a = rig.a
+    a.online = True
+    a.state.apply(Topic.POSE, _pose("ok"))
+    rig.events.update_poses(1.0)  # the station saw a pose
+    a.state.apply(Topic.POSE, _pose("searching"))
+    rig.events.handle(a.supervisor.submit(GoTo(3)), a)
+    rig.events.update_poses(2.0)
+    routes = [m for r, t, m in rig.link.sent if t is Topic.ROUTE]
+    goal = rig.topo.node(3).pose
+    assert [(r.waypoints, r.node_ids) for r in routes] == [(((goal.x, goal.y, goal.yaw),), (3,))]
+    assert a.status_text(estop_latched=False) == "waiting for pose"
+    assert rig.logs[-1] == (
+        "info",
+        "route 42: nodes [3] (the goal alone: the robot plans to it from the position it finds)",
+    )
+    a.state.apply(Topic.POSE, _pose("ok"))  # found: it plans; nothing is re-sent
+    rig.events.update_poses(3.0)
+    assert len([t for _, t, _ in rig.link.sent if t is Topic.ROUTE]) == 1
+
+
+@pytest.mark.parametrize(
+    ("online", "pose", "latched", "mux_locks", "expected"),
+    [
+        (True, _pose("searching"), False, (), (True, False, True)),
+        (True, _pose("turning"), False, (), (True, False, True)),
+        (True, _pose("lost"), False, (), (True, False, True)),
+        (True, _pose("searching", known=False), False, (), (True, False, False)),  # start-up
+        (True, _pose("unset", known=False), False, (), (True, False, False)),
+        (True, _pose("ok"), False, (), (True, False, False)),
+        (True, None, False, (), (True, False, False)),
+        (False, _pose("searching"), False, (), (False, False, True)),
+        (True, _pose("searching"), True, (), (True, True, True)),  # the operator's stop
+        (True, _pose("searching"), False, ("Emergency Stop",), (True, True, True)),  # robot's
+    ],
+)
+def test_the_robots_condition_comes_from_what_it_reports(
+    rig: Rig,
+    online: bool,
+    pose: PoseMsg | None,
+    latched: bool,
+    mux_locks: tuple[str, ...],
+    expected: tuple[bool, bool, bool],
+) -> None:
+    a = rig.a
+    a.online = online
+    if pose is not None:
+        a.state.apply(Topic.POSE, pose)
+    a.state.apply(Topic.MUX, MuxMsg(None, active_locks=mux_locks))
+    rig.link.estop_latched = latched
+    c = rig.events.condition(a)
+    assert (c.connected, c.stopped, c.finding) == expected
