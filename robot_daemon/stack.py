@@ -14,7 +14,9 @@ the same code runs in the daemon (monotonic time) and in headless scenarios (sim
   goes on at ``degraded_speed_scale`` of the planner's linear speed. Stopping would not help:
   only motion brings new structure into view to pin the pose again, and bad scans turn
   ``degraded`` into ``lost`` (a stop) within ``LocaliserConfig.lost_after_s``. Slower, the robot
-  travels less on odometry alone between scans and people have more time to react.
+  travels less on odometry alone between scans and people have more time to react. A spell of
+  ``degraded`` that lasts is checked (`relocalisation`: a whole-map comparison every second);
+  a clearly better place elsewhere means a kidnap, and the robot stops and searches.
 * **Suspension.** Autonomous motion is suspended while the robot is not localised (``unset``,
   ``lost`` or ``searching``: a global search is deciding where it is, `relocalisation`), paused (``pause_nav``), e-stopped, or driven by a higher-priority input (shared
   control, thesis §6.3.2). On resumption the navigator replans the remaining goals from where

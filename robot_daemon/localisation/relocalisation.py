@@ -12,6 +12,12 @@ The policy around `relocaliser.Relocaliser`, kept out of the stack so the stack 
   whole-map search resumes.
 * **Background check.** While localised and standing, every ``background_every_s`` the whole
   map is searched; a clearly better place elsewhere means a kidnap the loss test missed.
+* **Degraded.** Once the localiser has reported ``degraded`` for ``degraded_after_s``, the same
+  comparison runs every ``RelocaliserConfig.degraded_every_s``, standing or driving
+  (`Relocaliser.check_degraded`); a clearly better place elsewhere starts the search. A robot
+  carried off whose new scan still fits the old pose a little (hit fraction above the loss
+  test's, below the degraded threshold) was otherwise neither lost nor checked: it drove on at
+  the degraded speed, 32 m off, for 14 s (Willow kidnap seed 3 #7, ``--tour-resumes``).
 
 State reported while a search runs: ``searching``; once it has been undecided for
 ``help_after_s`` (failed, or look-alike places and no motion to tell them apart): ``lost``
@@ -48,6 +54,9 @@ class RelocalisationConfig(schema.Declared, frozen=True):
     on_unset: bool = True  # search at start-up with the pose unset
     on_lost: bool = True  # search when the localiser reports lost
     background: bool = True  # standing-kidnap check while localised
+    on_degraded: bool = True  # the same check while degraded (standing or driving) ...
+    # ... once degraded this long (the loss test decides first: lost_after_s is 1 s)
+    degraded_after_s: Annotated[float, Meta(ge=0.0, le=600.0, extra={"unit": "s"})] = 1.0
     # a "Help me!" pose is verified within this box half-width
     help_radius_m: Annotated[float, Meta(ge=0.5, le=100.0, extra={"unit": "m"})] = 5.0
     # ... and rejected if not confirmed within this long
@@ -76,6 +85,7 @@ class Relocalisation:
         self._help_until: float | None = None  # verifying a "Help me!" pose until then
         self.help_requests = 0  # times the search asked for a person (for figures)
         self._help_flagged = False
+        self._degraded_since: float | None = None  # the localiser reports degraded since
         self.executor: Executor | None = None  # where searches run (None: in the caller)
 
     @property
@@ -104,6 +114,18 @@ class Relocalisation:
                 return LocaliserState.UNSET
             return LocaliserState.LOST
         return LocaliserState.SEARCHING
+
+    def _check_degraded(self, scan: LaserScan, now: float) -> bool:
+        """Degraded for ``degraded_after_s``: compare the places (`Relocaliser.check_degraded`)
+        and start the search when another one fits clearly better."""
+        pose = self._localiser.pose
+        since = self._degraded_since
+        if pose is None or since is None or now - since < self.config.degraded_after_s - 1e-9:
+            return False
+        if self.relocaliser.check_degraded(scan, pose, now) is None:
+            return False
+        self.relocaliser.start(now, "degraded")
+        return True
 
     # ------------------------------------------------------------------ requests
 
@@ -143,6 +165,10 @@ class Relocalisation:
         if scan is None:
             return None, events
         loc_state = self._localiser.state
+        if loc_state is not LocaliserState.DEGRADED:
+            self._degraded_since = None
+        elif self._degraded_since is None:
+            self._degraded_since = now
         if not self.active:
             if loc_state is LocaliserState.UNSET and cfg.on_unset:
                 self.relocaliser.start(now, "start-up")
@@ -163,6 +189,17 @@ class Relocalisation:
                             )
                         )
                 return None, events
+            elif loc_state is LocaliserState.DEGRADED and cfg.on_degraded:
+                if self._check_degraded(scan, now):
+                    events.append(
+                        RelocalisationEvent(
+                            "error",
+                            "localisation degraded and the scan fits another place better: "
+                            "finding my position…",
+                        )
+                    )
+                else:
+                    return None, events
             else:
                 return None, events
             self._help_flagged = False

@@ -56,7 +56,11 @@ every mode alive until the data removes all but one):
 
 The background check (`check_standing`) catches a kidnap the localiser's loss test cannot see
 from one scan: it searches the whole map while the robot stands, and reports a kidnap when a
-far-away place explains the scan clearly better (``kidnap_margin``) than the tracked pose.
+far-away place explains the scan clearly better (``kidnap_margin``) than the tracked pose. The
+same comparison runs every ``degraded_every_s`` while the localiser reports ``degraded``
+(`check_degraded`), standing or driving: a robot carried into a place whose scan fits the
+tracked pose with a hit fraction between the loss test's and the degraded threshold (Willow
+kidnap seed 3 #7: 0.35-0.42 for 14 s, 32 m off) is otherwise neither lost nor checked.
 
 Poses here are of the laser in ``map``, like the localiser's; time is injected.
 """
@@ -92,6 +96,9 @@ from robot_daemon.localisation.scan_matcher import subsample_points
 logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+
+# The kinds of the kidnap checks' searches (`Relocaliser._compare_places`), beside "search".
+_CHECKS = ("background", "degraded")
 
 
 class RelocaliserConfigError(ValueError):
@@ -140,6 +147,8 @@ class RelocaliserConfig(schema.Declared, frozen=True):
     help_after_s: Annotated[float, Meta(ge=0.0, le=3600.0, extra={"unit": "s"})] = 20.0
     # standing kidnap check period while localised
     background_every_s: Annotated[float, Meta(ge=0.1, le=3600.0, extra={"unit": "s"})] = 5.0
+    # the same check's period while the localiser reports degraded (standing or driving)
+    degraded_every_s: Annotated[float, Meta(ge=0.1, le=3600.0, extra={"unit": "s"})] = 1.0
     # below: the robot stands (background check allowed)
     standing_speed: Annotated[float, Meta(ge=0.0, le=1.0, extra={"unit": "m/s"})] = 0.02
     # another place this much better than the tracked pose: kidnap
@@ -289,6 +298,7 @@ class Relocaliser:
         self._odom: Pose2D | None = None
         self._travel_m = 0.0  # since the last search that was not exhaustive
         self._last_background = -math.inf
+        self._last_degraded = -math.inf  # the last degraded check (`check_degraded`)
         self._exclusions: list[tuple[Pose2D, float]] = []  # (laser pose shown wrong, until)
         # Places (laser poses, moved by odometry) the beams have vetoed in this attempt
         # (`_note_vetoes`): none of them is accepted before the attempt ends.
@@ -521,13 +531,33 @@ class Relocaliser:
         search costs some 70 ms of CPU.
         """
         cfg = self.config
-        pending = self._pending
-        collectable = pending is not None and pending[2] == "background" and pending[0].done()
         due = (
-            pending is None
-            and abs(speed) <= cfg.standing_speed
+            abs(speed) <= cfg.standing_speed
             and now - self._last_background >= cfg.background_every_s
         )
+        return self._compare_places(scan, pose, now, "background", due)
+
+    def check_degraded(self, scan: LaserScan, pose: Pose2D, now: float) -> Verification | None:
+        """The background check's comparison while the localiser reports degraded: every
+        ``degraded_every_s``, standing or driving (a search finishing later on a worker thread
+        has its places moved by the odometry since its scan, as in a search attempt). Same
+        rule as `check_standing`: a far place ``kidnap_margin`` better than ``pose``, verified,
+        else None; skipped when the scan fits ``pose`` too well to be beaten."""
+        due = now - self._last_degraded >= self.config.degraded_every_s
+        return self._compare_places(scan, pose, now, "degraded", due)
+
+    def _compare_places(
+        self, scan: LaserScan, pose: Pose2D, now: float, kind: str, due: bool
+    ) -> Verification | None:
+        """`check_standing` (``kind`` "background") or `check_degraded` ("degraded")."""
+        cfg = self.config
+        pending = self._pending
+        if pending is not None and pending[2] in _CHECKS and pending[2] != kind:
+            # The other check's search (the localiser's state changed meanwhile): it compared
+            # for another state; drop it, so this check is not held up by it for ever.
+            self._pending = pending = None
+        collectable = pending is not None and pending[2] == kind and pending[0].done()
+        due = due and pending is None
         if not (collectable or due):
             return None  # nothing to do on this scan: not even the end points are needed
         points = scan.points(cfg.max_range_m)
@@ -536,32 +566,40 @@ class Relocaliser:
         far = points[np.hypot(points[:, 0], points[:, 1]) >= cfg.kidnap_min_range_m]
         judged = far if far.shape[0] >= cfg.search.min_points else points
         here: Verification | None = None
-        done = self._collect("background")
+        moved: Pose2D | None = None  # None: the places are where the search found them
+        done = self._collect(kind)
         if done is not None:
             result, moved = done
-            if math.hypot(moved.x, moved.y) > 0.05 or abs(moved.yaw) > 0.05:
-                return None  # it did not stand still meanwhile: the check is void
+            if kind == "background":
+                if math.hypot(moved.x, moved.y) > 0.05 or abs(moved.yaw) > 0.05:
+                    return None  # it did not stand still meanwhile: the check is void
+                moved = None
         else:
-            self._last_background = now
+            if kind == "background":
+                self._last_background = now
+            else:
+                self._last_degraded = now
             here = self.verify(judged, pose, refine=False)
             if self.cannot_be_beaten(here):
                 return None
-            ran = self._run_search(points, None, "background")
+            ran = self._run_search(points, None, kind)
             if ran is None:
                 return None
             result = ran
         if here is None:
             here = self.verify(judged, pose, refine=False)
         for hyp in result.hypotheses[: cfg.verify_hypotheses]:
-            if hyp.pose.distance_to(pose) < cfg.kidnap_min_distance_m:
+            place = hyp.pose if moved is None else hyp.pose.compose(moved)
+            if place.distance_to(pose) < cfg.kidnap_min_distance_m:
                 continue
-            there = self.verify(judged, hyp.pose)
+            there = self.verify(judged, place)
             if there.pose.distance_to(pose) < cfg.kidnap_min_distance_m:
                 continue
             if self._verified(there) and there.quality >= here.quality + cfg.kidnap_margin:
                 logger.warning(
-                    "background check: the scan fits (%.2f, %.2f) (quality %.2f) better than "
+                    "%s check: the scan fits (%.2f, %.2f) (quality %.2f) better than "
                     "the tracked pose (quality %.2f): kidnapped",
+                    kind,
                     there.pose.x,
                     there.pose.y,
                     there.quality,
