@@ -97,9 +97,8 @@ class SupervisorEvents:
         """Every robot's supervisor sees its own robot's pose (the clock's pose section), and
         whether a lost robot may be handed its next leg (`RobotCondition`)."""
         for mirror in self._fleet.all():
-            state = mirror.state
-            update = mirror.supervisor.update(now, state.localised_pose, self.condition(mirror))
-            self.handle(update, mirror)
+            pose = mirror.state.localised_pose
+            self.handle(mirror.supervisor.update(now, pose, self.condition(mirror)), mirror)
 
     def condition(self, mirror: RobotMirror) -> RobotCondition:
         """What the supervisor needs beside the pose: connected, stopped (the robot's word or

@@ -17,7 +17,8 @@ The policy around `relocaliser.Relocaliser`, kept out of the stack so the stack 
   (`Relocaliser.check_degraded`); a clearly better place elsewhere starts the search. A robot
   carried off whose new scan still fits the old pose a little (hit fraction above the loss
   test's, below the degraded threshold) was otherwise neither lost nor checked: it drove on at
-  the degraded speed, 32 m off, for 14 s (Willow kidnap seed 3 #7, the station handing it its next leg).
+  the degraded speed, 32 m off, for 14 s (Willow kidnap seed 3 #7, the station handing it its
+  next leg).
 
 State reported while a search runs: ``searching``; once it has been undecided for
 ``help_after_s`` (failed, or look-alike places and no motion to tell them apart): ``lost``

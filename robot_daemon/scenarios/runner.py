@@ -10,8 +10,8 @@ exact initial pose) for comparison.
 (the robot's body and sensors), the `RobotStack` (the Processing Unit: localiser, navigator,
 multiplexer) stepped at the daemon's 50 Hz, and the station's `Supervisor` driven at the
 ``clock()`` period of 100 ms, given what the station is given (`SimulatedSystem.station_view`),
-whose route/pause/cancel events go to the stack as the zenoh link would carry them. `Metrics` samples the simulator's ground truth, for figures only: nothing from
-it reaches the robot.
+whose route/pause/cancel events go to the stack as the zenoh link would carry them. `Metrics`
+samples the simulator's ground truth, for figures only: nothing from it reaches the robot.
 """
 
 from __future__ import annotations
