@@ -12,7 +12,6 @@ import ssl
 import struct
 import subprocess
 import threading
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -314,7 +313,7 @@ def test_the_deployed_robot_yaml_records_every_run(repo_root: Path, tmp_path: Pa
     assert recorder is not None
     recorder.close()
     assert recorder.files[0].parent == tmp_path
-    bad = replace(config, recording={"directory": "x", "max_total_mb": -1})
+    bad = config.with_overrides(recording={"directory": "x", "max_total_mb": -1})
     with pytest.raises(ConfigError, match="max_total_mb"):
         build_daemon_recorder(bad, DaemonOptions(), 0.0)
 
