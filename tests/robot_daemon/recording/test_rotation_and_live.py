@@ -17,12 +17,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from foxglove.messages import LaserScan as FoxgloveLaserScan
 from mcap.reader import make_reader
 
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import PoseMsg, Topic
-from robot_daemon.recording import protobuf_wire
+from robot_daemon.recording import foxglove_convert as fc
 from robot_daemon.recording.config import MB, RecordingConfig, RecordingConfigError
 from robot_daemon.recording.daemon_hook import LiveAddressError, build_recorder, parse_live_address
 from robot_daemon.recording.recorder import LiveServer, McapRotation, Recorder
@@ -277,7 +278,9 @@ def test_live_server_advertises_the_channels_and_streams_scans() -> None:
             assert opcode == 2 and payload[0] == 0x01  # binary MessageData
             subscription, _log_time = struct.unpack_from("<IQ", payload, 1)
             assert subscription == 7
-            decoded = protobuf_wire.decode_laser_scan(payload[13:], 0.02, 30.0)
+            schema = FoxgloveLaserScan.get_schema()  # the schema the server advertised
+            message = fc.message_class(schema.name, schema.data).FromString(payload[13:])
+            decoded = fc.scan_from(message, 0.02, 30.0)
             np.testing.assert_allclose(decoded.ranges, scan.ranges, rtol=1e-6)
         finally:
             client.close()
