@@ -160,6 +160,50 @@ class SecuritySettings(Section, frozen=True, kw_only=False):
     insecure: bool = False
 
 
+MB = 1024 * 1024
+
+
+class RecordingConfig(Section, frozen=True):
+    """``recording:`` what the daemon records (MCAP, issue 18) and how much disk it may take::
+
+    recording:
+      directory: /var/lib/interbot/recordings   # relative to robot.yaml
+      max_file_mb: 256        # rotate when the open file reaches this size
+      max_file_minutes: 30    # ... or is this old (daemon time)
+      max_total_mb: 4096      # oldest recordings are deleted first to stay under this
+      camera: true            # record the camera (JPEG) as well
+      queue: 2048             # messages waiting for the writer thread; beyond, drops are counted
+    """
+
+    ROOT: ClassVar[str] = "recording"
+    directory: Annotated[str, Meta(min_length=1, extra={"format": "a directory path"})] | None = None  # fmt: skip
+    max_file_mb: Annotated[float, Meta(ge=0.01, le=1 << 20)] = 256
+    max_file_minutes: Annotated[float, Meta(ge=0.01, le=24 * 60)] = 30
+    max_total_mb: Annotated[float, Meta(ge=0.02, le=1 << 24)] = 4096
+    camera: bool = True
+    queue: Annotated[int, Meta(ge=16, le=1 << 20)] = 2048
+
+    def check(self) -> None:
+        if self.max_total_mb < 2 * self.max_file_mb:
+            raise ConfigError(
+                f"recording: 'max_total_mb' ({self.max_total_mb:g}) must be at least twice "
+                f"'max_file_mb' ({self.max_file_mb:g}): one file is being written while the "
+                "older ones are kept"
+            )
+
+    @property
+    def max_file_bytes(self) -> int:
+        return int(self.max_file_mb * MB)
+
+    @property
+    def max_total_bytes(self) -> int:
+        return int(self.max_total_mb * MB)
+
+    @property
+    def max_file_seconds(self) -> float:
+        return self.max_file_minutes * 60.0
+
+
 class RobotFile(Section, frozen=True):
     """The document robot.yaml, as written: every key optional, paths relative to the file."""
 
@@ -176,7 +220,7 @@ class RobotFile(Section, frozen=True):
     localiser: LocaliserSettings = msgspec.field(default_factory=LocaliserSettings)
     security: SecuritySettings = msgspec.field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = msgspec.field(default_factory=dict)  # checked by the drivers
-    recording: dict[str, Any] | None = None  # robot_daemon/recording/config.py
+    recording: RecordingConfig | None = None
     start_latched: bool = True
 
 
@@ -235,8 +279,12 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
         return None if value is None else str((base_dir / value).resolve())
 
     paths = {key: path(getattr(doc, key)) for key in ("map", "topo", "mux", "safety")}
-    security = msgspec.structs.replace(doc.security, keys=path(doc.security.keys))
-    fields = msgspec.structs.asdict(doc) | paths | {"security": security}
+    fields = msgspec.structs.asdict(doc) | paths
+    fields["security"] = msgspec.structs.replace(doc.security, keys=path(doc.security.keys))
+    if doc.recording is not None:
+        fields["recording"] = msgspec.structs.replace(
+            doc.recording, directory=path(doc.recording.directory)
+        )
     return DaemonConfig(**fields, source=source)
 
 
