@@ -11,7 +11,6 @@ localiser has one). The planner's path is the daemon's own ``plan`` topic (``/pl
 from __future__ import annotations
 
 import dataclasses
-import logging
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -31,7 +30,6 @@ from robot_daemon.stack import RobotStack
 if TYPE_CHECKING:
     from robot_daemon.daemon import Daemon, DaemonOptions
 
-logger = logging.getLogger(__name__)
 
 LOCALISATION = "/localisation"
 

@@ -15,7 +15,6 @@ above the horizon is ceiling and below it floor. Output is BGR uint8, 240 x 320 
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Annotated, ClassVar
 
@@ -27,8 +26,6 @@ from msgspec import Meta
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.laser_sim import RayCaster
-
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 ImageU8 = npt.NDArray[np.uint8]
