@@ -166,10 +166,10 @@ def _daemon_passes(record_dir: Path | None, seconds: float) -> np.ndarray:
 
 
 def _measure(items: list[tuple[float, str, Any]], seconds: float, tmp: Path) -> dict[str, Any]:
-    from robot_daemon.recording.config import MB, RecordingConfig
+    from robot_daemon.config import MB, RecordingConfig
     from robot_daemon.recording.recorder import McapRotation, Recorder
 
-    config = RecordingConfig(tmp, max_file_bytes=64 * MB, max_total_bytes=1024 * MB)
+    config = RecordingConfig(directory=str(tmp), max_file_mb=64, max_total_mb=1024)
     recorder = Recorder("bench", rotation=McapRotation(config, "bench"), queue_size=config.queue)
     offers: list[float] = []
     clock = time.perf_counter

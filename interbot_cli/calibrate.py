@@ -155,7 +155,7 @@ class SimulatedRobot:
         odom = self.stack.last_odometry
         if odom is not None:
             self._odom.add(odom.pose)
-        self._truth.add(self.backend.truth())  # METRICS ONLY: printed as a check
+        self._truth.add(self.sim.true_pose())  # METRICS ONLY: printed as a check
         estimate = self.stack.last_estimate
         if estimate is not None and estimate is not self._last_estimate:
             self._last_estimate = estimate

@@ -207,46 +207,6 @@ def estimate_correction(
     return OdometryCorrection(k_l, k_r, k_b, rms, len(straights) + len(rotations))
 
 
-@dataclass(frozen=True)
-class SectionSummary:
-    """One row of a Table 6.1/6.2-style table: the averaged sections of one kind."""
-
-    kind: SegmentKind
-    command: float  # [m/s] or [rad/s], magnitude
-    odom_motion: float  # [m] or [rad], mean magnitude
-    ref_motion: float
-    truth_motion: float | None
-    duration: float  # [s] mean time the command was applied
-    error_rate: float  # mean |odom - ref| / |ref|
-
-
-def summarise(segments: list[SegmentMeasurement]) -> list[SectionSummary]:
-    """Average the straight runs and the rotations (the thesis averages sections 1+3, 2+4)."""
-    out: list[SectionSummary] = []
-    for kind in (SegmentKind.STRAIGHT, SegmentKind.ROTATION):
-        group = [s for s in segments if s.kind is kind]
-        if not group:
-            continue
-        truths = [s.truth_motion for s in group]
-        truth = (
-            None
-            if any(t is None for t in truths)
-            else float(np.mean([abs(t) for t in truths if t is not None]))
-        )
-        out.append(
-            SectionSummary(
-                kind,
-                float(np.mean([abs(s.command) for s in group])),
-                float(np.mean([abs(s.odom_motion) for s in group])),
-                float(np.mean([abs(s.ref_motion) for s in group])),
-                truth,
-                float(np.mean([s.duration for s in group])),
-                float(np.mean([s.error_rate for s in group])),
-            )
-        )
-    return out
-
-
 def format_table(title: str, segments: list[SegmentMeasurement]) -> str:
     """A plain-text table like thesis Tables 6.1/6.2: sections averaged, absolute error rate.
 
@@ -259,15 +219,24 @@ def format_table(title: str, segments: list[SegmentMeasurement]) -> str:
         f"{'Truth*':>9}{'Error rate':>11}"
     )
     lines = [title, header]
-    for row in summarise(segments):
-        straight = row.kind is SegmentKind.STRAIGHT
+    for kind in (SegmentKind.STRAIGHT, SegmentKind.ROTATION):  # sections 1+3, then 2+4
+        group = [s for s in segments if s.kind is kind]
+        if not group:
+            continue
+        columns = [
+            (abs(s.command), s.duration, abs(s.odom_motion), abs(s.ref_motion), s.error_rate)
+            for s in group
+        ]
+        command, duration, odom, ref, error = np.mean(columns, axis=0)
+        truths = [abs(s.truth_motion) for s in group if s.truth_motion is not None]
+        truth = f"{np.mean(truths):.3f}" if len(truths) == len(group) else "-"
+        straight = kind is SegmentKind.STRAIGHT
         unit, speed = ("m", "m/s") if straight else ("rad", "rad/s")
         name = "straight" if straight else "rotations"
-        truth = "-" if row.truth_motion is None else f"{row.truth_motion:.3f}"
         lines.append(
-            f"{name:<11}{f'{row.command:.2f} {speed}':>12}{f'{row.duration:.2f} s':>10}"
-            f"{f'{row.odom_motion:.3f} {unit}':>12}{f'{row.ref_motion:.3f} {unit}':>12}"
-            f"{truth:>9}{100 * row.error_rate:>10.3f}%"
+            f"{name:<11}{f'{command:.2f} {speed}':>12}{f'{duration:.2f} s':>10}"
+            f"{f'{odom:.3f} {unit}':>12}{f'{ref:.3f} {unit}':>12}"
+            f"{truth:>9}{100 * error:>10.3f}%"
         )
     lines.append("* ground truth, printed only as a check of the method; not used to estimate")
     return "\n".join(lines)

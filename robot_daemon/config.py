@@ -25,7 +25,6 @@ every connection). Set it false only for a robot that runs with no station at al
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
@@ -125,18 +124,6 @@ class ZenohSettings(Section, frozen=True, kw_only=False):
             )
 
 
-@dataclass(frozen=True)
-class SecuritySettings:
-    """``security``: the key directory (mutual TLS + access control) or the insecure override.
-
-    Without ``keys`` the daemon refuses endpoints off the loopback interface unless
-    ``insecure`` (docs/security.md). Read from the file as `SecurityFile`.
-    """
-
-    keys: Path | None = None
-    insecure: bool = False
-
-
 MAP_SURFACES = ("cell_face", "cell_centre")
 
 
@@ -161,10 +148,60 @@ class LocaliserSettings(Section, frozen=True):
 FilePath = Annotated[str, Meta(min_length=1, extra={"format": "a file path"})]
 
 
-class SecurityFile(Section, frozen=True):
+class SecuritySettings(Section, frozen=True, kw_only=False):
+    """``security``: the key directory (mutual TLS + access control) or the insecure override.
+
+    Without ``keys`` the daemon refuses endpoints off the loopback interface unless
+    ``insecure`` (docs/security.md).
+    """
+
     ROOT: ClassVar[str] = "security"
-    keys: FilePath | None = None
+    keys: FilePath | None = None  # resolved against robot.yaml's folder by `parse_config`
     insecure: bool = False
+
+
+MB = 1024 * 1024
+
+
+class RecordingConfig(Section, frozen=True):
+    """``recording:`` what the daemon records (MCAP, issue 18) and how much disk it may take::
+
+    recording:
+      directory: /var/lib/interbot/recordings   # relative to robot.yaml
+      max_file_mb: 256        # rotate when the open file reaches this size
+      max_file_minutes: 30    # ... or is this old (daemon time)
+      max_total_mb: 4096      # oldest recordings are deleted first to stay under this
+      camera: true            # record the camera (JPEG) as well
+      queue: 2048             # messages waiting for the writer thread; beyond, drops are counted
+    """
+
+    ROOT: ClassVar[str] = "recording"
+    directory: Annotated[str, Meta(min_length=1, extra={"format": "a directory path"})] | None = None  # fmt: skip
+    max_file_mb: Annotated[float, Meta(ge=0.01, le=1 << 20)] = 256
+    max_file_minutes: Annotated[float, Meta(ge=0.01, le=24 * 60)] = 30
+    max_total_mb: Annotated[float, Meta(ge=0.02, le=1 << 24)] = 4096
+    camera: bool = True
+    queue: Annotated[int, Meta(ge=16, le=1 << 20)] = 2048
+
+    def check(self) -> None:
+        if self.max_total_mb < 2 * self.max_file_mb:
+            raise ConfigError(
+                f"recording: 'max_total_mb' ({self.max_total_mb:g}) must be at least twice "
+                f"'max_file_mb' ({self.max_file_mb:g}): one file is being written while the "
+                "older ones are kept"
+            )
+
+    @property
+    def max_file_bytes(self) -> int:
+        return int(self.max_file_mb * MB)
+
+    @property
+    def max_total_bytes(self) -> int:
+        return int(self.max_total_mb * MB)
+
+    @property
+    def max_file_seconds(self) -> float:
+        return self.max_file_minutes * 60.0
 
 
 class RobotFile(Section, frozen=True):
@@ -181,40 +218,38 @@ class RobotFile(Section, frozen=True):
     sim: SimSettings = msgspec.field(default_factory=SimSettings)
     zenoh: ZenohSettings = msgspec.field(default_factory=ZenohSettings)
     localiser: LocaliserSettings = msgspec.field(default_factory=LocaliserSettings)
-    security: SecurityFile = msgspec.field(default_factory=SecurityFile)
+    security: SecuritySettings = msgspec.field(default_factory=SecuritySettings)
     hardware: dict[str, Any] = msgspec.field(default_factory=dict)  # checked by the drivers
-    recording: dict[str, Any] | None = None  # robot_daemon/recording/config.py
+    recording: RecordingConfig | None = None
     start_latched: bool = True
 
 
-@dataclass(frozen=True)
-class DaemonConfig:
-    robot_id: str = "interbot1"
-    map_yaml: Path = DEFAULT_MAP
-    topo_yaml: Path = DEFAULT_TOPO
-    mux_yaml: Path = DEFAULT_MUX
-    safety_yaml: Path = DEFAULT_SAFETY  # collision monitor + assisted teleop (issue 17)
-    backend: str = "sim"
-    rates: Rates = field(default_factory=Rates)
-    sim: SimSettings = field(default_factory=SimSettings)
-    zenoh: ZenohSettings = field(default_factory=ZenohSettings)
-    localiser: LocaliserSettings = field(default_factory=LocaliserSettings)
-    security: SecuritySettings = field(default_factory=SecuritySettings)
-    hardware: dict[str, Any] = field(default_factory=dict)  # validated by the drivers (issue 7)
-    recording: dict[str, Any] = field(default_factory=dict)  # robot_daemon/recording/config.py
-    start_latched: bool = True  # stop latched at start until a station releases it
+class DaemonConfig(RobotFile, frozen=True):
+    """robot.yaml as loaded (`load_config`): its paths absolute, and the file's name."""
+
     source: str = "<defaults>"
 
-    def __post_init__(self) -> None:
-        # The file is checked by `RobotFile`; --robot-id arrives here (with_overrides).
-        if not isinstance(self.robot_id, str) or not ROBOT_ID_RE.match(self.robot_id):
-            raise ConfigError(
-                f"{self.source}: 'robot_id' {self.robot_id!r} must be 1-32 of A-Z a-z 0-9 _ -"
-            )
+    @property
+    def map_yaml(self) -> Path:
+        return Path(self.map) if self.map else DEFAULT_MAP
+
+    @property
+    def topo_yaml(self) -> Path:
+        return Path(self.topo) if self.topo else DEFAULT_TOPO
+
+    @property
+    def mux_yaml(self) -> Path:
+        return Path(self.mux) if self.mux else DEFAULT_MUX
+
+    @property
+    def safety_yaml(self) -> Path:
+        """The collision monitor and assisted teleoperation (issue 17)."""
+        return Path(self.safety) if self.safety else DEFAULT_SAFETY
 
     def with_overrides(self, **changes: Any) -> DaemonConfig:
         """A copy with command-line overrides applied (validated again)."""
-        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+        given = {k: v for k, v in changes.items() if v is not None}
+        return DaemonConfig(**(msgspec.structs.asdict(self) | given))
 
     def summary(self) -> str:
         return (
@@ -240,28 +275,17 @@ def parse_config(raw: Any, source: str, base_dir: Path) -> DaemonConfig:
     except ConfigError as exc:
         raise ConfigError(f"{source}: {exc}") from None
 
-    def path(value: str | None, default: Path) -> Path:
-        return default if value is None else (base_dir / value).resolve()
+    def path(value: str | None) -> str | None:
+        return None if value is None else str((base_dir / value).resolve())
 
-    return DaemonConfig(
-        robot_id=doc.robot_id,
-        map_yaml=path(doc.map, DEFAULT_MAP),
-        topo_yaml=path(doc.topo, DEFAULT_TOPO),
-        mux_yaml=path(doc.mux, DEFAULT_MUX),
-        safety_yaml=path(doc.safety, DEFAULT_SAFETY),
-        backend=doc.backend,
-        rates=doc.rates,
-        sim=doc.sim,
-        zenoh=doc.zenoh,
-        localiser=doc.localiser,
-        security=SecuritySettings(
-            path(doc.security.keys, Path()) if doc.security.keys else None, doc.security.insecure
-        ),
-        hardware=doc.hardware,
-        recording=doc.recording or {},
-        start_latched=doc.start_latched,
-        source=source,
-    )
+    paths = {key: path(getattr(doc, key)) for key in ("map", "topo", "mux", "safety")}
+    fields = msgspec.structs.asdict(doc) | paths
+    fields["security"] = msgspec.structs.replace(doc.security, keys=path(doc.security.keys))
+    if doc.recording is not None:
+        fields["recording"] = msgspec.structs.replace(
+            doc.recording, directory=path(doc.recording.directory)
+        )
+    return DaemonConfig(**fields, source=source)
 
 
 def load_config(path: str | Path) -> DaemonConfig:

@@ -226,13 +226,9 @@ class Daemon:
 
     # -- time ------------------------------------------------------------------------------
 
-    @property
-    def simulated(self) -> bool:
-        return isinstance(self.backend, SimBackend)
-
     def _advance_time(self) -> float:
         elapsed = self._clock() - self._time0
-        factor = self.config.sim.realtime_factor if self.simulated else 1.0
+        factor = self.config.sim.realtime_factor if isinstance(self.backend, SimBackend) else 1.0
         # Never step more than 0.2 s of robot time at once (a debugger pause, a slow machine).
         self.now = max(self.now, min(elapsed * factor, self.now + 0.2))
         if isinstance(self.backend, SimBackend):

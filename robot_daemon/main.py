@@ -121,14 +121,14 @@ def resolve_config(args: argparse.Namespace) -> DaemonConfig:
     security = config.security
     if args.security or args.insecure:
         security = SecuritySettings(
-            args.security.resolve() if args.security else security.keys,
+            str(args.security.resolve()) if args.security else security.keys,
             args.insecure or security.insecure,
         )
     return config.with_overrides(
         security=security,
         robot_id=args.robot_id,
-        map_yaml=args.map_yaml.resolve() if args.map_yaml else None,
-        topo_yaml=args.topo_yaml.resolve() if args.topo_yaml else None,
+        map=str(args.map_yaml.resolve()) if args.map_yaml else None,
+        topo=str(args.topo_yaml.resolve()) if args.topo_yaml else None,
         sim=sim,
         zenoh=zenoh,
     )

@@ -5,21 +5,19 @@ what the simulated devices would have produced: odometry at every step, a laser 
 UTM-30LX scans at 40 Hz; ray casting costs about a millisecond, so the backend casts only at
 ``scan_rate_hz``, the rate its consumers use), a JPEG camera frame at ``camera_rate_hz`` (0 turns
 the camera off for headless runs), and the BMS. The simulator's true pose never leaves this module
-except through `truth()`, which exists for metrics.
+(metrics read it from `Simulator.true_pose`).
 """
 
 from __future__ import annotations
 
-import logging
 import math
 
-from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from robot_daemon.backend import BatteryReading, DeviceStatus, OdometryReading
 from robot_daemon.sim.camera_sim import encode_jpeg
 from robot_daemon.sim.simulator import Simulator
 
-logger = logging.getLogger(__name__)
+JPEG_QUALITY = 70  # as the hardware camera's default (robot.yaml hardware.camera.jpeg_quality)
 
 
 def _next_deadline(previous: float, period: float, now: float) -> float:
@@ -38,14 +36,12 @@ class SimBackend:
         *,
         scan_rate_hz: float = 40.0,
         camera_rate_hz: float = 5.0,
-        jpeg_quality: int = 70,
     ) -> None:
         if not 0 < scan_rate_hz <= 40.0:
             raise ValueError(f"scan_rate_hz must be in (0, 40], got {scan_rate_hz}")
         if not 0 <= camera_rate_hz <= 30.0:
             raise ValueError(f"camera_rate_hz must be in [0, 30], got {camera_rate_hz}")
         self.sim = simulator
-        self.jpeg_quality = jpeg_quality
         self._scan_period = 1.0 / scan_rate_hz
         self._camera_period = 1.0 / camera_rate_hz if camera_rate_hz > 0 else math.inf
         self._next_scan = 0.0
@@ -79,7 +75,7 @@ class SimBackend:
         if not self.sim.camera_due() or self.sim.time + 1e-9 < self._next_frame:
             return None
         self._next_frame = _next_deadline(self._next_frame, self._camera_period, self.sim.time)
-        return encode_jpeg(self.sim.camera_frame(), self.jpeg_quality)
+        return encode_jpeg(self.sim.camera_frame(), JPEG_QUALITY)
 
     def read_battery(self, now: float) -> BatteryReading:
         state = self.sim.battery()
@@ -101,9 +97,3 @@ class SimBackend:
 
     def close(self) -> None:
         self.sim.set_cmd_vel(0.0, 0.0)
-
-    # -- METRICS ONLY -------------------------------------------------------------------------
-
-    def truth(self) -> Pose2D:
-        """GROUND TRUTH for metrics and tests; the robot stack never calls this."""
-        return self.sim.true_pose()

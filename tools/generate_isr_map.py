@@ -316,7 +316,7 @@ def topological_map_dict(plan: FloorPlan, grid: OccupancyGrid | None = None) -> 
         names = [plan.ring[i] for i in unreachable]
         raise FloorPlanError(f"{src}: arcs: nodes {names} cannot be reached from node 0")
     return {
-        "map": plan.map_file,
+        "map": plan.outputs.map,
         "nodes": nodes_out,
         "arcs": [list(arc) for arc in sorted(arcs)],
     }
@@ -345,15 +345,15 @@ def generate(plan_path: Path = DEFAULT_PLAN) -> dict[str, bytes]:
     outputs: dict[str, bytes] = {}
     # OccupancyGrid.save owns the map_server format; let it write to a scratch directory.
     with tempfile.TemporaryDirectory() as scratch:
-        yaml_path = grid.save(Path(scratch) / plan.map_file)
+        yaml_path = grid.save(Path(scratch) / plan.outputs.map)
         image_name = yaml_path.with_suffix(".pgm").name
-        outputs[plan.map_file] = yaml_path.read_bytes()
+        outputs[plan.outputs.map] = yaml_path.read_bytes()
         outputs[image_name] = (Path(scratch) / image_name).read_bytes()
     body = yaml.safe_dump(
         topo, sort_keys=False, default_flow_style=None, allow_unicode=True, width=100
     )
     header = _TOPO_HEADER.format(name=plan.name, plan=Path(plan_path).name)
-    outputs[plan.topological_file] = (header + body).encode("utf-8")
+    outputs[plan.outputs.topological] = (header + body).encode("utf-8")
     return outputs
 
 

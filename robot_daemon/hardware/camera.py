@@ -16,11 +16,11 @@ from collections.abc import Callable
 from typing import Any, Protocol, cast
 
 import cv2
-import numpy as np
 
 from robot_daemon.backend import DeviceStatus
 from robot_daemon.hardware.config import CameraConfig
 from robot_daemon.hardware.driver_thread import DriverThread
+from robot_daemon.sim.camera_sim import encode_jpeg
 
 logger = logging.getLogger(__name__)
 
@@ -40,16 +40,6 @@ class FrameSource(Protocol):
 
 
 CaptureFactory = Callable[[int | str], FrameSource]
-
-
-def encode_frame(frame: np.ndarray, width: int, height: int, quality: int) -> bytes:
-    """A BGR frame as JPEG bytes at ``width`` x ``height`` (resized if it differs)."""
-    if frame.shape[1] != width or frame.shape[0] != height:
-        frame = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
-    ok, buf = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    if not ok:
-        raise ValueError("JPEG encoding failed")
-    return buf.tobytes()
 
 
 class CameraDriver(DriverThread):
@@ -148,7 +138,7 @@ class CameraDriver(DriverThread):
             if now < next_due:
                 continue
             next_due = next_due + period if next_due + period > now else now + period
-            jpeg = encode_frame(frame, c.width, c.height, c.jpeg_quality)
+            jpeg = encode_jpeg(frame, c.jpeg_quality, (c.width, c.height))
             with self._lock:
                 self._latest = (now, jpeg)
                 self._seq += 1

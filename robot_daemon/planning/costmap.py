@@ -22,7 +22,6 @@ cost scaling factor. A robot centre in a cell of cost >= 253 certainly collides.
 
 from __future__ import annotations
 
-import logging
 import math
 
 import numpy as np
@@ -33,8 +32,6 @@ from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.planning.config import PlannerConfig
-
-logger = logging.getLogger(__name__)
 
 CLEARING_BEAM_SPACING = math.radians(0.5)  # [rad] clearing uses beams at least this far apart
 _WINDOW_MARGIN = 1e-6  # [rad] beyond a cell's exact angular extent, far above rounding

@@ -31,7 +31,6 @@ turned away in place (as Nav2's rotation shim does).
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass
 
@@ -41,8 +40,6 @@ import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D, wrap_angle
 from robot_daemon.planning.config import PlannerConfig
-
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -11,27 +11,25 @@ localiser has one). The planner's path is the daemon's own ``plan`` topic (``/pl
 from __future__ import annotations
 
 import dataclasses
-import logging
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import msgspec
 import zenoh
 
 from interbot_core.laser_scan import LaserScan
 from interbot_core.topics import RangeEncoding, Status, Topic
 from interbot_link import Command, RobotLink
 from interbot_link.security import is_loopback_host
-from robot_daemon.config import ConfigError, DaemonConfig
-from robot_daemon.recording.config import RecordingConfig, RecordingConfigError
+from robot_daemon.config import ConfigError, DaemonConfig, RecordingConfig
 from robot_daemon.recording.recorder import LiveServer, McapRotation, Recorder, RecorderError
 from robot_daemon.stack import RobotStack
 
 if TYPE_CHECKING:
     from robot_daemon.daemon import Daemon, DaemonOptions
 
-logger = logging.getLogger(__name__)
 
 LOCALISATION = "/localisation"
 
@@ -143,8 +141,7 @@ class RecordingLink(RobotLink):
 def build_recorder(
     robot_id: str,
     *,
-    recording: dict[str, Any] | None,
-    config_dir: Path,
+    recording: RecordingConfig | None,
     record_dir: Path | None,
     live: LiveServer | None,
     now: float,
@@ -152,13 +149,12 @@ def build_recorder(
 ) -> Recorder | None:
     """The daemon's recorder, or None when neither recording nor the live view is asked for.
 
-    ``recording`` is robot.yaml's ``recording:`` mapping (its ``directory`` is relative to the
-    file); ``record_dir`` (``--record DIR``) turns recording on with the section's other settings
-    or the defaults. Raises RecordingConfigError or RecorderError.
+    ``recording`` is robot.yaml's ``recording:`` section; ``record_dir`` (``--record DIR``) turns
+    recording on with the section's other settings or the defaults. Raises RecorderError.
     """
-    config: RecordingConfig | None = None
-    if record_dir is not None or recording:
-        config = RecordingConfig.from_mapping(recording or {}, config_dir, directory=record_dir)
+    config = recording
+    if record_dir is not None:
+        config = msgspec.structs.replace(config or RecordingConfig(), directory=str(record_dir))
     if config is None and live is None:
         return None
     rotation = McapRotation(config, robot_id, wall_clock) if config is not None else None
@@ -185,16 +181,14 @@ def build_daemon_recorder(
     """
     try:
         live = parse_live_address(options.foxglove, tls=tls) if options.foxglove else None
-        config_dir = Path(config.source).parent if config.source.endswith(".yaml") else Path.cwd()
         return build_recorder(
             config.robot_id,
             recording=config.recording,
-            config_dir=config_dir,
             record_dir=options.record_dir,
             live=live,
             now=now,
         )
-    except (LiveAddressError, RecordingConfigError, RecorderError) as exc:
+    except (LiveAddressError, RecorderError) as exc:
         raise ConfigError(str(exc)) from None
 
 

@@ -4,12 +4,16 @@ Times: Foxglove shows wall-clock dates, so a message stamped ``now`` [s of daemo
 ``epoch_offset + now`` (the daemon passes the wall time of its time zero). The map goes out as a
 ``Grid`` of int8 occupancy (-1 unknown, 0..100) in the map_server convention: row 0 at the map's
 origin, rows towards +y, which is also how Foxglove lays out a grid's rows.
+
+The replay reads them back (`grid_from`, `scan_from`) with the protobuf runtime, its message
+classes built from the descriptors the recording stores beside its channels (`message_class`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from foxglove.messages import (
@@ -27,6 +31,8 @@ from foxglove.messages import (
     Vector3,
 )
 from foxglove.messages import LaserScan as FoxgloveLaserScan
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from google.protobuf.message import Message
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
@@ -146,3 +152,54 @@ def path_with_headings(points: Sequence[tuple[float, float]]) -> list[tuple[floa
 
 def jpeg_message(t: float, jpeg: bytes) -> CompressedImage:
     return CompressedImage(timestamp=stamp(t), frame_id=CAMERA_FRAME, data=jpeg, format="jpeg")
+
+
+# -- back from a recording ------------------------------------------------------------------
+
+
+def message_class(schema: str, descriptor_set: bytes) -> type[Message]:
+    """The protobuf class of ``schema`` (``foxglove.Grid`` ...) from a serialised
+    ``FileDescriptorSet``, as MCAP stores it with a channel's schema. Raises DecodeError,
+    TypeError or KeyError for a descriptor set that does not describe it."""
+    pool = descriptor_pool.DescriptorPool()
+    for file in descriptor_pb2.FileDescriptorSet.FromString(descriptor_set).file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(schema))
+
+
+def seconds(timestamp: Any) -> float:
+    """A ``google.protobuf.Timestamp`` in seconds."""
+    return float(timestamp.seconds + timestamp.nanos * 1e-9)
+
+
+def grid_from(message: Any) -> OccupancyGrid:
+    """A decoded foxglove Grid written by `grid_message`, as the map again."""
+    columns, cell = message.column_count, message.cell_size.x
+    if message.cell_stride != 1 or columns <= 0 or message.row_stride != columns or cell <= 0:
+        raise ValueError(
+            f"grid layout not from this recorder (columns {columns}, row_stride "
+            f"{message.row_stride}, cell_stride {message.cell_stride}, cell {cell})"
+        )
+    if len(message.data) % columns:
+        raise ValueError(f"grid data ({len(message.data)} bytes) is not whole rows of {columns}")
+    cells = np.frombuffer(message.data, dtype=np.int8).reshape(-1, columns).copy()
+    origin, turn = message.pose.position, message.pose.orientation
+    yaw = 2.0 * math.atan2(turn.z, turn.w)
+    return OccupancyGrid(cells, cell, origin.x, origin.y, yaw, source="recording")
+
+
+def scan_from(message: Any, range_min: float, range_max: float) -> LaserScan:
+    """A decoded foxglove LaserScan written by `scan_message` (NaN beams stay NaN)."""
+    ranges = np.asarray(message.ranges, dtype=np.float64)
+    if ranges.size < 2:
+        raise ValueError("laser scan with fewer than two ranges")
+    start, end = message.start_angle, message.end_angle
+    increment = (end - start) / (ranges.size - 1)
+    return LaserScan(
+        seconds(message.timestamp),
+        start,
+        increment,
+        range_min,
+        range_max,
+        ranges.astype(np.float32),
+    )

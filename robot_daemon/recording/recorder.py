@@ -54,8 +54,8 @@ from interbot_core.topics import (
     RouteMsg,
     Topic,
 )
+from robot_daemon.config import RecordingConfig
 from robot_daemon.recording import foxglove_convert as fc
-from robot_daemon.recording.config import RecordingConfig
 from robot_daemon.stack import DEFAULT_LASER_MOUNT
 
 logger = logging.getLogger(__name__)
@@ -164,19 +164,22 @@ class McapRotation:
         self.robot_id = robot_id
         self._wall_clock = wall_clock
         self._seq = 0
+        if config.directory is None:
+            raise RecorderError("recording: 'directory' must be a directory path")
+        self.directory = Path(config.directory)
         try:
-            config.directory.mkdir(parents=True, exist_ok=True)
+            self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise RecorderError(
-                f"cannot create the recording directory {config.directory}: {exc.strerror}"
+                f"cannot create the recording directory {self.directory}: {exc.strerror}"
             ) from None
-        if not config.directory.is_dir():
-            raise RecorderError(f"recording directory {config.directory} is not a directory")
+        if not self.directory.is_dir():
+            raise RecorderError(f"recording directory {self.directory} is not a directory")
 
     def recordings(self) -> list[Path]:
         """This robot's recordings in the directory, oldest first."""
         files = []
-        for path in self.config.directory.iterdir():
+        for path in self.directory.iterdir():
             m = FILE_PATTERN.match(path.name)
             if m and m["robot"] == self.robot_id:
                 files.append((m["stamp"], int(m["seq"]), path))
@@ -185,7 +188,7 @@ class McapRotation:
     def next_path(self) -> Path:
         stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime(self._wall_clock()))
         self._seq += 1
-        return self.config.directory / f"{self.robot_id}_{stamp}_{self._seq:04d}.mcap"
+        return self.directory / f"{self.robot_id}_{stamp}_{self._seq:04d}.mcap"
 
     def prune(self) -> list[Path]:
         """Delete the oldest recordings until they and one full new file fit under the cap."""

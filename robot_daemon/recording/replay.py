@@ -1,9 +1,9 @@
 """``interbot replay FILE.mcap``: a recording played back as a robot the station can watch.
 
-`RecordingSource` reads an MCAP file written by the `Recorder` (indexed; the schemas are checked
-against the decoders' field numbers) and turns its channels back into the link's messages: the
-JSON state channels decode with the link's own validating codecs, the map, scans and camera
-frames with `protobuf_wire`, and the station's recorded commands become status lines
+`RecordingSource` reads an MCAP file written by the `Recorder` (indexed) and turns its channels
+back into the link's messages: the JSON state channels decode with the link's own validating
+codecs, the map, scans and camera frames with the protobuf classes of the schemas stored in the
+file (`foxglove_convert`), and the station's recorded commands become status lines
 ("replay: station sent stop …"), so the station's log shows who commanded what.
 
 `ReplayPlayer` publishes every message whose recording time the `ReplayClock` has passed; a seek
@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import IO, Any
 
+from google.protobuf.message import DecodeError, Message
 from mcap.exceptions import McapError
 from mcap.reader import SeekingReader, make_reader
 
@@ -34,7 +35,7 @@ from interbot_core.topics import ImageMsg, RangeEncoding, Status, Topic, TopicEr
 from interbot_link import RobotLink, open_session
 from interbot_link.replay import ReplayControlServer
 from robot_daemon.daemon import _jpeg_size
-from robot_daemon.recording import protobuf_wire
+from robot_daemon.recording import foxglove_convert as fc
 from robot_daemon.recording.recorder import (
     CAMERA_JPEG,
     COMMANDS,
@@ -90,6 +91,7 @@ class RecordingSource:
         self.end_ns = summary.statistics.message_end_time
         self.duration = (self.end_ns - self.start_ns) / 1e9
         self._scan_range = (0.0, 30.0)
+        self._classes: dict[str, type[Message]] = {}  # channel -> its protobuf message class
         for channel in summary.channels.values():
             schema = summary.schemas.get(channel.schema_id)
             if (
@@ -98,9 +100,10 @@ class RecordingSource:
                 and channel.topic in (SCAN, MAP, CAMERA_JPEG)
             ):
                 try:
-                    protobuf_wire.check_schema(schema.name, schema.data)
-                except protobuf_wire.WireError as exc:
-                    raise ReplayFileError(f"{path}: {exc}") from None
+                    self._classes[channel.topic] = fc.message_class(schema.name, schema.data)
+                except (DecodeError, TypeError, KeyError) as exc:
+                    self._file.close()
+                    raise ReplayFileError(f"{path}: schema {schema.name}: {exc}") from None
             if channel.topic == SCAN and "range_max" in channel.metadata:
                 meta = channel.metadata
                 self._scan_range = (float(meta["range_min"]), float(meta["range_max"]))
@@ -147,15 +150,16 @@ class RecordingSource:
             if name in JSON_TOPICS:
                 return ReplayItem(t, JSON_TOPICS[name], decode(JSON_TOPICS[name], data))
             if name == SCAN:
-                scan = protobuf_wire.decode_laser_scan(data, *self._scan_range)
+                scan = fc.scan_from(self._protobuf(name, data), *self._scan_range)
                 stamped = replace(scan, stamp=scan.stamp - self.epoch_offset)  # sensor time
                 return ReplayItem(t, Topic.SCAN, stamped)
             if name == MAP:
-                return ReplayItem(t, Topic.MAP, protobuf_wire.decode_grid(data))
+                return ReplayItem(t, Topic.MAP, fc.grid_from(self._protobuf(name, data)))
             if name == CAMERA_JPEG:
-                _, fmt, jpeg = protobuf_wire.decode_compressed_image(data)
-                if fmt != "jpeg":
-                    raise protobuf_wire.WireError(f"camera format {fmt!r}, not jpeg")
+                image: Any = self._protobuf(name, data)
+                if image.format != "jpeg":
+                    raise ValueError(f"camera format {image.format!r}, not jpeg")
+                jpeg = image.data
                 return ReplayItem(t, Topic.IMAGE, ImageMsg(robot_time, *_jpeg_size(jpeg), jpeg))
             if name == COMMANDS:
                 return ReplayItem(
@@ -163,11 +167,16 @@ class RecordingSource:
                     Topic.STATUS,
                     Status("info", command_line(json.loads(data)), stamp=robot_time),
                 )
-        except (TopicError, protobuf_wire.WireError, ValueError) as exc:
+        except (TopicError, DecodeError, ValueError) as exc:
             self.decode_errors += 1
             if self.decode_errors <= 5:
                 logger.warning("replay: skipped a %s message at %.2f s: %s", name, t, exc)
         return None
+
+    def _protobuf(self, name: str, data: bytes) -> Message:
+        if name not in self._classes:
+            raise ValueError(f"{name} has no protobuf schema in the file")
+        return self._classes[name].FromString(data)
 
 
 def command_line(command: dict[str, Any]) -> str:

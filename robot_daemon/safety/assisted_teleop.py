@@ -30,7 +30,6 @@ scaled. The collision monitor below the multiplexer still checks whatever comes 
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -62,8 +61,6 @@ from robot_daemon.safety.collision_monitor import (
     convert_section,
     parse_points,
 )
-
-logger = logging.getLogger(__name__)
 
 TELEOP_INPUTS = ("station_vel", "tablet_vel")
 DECIMATION_CELL = 0.03  # [m] returns are thinned to one per 3 cm cell for the path search

@@ -31,7 +31,6 @@ NOT A CERTIFIED SAFETY SYSTEM (see `robot_daemon.safety`).
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -59,7 +58,6 @@ from robot_daemon.safety.arc_geometry import (
     polygon_radius,
 )
 
-logger = logging.getLogger(__name__)
 T = TypeVar("T")
 
 ACTIONS = ("stop", "slowdown", "limit", "approach")

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,8 +40,6 @@ from robot_daemon.safety.collision_monitor import (
     MonitorResult,
     SafetyConfigError,
 )
-
-logger = logging.getLogger(__name__)
 
 DEFAULT_SAFETY_YAML = (
     Path(__file__).resolve().parents[2] / "resources" / "config" / "collision_monitor.yaml"

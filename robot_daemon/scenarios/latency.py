@@ -34,7 +34,6 @@ No people walk (``people`` is ignored): the commands are scripted for an empty c
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar
@@ -58,8 +57,6 @@ from robot_daemon.scenarios.runner import (
 )
 from robot_daemon.sim.wifi import LossyZone, WifiConfig, WifiLink
 from robot_daemon.stack import StackConfig
-
-logger = logging.getLogger(__name__)
 
 CONTROLLERS = ("Base Station", "Tablet")
 TOPIC = {"Base Station": "station_vel", "Tablet": "tablet_vel"}

@@ -16,7 +16,6 @@ samples the simulator's ground truth, for figures only: nothing from it reaches 
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 from collections.abc import Callable
@@ -60,7 +59,6 @@ from robot_daemon.stack import STOP_TOPIC, RobotStack, StackConfig
 if TYPE_CHECKING:
     from robot_daemon.recording.scenario_recording import ScenarioRecorder
 
-logger = logging.getLogger(__name__)
 
 STACK_DT = 0.05  # [s] loop period headless (the daemon runs 50 Hz; controller and localiser 10 Hz)
 SIM_DT = 0.05  # [s] simulator substep: 2.5 cm at 0.5 m/s; collisions are bisected within it

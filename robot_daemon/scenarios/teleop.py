@@ -31,7 +31,6 @@ unassisted; None if it never got through).
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -50,8 +49,6 @@ from robot_daemon.scenarios.runner import (
     straight_segments,
 )
 from robot_daemon.stack import StackConfig
-
-logger = logging.getLogger(__name__)
 
 SETUPS = ("assisted", "unassisted", "unprotected")
 V_MAX = 0.6  # [m/s] the station's teleoperation limit (mission scenario's operator)

@@ -15,7 +15,6 @@ above the horizon is ceiling and below it floor. Output is BGR uint8, 240 x 320 
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Annotated, ClassVar
 
@@ -27,8 +26,6 @@ from msgspec import Meta
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.laser_sim import RayCaster
-
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 ImageU8 = npt.NDArray[np.uint8]
@@ -131,14 +128,17 @@ class JpegEncodeError(RuntimeError):
     """OpenCV could not encode a frame."""
 
 
-def encode_jpeg(frame: ImageU8, quality: int = 80) -> bytes:
-    """JPEG bytes of a BGR uint8 frame; ``quality`` in [1, 100]."""
+def encode_jpeg(frame: np.ndarray, quality: int = 80, size: tuple[int, int] | None = None) -> bytes:
+    """JPEG bytes of a BGR uint8 frame (simulated or a real camera's), resized to ``size``
+    (width, height) when given and different; ``quality`` in [1, 100]."""
     if not 1 <= quality <= 100:
         raise CameraConfigError(f"JPEG quality must be in [1, 100], got {quality}")
     if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
         raise CameraConfigError(
             f"expected an HxWx3 uint8 BGR frame, got {frame.dtype} {frame.shape}"
         )
+    if size is not None and (frame.shape[1], frame.shape[0]) != size:
+        frame = cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
     ok, buf = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:
         raise JpegEncodeError(f"cv2.imencode failed for a {frame.shape} frame")

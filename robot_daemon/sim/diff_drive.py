@@ -18,7 +18,6 @@ optional offset, in REP-103 axes (x forward, y left).
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Annotated, ClassVar
 
@@ -28,8 +27,6 @@ from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
-
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -7,7 +7,7 @@ map whose nodes stand at the entrance of every room, or inside the rooms that ta
 the simulated building's source (`robot_daemon.sim.realistic_world` draws it again, perturbed):
 
 * :func:`parse_floor_plan` / :func:`load_floor_plan` validate the plan (declared by `PlanFile`,
-  msgspec) into frozen dataclasses; every error names the room (or corridor, door, node), the
+  msgspec) into a `FloorPlan`; every error names the room (or corridor, door, node), the
   field, the value and what is allowed;
 * :func:`rasterise` draws it into an :class:`~interbot_core.occupancy_grid.OccupancyGrid`
   (building = occupied, floors of rooms/corridors and door openings = free, furniture = occupied,
@@ -149,52 +149,6 @@ class Waypoint(_PointEntry, frozen=True):
     name: Name
 
 
-@dataclass(frozen=True)
-class FloorPlan:
-    """A validated floor plan. Build it with :func:`parse_floor_plan`."""
-
-    name: str
-    resolution: float  # [m/cell]
-    origin_x: float  # [m]
-    origin_y: float  # [m]
-    width_m: float  # [m] map width along x
-    height_m: float  # [m] map height along y
-    map_file: str
-    topological_file: str
-    building: Rect
-    corridors: tuple[Area, ...]
-    courtyards: tuple[Area, ...]
-    rooms: tuple[Room, ...]
-    waypoints: tuple[Waypoint, ...]
-    ring: tuple[str, ...]
-    arcs: tuple[tuple[str, ...], ...]
-    entrance_distance: float = 0.9  # [m]
-    arc_clearance: float = 0.3  # [m]
-    node_clearance: float = 0.35  # [m]
-    source: str = "<memory>"
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """Grid (rows, cols)."""
-        return round(self.height_m / self.resolution), round(self.width_m / self.resolution)
-
-    @property
-    def map_rect(self) -> Rect:
-        return Rect(
-            self.origin_x,
-            self.origin_y,
-            self.origin_x + self.width_m,
-            self.origin_y + self.height_m,
-        )
-
-    def room(self, name: str) -> Room:
-        """The room called ``name``."""
-        for room in self.rooms:
-            if room.name == name:
-                return room
-        raise FloorPlanError(f"{self.source}: no room named {name!r}")
-
-
 # ---------------------------------------------------------------------------- parsing
 
 
@@ -267,6 +221,31 @@ class PlanFile(_Entry, frozen=True):
     ] = ()
 
 
+class FloorPlan(PlanFile, frozen=True):
+    """A validated floor plan: the file's entries and the file they came from. Build it with
+    :func:`parse_floor_plan`."""
+
+    source: str = "<memory>"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Grid (rows, cols)."""
+        (width, height), resolution = self.map.size, self.map.resolution
+        return round(height / resolution), round(width / resolution)
+
+    @property
+    def map_rect(self) -> Rect:
+        (x, y), (width, height) = self.map.origin, self.map.size
+        return Rect(x, y, x + width, y + height)
+
+    def room(self, name: str) -> Room:
+        """The room called ``name``."""
+        for room in self.rooms:
+            if room.name == name:
+                return room
+        raise FloorPlanError(f"{self.source}: no room named {name!r}")
+
+
 def _room_label(data: Any, path: str) -> str:
     """``room 'Bar': `` for an error inside ``rooms[i]`` whose name can be read."""
     found = re.match(r"rooms\[(\d+)\]", path)
@@ -298,27 +277,7 @@ def parse_floor_plan(data: Any, source: str = "<memory>") -> FloorPlan:
             entry.rect  # noqa: B018 (built to be checked)
         except ValueError as exc:
             raise FloorPlanError(f"{source}: {label}: 'x'/'y': {exc}") from None
-    plan = FloorPlan(
-        name=top.name,
-        resolution=top.map.resolution,
-        origin_x=top.map.origin[0],
-        origin_y=top.map.origin[1],
-        width_m=top.map.size[0],
-        height_m=top.map.size[1],
-        map_file=top.outputs.map,
-        topological_file=top.outputs.topological,
-        building=top.building.rect,
-        corridors=top.corridors,
-        courtyards=top.courtyards,
-        rooms=top.rooms,
-        waypoints=top.waypoints,
-        ring=top.ring,
-        arcs=top.arcs,
-        entrance_distance=top.entrance_distance,
-        arc_clearance=top.arc_clearance,
-        node_clearance=top.node_clearance,
-        source=source,
-    )
+    plan = FloorPlan(**msgspec.structs.asdict(top), source=source)
     validate_floor_plan(plan)
     return plan
 
@@ -343,8 +302,9 @@ def load_floor_plan(path: str | Path) -> FloorPlan:
 def validate_floor_plan(plan: FloorPlan) -> None:
     """Check the geometry and the node lists of ``plan``; raise :class:`FloorPlanError`."""
     src = plan.source
-    if not plan.map_rect.contains(plan.building):
-        raise FloorPlanError(f"{src}: building: outline {plan.building} leaves the map frame")
+    building = plan.building.rect
+    if not plan.map_rect.contains(building):
+        raise FloorPlanError(f"{src}: building: outline {building} leaves the map frame")
     names = [room.name for room in plan.rooms]
     for name in names:
         if names.count(name) > 1:
@@ -352,7 +312,7 @@ def validate_floor_plan(plan: FloorPlan) -> None:
     floors = [(f"corridor {c.name!r}", c.rect) for c in plan.corridors]
     floors += [(f"room {r.name!r}", r.rect) for r in plan.rooms]
     for label, rect in floors + [(f"courtyard {c.name!r}", c.rect) for c in plan.courtyards]:
-        if not plan.building.contains(rect):
+        if not building.contains(rect):
             raise FloorPlanError(f"{src}: {label}: 'x'/'y' lie outside the building outline")
     # Rooms keep a wall to every other floor and courtyard; corridors may overlap each other.
     others = floors + [(f"courtyard {c.name!r}", c.rect) for c in plan.courtyards]
@@ -493,10 +453,11 @@ def _cell_border(distance: float, resolution: float) -> int:
 def _cell_slices(plan: FloorPlan, rect: Rect) -> tuple[slice, slice]:
     """Rows and columns of the cells inside ``rect``, its edges snapped to cell borders."""
     rows, cols = plan.shape
-    c0 = _cell_border(rect.x0 - plan.origin_x, plan.resolution)
-    c1 = _cell_border(rect.x1 - plan.origin_x, plan.resolution)
-    r0 = _cell_border(rect.y0 - plan.origin_y, plan.resolution)
-    r1 = _cell_border(rect.y1 - plan.origin_y, plan.resolution)
+    (x, y), resolution = plan.map.origin, plan.map.resolution
+    c0 = _cell_border(rect.x0 - x, resolution)
+    c1 = _cell_border(rect.x1 - x, resolution)
+    r0 = _cell_border(rect.y0 - y, resolution)
+    r1 = _cell_border(rect.y1 - y, resolution)
     return (
         slice(min(max(r0, 0), rows), min(max(r1, 0), rows)),
         slice(min(max(c0, 0), cols), min(max(c1, 0), cols)),
@@ -510,7 +471,7 @@ def rasterise(plan: FloorPlan) -> OccupancyGrid:
     floors free; door openings free; furniture occupied. Rectangle edges snap to cell borders.
     """
     cells = np.full(plan.shape, UNKNOWN, dtype=np.int8)
-    cells[_cell_slices(plan, plan.building)] = OCCUPIED
+    cells[_cell_slices(plan, plan.building.rect)] = OCCUPIED
     for court in plan.courtyards:
         cells[_cell_slices(plan, court.rect)] = UNKNOWN
     for corridor in plan.corridors:
@@ -523,4 +484,4 @@ def rasterise(plan: FloorPlan) -> OccupancyGrid:
     for room in plan.rooms:
         for item in room.furniture:
             cells[_cell_slices(plan, item.rect)] = OCCUPIED
-    return OccupancyGrid(cells, plan.resolution, plan.origin_x, plan.origin_y, source=plan.name)
+    return OccupancyGrid(cells, plan.map.resolution, *plan.map.origin, source=plan.name)

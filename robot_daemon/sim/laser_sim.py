@@ -40,7 +40,6 @@ plus the cell discretisation of the map itself. People are circles intersected a
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Annotated, ClassVar
 
@@ -60,8 +59,6 @@ from interbot_core.laser_scan import (
     LaserScan,
 )
 from robot_daemon.sim.world import RAY_FINE_STEP, World
-
-logger = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 _REFINE_SAMPLES = 5  # samples of the last fine step when refining a hit

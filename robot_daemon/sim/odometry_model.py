@@ -29,7 +29,6 @@ through this module.
 
 from __future__ import annotations
 
-import logging
 import math
 from typing import Annotated, ClassVar
 
@@ -39,8 +38,6 @@ from msgspec import Meta
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from robot_daemon.sim.diff_drive import body_velocity, integrate_arc, wheel_speeds
-
-logger = logging.getLogger(__name__)
 
 
 class OdometryConfigError(ValueError):

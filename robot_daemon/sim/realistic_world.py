@@ -30,7 +30,6 @@ region). The robot never sees this module's output except through its simulated 
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import typing
@@ -171,7 +170,7 @@ def _displace_plan(
         rooms.append(shifted)
         offsets.append(math.hypot(dx, dy))
     rms = float(np.sqrt(np.mean(np.square(offsets)))) if offsets else 0.0
-    return dataclasses.replace(moved, rooms=tuple(rooms)), rms
+    return msgspec.structs.replace(moved, rooms=tuple(rooms)), rms
 
 
 def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
@@ -183,7 +182,7 @@ def _close_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
         room = rooms[int(i)]
         rooms[int(i)] = msgspec.structs.replace(room, doors=room.doors[1:])
         notes.append(f"door of {room.name!r} closed (open in the map)")
-    return dataclasses.replace(plan, rooms=tuple(rooms))
+    return msgspec.structs.replace(plan, rooms=tuple(rooms))
 
 
 def _open_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
@@ -201,7 +200,7 @@ def _open_doors(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[s
             notes.append(f"extra door into {room.name!r} (a wall in the map)")
             opened += 1
             break
-    return dataclasses.replace(plan, rooms=tuple(rooms))
+    return msgspec.structs.replace(plan, rooms=tuple(rooms))
 
 
 def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[str]) -> FloorPlan:
@@ -229,7 +228,7 @@ def _move_tables(plan: FloorPlan, rng: np.random.Generator, n: int, notes: list[
                 notes.append(f"{item.name!r} in {room.name!r} moved {dist:.2f} m")
                 moved += 1
                 break
-    return dataclasses.replace(plan, rooms=tuple(rooms))
+    return msgspec.structs.replace(plan, rooms=tuple(rooms))
 
 
 def _wall_openings(
@@ -283,7 +282,9 @@ def world_from_plan(
     changed = _open_doors(changed, rng, variation.doors_opened, notes)
     changed = _move_tables(changed, rng, variation.tables_moved, notes)
     glass = _glass_panels(changed, rng, variation.glass_panels, notes)
-    fine = dataclasses.replace(changed, resolution=variation.resolution)
+    fine = msgspec.structs.replace(
+        changed, map=msgspec.structs.replace(changed.map, resolution=variation.resolution)
+    )
     grid = rasterise(fine)
     cells = grid.cells.copy()
     for pane in glass:  # the wall section becomes floor; the pane itself is drawn as glass

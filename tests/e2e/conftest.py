@@ -128,7 +128,7 @@ class Rig:
 
     def truth(self) -> Pose2D:
         """The simulated robot's true pose (ground truth, for assertions only)."""
-        return self.backend.truth()
+        return self.backend.sim.true_pose()
 
     def teleport(self, pose: Pose2D) -> None:
         """Kidnap the simulated robot: move it to ``pose`` on the daemon's thread."""

@@ -1,6 +1,5 @@
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -85,7 +84,7 @@ def test_look_around_is_on_by_default_and_robot_yaml_turns_it_off(tmp_path: Path
     assert config.localiser.look_around is False
     with pytest.raises(ConfigError, match="look_around"):
         parse_config({"localiser": {"look_around": "sometimes"}}, "robot.yaml", tmp_path)
-    daemon = Daemon(replace(config, sim=SimSettings(people=0)), DaemonOptions())
+    daemon = Daemon(config.with_overrides(sim=SimSettings(people=0)), DaemonOptions())
     assert daemon.stack.look_around.config.enabled is False
     on = Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions(relocalise=False))
     assert on.stack.look_around.config.enabled is False  # --no-relocalise: no search, no turn

@@ -98,7 +98,7 @@ class SecureRig:
             robot_id=ROBOT,
             sim=SimSettings(seed=3, people=0, odometry="calibrated", realtime_factor=4.0),
             zenoh=ZenohSettings((endpoint,), ()),
-            security=SecuritySettings(keys),
+            security=SecuritySettings(str(keys)),
             start_latched=False,  # a bare link, not a station: nobody would release the latch
         )
         security, insecure = link_security(config)
@@ -180,13 +180,13 @@ def test_robot_yaml_security_section_and_the_deploy_example(repo_root: Path) -> 
     from robot_daemon.config import ConfigError, load_config, parse_config
 
     cfg = parse_config({"security": {"keys": "k", "insecure": False}}, "robot.yaml", Path("/x"))
-    assert cfg.security == SecuritySettings(Path("/x/k"), False)
+    assert cfg.security == SecuritySettings("/x/k", False)
     with pytest.raises(
         ConfigError, match=r"unknown key 'security.key' \(allowed: keys, insecure\)"
     ):
         parse_config({"security": {"key": "k"}}, "robot.yaml", Path("/x"))
     deploy = load_config(repo_root / "deploy" / "robot.yaml")
-    assert deploy.security.keys == Path("/etc/interbot/keys") and not deploy.security.insecure
+    assert deploy.security.keys == "/etc/interbot/keys" and not deploy.security.insecure
     assert all(e.startswith("tls/") for e in deploy.zenoh.listen)
 
 

@@ -9,8 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_daemon.hardware.camera import CameraDriver, encode_frame
+from robot_daemon.hardware.camera import CameraDriver
 from robot_daemon.hardware.config import CameraConfig
+from robot_daemon.sim.camera_sim import encode_jpeg
 
 Until = Callable[..., bool]
 
@@ -46,9 +47,9 @@ class FakeCapture:
         self.released = True
 
 
-def test_encode_frame_resizes_and_is_jpeg() -> None:
+def test_a_camera_frame_is_resized_and_encoded_as_jpeg() -> None:
     frame = np.full((480, 640, 3), 128, np.uint8)
-    jpeg = encode_frame(frame, 320, 240, 70)
+    jpeg = encode_jpeg(frame, 70, (320, 240))
     assert jpeg[:2] == b"\xff\xd8"
     decoded = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
     assert decoded is not None and decoded.shape == (240, 320, 3)

@@ -12,21 +12,21 @@ import ssl
 import struct
 import subprocess
 import threading
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from foxglove.messages import LaserScan as FoxgloveLaserScan
 from mcap.reader import make_reader
 
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import PoseMsg, Topic
-from robot_daemon.recording import protobuf_wire
-from robot_daemon.recording.config import MB, RecordingConfig, RecordingConfigError
+from robot_daemon.config import MB, ConfigError, RecordingConfig, parse_config
+from robot_daemon.recording import foxglove_convert as fc
 from robot_daemon.recording.daemon_hook import LiveAddressError, build_recorder, parse_live_address
-from robot_daemon.recording.recorder import LiveServer, McapRotation, Recorder
+from robot_daemon.recording.recorder import LiveServer, McapRotation, Recorder, RecorderError
 
 
 def _scan(t: float, rng: np.random.Generator) -> LaserScan:
@@ -43,7 +43,7 @@ def _small_grid() -> OccupancyGrid:
 
 def test_rotation_keeps_the_directory_under_the_cap_and_deletes_the_oldest(tmp_path: Path) -> None:
     config = RecordingConfig(
-        tmp_path, max_file_bytes=int(0.05 * MB), max_total_bytes=int(0.2 * MB), queue=100_000
+        directory=str(tmp_path), max_file_mb=0.05, max_total_mb=0.2, queue=100_000
     )
     rng = np.random.default_rng(1)
     clock = iter(range(1_000_000))
@@ -72,7 +72,7 @@ def test_rotation_keeps_the_directory_under_the_cap_and_deletes_the_oldest(tmp_p
 
 
 def test_rotation_by_time(tmp_path: Path) -> None:
-    config = RecordingConfig(tmp_path, max_file_seconds=10.0)
+    config = RecordingConfig(directory=str(tmp_path), max_file_minutes=10 / 60)
     with Recorder("r1", rotation=McapRotation(config, "r1")) as recorder:
         for i in range(35):  # 35 s of 1 Hz poses: files start at 0, 10, 20 and 30 s
             recorder.state(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, float(i)), float(i))
@@ -133,27 +133,26 @@ def test_live_address_is_loopback_unless_secured() -> None:
 
 
 def test_recording_section_is_validated(tmp_path: Path) -> None:
-    config = RecordingConfig.from_mapping(
-        {"directory": "rec", "max_file_mb": 1, "max_total_mb": 10, "camera": False}, tmp_path
-    )
-    assert config.directory == tmp_path / "rec" and config.max_file_bytes == MB
+    raw = {"directory": "rec", "max_file_mb": 1, "max_total_mb": 10, "camera": False}
+    config = parse_config({"recording": raw}, "robot.yaml", tmp_path).recording
+    assert config is not None
+    assert config.directory == str((tmp_path / "rec").resolve()) and config.max_file_bytes == MB
     assert not config.camera
     bad: list[tuple[dict[str, Any], str]] = [
         ({"directory": "rec", "max_file_mb": 10, "max_total_mb": 10}, "at least twice"),
         ({"directory": "rec", "max_file_mb": "big"}, "must be a number"),
         ({"directory": "rec", "colour": 1}, "unknown key"),
-        ({}, "'directory'"),
         ({"directory": "rec", "camera": "yes"}, "true or false"),
         ({"directory": "rec", "queue": 1.5}, "integer"),
     ]
     for raw, message in bad:
-        with pytest.raises(RecordingConfigError, match=message):
-            RecordingConfig.from_mapping(raw, tmp_path)
+        with pytest.raises(ConfigError, match=message):
+            parse_config({"recording": raw}, "robot.yaml", tmp_path)
+    # A section without a directory records only with --record DIR.
+    with pytest.raises(RecorderError, match="'directory'"):
+        build_recorder("r1", recording=RecordingConfig(), record_dir=None, live=None, now=0.0)
     # Neither recording nor live view asked for: no recorder at all.
-    assert (
-        build_recorder("r1", recording={}, config_dir=tmp_path, record_dir=None, live=None, now=0.0)
-        is None
-    )
+    assert build_recorder("r1", recording=None, record_dir=None, live=None, now=0.0) is None
 
 
 # ----------------------------------------------------------------- a minimal RFC 6455 client
@@ -278,7 +277,9 @@ def test_live_server_advertises_the_channels_and_streams_scans() -> None:
             assert opcode == 2 and payload[0] == 0x01  # binary MessageData
             subscription, _log_time = struct.unpack_from("<IQ", payload, 1)
             assert subscription == 7
-            decoded = protobuf_wire.decode_laser_scan(payload[13:], 0.02, 30.0)
+            schema = FoxgloveLaserScan.get_schema()  # the schema the server advertised
+            message = fc.message_class(schema.name, schema.data).FromString(payload[13:])
+            decoded = fc.scan_from(message, 0.02, 30.0)
             np.testing.assert_allclose(decoded.ranges, scan.ranges, rtol=1e-6)
         finally:
             client.close()
@@ -301,22 +302,24 @@ def test_daemon_refuses_a_non_loopback_foxglove_address(
 
 
 def test_the_deployed_robot_yaml_records_every_run(repo_root: Path, tmp_path: Path) -> None:
-    from robot_daemon.config import ConfigError, load_config
+    from robot_daemon.config import load_config
     from robot_daemon.daemon import DaemonOptions
     from robot_daemon.recording.daemon_hook import build_daemon_recorder
 
     config = load_config(repo_root / "deploy" / "robot.yaml")
-    recording = RecordingConfig.from_mapping(config.recording, repo_root / "deploy")
-    assert recording.directory == Path("/var/lib/interbot/recordings")
+    recording = config.recording
+    assert recording is not None and recording.directory == "/var/lib/interbot/recordings"
     assert recording.max_total_bytes == 8192 * MB and recording.camera
     # --record DIR keeps the section's limits but writes to DIR.
     recorder = build_daemon_recorder(config, DaemonOptions(record_dir=tmp_path), 0.0)
     assert recorder is not None
     recorder.close()
     assert recorder.files[0].parent == tmp_path
-    bad = replace(config, recording={"directory": "x", "max_total_mb": -1})
     with pytest.raises(ConfigError, match="max_total_mb"):
-        build_daemon_recorder(bad, DaemonOptions(), 0.0)
+        parse_config({"recording": {"directory": "x", "max_total_mb": -1}}, "robot.yaml", tmp_path)
+    no_directory = config.with_overrides(recording=RecordingConfig())
+    with pytest.raises(ConfigError, match="'directory'"):
+        build_daemon_recorder(no_directory, DaemonOptions(), 0.0)
 
 
 @pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl command")
