@@ -49,6 +49,12 @@ class FleetLink:
         self.estop_latched = False  # the operator's stop, for every robot
         self.closed = False  # after shutdown nothing is sent
 
+    @property
+    def robot_online(self) -> bool:
+        """Whether the selected robot is present (the tablet thread reads it: see the lock)."""
+        selected = self.link is not None and self.link.selected is not None
+        return selected and self._fleet.selected.online
+
     def send(self, topic: Topic, message: object) -> bool:
         """Send to the selected robot (False: nobody received it)."""
         link = self.link

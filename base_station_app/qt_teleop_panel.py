@@ -49,8 +49,8 @@ class QtTeleopPanel(QWidget):
         )
         self.release_button = button("Release emergency stop", controller.release_stop)
         self.estop_label = QLabel()
-        self.pause_button = button("Pause navigation", controller.pause)
-        self.resume_button = button("Resume navigation", controller.resume)
+        self.pause_button = button("Pause navigation", controller.commands.pause)
+        self.resume_button = button("Resume navigation", controller.commands.resume)
 
         pad_box = QGroupBox("Arrow pad (or arrows / WASD on the map)")
         grid = QGridLayout(pad_box)

@@ -177,6 +177,7 @@ STATE_OWNERS = {
     "FleetLink",
     "SupervisorEvents",
     "TabletRequests",
+    "TabletLink",
 }
 STATION_QT_FREE = (
     "fleet.py",
@@ -783,9 +784,8 @@ def test_the_declared_once_rule_catches_a_copy(tmp_path: Path) -> None:
 # Issue 13 (a thin composition root): the station controller wires its parts (fleet, link,
 # arbiter, tablet policy, alerts, ...) to Qt and keeps no state of its own beyond them. What
 # it may still change after construction: the operator's configuration (handed to every part
-# on a change) and what permissions the tablet was last sent (so only changes are sent). A
-# new piece of state belongs in the part that owns it.
-CONTROLLER_OWN_STATE = {"config", "_permissions_sent"}
+# on a change). A new piece of state belongs in the part that owns it.
+CONTROLLER_OWN_STATE = {"config"}
 
 
 def _assigned(node: ast.AST) -> list[ast.expr]:
