@@ -30,15 +30,21 @@ The parts it composes (issue 13: each named after what it owns, Qt-free and unit
 * `TabletPolicy` (tablet_policy.py) - what the tablet may do and which tasks it owns;
 * `SupervisorEvents` (supervisor_events.py) - what every robot's supervisor events and the
   robot's word on its route become: routes sent and cancelled, tour stops, requests shown;
+* `RobotReports` (robot_reports.py) - what the robots say, into their mirrors;
+* `TaskCommands` (task_commands.py) - the operator's and the tablet's commands on the
+  selected robot's tasks and pose (the task panel and the window call it directly);
 * `TabletRequests` (tablet_requests.py) - what the tablet's requests become, with its
   permissions and ownership (its Stop cancels only what it ordered);
-* `TabletLink` (tablet_link.py) - the tablet's connection on this thread: what it is told
-  (permissions, the communication section), what its connection events become;
+* `TabletLink` (tablet_link.py, the one Qt part: the tablet server's signals reach it queued
+  on this thread) - what the tablet is told (permissions, the communication section) and what
+  its connection events become;
 * `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
 
-Beyond its parts it keeps only the operator's configuration (`tests/test_architecture.py` holds
-it to that): a new piece of state goes to the part that owns it. Its slots stay here because they must run in the Qt thread (the tablet server's
-signals arrive queued from the tablet thread).
+Beyond its parts it keeps only the operator's configuration, and no method of it only passes a
+call on to one part (`tests/test_architecture.py` holds it to both, and to a line budget): a new
+piece of state or a new decision goes to the part that owns it. What stays here coordinates
+several parts at once under the speed path's lock (the e-stop, a robot switch, shutdown) or
+runs the clock.
 
 The selected robot is followed closely by `StationLink` (every topic); the others by a
 `FleetWatch` (pose, plan, battery, multiplexer, safety, route progress, status) that also carries
@@ -88,6 +94,7 @@ from base_station_app.alerts import AlertList, AlertRules
 from base_station_app.fleet import Ask, Fleet, Select, Waiting
 from base_station_app.fleet_link import FleetLink
 from base_station_app.robot_mirror import RobotMirror
+from base_station_app.robot_reports import RobotReports
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.station_file import StationFileError, StationSettingsStore
@@ -106,17 +113,11 @@ from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.supervisor import (
-    Task,
-)
-from interbot_core.topics import (
-    ConfigMsg,
-    Topic,
-    Twist,
-)
+from interbot_core.supervisor import Task
+from interbot_core.topics import ConfigMsg, Topic, Twist
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import PeriodStats
-from interbot_link import RobotAppeared, RobotLeft, StateMessage, StationLink
+from interbot_link import StationLink
 from interbot_link.command_priority import SCAN_PERIOD_S, ZENOH_SEND_THREADS, NamedThreadRaiser
 from interbot_link.fleet_watch import FleetWatch
 
@@ -285,6 +286,17 @@ class StationController(QObject):
         self.tablet.speed_received.connect(self.tablet_teleop.on_speed)  # in the tablet thread
         self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
         # The tablet's signals on this (the Qt) thread: what it is told, its requests.
+        # What the robots say, into their mirrors (robot_reports.py).
+        self.reports = RobotReports(
+            self.fleet,
+            self.robot_link,
+            self.events,
+            self.alert_rules,
+            self.tablet_teleop.lock,
+            self.log,
+            self.robots_changed.emit,
+            clock,
+        )
         self.tablet_link = TabletLink(
             self.tablet,
             self.tablet_teleop,
@@ -485,24 +497,10 @@ class StationController(QObject):
         self.poll_link(display=self.display_rate.due(self.clock()))
 
     def poll_link(self, display: bool = True) -> None:
-        """Pull link events and (``display``) the newest state, then ``frame_ready``.
-
-        Between frames only the events are taken: the state topics wait in their rings of one,
-        so only the newest scan / pose is decoded, once per frame (issue 14).
-        """
-        link = self.link
-        if link is not None:
-            for event in link.poll_events():
-                self._on_link_event(event)
-            selected = self.fleet.selected
-            for topic, message in (link.poll_state() if display else {}).items():
-                selected.state.apply(topic, message)
-                self.alert_rules.on_message(selected.robot_id or "?", message, self.clock())
-            if self.robot_link.watch is not None:
-                for msg in self.robot_link.watch.poll():
-                    self._on_state_message(msg)
-            for mirror in self.fleet.all():
-                self.events.robot_progress(mirror)
+        """What the robots said (robot_reports.py), the start-up choice, then ``frame_ready``
+        (``display``: a frame is drawn)."""
+        if self.link is not None:
+            self.reports.poll(display)
             self._choose_robot()
         if display:
             self.frame_ready.emit()
@@ -521,40 +519,6 @@ class StationController(QObject):
                 f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
                 f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
             )
-
-    def _on_link_event(self, event: object) -> None:
-        now = self.clock()
-        if isinstance(event, RobotAppeared):
-            mirror = self.fleet.mirror(event.robot_id)
-            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
-                mirror.online = True
-            self.log("info", f"robot {event.robot_id} is online")
-            self.robot_link.sync_watch()
-            if self.link is not None:  # ask its route (a restart?): never assume
-                self.link.request_state(event.robot_id)
-            mirror.connected(now)
-            self.robots_changed.emit()
-        elif isinstance(event, RobotLeft):
-            mirror = self.fleet.mirror(event.robot_id)
-            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
-                mirror.online = False
-            self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
-            self.alert_rules.on_robot_left(event.robot_id, now)
-            self.robots_changed.emit()
-        elif isinstance(event, StateMessage):
-            self._on_state_message(event)
-
-    def _on_state_message(self, event: StateMessage) -> None:
-        """A message from one robot (the link's or the watch's): into that robot's mirror."""
-        mirror = self.fleet.mirrors.get(event.robot_id)
-        if mirror is None:
-            return  # a robot never announced: nothing to mirror it into
-        lost, status = mirror.on_message(event.topic, event.message)
-        self.alert_rules.on_message(mirror.robot_id or "?", event.message, self.clock())
-        if lost is not None:
-            self.events.route_lost(lost, mirror)
-        if status is not None:
-            self.events.log_for(mirror, status.level, f"robot: {status.text}")
 
     # ================================================================== clock()
     def tick(self) -> None:
