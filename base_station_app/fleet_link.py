@@ -102,8 +102,11 @@ class FleetLink:
             self.resend_pending(mirror)
 
     def set_assist(self, enabled: bool) -> None:
-        """The station's assisted teleoperation on/off: every robot must hear it."""
+        """The station's assisted teleoperation on/off (issue 17): every robot must hear it."""
+        if enabled == self.assist:
+            return
         self.assist = enabled
+        self._log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
         for mirror in self._fleet.all():
             mirror.assist_pending = True
             self.resend_pending(mirror)

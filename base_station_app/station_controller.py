@@ -162,7 +162,6 @@ class StationController(QObject):
     tour_stop_reached = Signal(object)  # TourStopReached
     request_shown = Signal(object)  # RequestShown
     route_sent = Signal(object)  # RouteMsg
-    assist_changed = Signal(bool)  # the station's assisted teleoperation
 
     def __init__(
         self,
@@ -362,11 +361,6 @@ class StationController(QObject):
         """The operator's stop, for every robot (owned by `FleetLink`)."""
         return self.robot_link.estop_latched
 
-    @property
-    def station_assist(self) -> bool:
-        """The station's assisted teleoperation of ``station_vel`` (issue 17)."""
-        return self.robot_link.assist
-
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
         """Listen for the tablet and start the timers; False if the tablet port is taken.
@@ -478,14 +472,6 @@ class StationController(QObject):
         self.robots_changed.emit()
         self.tasks_changed.emit()
         self.robot_link.resend_pending(new)  # must-arrive state: stop intent, config, assist
-
-    def set_station_assist(self, enabled: bool) -> None:
-        """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
-        if enabled == self.station_assist:
-            return
-        self.robot_link.set_assist(enabled)
-        self.log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
-        self.assist_changed.emit(enabled)
 
     @property
     def selected_robot(self) -> str | None:

@@ -12,7 +12,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 
 import numpy as np
 import pytest
@@ -419,7 +419,10 @@ def test_a_burst_of_key_commands_arrives_whole_and_in_order(pair: Pair) -> None:
 def test_a_station_started_before_the_robot_finds_it() -> None:
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     with open_session([], [endpoint]) as station_session, StationLink(station_session) as station:
-        with open_session([endpoint], []) as robot_session, RobotLink(robot_session, ROBOT):
+        with (
+            open_session([endpoint], []) as robot_session,
+            closing(RobotLink(robot_session, ROBOT)),
+        ):
             wait_until(lambda: ROBOT in station.robots, timeout=3.0)  # connect retries 200 ms
         wait_until(lambda: ROBOT not in station.robots, timeout=1.0)
         assert station.poll_events() == [RobotAppeared(ROBOT), RobotLeft(ROBOT)]
