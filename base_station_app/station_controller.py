@@ -118,7 +118,7 @@ from interbot_core.topics import ConfigMsg, Topic, Twist
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import PeriodStats
 from interbot_link import StationLink
-from interbot_link.command_priority import SCAN_PERIOD_S, ZENOH_SEND_THREADS, NamedThreadRaiser
+from interbot_link.command_priority import SCAN_PERIOD_S
 from interbot_link.fleet_watch import FleetWatch
 
 logger = logging.getLogger(__name__)
@@ -317,16 +317,11 @@ class StationController(QObject):
         self.frame_timer.setInterval(timing.frame_ms)
         self.frame_timer.timeout.connect(self._on_frame_timer)
         self.display_rate = DisplayRate(timing.display_hz)  # draw at most this often
-        # zenoh's transmit threads send the tablet's commands (issue 14): at the tablet
-        # thread's priority, looked for every second while a session is open (zenoh starts
-        # them as links come up). Only those: its receiving threads bring display data
-        # (scans, poses), and at real-time priority they ran it ahead of the tablet's
-        # commands (A/B, 3 pairs at load 10-11: p99 6.4, 10.1, 5.6 ms with them, 3.7, 5.2,
-        # 3.1 ms without).
-        self.network_threads = NamedThreadRaiser("the station's zenoh threads", ZENOH_SEND_THREADS)
+        # zenoh's transmit threads to the tablet thread's priority (fleet_link.py), looked for
+        # every second while a session is open (zenoh starts them as links come up).
         self.network_timer = QTimer(self)
         self.network_timer.setInterval(NETWORK_THREAD_SCAN_MS)
-        self.network_timer.timeout.connect(self._raise_network_threads)
+        self.network_timer.timeout.connect(self.robot_link.raise_network_threads)
         self._session_open = session is not None
 
     def _make_mirror(self, robot_id: str | None) -> RobotMirror:
@@ -367,19 +362,12 @@ class StationController(QObject):
 
         ``timers=False`` leaves ``tick`` / ``poll_link`` to the caller (tests step them).
         """
-        self.tablet.start_thread()
-        if self.tablet.priority is not None:  # the tablet's commands: real-time or not
-            self.log(
-                "info" if self.tablet.priority.realtime else "warning", self.tablet.priority.text
-            )
-        ok = self.tablet.listen()
-        if not ok:
-            self.log("error", f"cannot listen for the tablet on port {self.tablet.port}")
+        ok = self.tablet_link.start()
         if timers:
             self.clock_timer.start()
             self.frame_timer.start()
             if self._session_open:
-                self._raise_network_threads()
+                self.robot_link.raise_network_threads()
                 self.network_timer.start()
         self.log("info", f"station started; {len(self.topo)} nodes, routes precomputed")
         return ok
@@ -402,13 +390,6 @@ class StationController(QObject):
         with self.tablet_teleop.lock:
             self.robot_link.close()
         logger.info("station controller shut down")
-
-    def _raise_network_threads(self) -> None:
-        """zenoh's network threads to real-time priority as they appear; the first outcome is
-        logged where the operator sees it (a refusal as a warning)."""
-        outcome = self.network_threads.scan()
-        if outcome is not None:
-            self.log("info" if outcome.realtime else "warning", outcome.text)
 
     def _load_static_map(self) -> OccupancyGrid | None:
         if self.topo.map_yaml_path is None:

@@ -64,6 +64,17 @@ class TabletLink(QObject):
         teleop.stopped.connect(self.on_speed_stopped)
         teleop.forwarded.connect(self.changed)
 
+    def start(self) -> bool:
+        """The tablet server's thread (its priority said), then listen; False: port taken."""
+        self.server.start_thread()
+        priority = self.server.priority
+        if priority is not None:  # the tablet's commands: real-time or not
+            self._log("info" if priority.realtime else "warning", priority.text)
+        ok = self.server.listen()
+        if not ok:
+            self._log("error", f"cannot listen for the tablet on port {self.server.port}")
+        return ok
+
     def on_connected(self, peer: str) -> None:
         self.feed.forget()
         with self.teleop.lock:
