@@ -507,7 +507,7 @@ class StationController(QObject):
         """The station's own teleoperation, repeated while held (the operator is present).
 
         The tablet's commands are not repeated here: each is forwarded once, on arrival
-        (`on_tablet_message`), and the single-shot watchdog sends the zero.
+        (tablet_teleop.py), and the single-shot watchdog sends the zero.
         """
         command = self.arbiter.keys_command(self.estop_latched)
         if command is not None:
