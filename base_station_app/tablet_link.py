@@ -6,10 +6,11 @@ alerts, the tablet panel's ``changed``) and keeps what the tablet was told: its 
 (sent again only when they change: what the operator allows and only what can work, nothing
 while the robot is offline or the stop is engaged) and, each ``clock()``, the commanded robot's
 pose, goal, tour and status (`TabletFeed`, thesis §5.3.2). A validated request goes to
-`TabletRequests`; a speed command that reached the Qt thread takes the tablet thread's path.
+`TabletRequests`.
 
 What gates the tablet's speed path (permissions, here) is written under ``teleop.lock``, as
-the controller writes the e-stop and a robot's online flag (tests/test_architecture.py).
+the controller writes the e-stop and `RobotReports` a robot's online flag
+(tests/test_architecture.py).
 """
 
 from __future__ import annotations
@@ -92,10 +93,8 @@ class TabletLink(QObject):
         self.changed.emit()
 
     def on_message(self, msg: p.TabletMessage) -> None:
-        """A validated tablet message: a request (tablet_requests.py) or a speed command."""
-        if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)
-            self.teleop.on_speed(msg)  # the same path, stamped when it runs
-            return
+        """A validated request (tablet_requests.py); speed commands never come this way: they
+        are forwarded in the tablet thread (tablet_teleop.py)."""
         self.requests.on_message(msg)
         self.changed.emit()
 

@@ -8,9 +8,9 @@ zenoh publisher. The Qt thread hears about it afterwards through queued signals 
 alerts, the tablet panel), never on the command's path.
 
 One owner, one lock. The arbiter's tablet state and the sending of ``tablet_vel`` are guarded
-by ``lock``; the controller takes the same lock to change what gates the tablet (the e-stop,
-the permissions, the selected robot and whether it is online: everything ``refusal()`` and
-``estop()`` read) and to stop the tablet's driving. So:
+by ``lock``; the station takes the same lock to change what gates the tablet (the e-stop and
+the selected robot: the controller; the permissions: `TabletLink`; whether a robot is online:
+`RobotReports`; everything the refusal check reads) and to stop the tablet's driving. So:
 
 * **the e-stop wins**: once the controller has latched it under the lock, no speed command is
   forwarded; one forwarded just before is followed by the explicit zero (likewise a withdrawn

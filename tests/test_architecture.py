@@ -573,9 +573,10 @@ def test_the_decided_in_one_place_rule_catches_a_controller_that_matches_events(
 
 # Issue 14 (the e-stop wins over a tablet command in flight): what gates the tablet thread's
 # speed path - the operator's stop, a robot's online flag, the tablet's permissions: everything
-# `TabletTeleop`'s ``refusal()`` and ``estop()`` read - is written only under a ``lock`` (the
-# speed path's, ``tablet_teleop.lock``), outside constructors. The split keeps these writes in
-# the controller; a part that wrote one without the lock would let a command slip past a stop.
+# `TabletTeleop`'s refusal check reads - is written only under a ``lock`` (the speed path's,
+# ``tablet_teleop.lock``), outside constructors, whichever part writes it (the controller,
+# `TabletLink`, `RobotReports`); one that wrote it without the lock would let a command slip
+# past a stop.
 TABLET_GATES = {"estop_latched", "online", "permissions"}
 
 
