@@ -411,7 +411,7 @@ class StationController(QObject):
 
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
-        """Send to the selected robot (also called in the tablet thread: `_send_tablet_twist`)."""
+        """Send to the selected robot (also in the tablet thread: its speed, `TabletTeleop`)."""
         return self.robot_link.send(topic, message)
 
     def select_robot(self, robot_id: str | None) -> None:
@@ -420,9 +420,7 @@ class StationController(QObject):
         Hand driving (the station's keys, the tablet's joystick) is zeroed on the robot it drove
         before the switch; the tablet is bound to the new robot from now on.
         """
-        if self.link is None:
-            return
-        if robot_id == self.link.selected:
+        if self.link is None or robot_id == self.link.selected:
             return
         self.release_all()
         link, selected = self.link, self.fleet.select
