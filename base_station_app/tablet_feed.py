@@ -9,7 +9,8 @@ changes (an ended tour is said too: no stale highlight); and the task and status
 change. While the robot is offline: only the status ("robot offline"), never a stale pose.
 
 `TabletFeed` remembers what was said so that changes only are repeated; `forget` makes it say
-everything afresh (a tablet connected, another robot selected, an initial pose sent). Plain Python.
+everything afresh (a tablet connected, another robot selected), and a new initial pose (the
+robot's ``pose_settling_until`` moved) the localisation state. Plain Python.
 """
 
 from __future__ import annotations
