@@ -91,7 +91,7 @@ import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
-from base_station_app.fleet import Ask, Fleet, Select, Waiting
+from base_station_app.fleet import Ask, Fleet, Select
 from base_station_app.fleet_link import FleetLink
 from base_station_app.robot_mirror import RobotMirror
 from base_station_app.robot_reports import RobotReports
@@ -475,15 +475,10 @@ class StationController(QObject):
         choice = self.fleet.choose(self.clock())
         if isinstance(choice, Select):
             self.select_robot(choice.robot_id)
-        elif isinstance(choice, Ask):
-            self.log("warning", f"{len(choice.robot_ids)} robots: choose the one to command")
-            self.robot_choice_needed.emit(choice.robot_ids)
-        elif isinstance(choice, Waiting):
-            self.log(
-                "warning",
-                f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
-                f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
-            )
+        elif choice is not None:  # several robots and no choice, or the preferred one absent
+            self.log("warning", choice.text)
+            if isinstance(choice, Ask):
+                self.robot_choice_needed.emit(choice.robot_ids)
 
     # ================================================================== clock()
     def tick(self) -> None:
