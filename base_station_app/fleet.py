@@ -40,6 +40,10 @@ class Ask:
 
     robot_ids: tuple[str, ...]
 
+    @property
+    def text(self) -> str:
+        return f"{len(self.robot_ids)} robots: choose the one to command"
+
 
 @dataclass(frozen=True)
 class Waiting:
@@ -47,6 +51,13 @@ class Waiting:
 
     preferred: str
     robot_ids: tuple[str, ...]
+
+    @property
+    def text(self) -> str:
+        return (
+            f"waiting for robot {self.preferred} (--robot or the saved choice); online: "
+            f"{', '.join(self.robot_ids)} - choose one in the robot list to command it"
+        )
 
 
 Choice = Select | Ask | Waiting | None

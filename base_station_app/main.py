@@ -225,8 +225,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     if tablet_auth is not None:  # the operator sees who was refused or let in (issue 15)
         # Bound slots, not lambdas: the server lives in the tablet thread, the log in this one.
-        tablet_auth.auth_refused.connect(controller.log_tablet_refused)
-        tablet_auth.tablet_authorised.connect(controller.log_tablet_authorised)
+        tablet_auth.auth_refused.connect(controller.tablet_link.log_refused)
+        tablet_auth.tablet_authorised.connect(controller.tablet_link.log_authorised)
     window = MainWindow(controller)
     window.setWindowTitle(window.windowTitle() + security.title_suffix())
     window.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose, False)

@@ -159,10 +159,10 @@ class MainWindow(QMainWindow):
         self.release_action.triggered.connect(c.release_stop)
         self.pause_action = QAction("Pause", self)
         self.pause_action.setShortcut(QKeySequence("Ctrl+P"))
-        self.pause_action.triggered.connect(c.pause)
+        self.pause_action.triggered.connect(c.commands.pause)
         self.resume_action = QAction("Resume", self)
         self.resume_action.setShortcut(QKeySequence("Ctrl+R"))
-        self.resume_action.triggered.connect(c.resume)
+        self.resume_action.triggered.connect(c.commands.resume)
         self.goal_action = QAction("Goal on map", self)
         self.goal_action.triggered.connect(lambda: self.map_view.set_pick_mode("goal"))
         self.initial_action = QAction("Initial pose on map", self)
@@ -286,9 +286,9 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------------ slots and events
     def _on_pose_picked(self, mode: str, pose: Pose2D) -> None:
         if mode == "goal":
-            self.controller.submit(GoToPose(pose))
+            self.controller.commands.submit(GoToPose(pose))
         else:
-            self.controller.set_initial_pose(pose)
+            self.controller.commands.set_initial_pose(pose)
 
     def _on_pick_mode(self, mode: str) -> None:
         if mode:

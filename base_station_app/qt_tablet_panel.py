@@ -9,6 +9,7 @@ and the tablet's current task, which the operator can take over, stop (pause) or
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 import pyqtgraph as pg
@@ -83,9 +84,10 @@ class QtTabletPanel(QWidget):
             self.pairing = QtTabletPairing(controller.tablet_auth)
             layout.addWidget(self.pairing)
 
-        controller.tablet_changed.connect(self.refresh)
+        self.latencies: deque[float] = deque(maxlen=300)  # [s] the plot's last round trips
+        controller.tablet_link.changed.connect(self.refresh)
         controller.tasks_changed.connect(self.refresh)
-        controller.latency_added.connect(self._on_latency)
+        controller.tablet.latency_measured.connect(self._on_latency)
         controller.clocked.connect(self._refresh_watchdog)
         self.refresh()
 
@@ -97,7 +99,7 @@ class QtTabletPanel(QWidget):
             self.state_label.setText(f"connected from {t.peer}{mode}")
         else:
             self.state_label.setText(f"not connected (listening on port {t.port})")
-        lat = list(c.latencies)
+        lat = list(self.latencies)
         self.latency_label.setText(
             "–"
             if not lat
@@ -119,8 +121,10 @@ class QtTabletPanel(QWidget):
             self.refresh()
 
     def _on_latency(self, rtt: float) -> None:
-        values = np.array(self._controller.latencies) * 1000.0
+        self.latencies.append(rtt)
+        values = np.array(self.latencies) * 1000.0
         self.latency_curve.setData(np.arange(values.size), values)
+        self.refresh()
 
     def _refresh_watchdog(self) -> None:
         c = self._controller

@@ -87,11 +87,11 @@ class QtTaskPanel(QWidget):
         self.up_button = button("Up", lambda: self._move(-1))
         self.down_button = button("Down", lambda: self._move(+1))
         self.remove_button = button("Remove", self._remove)
-        self.cancel_button = button("Cancel current", c.cancel_task)
-        self.clear_button = button("Clear queue", c.clear_queue)
+        self.cancel_button = button("Cancel current", c.commands.cancel_task)
+        self.clear_button = button("Clear queue", c.commands.clear_queue)
         self.resume_queue_button = button(
             "Resume queue",
-            c.resume_queue,
+            c.commands.resume_queue,
             tip="After an emergency stop, waiting tasks start only when you resume the queue",
         )
         edits = column(
@@ -103,10 +103,10 @@ class QtTaskPanel(QWidget):
             self.resume_queue_button,
         )
         edits.addStretch(1)
-        self.tour_resume_button = button("Resume tour", c.tour_resume)
-        self.tour_end_button = button("End tour", c.tour_end)
-        self.accept_button = button("Request accepted", lambda: c.answer_request(True))
-        self.decline_button = button("Request declined", lambda: c.answer_request(False))
+        self.tour_resume_button = button("Resume tour", c.commands.tour_resume)
+        self.tour_end_button = button("End tour", c.commands.tour_end)
+        self.accept_button = button("Request accepted", lambda: c.commands.answer_request(True))
+        self.decline_button = button("Request declined", lambda: c.commands.answer_request(False))
         answers = row(
             self.tour_resume_button, self.tour_end_button, self.accept_button, self.decline_button
         )
@@ -121,10 +121,10 @@ class QtTaskPanel(QWidget):
             self.initial_room.addItem(f"{node.id}  {node.name}", node.id)
         self.initial_room_button = button(
             "Robot is at this room",
-            lambda: c.set_initial_pose_room(int(self.initial_room.currentData())),
+            lambda: c.commands.set_initial_pose_room(int(self.initial_room.currentData())),
         )
         self.relocalise_button = button(
-            "Relocalise", c.relocalise, tip="Let the robot find itself on the whole map"
+            "Relocalise", c.commands.relocalise, tip="Let the robot find itself on the whole map"
         )
         row(
             self.initial_pick_button,
@@ -155,26 +155,26 @@ class QtTaskPanel(QWidget):
     def _goto(self) -> None:
         room = self._room()
         if room is not None:
-            self._controller.submit(GoTo(room))
+            self._controller.commands.submit(GoTo(room))
 
     def _deliver(self) -> None:
         text = self.request_text.text().strip()
         if not text:
             self._controller.log("warning", "type the message or item first")
             return
-        self._controller.submit(
+        self._controller.commands.submit(
             Delivery(text, int(self.from_room.currentData()), int(self.to_room.currentData()))
         )
 
     def _move(self, delta: int) -> None:
         index = self.queue_list.currentRow()
-        if index >= 0 and self._controller.move_task(index, delta):
+        if index >= 0 and self._controller.commands.move_task(index, delta):
             self.queue_list.setCurrentRow(index + delta)
 
     def _remove(self) -> None:
         index = self.queue_list.currentRow()
         if index >= 0:
-            self._controller.remove_task(index)
+            self._controller.commands.remove_task(index)
 
     def refresh(self) -> None:
         c = self._controller

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from PySide6.QtCore import QSignalBlocker
 from PySide6.QtWidgets import (
     QCheckBox,
     QDoubleSpinBox,
@@ -49,8 +48,8 @@ class QtTeleopPanel(QWidget):
         )
         self.release_button = button("Release emergency stop", controller.release_stop)
         self.estop_label = QLabel()
-        self.pause_button = button("Pause navigation", controller.pause)
-        self.resume_button = button("Resume navigation", controller.resume)
+        self.pause_button = button("Pause navigation", controller.commands.pause)
+        self.resume_button = button("Resume navigation", controller.commands.resume)
 
         pad_box = QGroupBox("Arrow pad (or arrows / WASD on the map)")
         grid = QGridLayout(pad_box)
@@ -80,7 +79,7 @@ class QtTeleopPanel(QWidget):
 
         # Issue 17: assisted driving (robot-side) and what the collision monitor is doing.
         self.assist_check = QCheckBox("Assisted driving (slide along walls, through doors)")
-        self.assist_check.setChecked(controller.station_assist)
+        self.assist_check.setChecked(controller.robot_link.assist)
         self.monitor_label = QLabel("Collision monitor: no report")
         self.monitor_label.setWordWrap(True)
         self.monitor_label.setToolTip(
@@ -102,8 +101,7 @@ class QtTeleopPanel(QWidget):
         self.linear_max.editingFinished.connect(self._apply_limits)
         self.angular_max.editingFinished.connect(self._apply_limits)
         controller.estop_changed.connect(self._on_estop)
-        self.assist_check.toggled.connect(controller.set_station_assist)
-        controller.assist_changed.connect(self._on_assist)
+        self.assist_check.toggled.connect(controller.robot_link.set_assist)
         controller.frame_ready.connect(self._on_frame)
         controller.config_changed.connect(self._on_config)
         self._on_estop(controller.estop_latched)
@@ -141,10 +139,6 @@ class QtTeleopPanel(QWidget):
             spin.setValue(value)
             spin.blockSignals(False)
         self.joystick.set_limits(c.teleop_linear_max, c.teleop_angular_max)
-
-    def _on_assist(self, enabled: bool) -> None:
-        with QSignalBlocker(self.assist_check):
-            self.assist_check.setChecked(enabled)
 
     def _on_frame(self) -> None:
         safety = self._controller.selected.state.safety

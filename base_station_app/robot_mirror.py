@@ -89,7 +89,7 @@ class RobotMirror:
         self.config_pending = True  # (re)send the planner config until this robot receives it
         self.assist_pending = True  # (re)send the station's assist flag likewise
         self.shown_request: tuple[int, RequestShown] | None = None
-        self.pose_settling_until = -math.inf  # see station_controller.INITIAL_POSE_SETTLE_S
+        self.pose_settling_until = -math.inf  # see task_commands.INITIAL_POSE_SETTLE_S
 
     def __repr__(self) -> str:
         return f"RobotMirror({self.robot_id!r}, online={self.online})"

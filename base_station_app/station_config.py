@@ -15,9 +15,9 @@ from collections.abc import Mapping
 from typing import Annotated, ClassVar, Final
 
 import msgspec
-from msgspec import Meta
 
 from interbot_core import schema
+from interbot_core.schema import within
 from interbot_core.supervisor import SupervisorConfig
 
 logger = logging.getLogger(__name__)
@@ -25,10 +25,6 @@ logger = logging.getLogger(__name__)
 
 class StationConfigError(ValueError):
     """A configuration value is outside its allowed range; the message names field and range."""
-
-
-def _within(low: float, high: float, unit: str) -> Meta:
-    return Meta(ge=low, le=high, extra={"unit": unit})
 
 
 class StationConfig(schema.Declared, frozen=True):
@@ -42,17 +38,17 @@ class StationConfig(schema.Declared, frozen=True):
     ERROR: ClassVar[type[Exception]] = StationConfigError
 
     # intermediate goals count as reached within this
-    approach_tolerance: Annotated[float, _within(0.05, 5.0, "m")] = 0.7
-    goal_tolerance: Annotated[float, _within(0.02, 2.0, "m")] = 0.25  # final goal position
-    yaw_tolerance: Annotated[float, _within(0.02, math.pi, "rad")] = 0.25  # final goal heading
+    approach_tolerance: Annotated[float, within(0.05, 5.0, "m")] = 0.7
+    goal_tolerance: Annotated[float, within(0.02, 2.0, "m")] = 0.25  # final goal position
+    yaw_tolerance: Annotated[float, within(0.02, math.pi, "rad")] = 0.25  # final goal heading
     # keyboard, arrow pad and mouse joystick
-    teleop_linear_max: Annotated[float, _within(0.05, 0.5, "m/s")] = 0.4
-    teleop_angular_max: Annotated[float, _within(0.1, 1.5, "rad/s")] = 0.8
+    teleop_linear_max: Annotated[float, within(0.05, 0.5, "m/s")] = 0.4
+    teleop_angular_max: Annotated[float, within(0.1, 1.5, "rad/s")] = 0.8
     # sent to the robot's planner (its default, Table 6.3)
-    planner_linear_max: Annotated[float, _within(0.05, 0.5, "m/s")] = 0.25
-    planner_angular_max: Annotated[float, _within(0.1, 1.5, "rad/s")] = 1.0
+    planner_linear_max: Annotated[float, within(0.05, 0.5, "m/s")] = 0.25
+    planner_angular_max: Annotated[float, within(0.1, 1.5, "rad/s")] = 1.0
     # tablet speed commands older than this are discarded
-    latency_ceiling: Annotated[float, _within(0.05, 1.0, "s")] = 0.5
+    latency_ceiling: Annotated[float, within(0.05, 1.0, "s")] = 0.5
 
     def supervisor_config(self, request_timeout: float = 120.0) -> SupervisorConfig:
         return SupervisorConfig(

@@ -30,14 +30,21 @@ The parts it composes (issue 13: each named after what it owns, Qt-free and unit
 * `TabletPolicy` (tablet_policy.py) - what the tablet may do and which tasks it owns;
 * `SupervisorEvents` (supervisor_events.py) - what every robot's supervisor events and the
   robot's word on its route become: routes sent and cancelled, tour stops, requests shown;
+* `RobotReports` (robot_reports.py) - what the robots say, into their mirrors;
+* `TaskCommands` (task_commands.py) - the operator's and the tablet's commands on the
+  selected robot's tasks and pose (the task panel and the window call it directly);
 * `TabletRequests` (tablet_requests.py) - what the tablet's requests become, with its
   permissions and ownership (its Stop cancels only what it ordered);
+* `TabletLink` (tablet_link.py, the one Qt part: the tablet server's signals reach it queued
+  on this thread) - what the tablet is told (permissions, the communication section) and what
+  its connection events become;
 * `AlertList` / `AlertRules` (alerts.py) - what the operator must see and acknowledge.
 
-Beyond its parts it keeps only the operator's configuration and the permissions last sent to
-the tablet (`tests/test_architecture.py` holds it to that): a new piece of state goes to the part
-that owns it. Its slots stay here because they must run in the Qt thread (the tablet server's
-signals arrive queued from the tablet thread).
+Beyond its parts it keeps only the operator's configuration, and no method of it only passes a
+call on to one part (`tests/test_architecture.py` holds it to both, and to a line budget): a new
+piece of state or a new decision goes to the part that owns it. What stays here coordinates
+several parts at once under the speed path's lock (the e-stop, a robot switch, shutdown) or
+runs the clock.
 
 The selected robot is followed closely by `StationLink` (every topic); the others by a
 `FleetWatch` (pose, plan, battery, multiplexer, safety, route progress, status) that also carries
@@ -76,7 +83,6 @@ from __future__ import annotations
 import logging
 import secrets
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,55 +91,40 @@ import zenoh
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
 from base_station_app.alerts import AlertList, AlertRules
-from base_station_app.fleet import Ask, Fleet, Select, Waiting
+from base_station_app.fleet import Ask, Fleet, Select
 from base_station_app.fleet_link import FleetLink
 from base_station_app.robot_mirror import RobotMirror
+from base_station_app.robot_reports import RobotReports
 from base_station_app.robot_state import RobotState
 from base_station_app.station_config import StationConfig
 from base_station_app.station_file import StationFileError, StationSettingsStore
 from base_station_app.supervisor_events import Notices, SupervisorEvents
 from base_station_app.tablet_auth import TabletAuthServer
-from base_station_app.tablet_feed import TabletFeed
-from base_station_app.tablet_policy import TabletPolicy, with_kind
+from base_station_app.tablet_link import TabletLink
+from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_requests import TabletRequests
 from base_station_app.tablet_server import TabletServer
-from base_station_app.tablet_session import describe_task
 from base_station_app.tablet_teleop import TabletTeleop
+from base_station_app.task_commands import TaskCommands
 from base_station_app.teleop import Direction
 from base_station_app.teleop_arbiter import TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.display_rate import DEFAULT_DISPLAY_HZ, DisplayRate
-from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import MapLoadError, OccupancyGrid, load_map
 from interbot_core.rooms import load_room_map, room_map
 from interbot_core.route_planner import RoutePlanner
-from interbot_core.supervisor import (
-    Event,
-    SupervisorError,
-    Task,
-    TaskRejectedError,
-)
-from interbot_core.topics import (
-    ConfigMsg,
-    InitialPose,
-    Relocalise,
-    RouteCancel,
-    Topic,
-    Twist,
-)
+from interbot_core.supervisor import Task
+from interbot_core.topics import ConfigMsg, Topic, Twist
 from interbot_core.topological_map import TopologicalMap
 from interbot_core.watchdog import PeriodStats
-from interbot_link import RobotAppeared, RobotLeft, StateMessage, StationLink
-from interbot_link.command_priority import SCAN_PERIOD_S, ZENOH_SEND_THREADS, NamedThreadRaiser
+from interbot_link import StationLink
+from interbot_link.command_priority import SCAN_PERIOD_S
 from interbot_link.fleet_watch import FleetWatch
 
 logger = logging.getLogger(__name__)
 
 Clock = Callable[[], float]
 
-#: [s] after an initial pose is sent, the robot's "unset"/"lost" is not passed on to the tablet
-#: (the localiser applies the pose at its next scan, well within this at 10-40 Hz).
-INITIAL_POSE_SETTLE_S = 2.0
 NETWORK_THREAD_SCAN_MS = round(SCAN_PERIOD_S * 1000)  # [ms] the daemon's period too
 
 
@@ -167,13 +158,10 @@ class StationController(QObject):
     log_added = Signal(str, str)  # level, text
     estop_changed = Signal(bool)
     paused_changed = Signal(bool)
-    tablet_changed = Signal()
-    latency_added = Signal(float)  # round trip [s]
     config_changed = Signal(object)
     tour_stop_reached = Signal(object)  # TourStopReached
     request_shown = Signal(object)  # RequestShown
     route_sent = Signal(object)  # RouteMsg
-    assist_changed = Signal(bool)  # the station's assisted teleoperation
 
     def __init__(
         self,
@@ -222,9 +210,6 @@ class StationController(QObject):
         if saved is not None:
             self.tablet_policy.permissions = saved.tablet.permissions()
         self.clock_periods = PeriodStats(5000)
-        self.latencies: deque[float] = deque(maxlen=300)
-        self._permissions_sent: p.Permissions | None = None
-        self.tablet_feed = TabletFeed()  # what the tablet was told (tablet_feed.py)
         self._log_requested.connect(self.log)
         # Sending to the robots and what each must hear: the stop, config, assist (fleet_link.py).
         self.robot_link = FleetLink(
@@ -249,9 +234,9 @@ class StationController(QObject):
         self.tablet_teleop = TabletTeleop(
             self.arbiter,
             clock,
-            send_twist=lambda twist: self._send_tablet_twist(twist),  # late bound: wrappable
-            refusal=self._tablet_teleop_refusal,
-            estop=lambda: self.estop_latched,
+            self.robot_link,
+            self.tablet_policy,
+            send_twist=lambda twist: self._send(Topic.TABLET_VEL, twist),  # late: tests wrap it
             reply=self.tablet.send,
             latency_ceiling=self.config.latency_ceiling,
             parent=self.tablet,
@@ -277,10 +262,21 @@ class StationController(QObject):
             clock,
             route_ids,
         )
+        self.commands = TaskCommands(
+            self.fleet,
+            self.events,
+            self.robot_link,
+            self.tablet_policy,
+            self.tablet.send,
+            self.tablet_teleop.stop,
+            topo,
+            notices,
+            clock,
+        )
         self.tablet_requests = TabletRequests(
             self.tablet_policy,
             self.fleet,
-            self,
+            self.commands,
             self.tablet.send,
             self.alert_rules,
             self.names,
@@ -288,15 +284,30 @@ class StationController(QObject):
         )
         self.tablet.speed_received.connect(self.tablet_teleop.on_speed)  # in the tablet thread
         self.tablet.disconnected.connect(self.tablet_teleop.on_tablet_disconnected)  # idem
-        self.tablet_teleop.refused.connect(self._on_tablet_speed_refused)
-        self.tablet_teleop.stopped.connect(self._on_tablet_speed_stopped)
-        self.tablet_teleop.forwarded.connect(self.tablet_changed)
-        self.tablet.connected.connect(self._on_tablet_connected)
-        self.tablet.disconnected.connect(self._on_tablet_disconnected)
-        self.tablet.message_received.connect(self.on_tablet_message)
-        self.tablet.latency_measured.connect(self._on_latency)
-        self.tablet.protocol_error.connect(self._on_tablet_protocol_error)
-        self.tablet.refused.connect(self.log_tablet_refused)
+        # The tablet's signals on this (the Qt) thread: what it is told, its requests.
+        # What the robots say, into their mirrors (robot_reports.py).
+        self.reports = RobotReports(
+            self.fleet,
+            self.robot_link,
+            self.events,
+            self.alert_rules,
+            self.tablet_teleop.lock,
+            self.log,
+            self.robots_changed.emit,
+            clock,
+        )
+        self.tablet_link = TabletLink(
+            self.tablet,
+            self.tablet_teleop,
+            self.tablet_requests,
+            self.fleet,
+            self.robot_link,
+            self.alert_rules,
+            self.names,
+            self.log,
+            clock,
+            parent=self,
+        )
 
         self.clock_timer = QTimer(self)
         self.clock_timer.setTimerType(Qt.TimerType.PreciseTimer)
@@ -306,16 +317,11 @@ class StationController(QObject):
         self.frame_timer.setInterval(timing.frame_ms)
         self.frame_timer.timeout.connect(self._on_frame_timer)
         self.display_rate = DisplayRate(timing.display_hz)  # draw at most this often
-        # zenoh's transmit threads send the tablet's commands (issue 14): at the tablet
-        # thread's priority, looked for every second while a session is open (zenoh starts
-        # them as links come up). Only those: its receiving threads bring display data
-        # (scans, poses), and at real-time priority they ran it ahead of the tablet's
-        # commands (A/B, 3 pairs at load 10-11: p99 6.4, 10.1, 5.6 ms with them, 3.7, 5.2,
-        # 3.1 ms without).
-        self.network_threads = NamedThreadRaiser("the station's zenoh threads", ZENOH_SEND_THREADS)
+        # zenoh's transmit threads to the tablet thread's priority (fleet_link.py), looked for
+        # every second while a session is open (zenoh starts them as links come up).
         self.network_timer = QTimer(self)
         self.network_timer.setInterval(NETWORK_THREAD_SCAN_MS)
-        self.network_timer.timeout.connect(self._raise_network_threads)
+        self.network_timer.timeout.connect(self.robot_link.raise_network_threads)
         self._session_open = session is not None
 
     def _make_mirror(self, robot_id: str | None) -> RobotMirror:
@@ -350,30 +356,18 @@ class StationController(QObject):
         """The operator's stop, for every robot (owned by `FleetLink`)."""
         return self.robot_link.estop_latched
 
-    @property
-    def station_assist(self) -> bool:
-        """The station's assisted teleoperation of ``station_vel`` (issue 17)."""
-        return self.robot_link.assist
-
     # ================================================================== lifetime
     def start(self, timers: bool = True) -> bool:
         """Listen for the tablet and start the timers; False if the tablet port is taken.
 
         ``timers=False`` leaves ``tick`` / ``poll_link`` to the caller (tests step them).
         """
-        self.tablet.start_thread()
-        if self.tablet.priority is not None:  # the tablet's commands: real-time or not
-            self.log(
-                "info" if self.tablet.priority.realtime else "warning", self.tablet.priority.text
-            )
-        ok = self.tablet.listen()
-        if not ok:
-            self.log("error", f"cannot listen for the tablet on port {self.tablet.port}")
+        ok = self.tablet_link.start()
         if timers:
             self.clock_timer.start()
             self.frame_timer.start()
             if self._session_open:
-                self._raise_network_threads()
+                self.robot_link.raise_network_threads()
                 self.network_timer.start()
         self.log("info", f"station started; {len(self.topo)} nodes, routes precomputed")
         return ok
@@ -397,13 +391,6 @@ class StationController(QObject):
             self.robot_link.close()
         logger.info("station controller shut down")
 
-    def _raise_network_threads(self) -> None:
-        """zenoh's network threads to real-time priority as they appear; the first outcome is
-        logged where the operator sees it (a refusal as a warning)."""
-        outcome = self.network_threads.scan()
-        if outcome is not None:
-            self.log("info" if outcome.realtime else "warning", outcome.text)
-
     def _load_static_map(self) -> OccupancyGrid | None:
         if self.topo.map_yaml_path is None:
             return None
@@ -424,7 +411,7 @@ class StationController(QObject):
 
     # ================================================================== robot link
     def _send(self, topic: Topic, message: object) -> bool:
-        """Send to the selected robot (also called in the tablet thread: `_send_tablet_twist`)."""
+        """Send to the selected robot (also in the tablet thread: its speed, `TabletTeleop`)."""
         return self.robot_link.send(topic, message)
 
     def select_robot(self, robot_id: str | None) -> None:
@@ -433,9 +420,7 @@ class StationController(QObject):
         Hand driving (the station's keys, the tablet's joystick) is zeroed on the robot it drove
         before the switch; the tablet is bound to the new robot from now on.
         """
-        if self.link is None:
-            return
-        if robot_id == self.link.selected:
+        if self.link is None or robot_id == self.link.selected:
             return
         self.release_all()
         link, selected = self.link, self.fleet.select
@@ -459,21 +444,13 @@ class StationController(QObject):
                 mirror.connected(now)  # new publishers / subscribers: re-assert, ask its route
                 if mirror is old and old.online:
                     self.link.request_state(old.robot_id)
-        self.tablet_feed.forget()
+        self.tablet_link.feed.forget()
         self.tablet.send(p.RobotName(robot_id or "none"))  # its welcome named the old one
         self.log("info", f"commanding robot {robot_id}" if robot_id else "no robot selected")
         self.robot_selected.emit(robot_id or "")
         self.robots_changed.emit()
         self.tasks_changed.emit()
         self.robot_link.resend_pending(new)  # must-arrive state: stop intent, config, assist
-
-    def set_station_assist(self, enabled: bool) -> None:
-        """Assisted teleoperation on/off for the station's own driving (the robot applies it)."""
-        if enabled == self.station_assist:
-            return
-        self.robot_link.set_assist(enabled)
-        self.log("info", f"assisted driving {'on' if enabled else 'off'} for the Base Station")
-        self.assist_changed.emit(enabled)
 
     @property
     def selected_robot(self) -> str | None:
@@ -485,24 +462,10 @@ class StationController(QObject):
         self.poll_link(display=self.display_rate.due(self.clock()))
 
     def poll_link(self, display: bool = True) -> None:
-        """Pull link events and (``display``) the newest state, then ``frame_ready``.
-
-        Between frames only the events are taken: the state topics wait in their rings of one,
-        so only the newest scan / pose is decoded, once per frame (issue 14).
-        """
-        link = self.link
-        if link is not None:
-            for event in link.poll_events():
-                self._on_link_event(event)
-            selected = self.fleet.selected
-            for topic, message in (link.poll_state() if display else {}).items():
-                selected.state.apply(topic, message)
-                self.alert_rules.on_message(selected.robot_id or "?", message, self.clock())
-            if self.robot_link.watch is not None:
-                for msg in self.robot_link.watch.poll():
-                    self._on_state_message(msg)
-            for mirror in self.fleet.all():
-                self.events.robot_progress(mirror)
+        """What the robots said (robot_reports.py), the start-up choice, then ``frame_ready``
+        (``display``: a frame is drawn)."""
+        if self.link is not None:
+            self.reports.poll(display)
             self._choose_robot()
         if display:
             self.frame_ready.emit()
@@ -512,49 +475,10 @@ class StationController(QObject):
         choice = self.fleet.choose(self.clock())
         if isinstance(choice, Select):
             self.select_robot(choice.robot_id)
-        elif isinstance(choice, Ask):
-            self.log("warning", f"{len(choice.robot_ids)} robots: choose the one to command")
-            self.robot_choice_needed.emit(choice.robot_ids)
-        elif isinstance(choice, Waiting):
-            self.log(
-                "warning",
-                f"waiting for robot {choice.preferred} (--robot or the saved choice); online: "
-                f"{', '.join(choice.robot_ids)} - choose one in the robot list to command it",
-            )
-
-    def _on_link_event(self, event: object) -> None:
-        now = self.clock()
-        if isinstance(event, RobotAppeared):
-            mirror = self.fleet.mirror(event.robot_id)
-            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
-                mirror.online = True
-            self.log("info", f"robot {event.robot_id} is online")
-            self.robot_link.sync_watch()
-            if self.link is not None:  # ask its route (a restart?): never assume
-                self.link.request_state(event.robot_id)
-            mirror.connected(now)
-            self.robots_changed.emit()
-        elif isinstance(event, RobotLeft):
-            mirror = self.fleet.mirror(event.robot_id)
-            with self.tablet_teleop.lock:  # read by the tablet thread (robot_online)
-                mirror.online = False
-            self.log("error", f"robot {event.robot_id} lost (liveliness token gone)")
-            self.alert_rules.on_robot_left(event.robot_id, now)
-            self.robots_changed.emit()
-        elif isinstance(event, StateMessage):
-            self._on_state_message(event)
-
-    def _on_state_message(self, event: StateMessage) -> None:
-        """A message from one robot (the link's or the watch's): into that robot's mirror."""
-        mirror = self.fleet.mirrors.get(event.robot_id)
-        if mirror is None:
-            return  # a robot never announced: nothing to mirror it into
-        lost, status = mirror.on_message(event.topic, event.message)
-        self.alert_rules.on_message(mirror.robot_id or "?", event.message, self.clock())
-        if lost is not None:
-            self.events.route_lost(lost, mirror)
-        if status is not None:
-            self.events.log_for(mirror, status.level, f"robot: {status.text}")
+        elif choice is not None:  # several robots and no choice, or the preferred one absent
+            self.log("warning", choice.text)
+            if isinstance(choice, Ask):
+                self.robot_choice_needed.emit(choice.robot_ids)
 
     # ================================================================== clock()
     def tick(self) -> None:
@@ -569,159 +493,31 @@ class StationController(QObject):
                 self.events.route_lost(lost, mirror)
         self._speed_section(now)
         self.events.update_poses(now)
-        self._communication_section(now)
+        self.tablet_link.communicate(now)
         self.clocked.emit()
 
     def _speed_section(self, now: float) -> None:
         """The station's own teleoperation, repeated while held (the operator is present).
 
         The tablet's commands are not repeated here: each is forwarded once, on arrival
-        (`on_tablet_message`), and the single-shot watchdog sends the zero.
+        (tablet_teleop.py), and the single-shot watchdog sends the zero.
         """
         command = self.arbiter.keys_command(self.estop_latched)
         if command is not None:
             self._send(Topic.STATION_VEL, Twist(command[0], command[1], stamp=now))
 
-    def stop_tablet_speed(self, why: str) -> None:
-        """Forget the tablet's command and send one explicit zero if one was forwarded."""
-        self.tablet_teleop.stop(why)  # logged by _on_tablet_speed_stopped
-
-    def _send_tablet_twist(self, twist: Twist) -> bool:
-        """Publish the tablet's command (tablet thread, under ``tablet_teleop.lock``)."""
-        return self._send(Topic.TABLET_VEL, twist)
-
-    def _tablet_teleop_refusal(self) -> str | None:
-        """Why the tablet may not drive now (tablet thread, under ``tablet_teleop.lock``).
-
-        Everything it reads is written under that lock: the e-stop (`engage_estop`,
-        `release_estop`), the permissions (`set_permission`), the selected robot
-        (`select_robot`) and its online flag (`_on_link_event`)."""
-        return self.tablet_policy.refusal("teleop", self.robot_online, self.estop_latched)
-
-    def _on_tablet_speed_refused(self, why: str) -> None:
-        self.alert_rules.on_refused(why, self.clock())
-        self.tablet_changed.emit()
-
-    def _on_tablet_speed_stopped(self, why: str) -> None:
-        self.log("warning", f"tablet speed stopped ({why}): explicit zero sent")
-        self.tablet_changed.emit()
-
-    def _on_tablet_protocol_error(self, text: str) -> None:
-        self.log("warning", f"tablet: {text}")
-
-    def log_tablet_refused(self, peer: str, why: str) -> None:
-        """A tablet connection refused (another is connected, TLS, pairing)."""
-        self.log("warning", f"refused tablet {peer}: {why}")
-
-    def log_tablet_authorised(self, record: object) -> None:
-        tablet_id, name = getattr(record, "tablet_id", "?"), getattr(record, "name", "?")
-        self.log("info", f"tablet {tablet_id} ({name}) authorised")
-
-    def _send_permissions(self) -> None:
-        """What the tablet may do now: the operator's choice, and only what can work."""
-        msg = self.tablet_policy.effective(self.robot_online, self.estop_latched)
-        if msg != self._permissions_sent and self.tablet.send(msg):
-            self._permissions_sent = msg
-            with self.tablet_teleop.lock:
-                self.arbiter.stop_told = False  # a refused speed is explained again
-
-    def _communication_section(self, now: float) -> None:
-        """Tell the tablet about the commanded robot (tablet_feed.py), changes only."""
-        if not self.tablet.is_connected:
-            return
-        self._send_permissions()
-        robot = self.selected
-        status = p.StatusInfo(robot.task_text(self.names), robot.status_text(self.estop_latched))
-        for message in self.tablet_feed.messages(robot, now, self.robot_online, status):
-            self.tablet.send(message)
-
     @property
     def robot_online(self) -> bool:
-        robot = self.selected_robot
-        return robot is not None and self.selected.online
+        return self.robot_link.robot_online
 
     # ================================================================== operator commands
+    # The task commands are `self.commands` (task_commands.py); the safety tests queue and
+    # resume through these two names.
     def submit(self, task: Task, *, from_tablet: bool = False) -> bool:
-        """Queue a task for the selected robot; False (and a logged reason) if the map rejects it."""
-        try:
-            events = self.selected.supervisor.submit(task)
-        except TaskRejectedError as exc:
-            self.log("error", f"task rejected: {exc}")
-            if from_tablet:
-                self.tablet.send(p.ErrorReport("task_rejected", str(exc)[:500]))
-            return False
-        if from_tablet:
-            self.tablet_policy.adopt(task)
-        self.log("info", f"queued: {describe_task(task, self.names)}")
-        self.events.handle(events)
-        self.tasks_changed.emit()
-        return True
+        return self.commands.submit(task, from_tablet=from_tablet)
 
-    def _try(self, action: Callable[[], list[Event]]) -> bool:
-        try:
-            events = action()
-        except SupervisorError as exc:
-            self.log("warning", str(exc))
-            return False
-        self.events.handle(events)
-        self.tasks_changed.emit()
-        return True
-
-    def cancel_task(self, who: str = "the operator") -> bool:
-        """Cancel the running task; a tablet's task cancelled by someone else tells the tablet."""
-        tablets = self.tablet_policy.owns(self.selected.supervisor.current_task)
-        cancelled = self._try(self.selected.supervisor.cancel)
-        if cancelled and tablets and who != "the tablet":
-            self.tablet.send(p.Cancel(f"cancelled by {who}"))
-        return cancelled
-
-    def stop_motion(self, who: str) -> None:
-        """Stop whatever runs: the task (if any), a route this station did not start, teleop."""
-        if self.selected.supervisor.current_task is not None:
-            self.cancel_task(who)
-        if self.selected.route_mirror.robot_running and self.selected.route is None:
-            # A route from before a station restart (or one we lost track of): cancel it too.
-            self._send(
-                Topic.ROUTE_CANCEL, RouteCancel(None, f"stopped by {who}", stamp=self.clock())
-            )
-            self.selected.route_mirror.foreign = None
-            self.log("warning", f"{who}: cancelled the robot's route")
-        self.stop_tablet_speed(f"stop from {who}")
-
-    def move_task(self, index: int, delta: int) -> bool:
-        target = index + delta
-        if not 0 <= target < len(self.selected.supervisor.queue):
-            return False
-        return self._try(lambda: self.selected.supervisor.reorder(index, target))
-
-    def remove_task(self, index: int) -> bool:
-        return self._try(lambda: self.selected.supervisor.remove(index))
-
-    def clear_queue(self) -> bool:
-        return self._try(self.selected.supervisor.clear_queue)
-
-    def pause(self) -> None:
-        self.events.handle(self.selected.supervisor.pause())
-
-    def resume(self) -> None:
-        self.events.handle(self.selected.supervisor.resume())
-
-    def tour_resume(self) -> bool:
-        """Leave the tour stop: release the pause and drive to the next stop."""
-        ok = self._try(self.selected.supervisor.tour_resume)
-        if ok:
-            self.selected.goal_reached = False
-            self.resume()
-        return ok
-
-    def tour_end(self) -> bool:
-        ok = self._try(self.selected.supervisor.tour_end)
-        if ok:
-            self.resume()
-        return ok
-
-    def answer_request(self, accepted: bool) -> bool:
-        return self._try(lambda: self.selected.supervisor.request_response(accepted))
+    def resume_queue(self) -> None:
+        self.commands.resume_queue()
 
     def emergency_stop(self) -> None:
         """Engage the stop lock on EVERY robot; it latches (here and on them) until released.
@@ -733,7 +529,7 @@ class StationController(QObject):
         with self.tablet_teleop.lock:  # from here on no tablet command is forwarded
             was = self.estop_latched
             self.robot_link.estop_latched = True
-        self.stop_tablet_speed("emergency stop")
+        self.tablet_teleop.stop("emergency stop")
         for mirror in self.fleet.all():
             # waiting tasks wait for "Resume queue"
             self.events.handle(mirror.supervisor.hold_queue(), mirror)
@@ -743,18 +539,6 @@ class StationController(QObject):
         if not was:
             self.log("error", "EMERGENCY STOP engaged")
             self.estop_changed.emit(True)
-
-    def resume_queue(self) -> None:
-        """The operator's "Resume queue": waiting tasks may start again (not during a stop).
-
-        It applies to the selected robot; another robot's queue is resumed when it is selected.
-        """
-        if self.estop_latched:
-            self.log("warning", "release the emergency stop before resuming the queue")
-            return
-        if self.selected.supervisor.held:
-            self.events.handle(self.selected.supervisor.release_queue())
-            self.log("info", "task queue resumed by the operator")
 
     def release_stop(self) -> None:
         if not self.estop_latched:
@@ -766,27 +550,6 @@ class StationController(QObject):
             self.robot_link.assert_stop_intent(mirror)
         self.log("info", "emergency stop released")
         self.estop_changed.emit(False)
-
-    def set_initial_pose(self, pose: Pose2D, verify: bool = False) -> None:
-        """``verify``: a room rather than an exact pose; the robot confirms it by laser."""
-        now = self.clock()
-        self._send(
-            Topic.INITIAL_POSE, InitialPose(pose.x, pose.y, pose.yaw, stamp=now, verify=verify)
-        )
-        # Until the robot reports the pose applied, its last "unset"/"lost" is stale: holding
-        # it back keeps the tablet's "Help me!" banner from flashing up again (and the state is
-        # said afresh once the robot answers or the grace runs out).
-        self.selected.pose_settling_until = now + INITIAL_POSE_SETTLE_S
-        self.tablet_feed.localisation_sent = None
-        self.log("info", f"initial pose set to ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f} rad)")
-
-    def set_initial_pose_room(self, node_id: int) -> None:
-        self.set_initial_pose(self.topo.node(node_id, "room").pose, verify=True)
-
-    def relocalise(self) -> None:
-        """Ask the robot to find itself on the whole map (global localisation)."""
-        self._send(Topic.RELOCALISE, Relocalise(stamp=self.clock()))
-        self.log("info", "relocalisation requested")
 
     def set_config(self, config: StationConfig) -> None:
         """Apply new parameters at once: supervisor tolerances, teleop limits, watchdog, robots."""
@@ -841,42 +604,7 @@ class StationController(QObject):
             self._teleop_changed()
 
     # ================================================================== tablet
-    def _on_tablet_connected(self, peer: str) -> None:
-        self.tablet_feed.forget()
-        with self.tablet_teleop.lock:
-            self.arbiter.tablet_connected()
-        self._permissions_sent = None
-        self._send_permissions()
-        self.log("info", f"tablet connected from {peer}")
-        self.tablet_changed.emit()
-
-    def _on_tablet_disconnected(self) -> None:
-        self.stop_tablet_speed("tablet disconnected")
-        with self.tablet_teleop.lock:
-            self.arbiter.watchdog.reset()
-        self.log("warning", "tablet disconnected")
-        self.tablet_changed.emit()
-
-    def _on_latency(self, rtt: float) -> None:
-        self.latencies.append(rtt)
-        self.latency_added.emit(rtt)
-        self.tablet_changed.emit()
-
     def set_permission(self, kind: str, allowed: bool) -> None:
-        policy = self.tablet_policy
-        with self.tablet_teleop.lock:  # the tablet thread reads it (TabletTeleop.on_speed)
-            policy.permissions = with_kind(policy.permissions, kind, allowed)
-            if not policy.permissions.teleop:
-                self.stop_tablet_speed("teleoperation not permitted")
-        self._send_permissions()
+        """The operator's choice for the tablet (tablet_link.py), kept in the station file."""
+        self.tablet_link.set_permission(kind, allowed)
         self._save_settings()
-        self.log("info", f"tablet {kind} {'allowed' if allowed else 'forbidden'}")
-        self.tablet_changed.emit()
-
-    def on_tablet_message(self, msg: p.TabletMessage) -> None:
-        """A validated tablet message: a request (tablet_requests.py) or a speed command."""
-        if isinstance(msg, p.Speed):  # normally forwarded in the tablet thread (tablet_teleop.py)
-            self.tablet_teleop.on_speed(msg)  # the same path, stamped when it runs
-            return
-        self.tablet_requests.on_message(msg)
-        self.tablet_changed.emit()

@@ -9,7 +9,8 @@ changes (an ended tour is said too: no stale highlight); and the task and status
 change. While the robot is offline: only the status ("robot offline"), never a stale pose.
 
 `TabletFeed` remembers what was said so that changes only are repeated; `forget` makes it say
-everything afresh (a tablet connected, another robot selected, an initial pose sent). Plain Python.
+everything afresh (a tablet connected, another robot selected), and a new initial pose (the
+robot's ``pose_settling_until`` moved) the localisation state. Plain Python.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ class TabletFeed:
     def forget(self) -> None:
         """Say everything again at the next clock."""
         self.localisation_sent: str | None = None
+        self.settling_until = -1.0  # [s] the robot's grace after an initial pose, last seen
         self.tour_state_sent: p.TourState | None = None
         self.status_sent: p.StatusInfo | None = None
         self.safety_sent: p.SafetyInfo | None = None
@@ -42,6 +44,8 @@ class TabletFeed:
         self, robot: RobotMirror, now: float, online: bool, status: p.StatusInfo
     ) -> list[p.StationMessage]:
         """This clock's messages for the tablet about ``robot`` (``status``: task and status)."""
+        if robot.pose_settling_until != self.settling_until:  # an initial pose was sent
+            self.settling_until, self.localisation_sent = robot.pose_settling_until, None
         if not online:
             self.localisation_sent = None
             return self._status(status)

@@ -10,40 +10,20 @@ The operator can take the tablet's task over, stop or cancel it.
 
 Speed commands never come here on their way to the robot: they are forwarded in the tablet
 thread (tablet_teleop.py). Plain Python: the station's commands are reached through
-`StationCommands` (the controller), the tablet through ``tablet_send``.
+`TaskCommands`, the tablet through ``tablet_send``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol
 
 from base_station_app.alerts import AlertRules
 from base_station_app.fleet import Fleet
 from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.tablet_session import describe_task, permission_for
+from base_station_app.task_commands import TaskCommands
 from interbot_core import protocol as p
 from interbot_core.supervisor import Delivery, GoHome, GoTo, GuidedTour, Task
-
-
-class StationCommands(Protocol):
-    """The station's commands a tablet request may become (the controller's)."""
-
-    @property
-    def robot_online(self) -> bool: ...
-    @property
-    def estop_latched(self) -> bool: ...
-    def submit(self, task: Task, *, from_tablet: bool = False) -> bool: ...
-    def cancel_task(self, who: str = "the operator") -> bool: ...
-    def pause(self) -> None: ...
-    def resume(self) -> None: ...
-    def tour_resume(self) -> bool: ...
-    def tour_end(self) -> bool: ...
-    def answer_request(self, accepted: bool) -> bool: ...
-    def set_initial_pose_room(self, node_id: int) -> None: ...
-    def stop_motion(self, who: str) -> None: ...
-    def stop_tablet_speed(self, why: str) -> None: ...
-    def log(self, level: str, text: str) -> None: ...
 
 
 class TabletRequests:
@@ -53,7 +33,7 @@ class TabletRequests:
         self,
         policy: TabletPolicy,
         fleet: Fleet,
-        station: StationCommands,
+        station: TaskCommands,
         tablet_send: Callable[[p.StationMessage], object],
         alert_rules: AlertRules,
         names: dict[int, str],

@@ -8,9 +8,9 @@ zenoh publisher. The Qt thread hears about it afterwards through queued signals 
 alerts, the tablet panel), never on the command's path.
 
 One owner, one lock. The arbiter's tablet state and the sending of ``tablet_vel`` are guarded
-by ``lock``; the controller takes the same lock to change what gates the tablet (the e-stop,
-the permissions, the selected robot and whether it is online: everything ``refusal()`` and
-``estop()`` read) and to stop the tablet's driving. So:
+by ``lock``; the station takes the same lock to change what gates the tablet (the e-stop and
+the selected robot: the controller; the permissions: `TabletLink`; whether a robot is online:
+`RobotReports`; everything the refusal check reads) and to stop the tablet's driving. So:
 
 * **the e-stop wins**: once the controller has latched it under the lock, no speed command is
   forwarded; one forwarded just before is followed by the explicit zero (likewise a withdrawn
@@ -33,6 +33,8 @@ from collections.abc import Callable
 
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
+from base_station_app.fleet_link import FleetLink
+from base_station_app.tablet_policy import TabletPolicy
 from base_station_app.teleop_arbiter import Forward, Refuse, TeleopArbiter
 from interbot_core import protocol as p
 from interbot_core.topics import Twist
@@ -46,9 +48,10 @@ class TabletTeleop(QObject):
     """Forwards the tablet's speed commands in the thread it lives in (see the module docstring).
 
     ``send_twist(twist)`` publishes on the selected robot's ``tablet_vel`` (False: nobody
-    received it); ``refusal()`` says why teleoperation is refused now (permission withdrawn,
-    robot offline, e-stop) or None; ``estop()`` whether the operator's stop is latched;
-    ``reply(msg)`` sends a message to the tablet (called in this object's thread).
+    received it); ``robot_link`` says whether that robot is online and the operator's stop
+    latched, and with ``policy`` why teleoperation is refused now (permission withdrawn, robot
+    offline, e-stop); ``reply(msg)`` sends a message to the tablet (called in this object's
+    thread).
 
     Signals (queued to the Qt thread): ``refused(reason)`` a speed refused (said to the tablet
     once per stream), ``stopped(why)`` the tablet's driving stopped with an explicit zero,
@@ -64,9 +67,9 @@ class TabletTeleop(QObject):
         self,
         arbiter: TeleopArbiter,
         clock: Clock,
+        robot_link: FleetLink,
+        policy: TabletPolicy,
         send_twist: Callable[[Twist], bool],
-        refusal: Callable[[], str | None],
-        estop: Callable[[], bool],
         reply: Callable[[p.StationMessage], object],
         latency_ceiling: float,
         parent: QObject | None = None,
@@ -75,9 +78,7 @@ class TabletTeleop(QObject):
         self.arbiter = arbiter
         self.lock = threading.RLock()
         self._clock = clock
-        self._send_twist = send_twist
-        self._refusal = refusal
-        self._estop = estop
+        self._link, self._policy, self._send_twist = robot_link, policy, send_twist
         self._reply = reply
         # Thesis Fig. 5.10: a single-shot timer restarted by every forwarded command; its
         # timeout means the tablet went silent for the latency ceiling: one explicit zero.
@@ -102,12 +103,13 @@ class TabletTeleop(QObject):
         now = self._clock()
         verdict: Forward | Refuse | None = None
         with self.lock:
-            why = self._refusal()
+            link = self._link
+            why = self._policy.refusal("teleop", link.robot_online, link.estop_latched)
             if why is not None:  # said to the tablet once per stream
                 tell = not self.arbiter.stop_told
                 self.arbiter.stop_told = True
             else:
-                verdict = self.arbiter.on_tablet_speed(msg, now, self._estop())
+                verdict = self.arbiter.on_tablet_speed(msg, now, link.estop_latched)
                 if isinstance(verdict, Forward):
                     self._send_twist(verdict.twist)
         if why is not None:

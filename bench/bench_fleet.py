@@ -16,7 +16,7 @@ import socket
 import sys
 import threading
 import time
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from pathlib import Path
 from typing import Any
 
@@ -62,7 +62,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         router_session = open_router([router])
         stack.callback(router_session.close)
         station_session = stack.enter_context(open_session([], [router], "client"))
-        station = stack.enter_context(StationLink(station_session))
+        station = stack.enter_context(closing(StationLink(station_session)))
         robots: list[tuple[str, threading.Event, threading.Thread, ExitStack]] = []
         try:
             for i in range(n):

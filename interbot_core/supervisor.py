@@ -357,11 +357,6 @@ class Supervisor:
         return self._pose
 
     @property
-    def localized(self) -> bool:
-        """Whether the latest ``update`` carried a pose."""
-        return self._localized
-
-    @property
     def current_route(self) -> RouteStarted | None:
         """The route last sent to the robot for the current task (kept after arrival)."""
         return self._route

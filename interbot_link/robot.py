@@ -20,7 +20,6 @@ import threading
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import TracebackType
 from typing import cast
 
 import zenoh
@@ -306,14 +305,3 @@ class RobotLink:
         for publisher in self._publishers.values():
             publisher.undeclare()
         logger.info("robot link %r closed", self._robot_id)
-
-    def __enter__(self) -> RobotLink:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

@@ -19,7 +19,6 @@ import threading
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import TracebackType
 
 import zenoh
 
@@ -334,14 +333,3 @@ class StationLink:
         self._closed = True
         self._unselect()
         self._alive_sub.undeclare()
-
-    def __enter__(self) -> StationLink:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

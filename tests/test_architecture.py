@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import ast
+import importlib.util
 import sys
 from pathlib import Path
 
@@ -177,6 +178,7 @@ STATE_OWNERS = {
     "FleetLink",
     "SupervisorEvents",
     "TabletRequests",
+    "TabletLink",
 }
 STATION_QT_FREE = (
     "fleet.py",
@@ -190,6 +192,8 @@ STATION_QT_FREE = (
     "tablet_session.py",
     "supervisor_events.py",
     "tablet_requests.py",
+    "task_commands.py",
+    "robot_reports.py",
 )
 
 
@@ -569,9 +573,10 @@ def test_the_decided_in_one_place_rule_catches_a_controller_that_matches_events(
 
 # Issue 14 (the e-stop wins over a tablet command in flight): what gates the tablet thread's
 # speed path - the operator's stop, a robot's online flag, the tablet's permissions: everything
-# `TabletTeleop`'s ``refusal()`` and ``estop()`` read - is written only under a ``lock`` (the
-# speed path's, ``tablet_teleop.lock``), outside constructors. The split keeps these writes in
-# the controller; a part that wrote one without the lock would let a command slip past a stop.
+# `TabletTeleop`'s refusal check reads - is written only under a ``lock`` (the speed path's,
+# ``tablet_teleop.lock``), outside constructors, whichever part writes it (the controller,
+# `TabletLink`, `RobotReports`); one that wrote it without the lock would let a command slip
+# past a stop.
 TABLET_GATES = {"estop_latched", "online", "permissions"}
 
 
@@ -634,7 +639,7 @@ def test_the_gate_rule_catches_a_write_without_the_lock(tmp_path: Path) -> None:
 # blocking fetch the station never makes; the tablet server's ping timer, not a ping() only
 # tests call), so it cannot pass on a path that is dead in the product. Every top-level class
 # of the station, tablet, link, core, CLI and Qt packages is checked (robot_daemon is trimmed
-# by its own rule of thumb; supervisor.py is being rebuilt this session).
+# by its own rule of thumb).
 NO_TEST_ONLY_API_PACKAGES = (
     "base_station_app",
     "interbot_core",
@@ -643,7 +648,6 @@ NO_TEST_ONLY_API_PACKAGES = (
     "interbot_cli",
     "interbot_qt",
 )
-NOT_CHECKED_YET = {"interbot_core/supervisor.py"}
 # Read by tests only, on purpose: what a test must observe and the product never needs to.
 TEST_PROBES = {
     # The e-stop's latch and the refusal of non-finite velocities (safety tests, kept as is).
@@ -667,8 +671,6 @@ def checked_classes() -> dict[str, str]:
     found = {}
     for package in NO_TEST_ONLY_API_PACKAGES:
         for path in package_files(package):
-            if _rel(path) in NOT_CHECKED_YET:
-                continue
             tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
             for cls in (n for n in tree.body if isinstance(n, ast.ClassDef)):
                 found[f"{_rel(path)}:{cls.name}"] = _rel(path)
@@ -783,9 +785,8 @@ def test_the_declared_once_rule_catches_a_copy(tmp_path: Path) -> None:
 # Issue 13 (a thin composition root): the station controller wires its parts (fleet, link,
 # arbiter, tablet policy, alerts, ...) to Qt and keeps no state of its own beyond them. What
 # it may still change after construction: the operator's configuration (handed to every part
-# on a change) and what permissions the tablet was last sent (so only changes are sent). A
-# new piece of state belongs in the part that owns it.
-CONTROLLER_OWN_STATE = {"config", "_permissions_sent"}
+# on a change). A new piece of state belongs in the part that owns it.
+CONTROLLER_OWN_STATE = {"config"}
 
 
 def _assigned(node: ast.AST) -> list[ast.expr]:
@@ -833,3 +834,73 @@ def test_the_own_state_rule_sees_a_counter_kept_in_a_method(tmp_path: Path) -> N
         encoding="utf-8",
     )
     assert state_written_after_init(part, "Root") == {"n", "seen"}
+
+
+# Issue 13 (a thin composition root, continued): the controller builds its parts, wires them to
+# Qt and runs the clock; what it decides lives in the parts, and the window and panels call a
+# part directly (`controller.commands`, `controller.tablet_link`, `controller.alerts`) rather
+# than through a method that only passes the call on. Kept on purpose: ``submit`` and
+# ``resume_queue``, which the e-stop tests drive (this issue changes no safety test), and
+# ``_send``, which the fault tests wrap to see what reaches the robot. Properties that name a
+# part's state for the views (``selected``, ``estop_latched``, ...) are not methods and are
+# not counted. A code-line budget (tools/loc_report.py's count: no blanks, comments or
+# docstrings) holds the split: 418 lines after it (630 before); a new duty goes to a part.
+CONTROLLER_FORWARDERS_KEPT = {"submit", "resume_queue", "_send"}
+CONTROLLER_CODE_LINES_MAX = 420
+
+
+def forwarders(path: Path, class_name: str) -> set[str]:
+    """Methods of ``class_name`` whose whole body (docstring aside) passes its own arguments
+    on to one part: ``return self.part.method(a, b)`` or ``self.part.method(a, b)``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    (cls,) = (n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == class_name)
+    found = set()
+    for f in cls.body:
+        if not isinstance(f, ast.FunctionDef) or f.name == "__init__" or f.decorator_list:
+            continue
+        body = f.body[1:] if ast.get_docstring(f) is not None else f.body
+        call = (
+            body[0].value if len(body) == 1 and isinstance(body[0], ast.Return | ast.Expr) else None
+        )
+        if not isinstance(call, ast.Call):
+            continue
+        target = ast.unparse(call.func)
+        params = {a.arg for a in [*f.args.args[1:], *f.args.kwonlyargs]}
+        args = [*call.args, *(k.value for k in call.keywords)]
+        passed_on = all(isinstance(a, ast.Name) and a.id in params for a in args)
+        if target.startswith("self.") and target.count(".") >= 2 and passed_on:
+            found.add(f.name)
+    return found
+
+
+def code_lines(path: Path) -> int:
+    spec = importlib.util.spec_from_file_location("loc_report", REPO / "tools" / "loc_report.py")
+    assert spec is not None and spec.loader is not None
+    loc = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("loc_report", loc)
+    spec.loader.exec_module(loc)
+    return int(loc.count_source(path.read_text(encoding="utf-8"), str(path)).code)
+
+
+def test_the_station_controller_stays_a_thin_composition_root() -> None:
+    path = REPO / "base_station_app/station_controller.py"
+    assert forwarders(path, "StationController") == CONTROLLER_FORWARDERS_KEPT
+    assert code_lines(path) <= CONTROLLER_CODE_LINES_MAX
+
+
+def test_the_forwarder_rule_sees_a_method_that_only_passes_a_call_on(tmp_path: Path) -> None:
+    root = tmp_path / "root.py"
+    root.write_text(
+        "class Root:\n"
+        "    def stop_tablet_speed(self, why):\n"
+        '        """Forget the tablet\'s command."""\n'
+        "        self.tablet_teleop.stop(why)\n"
+        "    def log(self, level, text):\n"
+        "        self.state.add_log(self.clock(), level, text)\n"  # adds the time: not flagged
+        "    def pause(self):\n"
+        "        return self.commands.pause()\n"
+        "    def tick(self):\n        self.tick_parts()\n",
+        encoding="utf-8",
+    )
+    assert forwarders(root, "Root") == {"stop_tablet_speed", "pause"}
+    assert code_lines(root) == 9  # the docstring is not code

@@ -38,6 +38,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from contextlib import closing
 from pathlib import Path
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
@@ -267,7 +268,7 @@ def fleet_screenshots(out: Path, speed: float) -> None:
             if time.monotonic() > end:
                 raise
             time.sleep(0.3)
-    with StationLink(session) as probe:  # a station (re)started while five robots run
+    with closing(StationLink(session)) as probe:  # a station (re)started while five robots run
         end = time.monotonic() + 90.0
         while len(probe.robots) < len(FLEET):  # the liveliness subscriber's view
             if time.monotonic() > end:

@@ -46,7 +46,7 @@ def test_station_drives_the_simulated_daemon(qtbot, repo_root, topo, tmp_path):
             timeout=15000,
         )
         assert c.selected_robot == "sim1"
-        c.set_initial_pose_room(0)
+        c.commands.set_initial_pose_room(0)
         qtbot.waitUntil(lambda: c.selected.state.localisation == "ok", timeout=5000)
         start = c.selected.state.localised_pose
         c.press(Direction.FORWARD)  # node 0 faces west (yaw pi): forward is -x

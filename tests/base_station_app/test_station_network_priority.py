@@ -35,20 +35,20 @@ def test_the_station_raises_zenohs_threads_and_says_so(linked: StationController
     station = linked
     try:
         station.network_timer.timeout.emit()  # what the timer does every second
-        outcome = station.network_threads.outcome
+        outcome = station.robot_link.network_threads.outcome
         assert outcome is not None
-        names = set(station.network_threads.raised.values())
+        names = set(station.robot_link.network_threads.raised.values())
         # Only the threads that send the commands; the receiving ones bring display data.
         assert names and all(n.startswith("tx-") for n in names)
         texts = [e.text for e in station.selected.state.log]
         assert outcome.text in texts and "the station's zenoh threads" in outcome.text
         assert outcome.realtime == granted()
         if outcome.realtime:
-            assert all(is_realtime(tid) for tid in station.network_threads.raised)
+            assert all(is_realtime(tid) for tid in station.robot_link.network_threads.raised)
         station.network_timer.timeout.emit()
         assert [e.text for e in station.selected.state.log].count(outcome.text) == 1  # once
     finally:
-        for tid in station.network_threads.raised:  # this test process: back to normal
+        for tid in station.robot_link.network_threads.raised:  # this test process: back to normal
             with contextlib.suppress(OSError):
                 os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))
 
@@ -71,6 +71,6 @@ def test_the_look_runs_every_second_with_the_timers_and_a_session(
         online.shutdown()
         offline.shutdown()
         session.close()
-        for tid in online.network_threads.raised:  # this test process: back to normal
+        for tid in online.robot_link.network_threads.raised:  # this test process: back to normal
             with contextlib.suppress(OSError):
                 os.sched_setscheduler(tid, os.SCHED_OTHER, os.sched_param(0))

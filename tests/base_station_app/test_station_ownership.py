@@ -83,6 +83,6 @@ def test_an_operator_cancel_of_a_tablet_task_tells_the_tablet(
     t.send({"goal": 9})
     qtbot.waitUntil(lambda: bool(station.selected.supervisor.queue), timeout=3000)
     station.tick()
-    station.cancel_task()  # the task panel's "Cancel current"
+    station.commands.cancel_task()  # the task panel's "Cancel current"
     qtbot.waitUntil(lambda: bool(t.of("cancel")), timeout=3000)
     assert "operator" in t.of("cancel")[-1]["reason"]

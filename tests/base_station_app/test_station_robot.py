@@ -122,7 +122,7 @@ def test_cancel_sends_route_cancel(qtbot, linked, station, robot, localise, topo
     localise(start)
     station.submit(GoTo(9))
     station.tick()
-    assert station.cancel_task()
+    assert station.commands.cancel_task()
     qtbot.waitUntil(lambda: len(robot.of("route_cancel")) == 1, timeout=3000)
     cancel = robot.of("route_cancel")[0]
     assert isinstance(cancel, RouteCancel)
@@ -148,7 +148,7 @@ def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise,
         lambda: bool(robot.of("pause_nav")[-1:] == [Lock(True, stamp=station.clock())]),
         timeout=3000,
     )
-    assert station.tour_resume()
+    assert station.commands.tour_resume()
     qtbot.waitUntil(lambda: bool(robot.of("pause_nav")[-1].engaged is False), timeout=3000)
     station.tick()
     assert station.selected.supervisor.state is SupervisorState.NAVIGATING
@@ -157,14 +157,14 @@ def test_tour_stop_pauses_until_resumed(qtbot, linked, station, robot, localise,
 
 
 def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, localise, topo):
-    station.set_initial_pose_room(3)
+    station.commands.set_initial_pose_room(3)
     node = topo.nodes[3].pose
     qtbot.waitUntil(lambda: bool(len(robot.of("initial_pose")) == 1), timeout=3000)
     msg = robot.of("initial_pose")[0]
     assert isinstance(msg, InitialPose)
     assert (msg.x, msg.y, msg.yaw) == (node.x, node.y, node.yaw)
     assert msg.verify  # a room is a hint: the robot confirms it by laser before trusting it
-    station.relocalise()  # the "Relocalise" button: the robot searches the whole map
+    station.commands.relocalise()  # the "Relocalise" button: the robot searches the whole map
     qtbot.waitUntil(lambda: bool(len(robot.of("relocalise")) == 1), timeout=3000)
     new = StationConfig(planner_linear_max=0.3, approach_tolerance=1.0, latency_ceiling=0.3)
     station.set_config(new)
@@ -310,7 +310,7 @@ def test_route_ids_are_random_63_bit(qtbot, linked, station, robot, localise, to
         station.tick()
         qtbot.waitUntil(lambda: bool(len(robot.of("route")) == len(ids) + 1), timeout=3000)
         ids.append(robot.of("route")[-1].route_id)
-        station.cancel_task()
+        station.commands.cancel_task()
     assert ids[0] != ids[1] and all(0 <= i < 2**63 for i in ids)
     assert max(ids) > 2**40  # not a counter from 1
 

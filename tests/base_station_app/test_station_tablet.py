@@ -229,9 +229,11 @@ def test_station_pings_and_measures_latency(qtbot, station, tablet_factory, cloc
     qtbot.waitUntil(lambda: bool(t.of("ping")), timeout=3000)  # the ping timer (100 ms here)
     ping = t.of("ping")[0]
     clock.advance(0.012)
+    measured: list[float] = []  # the signal comes from the tablet thread
+    station.tablet.latency_measured.connect(measured.append)
     t.send({"pong": ping})
-    qtbot.waitUntil(lambda: bool(len(station.latencies) == 1), timeout=3000)
-    assert abs(station.latencies[0] - 0.012) < 1e-9
+    qtbot.waitUntil(lambda: len(measured) == 1, timeout=3000)
+    assert abs(measured[0] - 0.012) < 1e-9
 
 
 def test_tablet_tour_stop_pause_and_resume(
@@ -361,7 +363,7 @@ def test_help_me_holds_back_the_stale_lost_state_until_the_robot_answers(
 def test_help_me_with_a_pose_the_robot_never_takes_says_lost_again_after_the_grace(
     qtbot, station, robot, tablet_factory, localise, topo, clock
 ):
-    from base_station_app.station_controller import INITIAL_POSE_SETTLE_S
+    from base_station_app.task_commands import INITIAL_POSE_SETTLE_S
 
     t = handshake(qtbot, tablet_factory)
     localise(topo.nodes[2].pose, "unset")

@@ -326,7 +326,7 @@ def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
     qtbot.waitUntil(lambda: any(m.enabled for m in robot.of("teleop_assist")), timeout=3000)
     sent = robot.of("teleop_assist")[-1]
     assert (sent.input, sent.enabled) == ("station_vel", True)
-    assert linked.station_assist
+    assert linked.robot_link.assist
     linked.selected.state.apply(Topic.SAFETY, SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0))
     linked.frame_ready.emit()
     assert "STOPPED" in panel.monitor_label.text() and "3 cm" in panel.monitor_label.text()

@@ -193,7 +193,7 @@ class Rig:
 
     def localise_at(self, node_id: int) -> None:
         """The operator sets the initial pose at ``node_id`` on the station; wait for ok."""
-        self.station.set_initial_pose_room(node_id)
+        self.station.commands.set_initial_pose_room(node_id)
         self.wait(lambda: self.localisation == LocaliserState.OK, 10.0, "localisation ok")
         self.wait(
             lambda: (

@@ -12,7 +12,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 
 import numpy as np
 import pytest
@@ -133,7 +133,10 @@ def test_station_sees_the_robot_appear_and_leave_within_a_second(pair: Pair) -> 
 
 
 def test_a_robot_already_present_is_found_by_a_late_station(pair: Pair) -> None:
-    with open_session([], [pair.endpoint]) as late_session, StationLink(late_session) as late:
+    with (
+        open_session([], [pair.endpoint]) as late_session,
+        closing(StationLink(late_session)) as late,
+    ):
         wait_until(lambda: ROBOT in late.robots)
         assert late.poll_events() == [RobotAppeared(ROBOT)]  # reported once, not twice
 
@@ -350,7 +353,7 @@ def test_a_command_to_a_robot_that_is_gone_reports_no_match(pair: Pair) -> None:
 
 def test_callbacks_run_off_the_caller_thread_and_notify(pair: Pair) -> None:
     woken: list[str] = []
-    with StationLink(pair.station_session, notify=lambda: woken.append("x")) as other:
+    with closing(StationLink(pair.station_session, notify=lambda: woken.append("x"))) as other:
         wait_until(lambda: ROBOT in other.robots)
         assert woken  # called from a zenoh thread when the robot event was queued
 
@@ -418,8 +421,14 @@ def test_a_burst_of_key_commands_arrives_whole_and_in_order(pair: Pair) -> None:
 
 def test_a_station_started_before_the_robot_finds_it() -> None:
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    with open_session([], [endpoint]) as station_session, StationLink(station_session) as station:
-        with open_session([endpoint], []) as robot_session, RobotLink(robot_session, ROBOT):
+    with (
+        open_session([], [endpoint]) as station_session,
+        closing(StationLink(station_session)) as station,
+    ):
+        with (
+            open_session([endpoint], []) as robot_session,
+            closing(RobotLink(robot_session, ROBOT)),
+        ):
             wait_until(lambda: ROBOT in station.robots, timeout=3.0)  # connect retries 200 ms
         wait_until(lambda: ROBOT not in station.robots, timeout=1.0)
         assert station.poll_events() == [RobotAppeared(ROBOT), RobotLeft(ROBOT)]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from dataclasses import dataclass
 
 import pytest
@@ -75,7 +75,10 @@ def test_five_robots_one_station_through_the_router(
 ) -> None:
     robots = {f"bot{i}": start_robot(f"bot{i}", router) for i in range(5)}
     try:
-        with open_session([], [router], "client") as session, StationLink(session) as station:
+        with (
+            open_session([], [router], "client") as session,
+            closing(StationLink(session)) as station,
+        ):
             wait_until(lambda: set(robots) <= station.robots, 20.0, "all five robots")
 
             # Each robot is commanded alone: the stop reaches bot2 and no other.

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from pathlib import Path
 
 import pytest
@@ -99,7 +99,7 @@ def test_station_commands_and_watches_through_the_secure_router(
     security = LinkSecurity.load(keys, "station", "station")
     with (
         open_session([], [endpoint], "client", security=security) as session,
-        StationLink(session) as station,
+        closing(StationLink(session)) as station,
     ):
         wait_until(lambda: ROBOT in station.robots)
         station.select_robot(ROBOT)
@@ -133,7 +133,7 @@ def test_through_the_router_a_robot_cannot_speak_for_another(
     security = LinkSecurity.load(keys, "station", "station")
     with (
         open_session([], [endpoint], "client", security=security) as session,
-        StationLink(session) as station,
+        closing(StationLink(session)) as station,
         zenoh.open(_client(keys, "interbot2", endpoint)) as impostor,
     ):
         wait_until(lambda: ROBOT in station.robots)

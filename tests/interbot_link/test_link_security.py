@@ -12,7 +12,7 @@ import json
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from pathlib import Path
 
 import pytest
@@ -166,7 +166,10 @@ def test_station_commands_and_sees_state_over_mutual_tls(
 ) -> None:
     endpoint, link = robot
     security = LinkSecurity.load(keys, "station", "station")
-    with open_session([], [endpoint], security=security) as session, StationLink(session) as st:
+    with (
+        open_session([], [endpoint], security=security) as session,
+        closing(StationLink(session)) as st,
+    ):
         wait_until(lambda: ROBOT in st.robots)
         st.select_robot(ROBOT)
         wait_until(lambda: link.subscribed(Topic.POSE))
@@ -209,7 +212,10 @@ def test_observer_may_watch_and_query_but_not_command(
 ) -> None:
     endpoint, link = robot
     security = LinkSecurity.load(keys, "observer", "observer")
-    with open_session([], [endpoint], security=security) as session, StationLink(session) as obs:
+    with (
+        open_session([], [endpoint], security=security) as session,
+        closing(StationLink(session)) as obs,
+    ):
         wait_until(lambda: ROBOT in obs.robots)
         obs.select_robot(ROBOT)
         wait_until(lambda: link.subscribed(Topic.POSE))
