@@ -48,6 +48,7 @@ only Intel and Freiburg 079 with coarser strides. Skipped, returning {}, when ..
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import logging
@@ -121,6 +122,39 @@ def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
     return out
 
 
+@functools.lru_cache(maxsize=1)  # one log at a time: seeds and methods share its records
+def _records(stem: str) -> list[object]:
+    return list(read_laser_records(LOGS / f"{stem}-corrected.log.gz"))
+
+
+def replay_one(
+    key: str, method: str, seed: int = 0, quick: bool = False
+) -> dict[str, float] | None:
+    """`summarise`'s figures of one log (a key of `CASES`) by one method (``revisit`` or
+    ``whole``) with the odometry noise of ``seed``; None where the log has no revisit run."""
+    stem, revisit, whole, revisit_quick, whole_quick = CASES[key]
+    path = LOGS / f"{stem}-corrected.log.gz"
+    records = _records(stem)
+    if method == "whole":
+        return localise_interleaved(  # type: ignore[no-any-return]
+            path,
+            whole_quick if quick else whole,
+            seed,
+            records=records,
+            clock=time.perf_counter,
+        )
+    if method != "revisit":
+        raise ValueError(f"unknown method {method!r}: revisit or whole")
+    map_stride, loc_stride = revisit_quick if quick else revisit
+    try:
+        return localise_revisits(  # type: ignore[no-any-return]
+            path, SPLIT, map_stride, loc_stride, seed, records=records, clock=time.perf_counter
+        )
+    except LogReplayError as exc:
+        print(f"  bench_reallogs: {key}: no revisit figures ({exc})")
+        return None
+
+
 def run(quick: bool = False, logs: Sequence[str] | None = None) -> dict[str, float]:
     """Every log's figures (``logs``: only these keys of `CASES`, e.g. to iterate on one)."""
     unknown = sorted(set(logs or ()) - set(CASES))
@@ -132,35 +166,19 @@ def run(quick: bool = False, logs: Sequence[str] | None = None) -> dict[str, flo
     out: dict[str, float] = {}
     silent = 0.0
     with common.quiet_logs():
-        for key, (stem, revisit, whole, revisit_quick, whole_quick) in CASES.items():
+        for key, (stem, *_) in CASES.items():
             if (quick and key not in QUICK_LOGS) or (logs and key not in logs):
                 continue
-            path = LOGS / f"{stem}-corrected.log.gz"
-            if not path.is_file():
-                print(f"  bench_reallogs: {path} is absent, {key} skipped")
+            if not (LOGS / f"{stem}-corrected.log.gz").is_file():
+                print(f"  bench_reallogs: {stem} is absent, {key} skipped")
                 continue
-            records = read_laser_records(path)
-            map_stride, loc_stride = revisit_quick if quick else revisit
-            try:
-                stats = localise_revisits(
-                    path,
-                    SPLIT,
-                    map_stride,
-                    loc_stride,
-                    records=records,
-                    clock=time.perf_counter,
-                )
-            except LogReplayError as exc:
-                print(f"  bench_reallogs: {key}: no revisit figures ({exc})")
-                out[f"reallog_{key}_revisit_scans"] = 0.0
-            else:
-                out |= _figures(f"reallog_{key}_revisit", stats)
+            for method in ("revisit", "whole"):
+                stats = replay_one(key, method, 0, quick)
+                if stats is None:
+                    out[f"reallog_{key}_{method}_scans"] = 0.0
+                    continue
+                out |= _figures(f"reallog_{key}_{method}", stats)
                 silent += stats["silent_failures"]
-            stats = localise_interleaved(
-                path, whole_quick if quick else whole, records=records, clock=time.perf_counter
-            )
-            out |= _figures(f"reallog_{key}_whole", stats)
-            silent += stats["silent_failures"]
     out["reallog_all_silent_failures"] = silent
     return out
 

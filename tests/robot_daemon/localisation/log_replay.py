@@ -424,15 +424,17 @@ def grid_from_scans(
     x1, y1 = every.max(axis=0) + margin
     width = math.ceil((x1 - x0) / resolution)
     height = math.ceil((y1 - y0) / resolution)
-    hits = np.zeros(height * width, dtype=np.int64)
-    passes = np.zeros(height * width, dtype=np.int64)
+    # The cells hit and passed, scan by scan, counted once at the end: a count per scan over
+    # the whole grid (millions of cells on the Infinite Corridor) cost a minute per map.
+    hit_cells: list[npt.NDArray[np.intp]] = []
+    passed_cells: list[npt.NDArray[np.intp]] = []
     step = resolution * 0.5
     for pose, end in zip(poses, ends, strict=True):
         if end.size == 0:
             continue
         col = ((end[:, 0] - x0) / resolution).astype(np.intp)
         row = ((end[:, 1] - y0) / resolution).astype(np.intp)
-        hits += np.bincount(row * width + col, minlength=height * width)
+        hit_cells.append(row * width + col)
         # Free space: samples from the sensor up to one cell short of each end point.
         dx, dy = end[:, 0] - pose.x, end[:, 1] - pose.y
         length = np.hypot(dx, dy)
@@ -447,7 +449,11 @@ def grid_from_scans(
         cells = ((sy - y0) / resolution).astype(np.intp) * width + ((sx - x0) / resolution).astype(
             np.intp
         )
-        passes += np.bincount(np.unique(cells), minlength=height * width)
+        passed_cells.append(np.unique(cells))  # a cell counts once per scan
+    hits = np.bincount(np.concatenate([*hit_cells, np.empty(0, np.intp)]), minlength=height * width)
+    passes = np.bincount(
+        np.concatenate([*passed_cells, np.empty(0, np.intp)]), minlength=height * width
+    )
     cells_out = np.full(height * width, UNKNOWN, dtype=np.int8)
     cells_out[passes > 0] = FREE
     occupied = (hits >= min_hits) & (hits >= occupied_ratio * (hits + passes))
