@@ -349,8 +349,9 @@ class Localiser:
         self._first_match = True
         self._saw_through = False  # the last scan had beams through the map's walls
         self._cov = np.zeros((3, 3))
-        # The last jump's correction (x, y, yaw) while the pose it led to is unconfirmed.
-        self._jump: FloatArray | None = None
+        # The last jump's correction (x, y, yaw) and its spread (`reported_covariance`) while
+        # the pose it led to is unconfirmed.
+        self._jump: tuple[FloatArray, FloatArray] | None = None
         self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
         self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
@@ -377,14 +378,13 @@ class Localiser:
 
     def reported_covariance(self, cov: FloatArray) -> FloatArray:
         """`_with_map_floor` of ``cov`` plus, while a jump is unconfirmed (`_update_state`),
-        its spread ``½ δ δᵀ``: the second moment about the reported pose of two equally
-        likely poses, the one the jump led to and the one ``δ`` back it left. The Kalman
-        update's covariance does not depend on the innovation: after a match that moved the
-        pose 0.39 m it said 9 cm, 0.43 m off (Infinite Corridor revisit, odometry seed 2:
-        NEES 19-34; the Freiburg campus whole run, 0.41-0.46 m off: NEES 200-276)."""
+        its spread ``½ (P_pred - P + δ δᵀ)`` (`_jump_spread`). The Kalman update's covariance
+        does not depend on the innovation: after a match that moved the pose 0.39 m it said
+        9 cm, 0.43 m off (Infinite Corridor revisit, odometry seed 2: NEES 19-34; the
+        Freiburg campus whole run, 0.41-0.46 m off: NEES 150-276)."""
         out = self._with_map_floor(cov)
         if self._jump is not None:
-            out += 0.5 * np.outer(self._jump, self._jump)
+            out += self._jump[1]
         return out
 
     def _with_map_floor(self, cov: FloatArray) -> FloatArray:
@@ -529,7 +529,7 @@ class Localiser:
                 self._full_search = False
                 correction = _pose_difference(pose, predicted)
                 if not first_match and self._is_jump(correction):
-                    jump = correction
+                    jump = (correction, _jump_spread(cov_pred, cov, correction))
                 self.scale.update(cov_pred, cov, correction)
                 if self.yaw_bias.learns_from(raw_step):
                     self.yaw_bias.update(cov_pred, cov, correction)
@@ -627,7 +627,7 @@ class Localiser:
         now: float,
         confidence: float,
         impossible: float,
-        jump: FloatArray | None = None,
+        jump: tuple[FloatArray, FloatArray] | None = None,
     ) -> LocaliserState:
         """ok / degraded / lost from this scan's verdict and the covariance.
 
@@ -638,9 +638,10 @@ class Localiser:
         Back to ok after ``ok_after_s`` and ``ok_after_scans`` of good, certain scans in a
         row (both: at 10 Hz the time decides, at a log's one scan per second the count).
 
-        A *jump* (``jump``: the scan's match moved the pose more than ``confirm_jump_m`` or
-        ``confirm_jump_rad`` from the prediction, `_is_jump`) makes the state degraded too, even
-        from ok, and the count starts again after it: the prediction or the match was that far
+        A *jump* (``jump``: the correction and its spread, when the scan's match moved the
+        pose more than ``confirm_jump_m`` or ``confirm_jump_rad`` from the prediction,
+        `_is_jump`) makes the state degraded too, even from ok, and the count starts again
+        after it: the prediction or the match was that far
         off, and one scan cannot say which. A look-alike match does not announce itself: the
         slide test passed it, the posterior's sigma fell to 9 cm, and the next scans matched
         the same look-alike again, consistently; ok came back after those three scans, 0.43 m
@@ -708,8 +709,9 @@ class Localiser:
     def _jump_reason(self) -> str:
         if self._jump is None:
             return ""
-        moved = math.hypot(float(self._jump[0]), float(self._jump[1]))
-        turned = math.degrees(abs(float(self._jump[2])))
+        delta = self._jump[0]
+        moved = math.hypot(float(delta[0]), float(delta[1]))
+        turned = math.degrees(abs(float(delta[2])))
         return f"pose jumped ({moved:.2f} m, {turned:.1f} deg in one scan): confirming"
 
     def _weak_reason(self, cov: FloatArray, confidence: float) -> str:
@@ -1322,6 +1324,20 @@ def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
     cells = grid.cells.copy()
     cells[edge] = OCCUPIED
     return grid.with_cells(cells)
+
+
+def _jump_spread(cov_pred: FloatArray, cov: FloatArray, delta: FloatArray) -> FloatArray:
+    """What a jump adds to the reported covariance: ``½ (P_pred - P + δ δᵀ)``.
+
+    Until the scans confirm it, a jump leaves two poses equally likely: the match's, with the
+    fused covariance ``P``, and the prediction ``δ`` back, with its own ``P_pred``. The second
+    moment of that mixture about the reported pose is ``½ P + ½ (P_pred + δ δᵀ)``, which is
+    ``P`` plus this (moment matching, as a probabilistic data association filter's covariance
+    holds the spread of its hypotheses: Bar-Shalom and Tse, Automatica 1975). ``P_pred - P``
+    is positive semi-definite (an update only shrinks the covariance).
+    """
+    out: FloatArray = 0.5 * (cov_pred - cov + np.outer(delta, delta))
+    return 0.5 * (out + out.T)
 
 
 def _pose_difference(a: Pose2D, b: Pose2D) -> FloatArray:
