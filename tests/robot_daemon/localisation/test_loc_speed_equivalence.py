@@ -579,6 +579,27 @@ def match_reference(
     raise AssertionError("the finest level always ends the match")
 
 
+@pytest.mark.parametrize("shape", [(3000,), (7, 400)])
+def test_stacked_interpolation_equals_the_plain_one(shape: tuple[int, ...]) -> None:
+    """`LikelihoodLevel.interpolate_xy` and `value_xy` (x and y through each numpy call
+    together, a point's four corners one row of the table) give `interpolate_reference`'s M and
+    ∇M bit for bit: one scan's points, and a stack of starts' as `match_many` has them, on and
+    off the field, on every level, after obstacles were added."""
+    rng = np.random.default_rng(14)
+    grid = office_grid()
+    for surface in ("cell_face", "cell_centre"):
+        matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+        matcher.add_obstacles(rng.uniform(0.0, 20.0, 30), rng.uniform(0.0, 10.0, 30))
+        for level in matcher.levels:
+            pxy = np.stack((rng.uniform(-2.0, 22.0, shape), rng.uniform(-2.0, 12.0, shape)))
+            m_ref, gx_ref, gy_ref = interpolate_reference(level, pxy[0], pxy[1])
+            grad = np.empty_like(pxy)
+            assert np.array_equal(level.interpolate_xy(pxy, grad), m_ref)
+            assert np.array_equal(grad[0], gx_ref)
+            assert np.array_equal(grad[1], gy_ref)
+            assert np.array_equal(level.value_xy(pxy), m_ref)
+
+
 @pytest.mark.parametrize("start_level", [None, 1, 0])
 @pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
 def test_match_equals_its_plain_numpy_version(surface: str, start_level: int | None) -> None:
