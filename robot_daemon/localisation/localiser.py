@@ -44,10 +44,10 @@ gives (station or tablet), without odometry. This localiser keeps Hector's match
   the pose, and the reported covariance holds the jump meanwhile; ``lost`` after bad scans for
   ``lost_after_s`` seconds and ``lost_after_scans`` scans in a row. A scan is *bad* if its hit
   fraction is below ``lost_confidence``, if more than ``lost_impossible`` of its beams are
-  *impossible* at the estimate (below), or if its match was rejected. While lost the pose follows odometry alone
-  and the state stays ``lost`` until `set_initial_pose` is called. A *silent failure*, an
-  error above 0.3 m or 10 degrees reported ``ok``, is what the states exist to prevent;
-  the real-log tests count them (`tests/robot_daemon/localisation/log_replay.py`).
+  *impossible* at the estimate (below), or if its match was rejected. While lost the pose
+  follows odometry alone and the state stays ``lost`` until `set_initial_pose` is called. A
+  *silent failure*, an error above 0.3 m or 10 degrees reported ``ok``, is what the states
+  exist to prevent; the real-log tests count them (`tests/robot_daemon/localisation/log_replay.py`).
 * **Impossible beams** (the "see-through" test of beam-based sensor models: Thrun, Burgard, Fox,
   *Probabilistic Robotics*, 2005, §6.3, where a measurement longer than the map's expected range
   has only the small "random" likelihood). A beam is impossible when its measured range passes
