@@ -657,9 +657,10 @@ class Localiser:
         pose more than ``confirm_jump_m`` or ``confirm_jump_rad`` from the prediction,
         `_is_jump`) makes the state degraded too, even from ok, and the count starts again
         after it: the prediction or the match was that far off, and one scan cannot say
-        which. A look-alike match does not announce itself: the slide test passed it, the posterior's sigma fell to 9 cm, and the next scans matched
-        the same look-alike again, consistently; ok came back after those three scans, 0.43 m
-        off (Infinite Corridor revisit, odometry seed 2). Re-confirmation asks for good scans
+        which. A look-alike match does not announce itself: the slide test passed it, the
+        posterior's sigma fell to 9 cm, and the next scans matched the same look-alike again,
+        consistently; ok came back after those three scans, 0.43 m off (Infinite Corridor
+        revisit, odometry seed 2). Re-confirmation asks for good scans
         that do not jump. Jumps of more than half the 0.3 m tolerance are what takes a pose
         from tracked to silently wrong in one scan: on the eight real logs, both methods,
         odometry seeds 0-4 (`tools/reallog_seeds.py`), 99.9 % of the well tracked scans (error
