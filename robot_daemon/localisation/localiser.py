@@ -333,6 +333,8 @@ class Localiser:
         self._wall_dist_padded = (
             self._dist_padded if self._map_grid is grid else _padded_distance(self._map_grid)
         )
+        # The sphere tracing's step from each cell of `_wall_dist_padded` (`_sphere_steps`).
+        self._wall_steps = _sphere_steps(self._wall_dist_padded, grid.resolution)
         self._dist_radius = math.ceil(max(self.config.unexplained_m, 0.5) / grid.resolution)
         k = np.arange(-self._dist_radius, self._dist_radius + 1) * grid.resolution
         self._dist_kernel = np.hypot(k[None, :], k[:, None])
@@ -710,7 +712,11 @@ class Localiser:
         r = scan.ranges
         mask = (r >= scan.range_min) & (r <= min(scan.range_max, self.config.max_range_m))
         rv = r[mask].astype(np.float64)
-        return np.column_stack((rv * self._cos[mask], rv * self._sin[mask]))
+        # np.column_stack's result, written in place (its wrapper costs more than the products).
+        out = np.empty((rv.size, 2))
+        np.multiply(rv, self._cos[mask], out=out[:, 0])
+        np.multiply(rv, self._sin[mask], out=out[:, 1])
+        return out
 
     def _distance_to_map(self, xs: FloatArray, ys: FloatArray) -> FloatArray:
         """Distance [m] from map-frame points to the nearest occupied cell (inf outside)."""
@@ -854,14 +860,12 @@ class Localiser:
         row0 = (pose.y - g.origin_y) * inv + 1.0
         origin = complex(col0, row0)
         limit = limit[idx]
-        dist = self._wall_dist_padded
+        steps = self._wall_steps  # the step from each cell: NaN in occupied ones, inf off the map
         wp = g.width + 2
         cmax, rmax = g.width + 1, g.height + 1
         # Each ray's last parameter inside the field (None: the laser is off the map, clip).
         t_exit = _exit_parameters(col0, row0, dcol, drow, g.width + 2, g.height + 2)
-        slack = math.sqrt(2.0) * g.resolution
         min_step = g.resolution
-        blocked_below = 0.5 * g.resolution  # an occupied cell reads 0
         depth = cfg.impossible_depth_m
 
         def lookup(
@@ -880,55 +884,72 @@ class Localiser:
                 np.maximum(row, 0, out=row)
             row *= wp
             row += col
-            out_d: FloatArray = dist.take(row)
+            out_d: FloatArray = steps.take(row)
             return out_d
 
         t = np.zeros(idx.shape)
-        # Up to 30 passes over a few dozen rays: a pass without a hit skips the bookkeeping
-        # (np.count_nonzero is the cheapest test).
-        for step in range(cfg.impossible_max_steps):
+        first = 0
+        # Every ray's first sample (t = 0) is the laser's own cell: outside a wall, each ray's
+        # first step is that one cell's, one number instead of a pass (speed).
+        laser_col, laser_row = int(col0), int(row0)
+        if t_exit is None:
+            laser_col, laser_row = max(min(laser_col, cmax), 0), max(min(laser_row, rmax), 0)
+        first_step = steps.item(laser_row * wp + laser_col)
+        if first_step == first_step:  # not NaN: no ray starts in an occupied cell
+            t += first_step
+            first = 1
+            keep = t < limit
+            if np.count_nonzero(keep) < keep.size:
+                t, limit, direction, idx = t[keep], limit[keep], direction[keep], idx[keep]
+                if t_exit is not None:
+                    t_exit = t_exit[keep]
+        # Up to 30 passes over a few dozen rays; the rays that end in a pass (through the map:
+        # NaN, at their limit, or off the map: inf) are sorted out only in passes where some do.
+        for step in range(first, cfg.impossible_max_steps):
             if t.size <= _SCALAR_TAIL_RAYS:
                 # The last few rays (nine traces in ten run all 30 passes, the last ones on a
                 # handful of grazing rays): one by one in plain Python, which costs less than
                 # a pass's numpy calls on so few.
-                walk = _RayWalk(dist, wp, (col0, row0), (cmax, rmax) if t_exit is None else None)
+                walk = _RayWalk(steps, wp, (col0, row0), (cmax, rmax) if t_exit is None else None)
                 walk.trace(
                     cfg.impossible_max_steps - step,
                     (t, limit, direction, idx, t_exit),
-                    (slack, min_step, blocked_below, depth),
+                    (min_step, depth),
                     out,
                     crossing,
                 )
                 break
             d = lookup(t, direction, t_exit)
-            hit = d < blocked_below
-            any_hit = np.count_nonzero(hit) > 0
-            if any_hit and depth > 0.0:
-                # Only a ray that stays inside occupied cells for `depth` goes through the map:
-                # a lone occupied cell is as likely a stray end point of the mapping run.
-                exits = None if t_exit is None else t_exit[hit]
-                for frac in (0.5, 1.0):
-                    deep = lookup(t[hit] + frac * depth, direction[hit], exits) < blocked_below
-                    hit[hit] = deep
-                    if exits is not None:
-                        exits = exits[deep]
-                any_hit = np.count_nonzero(hit) > 0
-            if any_hit:
+            t_next = t + d  # NaN where the sample is in an occupied cell
+            keep = t_next < limit
+            if np.count_nonzero(keep) == keep.size:
+                t = t_next
+                continue
+            hit = np.isnan(d)
+            if np.count_nonzero(hit):
+                if depth > 0.0:
+                    # Only a ray that stays inside occupied cells for `depth` goes through the
+                    # map: a lone occupied cell is as likely a stray end point of the mapping
+                    # run. A shallow one steps on by one cell (its cell's step, max(0 - √2 res,
+                    # res)).
+                    deep = hit.copy()
+                    exits = None if t_exit is None else t_exit[hit]
+                    for frac in (0.5, 1.0):
+                        through = np.isnan(lookup(t[deep] + frac * depth, direction[deep], exits))
+                        deep[deep] = through
+                        if exits is not None:
+                            exits = exits[through]
+                    shallow = hit & ~deep
+                    t_next[shallow] = t[shallow] + min_step
+                    keep[shallow] = t_next[shallow] < limit[shallow]
+                    hit = deep
                 out[idx[hit]] = True
                 crossing[idx[hit]] = t[hit]
-            np.subtract(d, slack, out=d)
-            np.maximum(d, min_step, out=d)
-            t += d
-            # Done: impossible (hit), reached the limit, or left the map (d = inf).
-            keep = t < limit
-            if any_hit:
-                keep &= ~hit
-            if np.count_nonzero(keep) < keep.size:
-                t, limit, direction, idx = t[keep], limit[keep], direction[keep], idx[keep]
-                if t_exit is not None:
-                    t_exit = t_exit[keep]
-                if t.size == 0:
-                    break
+            t, limit, direction, idx = t_next[keep], limit[keep], direction[keep], idx[keep]
+            if t_exit is not None:
+                t_exit = t_exit[keep]
+            if t.size == 0:
+                break
         return out, crossing
 
     def _match_from_starts(self, points: FloatArray, prior: Pose2D, cov: FloatArray) -> MatchResult:
@@ -1018,9 +1039,14 @@ class Localiser:
         yaw = pose.yaw + along * direction[2] + turns
         c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
         sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
-        xs = (px[:, None] + c * sx - s * sy).ravel()
-        ys = (py[:, None] + s * sx + c * sy).ravel()
-        m = level.value(xs, ys).reshape(along.size, -1)
+        # The end points at every pose, x and y stacked (`LikelihoodLevel.value_xy`):
+        # x = px + c sx - s sy, y = py + s sx + c sy, evaluated left to right.
+        pxy = np.empty((2, along.size, pts.shape[0]))
+        np.add(px[:, None], c * sx, out=pxy[0])
+        np.subtract(pxy[0], s * sy, out=pxy[0])
+        np.add(py[:, None], s * sx, out=pxy[1])
+        np.add(pxy[1], c * sy, out=pxy[1])
+        m = level.value_xy(pxy)
         scores = np.add.reduce(m, axis=1) / m.shape[1]  # m.mean(axis=1), without the wrapper
         base = float(scores[0])
         if base <= 0.0:
@@ -1280,19 +1306,34 @@ class Localiser:
     def _add_distance_obstacles(self, xs: FloatArray, ys: FloatArray) -> None:
         self._lower_distances(self._dist_padded, xs, ys)
         if self._wall_dist_padded is not self._dist_padded:
-            self._lower_distances(self._wall_dist_padded, xs, ys)
+            self._lower_distances(self._wall_dist_padded, xs, ys, self._wall_steps)
+        else:
+            self._lower_distances(self._dist_padded, xs, ys, self._wall_steps, lower=False)
 
-    def _lower_distances(self, field: FloatArray, xs: FloatArray, ys: FloatArray) -> None:
+    def _lower_distances(
+        self,
+        field: FloatArray,
+        xs: FloatArray,
+        ys: FloatArray,
+        steps: FloatArray | None = None,
+        lower: bool = True,
+    ) -> None:
+        """Lower ``field`` around new obstacle points (``lower``) and bring the sphere steps
+        made from it (``steps``, `_sphere_steps`) up to date there."""
         g = self._grid
         dist = field.reshape(g.height + 2, g.width + 2)[1:-1, 1:-1]  # a view
+        step_view = None if steps is None else steps.reshape(g.height + 2, g.width + 2)[1:-1, 1:-1]
         k = self._dist_radius
         for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
             col = math.floor((x - g.origin_x) / g.resolution)
             row = math.floor((y - g.origin_y) / g.resolution)
             r0, r1 = max(row - k, 0), min(row + k + 1, g.height)
             c0, c1 = max(col - k, 0), min(col + k + 1, g.width)
-            patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
-            np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+            if lower:
+                patch = self._dist_kernel[r0 - row + k : r1 - row + k, c0 - col + k : c1 - col + k]
+                np.minimum(dist[r0:r1, c0:c1], patch, out=dist[r0:r1, c0:c1])
+            if step_view is not None:
+                step_view[r0:r1, c0:c1] = _sphere_steps(dist[r0:r1, c0:c1], g.resolution)
 
 
 def _padded_distance(grid: OccupancyGrid) -> FloatArray:
@@ -1304,6 +1345,19 @@ def _padded_distance(grid: OccupancyGrid) -> FloatArray:
         padded[1:-1, 1:-1] = ndimage.distance_transform_edt(~occ) * grid.resolution
     out: FloatArray = padded.reshape(-1)
     return out
+
+
+def _sphere_steps(dist: FloatArray, resolution: float) -> FloatArray:
+    """The impossible-beam trace's step from each cell of a distance field [m]: ``max(d -
+    √2·res, res)`` (`Localiser.impossible_beams`), NaN in an occupied cell (``d`` below half
+    a cell, where a ray stops or, not deep enough, steps one cell), inf off the map.
+
+    Speed (issue 12): made once per map instead of twice per ray and step, the same
+    operations on the same numbers; and a ray that meets an occupied cell ends by itself (its
+    parameter becomes NaN), so a pass needs no test of its own for that."""
+    steps: FloatArray = np.maximum(dist - math.sqrt(2.0) * resolution, resolution)
+    steps[dist < 0.5 * resolution] = np.nan
+    return steps
 
 
 def surfaces_with_unknown_edges(grid: OccupancyGrid) -> OccupancyGrid:
@@ -1335,7 +1389,7 @@ def _max_eig_2x2(cov: FloatArray) -> float:
     return 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
 
 
-_SCALAR_TAIL_RAYS = 16  # `_trace_impossible` traces this few rays left one by one
+_SCALAR_TAIL_RAYS = 48  # `_trace_impossible` traces this few rays left one by one
 
 
 class _RayWalk:
@@ -1343,17 +1397,18 @@ class _RayWalk:
     same operations in the same order as the numpy passes (a float64 product or sum rounds
     alike in both; ``int`` truncates as ``astype`` does), so each ray ends, and is judged,
     exactly as there (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`).
-    ``clip``: the field's last column and row when the laser is off the map (samples clipped
-    to the border), None when each ray's parameter is capped at its exit instead."""
+    ``steps``: the trace's step field (`_sphere_steps`); ``clip``: the field's last column and
+    row when the laser is off the map (samples clipped to the border), None when each ray's
+    parameter is capped at its exit instead."""
 
     def __init__(
         self,
-        dist: FloatArray,
+        steps: FloatArray,
         width: int,
         origin: tuple[float, float],
         clip: tuple[int, int] | None,
     ) -> None:
-        self.dist = dist
+        self.steps = steps
         self.width = width
         self.origin = origin
         self.clip = clip
@@ -1367,7 +1422,7 @@ class _RayWalk:
         if self.clip is not None:
             col = max(min(col, self.clip[0]), 0)
             row = max(min(row, self.clip[1]), 0)
-        value: float = self.dist.item(row * self.width + col)
+        value: float = self.steps.item(row * self.width + col)
         return value
 
     def trace(
@@ -1380,18 +1435,22 @@ class _RayWalk:
             npt.NDArray[np.intp],
             FloatArray | None,
         ],
-        steps: tuple[float, float, float, float],
+        steps: tuple[float, float],
         out: npt.NDArray[np.bool_],
         crossing: FloatArray,
     ) -> None:
         """Up to ``passes`` more steps of each ray ``(t, limit, direction, index, exit)``;
         marks ``out`` and ``crossing`` at the index of each one that goes through the map.
-        The lookup is written out in the loop (a call per step costs as much as the step)."""
-        slack, min_step, blocked_below, depth = steps
+
+        Speed: the lookup is written out in the loop (a call per step costs as much as the
+        step), the step field is read through its memoryview (a subscript, not ``item``'s
+        method call: the same float), and ``min`` is a conditional expression that picks the
+        very operand the built-in picks (``min(a, b)`` is ``b if b < a else a``)."""
+        min_step, depth = steps
         t, limit, direction, idx, t_exit = rays
         exits = [math.inf] * t.size if t_exit is None else t_exit.tolist()
         col0, row0 = self.origin
-        item, width, clip = self.dist.item, self.width, self.clip
+        field, width, clip = self.steps.data, self.width, self.clip
         for tk, lim, dc, dr, k, ex in zip(
             t.tolist(),
             limit.tolist(),
@@ -1402,26 +1461,29 @@ class _RayWalk:
             strict=True,
         ):
             for _ in range(passes):
-                tt = min(tk, ex)
+                tt = ex if ex < tk else tk  # min(tk, ex)
                 col = int(tt * dc + col0)
                 row = int(tt * dr + row0)
                 if clip is not None:
                     col = max(min(col, clip[0]), 0)
                     row = max(min(row, clip[1]), 0)
-                d = item(row * width + col)
-                if d < blocked_below and (
-                    depth <= 0.0
-                    or (
-                        self.lookup(tk + 0.5 * depth, dc, dr, ex) < blocked_below
-                        and self.lookup(tk + 1.0 * depth, dc, dr, ex) < blocked_below
-                    )
-                ):
-                    out[k] = True
-                    crossing[k] = tk
-                    break
-                tk += max(d - slack, min_step)
+                d: float = field[row * width + col]  # a float: the view of a float64 array
+                if d != d:  # NaN: an occupied cell
+                    if depth <= 0.0 or (
+                        _is_nan(self.lookup(tk + 0.5 * depth, dc, dr, ex))
+                        and _is_nan(self.lookup(tk + 1.0 * depth, dc, dr, ex))
+                    ):
+                        out[k] = True
+                        crossing[k] = tk
+                        break
+                    d = min_step  # not deep: one cell on
+                tk += d
                 if not tk < lim:
                     break
+
+
+def _is_nan(value: float) -> bool:
+    return value != value
 
 
 def _exit_parameters(
@@ -1447,6 +1509,14 @@ def _exit_parameters(
 
 def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:
     """``mask`` with only the runs of at least ``k`` consecutive True entries kept."""
+    if k == 2 and mask.size:
+        # The default (`impossible_min_run`): an entry is in a run of two or more exactly
+        # when a neighbour is True too; three numpy calls instead of a walk over the runs.
+        neighbour = np.zeros_like(mask)
+        neighbour[1:] = mask[:-1]
+        neighbour[:-1] |= mask[1:]
+        paired: npt.NDArray[np.bool_] = mask & neighbour
+        return paired
     padded = np.concatenate(([False], mask, [False])).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
     starts, ends = edges[::2], edges[1::2]
