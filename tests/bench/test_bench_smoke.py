@@ -116,6 +116,8 @@ NON_NEGATIVE = {
         "reallog_intel_whole_degraded_scans",
         "reallog_intel_whole_silent_failures",
         "reallog_freiburg079_revisit_silent_failures",
+        "reallog_freiburg079_revisit_silent_failures_seeds",
+        "reallog_intel_whole_silent_failures_seeds",
         "reallog_all_silent_failures",
     ],
     "kidnap": ["kidnap_false_losses"],

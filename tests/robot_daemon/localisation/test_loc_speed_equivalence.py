@@ -7,6 +7,7 @@ poses and scans of the synthetic office, including rays and points that leave th
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -207,6 +208,27 @@ def test_impossible_trace_one_ray_at_a_time_equals_the_plain_loop(
                 assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
+@pytest.mark.parametrize("unknown_edges", [True, False])
+def test_impossible_trace_after_new_obstacles_equals_the_plain_loop(unknown_edges: bool) -> None:
+    """New static obstacles lower the distance fields; the trace's step field made from them
+    (`localiser._sphere_steps`) follows, whether the wall field is its own array (unknown
+    edges as surfaces) or the matching one: the plain loop on the lowered field, flag for flag."""
+    rng = np.random.default_rng(15)
+    loc = Localiser(_holed_office(), LocaliserConfig(unknown_edges_are_surfaces=unknown_edges))
+    xs, ys = rng.uniform(1.0, 19.0, 60), rng.uniform(1.0, 9.0, 60)  # boxes in the rooms
+    loc._add_distance_obstacles(xs, ys)
+    loc.matcher.add_obstacles(xs, ys)
+    changed = 0
+    for pose in _poses(rng, 20):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
+        mask, crossing = loc._trace_impossible(points, pose)
+        ref_mask, ref_crossing = trace_impossible_reference(loc, points, pose)
+        assert np.array_equal(mask, ref_mask)
+        assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+        changed += int(mask.any())
+    assert changed > 5  # the new boxes stand in the beams' way
+
+
 def test_fast_distance_to_map_equals_the_masked_lookup() -> None:
     rng = np.random.default_rng(4)
     loc = Localiser(_holed_office())
@@ -264,6 +286,47 @@ def test_slide_profile_equals_its_plain_version() -> None:
             ]
         )
         assert np.allclose(fast, plain, rtol=1e-12, atol=0.0)
+
+
+def test_slide_profile_equals_the_stacked_reference_bit_for_bit() -> None:
+    """`Localiser.slide_profile` with the poses' end points written into one stacked array
+    gives the ratios of the plain formulation (every pose's x and y as their own arrays,
+    `interpolate_reference`), bit for bit, for slides with and without turning."""
+    rng = np.random.default_rng(16)
+    loc = Localiser(office_grid())
+    level = loc.matcher.levels[1]
+    t = loc.config.slide_turn_rad
+    for pose in _poses(rng, 8):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
+        pts = subsample_points(points, loc.config.slide_points)
+        for direction in (np.array([0.6, 0.8, 0.0]), np.array([0.8, -0.6, 0.3])):
+            offsets = np.array([0.15, 0.3, 0.45])
+            along = np.concatenate(([0.0], np.repeat(offsets, 3), -np.repeat(offsets, 3)))
+            turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 6)))
+            yaw = pose.yaw + along * direction[2] + turns
+            c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+            px = (pose.x + along * direction[0])[:, None]
+            py = (pose.y + along * direction[1])[:, None]
+            xs = px + c * pts[:, 0] - s * pts[:, 1]
+            ys = py + s * pts[:, 0] + c * pts[:, 1]
+            scores = np.add.reduce(interpolate_reference(level, xs, ys)[0], axis=1) / pts.shape[0]
+            expected = scores[1:].reshape(2, 3, 3).max(axis=2) / scores[0]
+            assert np.array_equal(loc.slide_profile(points, pose, direction, offsets), expected)
+
+
+def test_scan_points_equal_the_column_stack_of_the_valid_beams() -> None:
+    rng = np.random.default_rng(17)
+    loc = Localiser(office_grid())
+    scan = utm_scan(OFFICE_BOXES, Pose2D(10.0, 5.0, 0.2), 0.0, rng)
+    ranges = scan.ranges.copy()
+    ranges[::7] = 0.0  # below range_min
+    ranges[::11] = 100.0  # beyond max_range_m
+    scan = dataclasses.replace(scan, ranges=ranges)
+    angles = scan.angles
+    keep = (ranges >= scan.range_min) & (ranges <= min(scan.range_max, loc.config.max_range_m))
+    r = ranges[keep].astype(np.float64)
+    expected = np.column_stack((r * np.cos(angles)[keep], r * np.sin(angles)[keep]))
+    assert np.array_equal(loc._scan_points(scan), expected)
 
 
 # -- the background kidnap check -----------------------------------------------------------------
@@ -577,6 +640,27 @@ def match_reference(
             converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
             px, py, yaw = float(px + dx), float(py + dy), float(yaw + dth)
     raise AssertionError("the finest level always ends the match")
+
+
+@pytest.mark.parametrize("shape", [(3000,), (7, 400)])
+def test_stacked_interpolation_equals_the_plain_one(shape: tuple[int, ...]) -> None:
+    """`LikelihoodLevel.interpolate_xy` and `value_xy` (x and y through each numpy call
+    together, a point's four corners one row of the table) give `interpolate_reference`'s M and
+    ∇M bit for bit: one scan's points, and a stack of starts' as `match_many` has them, on and
+    off the field, on every level, after obstacles were added."""
+    rng = np.random.default_rng(14)
+    grid = office_grid()
+    for surface in ("cell_face", "cell_centre"):
+        matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+        matcher.add_obstacles(rng.uniform(0.0, 20.0, 30), rng.uniform(0.0, 10.0, 30))
+        for level in matcher.levels:
+            pxy = np.stack((rng.uniform(-2.0, 22.0, shape), rng.uniform(-2.0, 12.0, shape)))
+            m_ref, gx_ref, gy_ref = interpolate_reference(level, pxy[0], pxy[1])
+            grad = np.empty_like(pxy)
+            assert np.array_equal(level.interpolate_xy(pxy, grad), m_ref)
+            assert np.array_equal(grad[0], gx_ref)
+            assert np.array_equal(grad[1], gy_ref)
+            assert np.array_equal(level.value_xy(pxy), m_ref)
 
 
 @pytest.mark.parametrize("start_level", [None, 1, 0])
