@@ -150,14 +150,15 @@ def install_daemon(out: Path) -> None:
         return taken
 
     link_cls._take = traced_take  # type: ignore[method-assign]
-    publish_mux = link_cls.publish_mux
+    publish = link_cls.publish
 
-    def traced_publish_mux(self: Any, mux: Any) -> None:
+    def traced_publish(self: Any, topic: Any, message: Any) -> None:
         t0 = time.monotonic()
-        publish_mux(self, mux)
-        _record("mux_put", mux.angular, t0, time.monotonic())
+        publish(self, topic, message)
+        if topic == "mux":
+            _record("mux_put", message.angular, t0, time.monotonic())
 
-    link_cls.publish_mux = traced_publish_mux  # type: ignore[method-assign]
+    link_cls.publish = traced_publish  # type: ignore[method-assign]
     _span(daemon_mod.Daemon, "_pass", "pass")
     _span(daemon_mod.Daemon, "apply_motion", "apply_motion")
     _span(daemon_mod.Daemon, "publish", "publish")

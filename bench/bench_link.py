@@ -1,4 +1,4 @@
-"""Benchmark: one-way pose latency over the zenoh link on loopback, `RobotLink.publish_pose` to
+"""Benchmark: one-way pose latency over the zenoh link on loopback, `RobotLink.publish` of a pose to
 receipt (``link_pose_ms_median`` / ``_p99`` / ``_max``).
 
 Two sessions in one process (robot listens on 127.0.0.1, station connects), the robot's
@@ -76,7 +76,7 @@ def _bench(
             time.sleep(0.05)  # and for the subscription to reach the robot
             latencies: list[float] = []
             for i in range(samples + warmup):
-                link.publish_pose(PoseMsg(0.0, 0.0, 0.0, stamp=time.perf_counter()))
+                link.publish(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, stamp=time.perf_counter()))
                 sample = sub.recv()
                 pose = decode(Topic.POSE, sample.payload.to_bytes())
                 arrived = time.perf_counter()

@@ -44,7 +44,7 @@ def run(quick: bool = False) -> dict[str, Any]:
 
     from base_station_app.station_controller import StationController, Timing
     from interbot_core.supervisor import GoTo
-    from interbot_core.topics import PlanMsg, PoseMsg, RouteProgress
+    from interbot_core.topics import PlanMsg, PoseMsg, RouteProgress, Topic
     from interbot_core.topological_map import load_topological_map
     from interbot_link import RobotLink, open_session
     from interbot_link.router import open_router
@@ -83,7 +83,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         for robot_id in links:  # every robot gets a task through the station
             station.select_robot(robot_id)
             pose = poses[robot_id]
-            links[robot_id].publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, state="ok"))
+            links[robot_id].publish(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, state="ok"))
             end = time.monotonic() + 5.0
             while station.selected.state.localised_pose is None and time.monotonic() < end:
                 station.poll_link()
@@ -99,12 +99,12 @@ def run(quick: bool = False) -> dict[str, Any]:
                 for robot_id, link in links.items():
                     mirror = station.fleet.mirror(robot_id)
                     pose = poses[robot_id]
-                    link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, state="ok"))
+                    link.publish(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, state="ok"))
                     route = mirror.route
                     if route is not None:
                         pts = tuple((x, y) for x, y, _ in route.waypoints)
-                        link.publish_plan(PlanMsg(route.route_id, pts))
-                        link.publish_route_progress(RouteProgress(route.route_id, 0))
+                        link.publish(Topic.PLAN, PlanMsg(route.route_id, pts))
+                        link.publish(Topic.ROUTE_PROGRESS, RouteProgress(route.route_id, 0))
             t0 = time.perf_counter()
             station.poll_link()
             polls.append(time.perf_counter() - t0)

@@ -25,27 +25,18 @@ from typing import cast
 import zenoh
 
 from interbot_core.laser_scan import LaserScan
-from interbot_core.occupancy_grid import OccupancyGrid
 from interbot_core.topics import (
     COMMAND_TOPICS,
     STATE_TOPICS,
     AssistMsg,
-    Battery,
     ConfigMsg,
     GoalMsg,
-    ImageMsg,
     InitialPose,
     Lock,
-    MuxMsg,
-    Odom,
-    PlanMsg,
-    PoseMsg,
     RangeEncoding,
     Relocalise,
     RouteCancel,
     RouteMsg,
-    RouteProgress,
-    Status,
     StopRelease,
     Topic,
     TopicError,
@@ -256,41 +247,10 @@ class RobotLink:
                 self._snapshot[topic] = payload
         self._publishers[topic].put(payload)
 
-    def publish_pose(self, pose: PoseMsg) -> None:
-        self.publish(Topic.POSE, pose)
-
-    def publish_odom(self, odom: Odom) -> None:
-        self.publish(Topic.ODOM, odom)
-
-    def publish_cmd_vel(self, twist: Twist) -> None:
-        self.publish(Topic.CMD_VEL, twist)
-
     def publish_scan(
         self, scan: LaserScan, encoding: RangeEncoding = RangeEncoding.FLOAT32
     ) -> None:
         self._put(Topic.SCAN, encode_scan(scan, encoding))
-
-    def publish_map(self, grid: OccupancyGrid) -> None:
-        """Publish the map (zlib, ~20 ms for 1 M cells on the caller's thread) and keep it."""
-        self.publish(Topic.MAP, grid)
-
-    def publish_route_progress(self, progress: RouteProgress) -> None:
-        self.publish(Topic.ROUTE_PROGRESS, progress)
-
-    def publish_image(self, image: ImageMsg) -> None:
-        self.publish(Topic.IMAGE, image)
-
-    def publish_battery(self, battery: Battery) -> None:
-        self.publish(Topic.BATTERY, battery)
-
-    def publish_status(self, status: Status) -> None:
-        self.publish(Topic.STATUS, status)
-
-    def publish_mux(self, mux: MuxMsg) -> None:
-        self.publish(Topic.MUX, mux)
-
-    def publish_plan(self, plan: PlanMsg) -> None:
-        self.publish(Topic.PLAN, plan)
 
     # ------------------------------------------------------------------ lifetime
 

@@ -264,7 +264,9 @@ class Daemon:
         except (StackError, MuxError, RoutePlanningError, TopologicalMapError, TopicError) as exc:
             logger.warning("refused %s command: %s", topic.value, exc)
             if link is not None:
-                link.publish_status(Status("error", f"refused {topic.value}: {exc}", stamp=now))
+                link.publish(
+                    Topic.STATUS, Status("error", f"refused {topic.value}: {exc}", stamp=now)
+                )
 
     def _route_for_goal(self, goal: GoalMsg) -> RouteMsg:
         """A route for a single goal: through the topological map to a node, or straight.
@@ -294,25 +296,25 @@ class Daemon:
                 clipped = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
                 cov = tuple(clipped.ravel().tolist())
             state = stack.reported_localisation
-            link.publish_pose(PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
+            link.publish(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
             odom = stack.last_odometry
             if odom is not None:
                 p = odom.pose
-                link.publish_odom(Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
+                link.publish(Topic.ODOM, Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
             with stack.motion_lock:  # in order with the command thread's mux samples
                 out = stack.last_output
-                link.publish_cmd_vel(Twist(out.linear, out.angular, now))
-                link.publish_mux(mux_message(out, now))
+                link.publish(Topic.CMD_VEL, Twist(out.linear, out.angular, now))
+                link.publish(Topic.MUX, mux_message(out, now))
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
             jpeg = stack.last_jpeg
-            link.publish_image(ImageMsg(now, *_jpeg_size(jpeg), jpeg))
+            link.publish(Topic.IMAGE, ImageMsg(now, *_jpeg_size(jpeg), jpeg))
         if due["battery"](now) and stack.last_battery is not None:
             b = stack.last_battery
-            link.publish_battery(Battery(b.voltage, b.current, b.state_of_charge, now))
+            link.publish(Topic.BATTERY, Battery(b.voltage, b.current, b.state_of_charge, now))
         if due["map"](now):
-            link.publish_map(stack.localiser.updated_grid())
+            link.publish(Topic.MAP, stack.localiser.updated_grid())
         if due["safety"](now):
             link.publish(Topic.SAFETY, safety_message(stack, now))
         status_due = due["status"](now)
@@ -321,9 +323,9 @@ class Daemon:
             self._publish_plan(link, now)
             for level, text in self._health.changes(self.backend.device_status()):
                 logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
-                link.publish_status(Status(level, text, stamp=now))
+                link.publish(Topic.STATUS, Status(level, text, stamp=now))
         for event in stack.drain_events():
-            link.publish_status(Status(event.level, event.text, stamp=event.stamp))
+            link.publish(Topic.STATUS, Status(event.level, event.text, stamp=event.stamp))
 
     def _publish_plan(self, link: RobotLink, now: float) -> None:
         """The navigator's path, when it changed (the snapshot keeps it for late stations)."""
@@ -333,7 +335,7 @@ class Daemon:
         key = (plan.route_id, plan.points)
         if key != self._plan_key:
             self._plan_key = key
-            link.publish_plan(plan)
+            link.publish(Topic.PLAN, plan)
 
     def _publish_route(self, link: RobotLink, force: bool) -> None:
         route = self.stack.route
@@ -341,19 +343,19 @@ class Daemon:
             # Say "no route" too: a station that reconnects learns that the robot has none.
             if force or self._progress_key is None:
                 self._progress_key = (0, 0, "idle")
-                link.publish_route_progress(RouteProgress(0, 0, False, "idle", "", self.now))
+                link.publish(Topic.ROUTE_PROGRESS, RouteProgress(0, 0, False, "idle", "", self.now))
             return
         key = (route.route_id, route.index, route.state)
         if key != self._progress_key or force:
             self._progress_key = key
             reason = route.reason or (self.stack.suspended_reason or "")
-            link.publish_route_progress(route_progress(route, reason, self.now))
+            link.publish(Topic.ROUTE_PROGRESS, route_progress(route, reason, self.now))
 
     # -- the loop ------------------------------------------------------------------------------
 
     def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
         """Run until ``stop`` is set."""
-        link.publish_map(self.grid)
+        link.publish(Topic.MAP, self.grid)
         done = threading.Event()  # the command thread stops with the loop, however it ends
         commands = threading.Thread(
             target=self._command_loop, args=(link, done), name="motion-commands", daemon=True
@@ -417,7 +419,7 @@ class Daemon:
                     self.handle(command, link)
                 now = self.now
                 out = self.stack.apply_output(now)
-                link.publish_mux(mux_message(out, now))
+                link.publish(Topic.MUX, mux_message(out, now))
         except Exception as exc:  # report and stop, as the loop does (its route is its own)
             self._on_component_error(exc, link, abort_route=False)
 
@@ -472,7 +474,7 @@ class Daemon:
         try:
             if abort_route:
                 self.stack.abort_route(self.now, text)
-            link.publish_status(Status("error", text, stamp=self.now))
+            link.publish(Topic.STATUS, Status("error", text, stamp=self.now))
         except Exception:  # reporting must not take the loop down
             logger.exception("could not report the component error")
 

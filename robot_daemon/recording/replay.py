@@ -305,7 +305,7 @@ def _run(
         if link.poll_commands() and not warned:
             warned = True
             text = "this robot is a replay of a recording: its commands are ignored"
-            link.publish_status(Status("warning", text, stamp=player.clock.position(now)))
+            link.publish(Topic.STATUS, Status("warning", text, stamp=player.clock.position(now)))
         player.step(now)
         if commands or now >= next_state:
             control.publish_state(player.clock.state(now, name))

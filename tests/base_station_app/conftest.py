@@ -66,7 +66,7 @@ class FakeRobot:
         return [c.message for c in self.commands if str(c.topic) == topic]
 
     def publish_pose(self, x: float, y: float, yaw: float, state: str = "ok") -> None:
-        self.link.publish_pose(PoseMsg(x, y, yaw, state=state))
+        self.link.publish(Topic.POSE, PoseMsg(x, y, yaw, state=state))
 
     def report_arrival(self) -> bool:
         """Say the last route received is done, as the daemon does on ``route_progress`` (the
@@ -75,8 +75,8 @@ class FakeRobot:
         if not routes:
             return False
         last = len(routes[-1].waypoints) - 1
-        self.link.publish_route_progress(
-            RouteProgress(routes[-1].route_id, last, True, "succeeded")
+        self.link.publish(
+            Topic.ROUTE_PROGRESS, RouteProgress(routes[-1].route_id, last, True, "succeeded")
         )
         return True
 

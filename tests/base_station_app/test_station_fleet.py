@@ -93,7 +93,7 @@ def publish_poses(
     where = {}
     for i, (robot_id, link) in enumerate(links.items()):
         node = topo.nodes[3 + 4 * i].pose
-        link.publish_pose(PoseMsg(node.x, node.y, node.yaw, state="ok"))
+        link.publish(Topic.POSE, PoseMsg(node.x, node.y, node.yaw, state="ok"))
         where[robot_id] = (node.x, node.y)
     return where
 
@@ -173,7 +173,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         where = publish_poses(links, topo)
 
         def all_drawn() -> bool:
-            links["bot3"].publish_pose(PoseMsg(*where["bot3"], 0.0, state="ok"))
+            links["bot3"].publish(Topic.POSE, PoseMsg(*where["bot3"], 0.0, state="ok"))
             station.poll_link()
             views = {v.robot_id: v for v in station.fleet.views(station.names)}
             return all(views[r].pose is not None for r in ROBOTS)
@@ -185,7 +185,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
             body, _path, label = layer._items[robot_id]
             assert robot_id in label.toPlainText() and "ok" in label.toPlainText()
             assert (len(body.getData()[0]) > 0) == (robot_id != "bot3")  # bot3: the map's own
-        links["bot1"].publish_mux(MuxMsg(None, active_locks=("Emergency Stop",)))
+        links["bot1"].publish(Topic.MUX, MuxMsg(None, active_locks=("Emergency Stop",)))
         qtbot.waitUntil(
             lambda: (station.poll_link(), station.fleet.mirror("bot1").health)[1] is Health.STOPPED,
             timeout=5000,
@@ -226,7 +226,7 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
 
         # 4. bot1 (not selected) finishes: its next task starts and only bot1 gets the route.
         first = bot1.route.route_id
-        links["bot1"].publish_route_progress(RouteProgress(first, 1, True, "succeeded"))
+        links["bot1"].publish(Topic.ROUTE_PROGRESS, RouteProgress(first, 1, True, "succeeded"))
 
         def next_started() -> bool:
             station.poll_link()
@@ -256,12 +256,12 @@ def test_five_robots_each_shown_each_with_its_own_queue_commanded_by_clicks(
         click_row(qtbot, window, "bot0")
         assert station.selected_robot == "bot0"
         at = topo.node(stop, "stop").pose
-        links["bot2"].publish_pose(PoseMsg(at.x, at.y, at.yaw, state="ok"))
+        links["bot2"].publish(Topic.POSE, PoseMsg(at.x, at.y, at.yaw, state="ok"))
         qtbot.waitUntil(lambda: len(routes("bot2")) == 1, timeout=5000)
         tour_route = routes("bot2")[0]  # the robot says it arrived (it judges arrival)
         last = len(tour_route.waypoints) - 1
-        links["bot2"].publish_route_progress(
-            RouteProgress(tour_route.route_id, last, True, "succeeded")
+        links["bot2"].publish(
+            Topic.ROUTE_PROGRESS, RouteProgress(tour_route.route_id, last, True, "succeeded")
         )
 
         def waiting() -> bool:

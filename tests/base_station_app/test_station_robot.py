@@ -18,6 +18,7 @@ from interbot_core.topics import (
     RouteMsg,
     RouteProgress,
     StopRelease,
+    Topic,
     Twist,
 )
 
@@ -102,12 +103,12 @@ def test_room_task_sends_whole_route(qtbot, linked, station, robot, localise, to
     assert station.selected.supervisor.current_task == GoTo(5) and not station.selected.goal_reached
     # The robot reports its progress and its arrival; the station mirrors both.
     last = len(route.waypoints) - 1
-    robot.link.publish_route_progress(RouteProgress(route.route_id, last, False, "active"))
+    robot.link.publish(Topic.ROUTE_PROGRESS, RouteProgress(route.route_id, last, False, "active"))
     qtbot.waitUntil(
         lambda: bool(station.poll_link() or station.selected.supervisor.route_index == last)
     )
     assert any(e.text.startswith("intermediate goal") for e in station.selected.state.log)
-    robot.link.publish_route_progress(RouteProgress(route.route_id, last, True, "succeeded"))
+    robot.link.publish(Topic.ROUTE_PROGRESS, RouteProgress(route.route_id, last, True, "succeeded"))
 
     def finished() -> bool:
         station.poll_link()
@@ -233,7 +234,7 @@ def test_restarted_robot_gets_config_and_stop_intent_but_never_the_route(
     assert (
         station.selected.supervisor.current_task is not None
     )  # not yet: the robot has not answered
-    robot.link.publish_route_progress(RouteProgress(0, 0, False, "idle"))
+    robot.link.publish(Topic.ROUTE_PROGRESS, RouteProgress(0, 0, False, "idle"))
 
     def ended() -> bool:
         station.poll_link()
@@ -330,7 +331,7 @@ def test_robot_reported_success_finishes_the_task(qtbot, linked, station, robot,
     localise(topo.nodes[0].pose)
     route = _route_sent_to_robot(qtbot, station, robot, topo, 5)
     last = len(route.waypoints) - 1
-    robot.link.publish_route_progress(RouteProgress(route.route_id, last, True, "succeeded"))
+    robot.link.publish(Topic.ROUTE_PROGRESS, RouteProgress(route.route_id, last, True, "succeeded"))
 
     def finished() -> bool:
         station.poll_link()
@@ -343,8 +344,8 @@ def test_robot_reported_success_finishes_the_task(qtbot, linked, station, robot,
 def test_robot_aborted_route_fails_the_task(qtbot, linked, station, robot, localise, topo):
     localise(topo.nodes[0].pose)
     route = _route_sent_to_robot(qtbot, station, robot, topo, 5)
-    robot.link.publish_route_progress(
-        RouteProgress(route.route_id, 0, False, "aborted", "blocked: no path")
+    robot.link.publish(
+        Topic.ROUTE_PROGRESS, RouteProgress(route.route_id, 0, False, "aborted", "blocked: no path")
     )
 
     def finished() -> bool:
@@ -363,7 +364,7 @@ def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
 
     station.emergency_stop()
     qtbot.waitUntil(lambda: bool(robot.of("stop")), timeout=3000)
-    robot.link.publish_mux(MuxMsg(None, "no valid input", ()))  # a robot that lost the stop
+    robot.link.publish(Topic.MUX, MuxMsg(None, "no valid input", ()))  # a robot that lost the stop
 
     def resent() -> bool:
         station.poll_link()

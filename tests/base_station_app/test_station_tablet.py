@@ -7,7 +7,7 @@ import json
 
 from base_station_app.station_config import StationConfig
 from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
-from interbot_core.topics import RouteMsg, RouteProgress, Twist
+from interbot_core.topics import RouteMsg, RouteProgress, Topic, Twist
 from tests.base_station_app.conftest import robot_arrives
 
 
@@ -184,7 +184,7 @@ def test_tablet_stop_cancels_a_route_this_station_did_not_start(
     """A restarted station: the robot still drives route 77 from before; the tablet is told
     and its stop cancels it."""
     t = handshake(qtbot, tablet_factory)
-    robot.link.publish_route_progress(RouteProgress(77, 1, False, "active"))
+    robot.link.publish(Topic.ROUTE_PROGRESS, RouteProgress(77, 1, False, "active"))
     qtbot.waitUntil(
         lambda: bool(station.poll_link() or station.selected.route_mirror.foreign), timeout=3000
     )

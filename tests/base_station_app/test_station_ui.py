@@ -19,7 +19,7 @@ from base_station_app.station_controller import StationController
 from base_station_app.station_file import StationSettingsStore
 from interbot_core.geometry import Pose2D
 from interbot_core.supervisor import GoTo, GoToPose
-from interbot_core.topics import InitialPose, Lock, StopRelease
+from interbot_core.topics import InitialPose, Lock, StopRelease, Topic
 from tests.base_station_app.conftest import robot_arrives
 
 TOPO_PATH = Path(__file__).resolve().parents[2] / "maps" / "isr_floor0_topo.yaml"
@@ -292,7 +292,7 @@ def test_camera_view_shows_jpeg(qtbot, window, station, robot):
     buf = QBuffer(data)
     buf.open(QIODevice.OpenModeFlag.WriteOnly)
     image.save(buf, "JPG")
-    robot.link.publish_image(ImageMsg(time.monotonic(), 64, 48, bytes(data.data())))
+    robot.link.publish(Topic.IMAGE, ImageMsg(time.monotonic(), 64, 48, bytes(data.data())))
 
     def shown() -> bool:
         station.poll_link()
@@ -341,7 +341,7 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
     from interbot_core.topics import PoseMsg
 
     for x, stamp in ((0.0, 10.0), (2.0, 10.2)):  # the pose topic keeps only the newest: wait
-        robot.link.publish_pose(PoseMsg(x, 0.0, 0.0, stamp=stamp))
+        robot.link.publish(Topic.POSE, PoseMsg(x, 0.0, 0.0, stamp=stamp))
 
         def got(stamp: float = stamp) -> bool:
             station.poll_link()
@@ -380,7 +380,7 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
     route = station.selected.route
     assert route is not None
     bend = ((-29.5, 3.7), (-25.0, 3.7), (-25.0, -1.0), (-20.0, -1.0))
-    robot.link.publish_plan(PlanMsg(route.route_id, bend))
+    robot.link.publish(Topic.PLAN, PlanMsg(route.route_id, bend))
 
     def drawn() -> bool:
         station.poll_link()
@@ -391,7 +391,7 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
     qtbot.waitUntil(drawn, timeout=3000)
     xs, ys = window.map_view.route_item.getData()
     assert np.allclose(np.column_stack((xs, ys))[1:], bend)
-    robot.link.publish_plan(PlanMsg(route.route_id + 1, bend))  # another route's plan
+    robot.link.publish(Topic.PLAN, PlanMsg(route.route_id + 1, bend))  # another route's plan
 
     def cleared() -> bool:
         station.poll_link()
@@ -440,7 +440,9 @@ def test_alerts_from_the_robot_reach_the_list_and_the_badge(qtbot, window, stati
     from interbot_core.topics import Status
 
     assert window.alerts_action.text() == "No alerts"
-    robot.link.publish_status(Status("error", "collision: motors stalled against an obstacle"))
+    robot.link.publish(
+        Topic.STATUS, Status("error", "collision: motors stalled against an obstacle")
+    )
 
     def listed() -> bool:
         station.poll_link()

@@ -31,8 +31,8 @@ def test_a_watched_robot_is_seen_lightly_and_commanded(
         got: list[object] = []
 
         def heard() -> bool:
-            robot.publish_pose(PoseMsg(1.0, 2.0, 0.0, state="ok"))
-            robot.publish_route_progress(RouteProgress(5, 1))
+            robot.publish(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok"))
+            robot.publish(Topic.ROUTE_PROGRESS, RouteProgress(5, 1))
             got.extend(m.topic for m in watch.poll() if m.robot_id == "w1")
             return Topic.POSE in got and Topic.ROUTE_PROGRESS in got
 

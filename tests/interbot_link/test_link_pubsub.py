@@ -246,7 +246,7 @@ def test_state_topics_reach_the_station(pair: Pair) -> None:
 def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
     pair.select()
     for i in range(50):
-        pair.robot.publish_pose(PoseMsg(float(i), 0.0, 0.0, float(i)))
+        pair.robot.publish(Topic.POSE, PoseMsg(float(i), 0.0, 0.0, float(i)))
     newest: list[object] = [None]
 
     def the_last_arrived() -> bool:
@@ -271,8 +271,8 @@ def test_the_state_query_returns_the_map_to_a_late_station(
     pair: Pair, query_state: Callable[..., dict[Topic, object]]
 ) -> None:
     grid = _grid()
-    pair.robot.publish_map(grid)
-    pair.robot.publish_pose(PoseMsg(1.0, 1.0, 0.0))
+    pair.robot.publish(Topic.MAP, grid)
+    pair.robot.publish(Topic.POSE, PoseMsg(1.0, 1.0, 0.0))
     wait_until(lambda: ROBOT in pair.station.robots)
     state = query_state(pair.station, ROBOT)
     assert set(state) == {Topic.MAP, Topic.POSE}
@@ -300,7 +300,7 @@ def test_the_state_query_returns_the_map_to_a_late_station(
 def test_the_state_query_has_no_map_when_the_robot_has_none(
     pair: Pair, query_state: Callable[..., dict[Topic, object]]
 ) -> None:
-    pair.robot.publish_pose(PoseMsg(1.0, 1.0, 0.0))
+    pair.robot.publish(Topic.POSE, PoseMsg(1.0, 1.0, 0.0))
     wait_until(lambda: ROBOT in pair.station.robots)
     assert set(query_state(pair.station, ROBOT)) == {Topic.POSE}
 
@@ -327,7 +327,7 @@ def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
     robot_raw.put(key(ROBOT, Topic.STATUS), b"[]")
     wait_until(lambda: not pair.station.poll_state() and pair.station.decode_errors["pose"] == 1)
     wait_until(lambda: not pair.station.poll_events() and pair.station.decode_errors["status"] == 1)
-    pair.robot.publish_pose(PoseMsg(3.0, 3.0, 0.0))  # the subscriber still works
+    pair.robot.publish(Topic.POSE, PoseMsg(3.0, 3.0, 0.0))  # the subscriber still works
     wait_until(lambda: pair.station.poll_state().get(Topic.POSE) == PoseMsg(3.0, 3.0, 0.0))
 
 
@@ -339,7 +339,7 @@ def test_sending_without_a_robot_or_after_close_fails_clearly(pair: Pair) -> Non
     pair.robot.close()
     pair.robot.close()  # idempotent
     with pytest.raises(LinkClosedError):
-        pair.robot.publish_pose(PoseMsg(0.0, 0.0, 0.0))
+        pair.robot.publish(Topic.POSE, PoseMsg(0.0, 0.0, 0.0))
     pair.station.close()
     with pytest.raises(LinkClosedError):
         pair.station.select_robot(ROBOT)
@@ -360,7 +360,7 @@ def test_callbacks_run_off_the_caller_thread_and_notify(pair: Pair) -> None:
 
 def test_sessions_close_without_hanging_with_live_subscribers(pair: Pair) -> None:
     pair.select()
-    pair.robot.publish_map(_grid())
+    pair.robot.publish(Topic.MAP, _grid())
     start = time.monotonic()
     pair.station_session.close()
     pair.robot_session.close()

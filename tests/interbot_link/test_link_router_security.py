@@ -107,7 +107,7 @@ def test_station_commands_and_watches_through_the_secure_router(
         wait_until(lambda: station.send(Topic.STOP, Lock(True)))
         link.wait_commands(2.0)
         assert Topic.STOP in {c.topic for c in link.poll_commands()}
-        link.publish_pose(PoseMsg(1.0, 2.0, 0.5))
+        link.publish(Topic.POSE, PoseMsg(1.0, 2.0, 0.5))
         wait_until(lambda: isinstance(station.poll_state().get(Topic.POSE), PoseMsg))
         assert Topic.POSE in query_state(station, ROBOT)
 

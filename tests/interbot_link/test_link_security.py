@@ -176,7 +176,7 @@ def test_station_commands_and_sees_state_over_mutual_tls(
         wait_until(lambda: st.send(Topic.STOP, Lock(True)))
         link.wait_commands(2.0)
         assert [c.topic for c in link.poll_commands()][:1] == [Topic.STOP]
-        link.publish_pose(PoseMsg(1.0, 2.0, 0.5))
+        link.publish(Topic.POSE, PoseMsg(1.0, 2.0, 0.5))
 
         def pose_seen() -> bool:
             return isinstance(st.poll_state().get(Topic.POSE), PoseMsg)
@@ -219,7 +219,7 @@ def test_observer_may_watch_and_query_but_not_command(
         wait_until(lambda: ROBOT in obs.robots)
         obs.select_robot(ROBOT)
         wait_until(lambda: link.subscribed(Topic.POSE))
-        link.publish_pose(PoseMsg(1.0, 2.0, 0.5))
+        link.publish(Topic.POSE, PoseMsg(1.0, 2.0, 0.5))
         wait_until(lambda: isinstance(obs.poll_state().get(Topic.POSE), PoseMsg))
         assert Topic.POSE in query_state(obs, ROBOT)
         assert _attack(session, link) == set()

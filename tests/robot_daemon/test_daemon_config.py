@@ -105,7 +105,7 @@ def test_the_daemon_says_a_new_contact_once_as_a_collision() -> None:
     ]
     link = MagicMock()
     texts: list[str] = []
-    link.publish_status.side_effect = lambda status: texts.append(status.text)
+    link.publish.side_effect = lambda topic, message: texts.append(getattr(message, "text", ""))
     for step in range(6):
         daemon.now = step * 1.0  # the status rate is 2 Hz: every call is due
         contacts[0] = 0 if step < 3 else 1

@@ -38,8 +38,9 @@ class RecordingLink:
     def subscribed(self, topic: Topic) -> bool:
         return False
 
-    def publish_status(self, status: Status) -> None:
-        self.statuses.append(status)
+    def publish(self, topic: Topic, message: object) -> None:
+        if isinstance(message, Status):
+            self.statuses.append(message)
 
     def __getattr__(self, name: str) -> object:
         if name.startswith("publish"):
@@ -158,8 +159,10 @@ class LaneLink(RecordingLink):
         with self.cond:
             return self.cond.wait_for(pending, timeout)
 
-    def publish_mux(self, mux: object) -> None:
-        self.muxes.append(mux)
+    def publish(self, topic: Topic, message: object) -> None:
+        super().publish(topic, message)
+        if topic is Topic.MUX:
+            self.muxes.append(message)
 
 
 def test_motion_commands_reach_the_motors_while_the_localiser_runs_and_the_stop_wins() -> None:
