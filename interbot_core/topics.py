@@ -665,7 +665,7 @@ def decode_image(payload: bytes) -> ImageMsg:
 
 @dataclass(frozen=True)
 class TopicSpec:
-    """How a topic travels: direction, encoding, nominal rate and delivery class.
+    """How a topic travels: direction, encoding and delivery class.
 
     ``must_arrive`` topics are sent with congestion control BLOCK (never dropped in a full
     queue); ``latest_only`` topics are consumed newest-value-first (a ring of one).
@@ -676,36 +676,34 @@ class TopicSpec:
     binary: bool
     must_arrive: bool
     latest_only: bool
-    rate_hz: float | None  # nominal; None = on change
     message_type: type
-    description: str
 
 
 _SPECS: Final = (
-    TopicSpec(Topic.STATION_VEL, True, False, False, True, 20.0, Twist, "Base Station teleoperation (mux priority 100)"),
-    TopicSpec(Topic.TABLET_VEL, True, False, False, True, 20.0, Twist, "tablet joystick via the station (mux priority 50)"),
-    TopicSpec(Topic.PAUSE_NAV, True, False, True, False, None, Lock, "pause/resume navigation lock (priority 25)"),
-    TopicSpec(Topic.STOP, True, False, True, False, None, Lock, "emergency stop lock (priority 255, latches)"),
-    TopicSpec(Topic.STOP_RELEASE, True, False, True, False, None, StopRelease, "release the latched emergency stop"),
-    TopicSpec(Topic.ROUTE, True, False, True, False, None, RouteMsg, "whole route to follow"),
-    TopicSpec(Topic.ROUTE_CANCEL, True, False, True, False, None, RouteCancel, "drop the route in progress"),
-    TopicSpec(Topic.GOAL, True, False, True, False, None, GoalMsg, "single goal; the robot plans the route"),
-    TopicSpec(Topic.INITIAL_POSE, True, False, True, False, None, InitialPose, "set the localiser's pose"),
-    TopicSpec(Topic.RELOCALISE, True, False, True, False, None, Relocalise, "find the robot on the whole map"),
-    TopicSpec(Topic.CONFIG, True, False, True, False, None, ConfigMsg, "planner parameters on the fly"),
-    TopicSpec(Topic.TELEOP_ASSIST, True, False, True, False, None, AssistMsg, "assisted teleoperation on/off per joystick input"),
-    TopicSpec(Topic.CMD_VEL, False, False, False, True, 20.0, Twist, "mux output sent to the motors"),
-    TopicSpec(Topic.POSE, False, False, False, True, 40.0, PoseMsg, "localised pose in the map frame"),
-    TopicSpec(Topic.ODOM, False, False, False, True, 20.0, Odom, "wheel odometry"),
-    TopicSpec(Topic.SCAN, False, True, False, True, 40.0, LaserScan, "laser scan (binary)"),
-    TopicSpec(Topic.MAP, False, True, False, False, 0.2, OccupancyGrid, "occupancy grid (binary, zlib)"),
-    TopicSpec(Topic.ROUTE_PROGRESS, False, False, True, False, None, RouteProgress, "route/goal status"),
-    TopicSpec(Topic.IMAGE, False, True, False, True, 10.0, ImageMsg, "camera frame (binary JPEG)"),
-    TopicSpec(Topic.BATTERY, False, False, False, True, 1.0, Battery, "battery state"),
-    TopicSpec(Topic.STATUS, False, False, True, False, None, Status, "status text for the UI"),
-    TopicSpec(Topic.MUX, False, False, False, True, 5.0, MuxMsg, "active velocity source"),
-    TopicSpec(Topic.PLAN, False, False, False, True, None, PlanMsg, "the navigator's global path"),
-    TopicSpec(Topic.SAFETY, False, False, False, True, 10.0, SafetyMsg, "collision monitor zone, distance, assistance"),
+    TopicSpec(Topic.STATION_VEL, True, False, False, True, Twist),  # Base Station teleoperation (mux priority 100)
+    TopicSpec(Topic.TABLET_VEL, True, False, False, True, Twist),  # tablet joystick via the station (mux priority 50)
+    TopicSpec(Topic.PAUSE_NAV, True, False, True, False, Lock),  # pause/resume navigation lock (priority 25)
+    TopicSpec(Topic.STOP, True, False, True, False, Lock),  # emergency stop lock (priority 255, latches)
+    TopicSpec(Topic.STOP_RELEASE, True, False, True, False, StopRelease),  # release the latched emergency stop
+    TopicSpec(Topic.ROUTE, True, False, True, False, RouteMsg),  # whole route to follow
+    TopicSpec(Topic.ROUTE_CANCEL, True, False, True, False, RouteCancel),  # drop the route in progress
+    TopicSpec(Topic.GOAL, True, False, True, False, GoalMsg),  # single goal; the robot plans the route
+    TopicSpec(Topic.INITIAL_POSE, True, False, True, False, InitialPose),  # set the localiser's pose
+    TopicSpec(Topic.RELOCALISE, True, False, True, False, Relocalise),  # find the robot on the whole map
+    TopicSpec(Topic.CONFIG, True, False, True, False, ConfigMsg),  # planner parameters on the fly
+    TopicSpec(Topic.TELEOP_ASSIST, True, False, True, False, AssistMsg),  # assisted teleoperation on/off per joystick input
+    TopicSpec(Topic.CMD_VEL, False, False, False, True, Twist),  # mux output sent to the motors
+    TopicSpec(Topic.POSE, False, False, False, True, PoseMsg),  # localised pose in the map frame
+    TopicSpec(Topic.ODOM, False, False, False, True, Odom),  # wheel odometry
+    TopicSpec(Topic.SCAN, False, True, False, True, LaserScan),  # laser scan (binary)
+    TopicSpec(Topic.MAP, False, True, False, False, OccupancyGrid),  # occupancy grid (binary, zlib)
+    TopicSpec(Topic.ROUTE_PROGRESS, False, False, True, False, RouteProgress),  # route/goal status
+    TopicSpec(Topic.IMAGE, False, True, False, True, ImageMsg),  # camera frame (binary JPEG)
+    TopicSpec(Topic.BATTERY, False, False, False, True, Battery),  # battery state
+    TopicSpec(Topic.STATUS, False, False, True, False, Status),  # status text for the UI
+    TopicSpec(Topic.MUX, False, False, False, True, MuxMsg),  # active velocity source
+    TopicSpec(Topic.PLAN, False, False, False, True, PlanMsg),  # the navigator's global path
+    TopicSpec(Topic.SAFETY, False, False, False, True, SafetyMsg),  # collision monitor zone, distance, assistance
 )  # fmt: skip
 
 TOPIC_SPECS: Final[Mapping[Topic, TopicSpec]] = {s.topic: s for s in _SPECS}
