@@ -37,12 +37,8 @@ class RobotReports:
         robots_changed: Callable[[], object],
         clock: Callable[[], float],
     ) -> None:
-        self._fleet, self._link, self._events, self._alert_rules = (
-            fleet,
-            robot_link,
-            events,
-            alert_rules,
-        )
+        self._fleet, self._link = fleet, robot_link
+        self._events, self._alert_rules = events, alert_rules
         self.lock = lock  # the tablet speed path's: it reads a robot's ``online``
         self._log, self._robots_changed, self._clock = log, robots_changed, clock
 

@@ -156,7 +156,7 @@ class TabletServer(QObject):
         self._newest_speed: Speed | None = None
         self._call = ThreadCall(self)  # public methods run in the server's thread
         self._thread: QThread | None = None
-        self._port = port  # the port listened on, once listening (0: the OS picks)
+        self.port = port  # the port listened on, once listening (0: the OS picks)
         self.priority: PriorityOutcome | None = None  # its thread's scheduling (start_thread)
 
     # ------------------------------------------------------------------ its thread
@@ -196,9 +196,6 @@ class TabletServer(QObject):
         self._thread = None
 
     # ------------------------------------------------------------------ state
-    @property
-    def port(self) -> int:
-        return self._port
 
     @property
     def is_connected(self) -> bool:
@@ -218,15 +215,15 @@ class TabletServer(QObject):
 
     def _listen_now(self) -> bool:
         address = QHostAddress(self._host)
-        if not self._server.listen(address, self._port):
+        if not self._server.listen(address, self.port):
             logger.error(
                 "cannot listen for the tablet on %s:%d: %s",
                 self._host,
-                self._port,
+                self.port,
                 self._server.errorString(),
             )
             return False
-        self._port = int(self._server.serverPort())
+        self.port = int(self._server.serverPort())
         logger.info("listening for the tablet on %s:%d", self._host, self.port)
         return True
 

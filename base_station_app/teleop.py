@@ -39,17 +39,9 @@ class TeleopInput:
         self._joystick: tuple[float, float] | None = None
         self.set_limits(linear_max, angular_max)
 
-    @property
-    def linear_max(self) -> float:
-        return self._linear_max
-
-    @property
-    def angular_max(self) -> float:
-        return self._angular_max
-
     def set_limits(self, linear_max: float, angular_max: float) -> None:
-        self._linear_max = schema.checked(linear_max, Limit, "teleop linear_max")
-        self._angular_max = schema.checked(angular_max, Limit, "teleop angular_max")
+        self.linear_max = schema.checked(linear_max, Limit, "teleop linear_max")
+        self.angular_max = schema.checked(angular_max, Limit, "teleop angular_max")
 
     @property
     def active(self) -> bool:
@@ -81,8 +73,8 @@ class TeleopInput:
             linear, angular = self._joystick
         else:
             held = self._held
-            linear = ((Direction.FORWARD in held) - (Direction.BACKWARD in held)) * self._linear_max
-            angular = ((Direction.LEFT in held) - (Direction.RIGHT in held)) * self._angular_max
-        linear = max(-self._linear_max, min(self._linear_max, linear))
-        angular = max(-self._angular_max, min(self._angular_max, angular))
+            linear = ((Direction.FORWARD in held) - (Direction.BACKWARD in held)) * self.linear_max
+            angular = ((Direction.LEFT in held) - (Direction.RIGHT in held)) * self.angular_max
+        linear = max(-self.linear_max, min(self.linear_max, linear))
+        angular = max(-self.angular_max, min(self.angular_max, angular))
         return float(linear), float(angular)

@@ -108,21 +108,13 @@ class JoystickState:
         _Limits(linear_max, angular_max)
         self._center = (float(center_x), float(center_y))
         self._radius = float(radius)
-        self._linear_max = float(linear_max)
-        self._angular_max = float(angular_max)
+        self.linear_max = float(linear_max)
+        self.angular_max = float(angular_max)
         self._pressed_at: tuple[float, float] | None = None
 
     @property
     def pressed(self) -> bool:
         return self._pressed_at is not None
-
-    @property
-    def linear_max(self) -> float:
-        return self._linear_max
-
-    @property
-    def angular_max(self) -> float:
-        return self._angular_max
 
     @property
     def command(self) -> tuple[float, float]:
@@ -135,8 +127,8 @@ class JoystickState:
             self._pressed_at[0],
             self._pressed_at[1],
             self._radius,
-            self._linear_max,
-            self._angular_max,
+            self.linear_max,
+            self.angular_max,
         )
 
     def set_geometry(self, center_x: float, center_y: float, radius: float) -> None:
@@ -148,7 +140,7 @@ class JoystickState:
     def set_limits(self, linear_max: float, angular_max: float) -> tuple[float, float]:
         """New maxima from the sliders; returns the updated command."""
         _Limits(linear_max, angular_max)
-        self._linear_max, self._angular_max = float(linear_max), float(angular_max)
+        self.linear_max, self.angular_max = float(linear_max), float(angular_max)
         return self.command
 
     def press(self, x: float, y: float) -> tuple[float, float]:

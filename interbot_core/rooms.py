@@ -156,19 +156,6 @@ class RoomMap:
     texts: tuple[Texts, ...]  # per node id, in every language
     language: str = "en"
 
-    @property
-    def source(self) -> str:
-        return self.topo.source
-
-    @property
-    def map_yaml(self) -> Path | None:
-        """The occupancy-grid YAML the rooms are drawn on (None if unknown)."""
-        return self.topo.map_yaml_path
-
-    @property
-    def home_id(self) -> int:
-        return self.topo.home_id
-
     def in_language(self, language: str) -> RoomMap:
         """The same rooms with names and infos in ``language`` (English where none is given)."""
         rooms = []
@@ -182,7 +169,7 @@ class RoomMap:
         for room in self.rooms:
             if room.covers(node_id):
                 return room
-        raise KeyError(f"node {node_id} is in no room of {self.source}")
+        raise KeyError(f"node {node_id} is in no room of {self.topo.source}")
 
     def in_a_room(self, node_id: int) -> bool:
         """False for corridor waypoints (and ids that are not nodes)."""

@@ -357,15 +357,11 @@ class VelocityMux:
     """Priority multiplexer over the configured inputs, masked by locks (twist_mux rules)."""
 
     def __init__(self, config: MuxConfig = DEFAULT_MUX_CONFIG) -> None:
-        self._config = config
+        self.config = config
         self._inputs: dict[str, _InputState] = {i.topic: _InputState() for i in config.inputs}
         self._locks: dict[str, _LockState] = {lk.topic: _LockState() for lk in config.locks}
         self._latching = frozenset(config.latching_locks)
         self._rejected = 0
-
-    @property
-    def config(self) -> MuxConfig:
-        return self._config
 
     @property
     def rejected_count(self) -> int:
@@ -377,7 +373,7 @@ class VelocityMux:
 
         Returns False (and counts it) when a velocity is not finite: the message is ignored.
         """
-        entry = self._config.input_by_topic(topic)
+        entry = self.config.input_by_topic(topic)
         now = _check_now(now)
         if not (math.isfinite(linear) and math.isfinite(angular)):
             self._rejected += 1
@@ -391,7 +387,7 @@ class VelocityMux:
 
     def on_lock(self, topic: str, engaged: bool, now: float) -> None:
         """A lock message on ``topic`` (true = engage). Latching locks stay engaged."""
-        lock = self._config.lock_by_topic(topic)
+        lock = self.config.lock_by_topic(topic)
         now = _check_now(now)
         state = self._locks[topic]
         state.stamp, state.value = now, bool(engaged)
@@ -434,13 +430,13 @@ class VelocityMux:
     def active_locks(self, now: float) -> tuple[MuxLock, ...]:
         """The active locks, highest priority first."""
         now = _check_now(now)
-        active = [lk for lk in self._config.locks if self._lock_active(lk, now)]
+        active = [lk for lk in self.config.locks if self._lock_active(lk, now)]
         return tuple(sorted(active, key=lambda lk: lk.priority, reverse=True))
 
     def valid_inputs(self, now: float) -> tuple[MuxInput, ...]:
         """Inputs that have a message and have not expired, highest priority first."""
         now = _check_now(now)
-        valid = [i for i in self._config.inputs if not self._input_expired(i, now)]
+        valid = [i for i in self.config.inputs if not self._input_expired(i, now)]
         return tuple(sorted(valid, key=lambda i: i.priority, reverse=True))
 
     def output(self, now: float) -> MuxOutput:
@@ -458,7 +454,7 @@ class VelocityMux:
             if limited:
                 reason += f" (limited to {entry.max_linear:g} m/s, {entry.max_angular:g} rad/s)"
             return MuxOutput(linear, angular, entry.name, reason, lock_names)
-        top_input = max(i.priority for i in self._config.inputs)
+        top_input = max(i.priority for i in self.config.inputs)
         if locks and (valid or lock_priority > top_input):
             top = locks[0]
             reason = f"masked by lock {top.topic} ({top.name!r}, priority {top.priority})"

@@ -111,7 +111,7 @@ class RobotLink:
         notify: Callable[[], None] | None = None,
     ) -> None:
         self._session = session
-        self._robot_id = robot_id
+        self.robot_id = robot_id
         self._lock = threading.Lock()
         self._cond = threading.Condition(self._lock)
         self._raw: list[tuple[str, bytes]] = []
@@ -138,10 +138,6 @@ class RobotLink:
         self._queryable = session.declare_queryable(self._state_key, self._on_query)
         self._token = session.liveliness().declare_token(alive_key(robot_id))
         logger.info("robot link %r up (session %s)", robot_id, session.zid())
-
-    @property
-    def robot_id(self) -> str:
-        return self._robot_id
 
     @property
     def callback_priority(self) -> PriorityOutcome | None:
@@ -241,7 +237,7 @@ class RobotLink:
 
     def _put(self, topic: Topic, payload: bytes) -> None:
         if self._closed:
-            raise LinkClosedError(f"robot link {self._robot_id!r} is closed")
+            raise LinkClosedError(f"robot link {self.robot_id!r} is closed")
         if topic in SNAPSHOT_TOPICS:
             with self._lock:
                 self._snapshot[topic] = payload
@@ -264,4 +260,4 @@ class RobotLink:
         self._token.undeclare()
         for publisher in self._publishers.values():
             publisher.undeclare()
-        logger.info("robot link %r closed", self._robot_id)
+        logger.info("robot link %r closed", self.robot_id)

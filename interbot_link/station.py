@@ -139,7 +139,7 @@ class StationLink:
         queue_capacity: int = 4096,
         notify: Callable[[], None] | None = None,
     ) -> None:
-        self._session = session
+        self.session = session  # also for other links sharing it (replay control)
         self._lock = threading.Lock()
         self._raw: list[_Raw] = []
         self._capacity = queue_capacity
@@ -158,11 +158,6 @@ class StationLink:
             ALIVE_WILDCARD, self._on_alive, history=True
         )
         liveliness.get(ALIVE_WILDCARD, self._on_alive_reply)
-
-    @property
-    def session(self) -> zenoh.Session:
-        """The session this link is on (for other links sharing it, e.g. replay control)."""
-        return self._session
 
     # ------------------------------------------------------------------ zenoh threads
 
@@ -248,7 +243,7 @@ class StationLink:
             return
         validate_robot_id(robot_id)
         on_event = self._on_event_sample(robot_id)
-        self._followed = Followed.declare(self._session, robot_id, LATEST_TOPICS, on_event)
+        self._followed = Followed.declare(self.session, robot_id, LATEST_TOPICS, on_event)
         self._selected = robot_id
         self.request_state(robot_id)
         logger.info("station follows robot %r", robot_id)
@@ -299,7 +294,7 @@ class StationLink:
     def request_state(self, robot_id: str | None = None) -> None:
         """Ask for the robot's state snapshot; its parts arrive as StateMessage events."""
         robot_id = self._target(robot_id)
-        self._session.get(state_key(robot_id), self._on_state_reply(robot_id), timeout=5.0)
+        self.session.get(state_key(robot_id), self._on_state_reply(robot_id), timeout=5.0)
 
     # ------------------------------------------------------------------ sending
 

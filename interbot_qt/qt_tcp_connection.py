@@ -62,37 +62,33 @@ class QtTcpConnection(QObject):
         self._max_read_bytes = max_read_bytes
         self._read_scheduled = False
         self._decoder = JsonStreamDecoder(max_frame_bytes)
-        self._socket = socket if socket is not None else QTcpSocket()
-        self._socket.setParent(self)
-        self._socket.connected.connect(self._on_connected)
-        self._socket.disconnected.connect(self.disconnected)
-        self._socket.readyRead.connect(self._on_ready_read)
-        self._socket.errorOccurred.connect(self._on_error)
+        self.socket = socket if socket is not None else QTcpSocket()
+        self.socket.setParent(self)
+        self.socket.connected.connect(self._on_connected)
+        self.socket.disconnected.connect(self.disconnected)
+        self.socket.readyRead.connect(self._on_ready_read)
+        self.socket.errorOccurred.connect(self._on_error)
         if max_read_bytes is not None:
-            self._socket.setReadBufferSize(max(4 * max_read_bytes, max_frame_bytes))
+            self.socket.setReadBufferSize(max(4 * max_read_bytes, max_frame_bytes))
         if self.is_connected:
             self._set_low_delay()
 
     @property
-    def socket(self) -> QTcpSocket:
-        return self._socket
-
-    @property
     def is_connected(self) -> bool:
-        return self._socket.state() == QAbstractSocket.SocketState.ConnectedState
+        return self.socket.state() == QAbstractSocket.SocketState.ConnectedState
 
     def connect_to_host(self, host: str, port: int) -> None:
         """Start connecting (asynchronous: wait for ``connected`` or ``socket_error``)."""
         self._decoder.reset()
-        self._socket.connectToHost(host, port)
+        self.socket.connectToHost(host, port)
 
     def abort(self) -> None:
         """Drop the connection at once (no ``disconnected`` if it was not connected)."""
-        self._socket.abort()
+        self.socket.abort()
 
     def close(self) -> None:
         """Flush what is queued, then close."""
-        self._socket.disconnectFromHost()
+        self.socket.disconnectFromHost()
 
     def send(self, msg: Message) -> bool:
         """Encode ``msg`` and write it in one call; False when not connected or short write."""
@@ -103,7 +99,7 @@ class QtTcpConnection(QObject):
         if not self.is_connected:
             logger.debug("not connected; dropped %d bytes", len(data))
             return False
-        written = self._socket.write(data)
+        written = self.socket.write(data)
         if written != len(data):
             logger.warning("socket write returned %s for %d bytes", written, len(data))
             return False
@@ -111,7 +107,7 @@ class QtTcpConnection(QObject):
 
     # ---------------------------------------------------------------- slots
     def _set_low_delay(self) -> None:
-        self._socket.setSocketOption(QAbstractSocket.SocketOption.LowDelayOption, 1)
+        self.socket.setSocketOption(QAbstractSocket.SocketOption.LowDelayOption, 1)
 
     def _on_connected(self) -> None:
         self._set_low_delay()
@@ -121,10 +117,10 @@ class QtTcpConnection(QObject):
     def _on_ready_read(self) -> None:
         self._read_scheduled = False
         if self._max_read_bytes is None:
-            data = bytes(self._socket.readAll().data())
+            data = bytes(self.socket.readAll().data())
         else:
-            data = bytes(self._socket.read(self._max_read_bytes).data())
-            if self._socket.bytesAvailable() > 0 and not self._read_scheduled:
+            data = bytes(self.socket.read(self._max_read_bytes).data())
+            if self.socket.bytesAvailable() > 0 and not self._read_scheduled:
                 self._read_scheduled = True  # the rest next turn: let timers and clicks run
                 QTimer.singleShot(0, self, self._on_ready_read)
         for item in self._decoder.feed(data):
@@ -138,7 +134,7 @@ class QtTcpConnection(QObject):
     def _on_error(self, error: QAbstractSocket.SocketError) -> None:
         if error == QAbstractSocket.SocketError.RemoteHostClosedError:
             return  # an orderly close: `disconnected` reports it
-        self.socket_error.emit(self._socket.errorString())
+        self.socket_error.emit(self.socket.errorString())
 
     def _peer(self) -> str:
-        return f"{self._socket.peerAddress().toString()}:{self._socket.peerPort()}"
+        return f"{self.socket.peerAddress().toString()}:{self.socket.peerPort()}"

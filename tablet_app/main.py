@@ -119,9 +119,9 @@ def load_plan(topo: Path) -> tuple[RoomMap, OccupancyGrid | None]:
     """The rooms, and the occupancy grid under them when it can be read (else None)."""
     plan = load_room_map(topo)
     grid = None
-    if plan.map_yaml is not None:
+    if plan.topo.map_yaml_path is not None:
         try:
-            grid = load_map(plan.map_yaml)
+            grid = load_map(plan.topo.map_yaml_path)
         except MapLoadError as exc:
             logger.warning("floor image not shown: %s", exc)
     return plan, grid

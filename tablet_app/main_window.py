@@ -111,7 +111,7 @@ class TabletWindow(Retranslated, QMainWindow):
         self.clock = clock
         self.languages = languages or LanguageSwitcher(parent=self)
         self.shown_plan = plan.in_language(self.languages.language)
-        self.session = TabletSession(room_xy=plan.node_xy, home_room=plan.home_id)
+        self.session = TabletSession(room_xy=plan.node_xy, home_room=plan.topo.home_id)
         self._connection_detail = ""
         self._touch = 0
         self.kiosk = False  # set by `tablet_app.main.show_kiosk`: closing needs the gesture

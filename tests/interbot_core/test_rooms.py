@@ -67,7 +67,7 @@ def test_rooms_waypoints_shared_areas_and_default_squares() -> None:
         rooms.room(1)
     assert rooms.name(4) == "Office" and rooms.name(42) == "#42" and rooms.name(None) == "?"
     assert rooms.node_xy(2) == (8.0, 1.0) and rooms.node_xy(99) is None
-    assert rooms.home_id == 0
+    assert rooms.topo.home_id == 0
 
 
 def test_the_own_node_prefers_requests_then_tour_then_inside_then_lowest_id() -> None:
@@ -120,7 +120,7 @@ def test_load_room_map_reads_the_file_and_names_it(tmp_path: Path) -> None:
     path = tmp_path / "topo.yaml"
     path.write_text(yaml.safe_dump({"map": "floor.yaml", "nodes": NODES}), encoding="utf-8")
     rooms = load_room_map(path)
-    assert rooms.map_yaml == tmp_path / "floor.yaml" and rooms.source == str(path)
+    assert rooms.topo.map_yaml_path == tmp_path / "floor.yaml" and rooms.topo.source == str(path)
     path.write_text(path.read_text(encoding="utf-8").replace("kind: entrance", "kind: 7"))
     with pytest.raises(RoomMapError, match=r"topo.yaml: node 4: kind must be one of"):
         load_room_map(path)

@@ -15,7 +15,7 @@ def test_rooms_and_floor_image_of_the_fixture(topo_path: Path) -> None:
     plan, grid = load_plan(topo_path)
     assert [room.id for room in plan.rooms] == [0, 3, 4]
     assert plan.room(2).id == 3  # the lab's door is drawn as the lab
-    assert plan.map_yaml is not None and plan.map_yaml.name == "floor.yaml"
+    assert plan.topo.map_yaml_path is not None and plan.topo.map_yaml_path.name == "floor.yaml"
     assert grid is not None and plan.bounds() == (0.0, 0.0, 10.0, 5.0)
 
 
