@@ -85,7 +85,7 @@ class QtTabletPairing(QGroupBox):
 
     def _check_expiry(self) -> None:
         offer = self._auth.offer
-        if offer is None or not self._auth.registry.code_active(self._auth.now()):
+        if offer is None or not self._auth.registry.code_active(self._auth.clock()):
             self._auth.offer = None
             self._expiry.stop()
             self.refresh()

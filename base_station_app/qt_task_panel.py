@@ -40,7 +40,7 @@ class QtTaskPanel(QWidget):
     def __init__(self, controller: StationController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self._controller = c = controller
-        rooms = [n for n in controller.topo.nodes if self._is_room(n.id)]
+        rooms = [n for n in controller.topo.nodes if controller.rooms.in_a_room(n.id)]
 
         order = QGroupBox("Order a task")
         grid = QGridLayout(order)
@@ -137,9 +137,6 @@ class QtTaskPanel(QWidget):
         c.tasks_changed.connect(self.refresh)
         c.clocked.connect(self._refresh_buttons)
         self.refresh()
-
-    def _is_room(self, node_id: int) -> bool:
-        return self._controller.rooms.in_a_room(node_id)
 
     def _room(self) -> int | None:
         item = self.room_list.currentItem()

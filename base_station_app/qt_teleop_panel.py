@@ -117,7 +117,7 @@ class QtTeleopPanel(QWidget):
         return spin
 
     def _on_joystick(self, linear: float, angular: float) -> None:
-        self._controller.set_joystick(linear, angular, self.joystick.is_pressed)
+        self._controller.set_joystick(linear, angular, self.joystick.state.pressed)
 
     def _apply_limits(self) -> None:
         c = self._controller

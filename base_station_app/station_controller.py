@@ -584,11 +584,11 @@ class StationController(QObject):
     def press(self, direction: Direction) -> None:
         if self.estop_latched:
             return
-        self.arbiter.press(direction)
+        self.arbiter.keys.press(direction)
         self._teleop_changed()
 
     def release(self, direction: Direction) -> None:
-        self.arbiter.release(direction)
+        self.arbiter.keys.release(direction)
         self._teleop_changed()
 
     def set_joystick(self, linear: float, angular: float, pressed: bool) -> None:

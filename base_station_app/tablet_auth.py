@@ -197,7 +197,7 @@ class TabletAuthServer(QTcpServer):
         sha256 = QCryptographicHash.Algorithm.Sha256
         self.fingerprint = bytes(certificate.digest(sha256).data()).hex()
         self.registry = registry
-        self._clock = clock
+        self.clock = clock  # [s] what pairing codes expire on
         self._path = registry_path
         self._timeout = handshake_timeout_ms
         self._live: dict[str, list[QSslSocket]] = {}
@@ -242,17 +242,13 @@ class TabletAuthServer(QTcpServer):
         socket.startServerEncryption()
 
     # ------------------------------------------------------------------ pairing
-    def now(self) -> float:
-        """The clock codes expire on [s]."""
-        return self._clock()
-
     def new_offer(self, host: str | None = None) -> PairingOffer:
         """A fresh one-time code for a tablet to pair with (shown with its QR code)."""
         return self._call.run(lambda: self._new_offer_now(host))
 
     def _new_offer_now(self, host: str | None) -> PairingOffer:
         host = host or self.advertised_host
-        code, expires = self.registry.new_code(self._clock())
+        code, expires = self.registry.new_code(self.clock())
         self.offer = PairingOffer(host, int(self.serverPort()), self.fingerprint, code, expires)
         return self.offer
 
@@ -262,7 +258,7 @@ class TabletAuthServer(QTcpServer):
         Raises PairingError (its text is sent to the tablet) when refused.
         """
         if kind == "pair":
-            record, token = self.registry.pair(secret, name, self._clock())
+            record, token = self.registry.pair(secret, name, self.clock())
             self.offer = None
             self._save()
             self.tablets_changed.emit()

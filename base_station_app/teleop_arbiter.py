@@ -22,7 +22,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 
-from base_station_app.teleop import Direction, TeleopInput
+from base_station_app.teleop import TeleopInput
 from interbot_core import protocol as p
 from interbot_core.speed_freshness import SpeedFreshness
 from interbot_core.topics import Twist
@@ -112,9 +112,3 @@ class TeleopArbiter:
             command = (0.0, 0.0)
         self._keys_were_active = self.keys.active
         return command
-
-    def press(self, direction: Direction) -> None:
-        self.keys.press(direction)
-
-    def release(self, direction: Direction) -> None:
-        self.keys.release(direction)

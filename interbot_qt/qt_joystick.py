@@ -47,26 +47,14 @@ class QtJoystick(QWidget):
         self.setAttribute(Qt.WidgetAttribute.WA_AcceptTouchEvents, True)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
         self.setMinimumSize(120, 120)
-        self._state = JoystickState(60.0, 60.0, 50.0, linear_max, angular_max)
+        self.state = JoystickState(60.0, 60.0, 50.0, linear_max, angular_max)
         self._knob: QPointF | None = None  # widget position of the (clamped) press
         self._update_geometry()
 
     # ---------------------------------------------------------------- public API
-    @property
-    def linear_max(self) -> float:
-        return self._state.linear_max
-
-    @property
-    def angular_max(self) -> float:
-        return self._state.angular_max
-
-    @property
-    def is_pressed(self) -> bool:
-        return self._state.pressed
-
     def command(self) -> tuple[float, float]:
         """The current (linear [m/s], angular [rad/s]); zero when not pressed."""
-        return self._state.command
+        return self.state.command
 
     def center(self) -> QPointF:
         return QPointF(self.width() / 2.0, self.height() / 2.0)
@@ -78,8 +66,8 @@ class QtJoystick(QWidget):
 
     def set_limits(self, linear_max: float, angular_max: float) -> None:
         """New maximum speeds [m/s], [rad/s]; a held joystick re-emits its command."""
-        command = self._state.set_limits(linear_max, angular_max)
-        if self._state.pressed:
+        command = self.state.set_limits(linear_max, angular_max)
+        if self.state.pressed:
             self.speed_changed.emit(*command)
         self.update()
 
@@ -88,8 +76,8 @@ class QtJoystick(QWidget):
 
     # ---------------------------------------------------------------- input
     def _press(self, pos: QPointF) -> None:
-        was_pressed = self._state.pressed
-        command = self._state.press(pos.x(), pos.y())
+        was_pressed = self.state.pressed
+        command = self.state.press(pos.x(), pos.y())
         self._knob = self._clamped(pos)
         if not was_pressed:
             self.pressed.emit()
@@ -97,9 +85,9 @@ class QtJoystick(QWidget):
         self.update()
 
     def _release(self) -> None:
-        if not self._state.pressed:
+        if not self.state.pressed:
             return
-        command = self._state.release()
+        command = self.state.release()
         self._knob = None
         self.speed_changed.emit(*command)
         self.released.emit()
@@ -136,7 +124,7 @@ class QtJoystick(QWidget):
             event.accept()
 
     def mouseMoveEvent(self, event: QMouseEvent) -> None:
-        if self._state.pressed and event.buttons() & Qt.MouseButton.LeftButton:
+        if self.state.pressed and event.buttons() & Qt.MouseButton.LeftButton:
             self._press(event.position())
             event.accept()
 
@@ -153,7 +141,7 @@ class QtJoystick(QWidget):
     # ---------------------------------------------------------------- geometry and painting
     def _update_geometry(self) -> None:
         c = self.center()
-        self._state.set_geometry(c.x(), c.y(), self.radius())
+        self.state.set_geometry(c.x(), c.y(), self.radius())
 
     def resizeEvent(self, event: QResizeEvent) -> None:
         self._update_geometry()

@@ -120,9 +120,11 @@ class QtJoystickScreen(Retranslated, QWidget):
         self._connection.send(self._speed(0.0, 0.0))
 
     def _step(self, d_linear: float, d_angular: float) -> None:
-        linear = min(LINEAR_RANGE[1], max(LINEAR_RANGE[0], self.joystick.linear_max + d_linear))
+        linear = min(
+            LINEAR_RANGE[1], max(LINEAR_RANGE[0], self.joystick.state.linear_max + d_linear)
+        )
         angular = min(
-            ANGULAR_RANGE[1], max(ANGULAR_RANGE[0], self.joystick.angular_max + d_angular)
+            ANGULAR_RANGE[1], max(ANGULAR_RANGE[0], self.joystick.state.angular_max + d_angular)
         )
         self.joystick.set_limits(round(linear, 2), round(angular, 2))
         self._show_limits()
@@ -169,8 +171,8 @@ class QtJoystickScreen(Retranslated, QWidget):
             )
 
     def _show_limits(self) -> None:
-        self.linear_value.setText(f"{self.joystick.linear_max:.1f} m/s")
-        self.angular_value.setText(f"{self.joystick.angular_max:.1f} rad/s")
+        self.linear_value.setText(f"{self.joystick.state.linear_max:.1f} m/s")
+        self.angular_value.setText(f"{self.joystick.state.angular_max:.1f} rad/s")
 
     def retranslate(self) -> None:
         self.warning_label.setText(

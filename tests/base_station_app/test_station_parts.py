@@ -109,10 +109,10 @@ def test_arbiter_forwards_fresh_tablet_commands_once_and_zeroes_once() -> None:
 
 def test_arbiter_keys_send_while_held_and_one_zero_on_release() -> None:
     arb = TeleopArbiter(0.5, 0.4, 1.0)
-    arb.press(Direction.FORWARD)
+    arb.keys.press(Direction.FORWARD)
     assert arb.keys_changed(stopped=False) == (0.4, 0.0)
     assert arb.keys_command(stopped=True) is None  # nothing during a stop
-    arb.release(Direction.FORWARD)
+    arb.keys.release(Direction.FORWARD)
     assert arb.keys_changed(stopped=False) == (0.0, 0.0)
     assert arb.keys_changed(stopped=False) is None
 

@@ -61,7 +61,7 @@ def test_touch_inside_outside_and_release(qtbot: Any, joystick: QtJoystick) -> N
     with qtbot.waitSignal(joystick.released):
         touch(joystick, device, "release", corner)
     assert speeds[-1] == (0.0, 0.0)
-    assert not joystick.is_pressed
+    assert not joystick.state.pressed
 
 
 def test_mouse_press_drag_release(qtbot: Any, joystick: QtJoystick) -> None:

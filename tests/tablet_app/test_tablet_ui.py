@@ -309,8 +309,8 @@ def _expected_speed(joystick: Any, point: QPoint) -> dict[str, Any]:
         point.x(),
         point.y(),
         joystick.radius(),
-        joystick.linear_max,
-        joystick.angular_max,
+        joystick.state.linear_max,
+        joystick.state.angular_max,
     )
     return {"speed": {"linear": round(linear, 3) + 0.0, "angular": round(angular, 3) + 0.0}}
 
@@ -322,9 +322,9 @@ def test_joystick_touch_sends_speeds_every_100ms_and_zero_on_release(
     screen = window.joystick_screen
     joystick = screen.joystick
     click(screen.linear_up)  # 0.3 m/s is the most the robot allows the tablet
-    assert joystick.linear_max == pytest.approx(0.3)
+    assert joystick.state.linear_max == pytest.approx(0.3)
     click(screen.linear_down)  # 0.3 -> 0.2 m/s
-    assert joystick.linear_max == pytest.approx(0.2)
+    assert joystick.state.linear_max == pytest.approx(0.2)
     c = joystick.center().toPoint()
     r = joystick.radius()
     inside = c + QPoint(-round(r * 0.3), -round(r * 0.5))
