@@ -141,8 +141,8 @@ class TabletServer(QObject):
         self._server.setParent(self)
         self._server.pendingConnectionAvailable.connect(self._on_new_connection)
         self._conn: QtTcpConnection | None = None
-        self._peer = ""
-        self._greeted = False
+        self.peer = ""
+        self.greeted = False  # the tablet said hello (False: compatibility mode, or nobody)
         self._ping_seq = 0
         self._ping_timer = QTimer(self)
         self._ping_timer.setInterval(ping_interval_ms)
@@ -201,15 +201,6 @@ class TabletServer(QObject):
     def is_connected(self) -> bool:
         return self._conn is not None and self._conn.is_connected
 
-    @property
-    def peer(self) -> str:
-        return self._peer
-
-    @property
-    def greeted(self) -> bool:
-        """True once the tablet said hello (False: compatibility mode, or nobody connected)."""
-        return self._greeted
-
     def listen(self) -> bool:
         return bool(self._call.run(self._listen_now))
 
@@ -258,7 +249,7 @@ class TabletServer(QObject):
             return
         queued = conn.socket.bytesToWrite()
         logger.warning(
-            "tablet %s does not read (%d bytes queued): disconnecting", self._peer, queued
+            "tablet %s does not read (%d bytes queued): disconnecting", self.peer, queued
         )
         self.protocol_error.emit(f"tablet does not read ({queued} bytes queued): disconnected")
         conn.abort()  # disconnected() follows and frees the slot
@@ -267,9 +258,9 @@ class TabletServer(QObject):
         if not self.is_connected:
             return
         now = self._clock()
-        if self._greeted and now - self._last_pong > self.pong_timeout_s:
+        if self.greeted and now - self._last_pong > self.pong_timeout_s:
             why = f"no pong for {now - self._last_pong:.1f} s"
-            logger.warning("tablet %s: %s; disconnecting", self._peer, why)
+            logger.warning("tablet %s: %s; disconnecting", self.peer, why)
             self.protocol_error.emit(f"tablet gone: {why}")
             if self._conn is not None:
                 self._conn.abort()
@@ -283,7 +274,7 @@ class TabletServer(QObject):
 
     def _disconnect_now(self, reason: str) -> None:
         if self._conn is not None:
-            logger.info("closing the tablet connection %s: %s", self._peer, reason)
+            logger.info("closing the tablet connection %s: %s", self.peer, reason)
             self._conn.close()
 
     # ------------------------------------------------------------------ slots
@@ -294,7 +285,7 @@ class TabletServer(QObject):
                 return
             peer = f"{socket.peerAddress().toString()}:{socket.peerPort()}"
             if self._conn is not None:
-                self._refuse(socket, peer, f"another tablet ({self._peer}) is connected")
+                self._refuse(socket, peer, f"another tablet ({self.peer}) is connected")
                 continue
             self._accept(socket, peer)
 
@@ -310,8 +301,8 @@ class TabletServer(QObject):
         enable_keepalive(socket, *KEEPALIVE)
         conn = QtTcpConnection(socket, parent=self, max_read_bytes=MAX_READ_BYTES)
         self._conn = conn
-        self._peer = peer
-        self._greeted = False
+        self.peer = peer
+        self.greeted = False
         self._budget.reset()
         self.policy.reset()
         self._newest_speed = None
@@ -331,9 +322,9 @@ class TabletServer(QObject):
         self._conn = None
         self._ping_timer.stop()
         conn.deleteLater()
-        logger.info("tablet %s disconnected; waiting for the next one", self._peer)
-        self._peer = ""
-        self._greeted = False
+        logger.info("tablet %s disconnected; waiting for the next one", self.peer)
+        self.peer = ""
+        self.greeted = False
         self.disconnected.emit()
 
     def _report(self, error: ProtocolError) -> None:
@@ -376,7 +367,7 @@ class TabletServer(QObject):
             self.speed_received.emit(speed)
         error = self.policy.end_turn(self._clock())
         if error is not None and self._conn is not None:
-            logger.warning("tablet %s: %s", self._peer, error)
+            logger.warning("tablet %s: %s", self.peer, error)
             self.send(ErrorReport("rate_limited", error))
 
     def _on_hello(self, hello: Hello) -> None:
@@ -386,8 +377,8 @@ class TabletServer(QObject):
                 f"protocol {PROTOCOL_VERSION}"
             )
             self.send(Refused(reason))
-            self.refused.emit(self._peer, reason)
+            self.refused.emit(self.peer, reason)
             self.disconnect_tablet(reason)
             return
-        self._greeted = True
+        self.greeted = True
         self.send(Welcome(PROTOCOL_VERSION, self._robot_name()))

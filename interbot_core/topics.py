@@ -446,11 +446,6 @@ class SafetyMsg(JsonMessage, frozen=True):
 _JSON_ENCODER: Final = msgspec.json.Encoder()
 
 
-def encode_json(message: JsonMessage) -> bytes:
-    """Compact UTF-8 JSON of a message (no NaN: fields are validated finite)."""
-    return _JSON_ENCODER.encode(message)
-
-
 M = TypeVar("M", bound=JsonMessage)
 
 
@@ -740,7 +735,7 @@ def encode(topic: Topic | str, message: object) -> bytes:
         raise MessageValueError(
             f"{spec.topic} carries {spec.message_type.__name__}, not {type(message).__name__}"
         )
-    return encode_json(message)
+    return _JSON_ENCODER.encode(message)  # compact; no NaN: fields are validated finite
 
 
 def decode(topic: Topic | str, payload: bytes) -> object:
