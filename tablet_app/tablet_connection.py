@@ -86,9 +86,9 @@ class TabletConnection(QObject):
         self._link.setParent(self)
         self._monitor = LatencyMonitor(latency)
         self._backoff = ReconnectBackoff(backoff)
-        self._state = ConnectionState.DISCONNECTED
+        self.state = ConnectionState.DISCONNECTED
         self._running = False
-        self._lossy = True
+        self.is_lossy = True  # commands would not be obeyed: not connected, or pongs late/slow
         self._seq = 0
         self.robot_name = ""
 
@@ -122,18 +122,10 @@ class TabletConnection(QObject):
         return timer
 
     # ---------------------------------------------------------------- public API
-    @property
-    def state(self) -> ConnectionState:
-        return self._state
 
     @property
     def is_connected(self) -> bool:
-        return self._state == ConnectionState.CONNECTED
-
-    @property
-    def is_lossy(self) -> bool:
-        """True while commands would not be obeyed: not connected, or pongs late/slow."""
-        return self._lossy
+        return self.state == ConnectionState.CONNECTED
 
     @property
     def average_latency_ms(self) -> float | None:
@@ -164,13 +156,13 @@ class TabletConnection(QObject):
 
     # ---------------------------------------------------------------- connection life cycle
     def _set_state(self, state: ConnectionState) -> None:
-        if state != self._state:
-            self._state = state
+        if state != self.state:
+            self.state = state
             self.state_changed.emit(state.value)
 
     def _set_lossy(self, lossy: bool) -> None:
-        if lossy != self._lossy:
-            self._lossy = lossy
+        if lossy != self.is_lossy:
+            self.is_lossy = lossy
             self.link_lossy_changed.emit(lossy)
 
     def _connect_now(self) -> None:
@@ -208,7 +200,7 @@ class TabletConnection(QObject):
         logger.info("connected to the Base Station %s:%d", self.host, self.port)
 
     def _on_disconnected(self) -> None:
-        was_connected = self._state == ConnectionState.CONNECTED
+        was_connected = self.state == ConnectionState.CONNECTED
         if was_connected:
             logger.info("Base Station closed the connection")
         self._schedule_reconnect()
@@ -217,11 +209,11 @@ class TabletConnection(QObject):
 
     def _on_socket_error(self, text: str) -> None:
         logger.info("socket error: %s", text)
-        if self._state != ConnectionState.CONNECTED:
+        if self.state != ConnectionState.CONNECTED:
             self._schedule_reconnect()
 
     def _on_connect_timeout(self) -> None:
-        if self._state == ConnectionState.CONNECTING:
+        if self.state == ConnectionState.CONNECTING:
             logger.info("connecting to %s:%d timed out", self.host, self.port)
             self._link.abort()
             self._schedule_reconnect()
