@@ -30,16 +30,12 @@ class QtCameraView(QLabel):
         super().__init__("no camera image", parent)
         self._controller = controller
         self._version = -1
-        self._image = QImage()
+        self.image = QImage()
         self.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.setMinimumSize(160, 120)
         self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Ignored)
         self.setStyleSheet("color: #606060;")
         controller.frame_ready.connect(self.refresh)
-
-    @property
-    def image(self) -> QImage:
-        return self._image
 
     def refresh(self) -> None:
         state = self._controller.selected.state
@@ -51,21 +47,21 @@ class QtCameraView(QLabel):
             logger.warning("camera frame is not a decodable JPEG")
             return
         aspect = image.width() / image.height()
-        if self._image.isNull() or abs(aspect - self.aspect) > 1e-3:
-            self._image = image
+        if self.image.isNull() or abs(aspect - self.aspect) > 1e-3:
+            self.image = image
             self.aspect_changed.emit(aspect)
-        self._image = image
+        self.image = image
         self._show()
 
     @property
     def aspect(self) -> float:
         """Width / height of the newest frame (4:3 before the first)."""
-        return 4 / 3 if self._image.isNull() else self._image.width() / self._image.height()
+        return 4 / 3 if self.image.isNull() else self.image.width() / self.image.height()
 
     def _show(self) -> None:
-        if not self._image.isNull():
+        if not self.image.isNull():
             self.setPixmap(
-                QPixmap.fromImage(self._image).scaled(
+                QPixmap.fromImage(self.image).scaled(
                     self.size(),
                     Qt.AspectRatioMode.KeepAspectRatio,
                     Qt.TransformationMode.SmoothTransformation,

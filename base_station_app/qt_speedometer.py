@@ -25,17 +25,13 @@ class QtSpeedometer(QWidget):
         self._title = title
         self._unit = unit
         self._maximum = maximum
-        self._value = 0.0
+        self.value = 0.0
         self.setMinimumSize(120, 110)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
 
-    @property
-    def value(self) -> float:
-        return self._value
-
     def set_value(self, value: float) -> None:
-        if value != self._value:
-            self._value = value
+        if value != self.value:
+            self.value = value
             self.update()
 
     def sizeHint(self) -> QSize:
@@ -43,7 +39,7 @@ class QtSpeedometer(QWidget):
 
     def needle_angle_deg(self) -> float:
         """Needle angle, degrees counter-clockwise from +x (90 = straight up at zero)."""
-        frac = max(-1.0, min(1.0, self._value / self._maximum))
+        frac = max(-1.0, min(1.0, self.value / self._maximum))
         return 90.0 - frac * SWEEP_DEG / 2.0
 
     def paintEvent(self, event: QPaintEvent) -> None:
@@ -70,6 +66,6 @@ class QtSpeedometer(QWidget):
         painter.drawText(
             text_rect,
             Qt.AlignmentFlag.AlignHCenter | Qt.AlignmentFlag.AlignTop,
-            f"{self._title}\n{self._value:+.2f} {self._unit}",
+            f"{self._title}\n{self.value:+.2f} {self._unit}",
         )
         painter.end()
