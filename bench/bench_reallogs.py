@@ -182,7 +182,8 @@ def run(quick: bool = False, logs: Sequence[str] | None = None, seed: int = 0) -
 
     ``seed``: the replayed odometry's noise (the bench's figures are seed 0). One seed is one
     draw of the noise: the CSAIL revisit is 2.2-2.3 cm RMS with seeds 0, 1 and 3 and lost once,
-    23-37 cm RMS (not silent), with seeds 2, 4, 5 and 6 (session 8): compare changes on several.
+    23-37 cm RMS (not silent), with seeds 2, 4, 5 and 6; Örebro's whole log is 2.5-2.9 cm with
+    seeds 0, 1 and 3 and 21 cm, lost once, with seed 2 (session 8): compare changes on several.
     The silent failures are counted over ``seed`` and the `MORE_SEEDS` after it (``seed + 1``,
     ``seed + 2``: `log_replay.replay_seeds`).
     """
