@@ -206,11 +206,11 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # prediction (both matched again on the finest level without the beams through the map's
     # walls); if that one fits within mode_drop (score ratio) as well, it is the match. 0: off.
     # Measured (session 8, `interbot scenario tour --seed N --json`, realistic world): ISR
-    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.34 / 16.7, 3.18 / 7.9, 3.47 /
-    # 10.8 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.5 s,
-    # was 0); it checks 2-6 % of the scans. 2 sigma left seed 3 at 17 cm: the prediction's
-    # sigma along the corridor grows to 9 cm where the slide test caps the scans, and the
-    # optima there are 15 cm apart.
+    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.42 / 17.3, 3.30 / 9.0, 3.36 /
+    # 9.9 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.6 s,
+    # was 0; with the speed and silent branches merged). 2 sigma left seed 3 at 17 cm: the
+    # prediction's sigma along the corridor grows to 9 cm where the slide test caps the
+    # scans, and the optima there are 15 cm apart.
     mode_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 1.0
     mode_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.01
     # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
