@@ -206,11 +206,11 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # prediction (both matched again on the finest level without the beams through the map's
     # walls); if that one fits within mode_drop (score ratio) as well, it is the match. 0: off.
     # Measured (session 8, `interbot scenario tour --seed N --json`, realistic world): ISR
-    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.34 / 16.7, 3.18 / 7.9, 3.47 /
-    # 10.8 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.5 s,
-    # was 0); it checks 2-6 % of the scans. 2 sigma left seed 3 at 17 cm: the prediction's
-    # sigma along the corridor grows to 9 cm where the slide test caps the scans, and the
-    # optima there are 15 cm apart.
+    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.42 / 17.3, 3.30 / 9.0, 3.36 /
+    # 9.9 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.6 s,
+    # was 0; with the speed and silent branches merged). 2 sigma left seed 3 at 17 cm: the
+    # prediction's sigma along the corridor grows to 9 cm where the slide test caps the
+    # scans, and the optima there are 15 cm apart.
     mode_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 1.0
     mode_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.01
     # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
@@ -1241,8 +1241,8 @@ class Localiser:
         prediction favours: the two hypotheses are compared by fit (within ``mode_drop``:
         alike) and then by Mahalanobis distance to the prediction.
 
-        Checked only when the match lies more than ``mode_sigma`` sigmas (position) from a
-        prediction tight enough to judge by (``gate_max_sigma_m``, its heading
+        Checked only when the match lies more than ``mode_sigma`` sigmas (position), and two
+        widths of the finest level's field, from a prediction tight enough to judge by (``gate_max_sigma_m``, its heading
         ``gate_max_sigma_rad``: after the CSAIL revisit's 40-48 degree turns between 1 Hz
         scans the heading is 4.5 degrees off, the far match is the correction, and good beams
         look through walls at the prediction; checked there, one scan was lost). Both
@@ -1268,6 +1268,11 @@ class Localiser:
         far_off = np.array([result.pose.x - predicted.x, result.pose.y - predicted.y])
         d2_far = float(far_off @ inv @ far_off)
         if d2_far <= cfg.mode_sigma**2:
+            return result
+        # Two optima of the finest level's field lie at least two of its widths apart (closer
+        # ones merge into one): a match nearer the prediction is no other mode (speed: at the
+        # real logs' 1 Hz, 6 scans in 10 lie more than 1 sigma off and were checked in vain).
+        if math.hypot(far_off[0], far_off[1]) < 2.0 * self.matcher.levels[0].sigma:
             return result
         fine = subsample_points(points, cfg.matcher.max_points)
         through, _ = self._trace_impossible(fine, predicted, fine.shape[0])
