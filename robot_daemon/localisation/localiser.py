@@ -184,23 +184,6 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # a pose on the slide profile scoring this much better: re-match
     slide_better: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
     slide_points: Annotated[int, Meta(ge=20, le=5000)] = 150  # end points the slide test uses
-    # A look-alike of the prediction (`_lookalike_of_prediction`): where the slide test has
-    # capped the information along the weak direction, a match more than lookalike_sigma
-    # sigmas of the prediction from it there, at a pose the prediction itself fits within
-    # lookalike_drop of (score ratio), has only jumped to another optimum of a repetitive
-    # scene: no information along that direction from this scan. 0: off.
-    # OFF by default: measured (2026-11-24, load 6-10) with 2 sigma and a drop of 0.02, it
-    # removes ISR seed 3's drift at x = 22.5-24 m (16 cm, reported sigma 6 cm -> the 4 cm of
-    # the corridor before it; tour RMS 4.3 -> 4.1 cm, the max stays the pane's 21 cm; with
-    # beam gating also on 3.4 / 9.6 cm) and improves the Intel and ACES revisits (2.81 ->
-    # 2.66, 1.99 -> 1.88 cm), but seed 1 goes 4.4 / 17.4 -> 4.6 / 18.1 cm (worse already
-    # before its path changes), seed 2's max 8.0 -> 8.7 cm and Freiburg 079 3.11 / 3.24 ->
-    # 3.12 / 3.27 cm. Without the drop test (2 sigma alone) seeds 1 and 3 gain (4.2 / 17.4,
-    # 3.9 / 19.5 cm) but Freiburg 079's revisit goes 3.11 -> 3.73 cm. Scores within 1-2 % of
-    # 1 counted as equal in the slide test itself fix seed 3 too, but leave the corridors
-    # degraded for 310-560 s of the tour (0 s today).
-    lookalike_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 0.0
-    lookalike_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02
     # Two optima of one scan (`_nearest_mode`): a match more than mode_sigma sigmas of the
     # prediction from it (Mahalanobis, position) is checked against the optimum nearest the
     # prediction (both matched again on the finest level without the beams through the map's
@@ -525,14 +508,14 @@ class Localiser:
                 result = self.matcher.match(gated, predicted, start)
                 result = self._nearest_mode(gated, result, predicted, cov_pred)
             self._first_match = False
-            info, better = self._slide_test(gated, result, cov_pred, predicted)
+            info, better = self._slide_test(gated, result, cov_pred)
             if better is not None:
                 # The profile along the weak direction found a clearly better fit: the match
                 # stopped in a local optimum of a corridor. Match again from there.
                 retry = self.matcher.match(gated, better, min(1, len(self.matcher.levels) - 1))
                 if retry.score > result.score:
                     result = retry
-                    info, _ = self._slide_test(gated, result, cov_pred, predicted)
+                    info, _ = self._slide_test(gated, result, cov_pred)
             fused = self._fuse(predicted, cov_pred, result, step, info)
             if fused is None:
                 pose, cov = predicted, cov_pred
@@ -1135,7 +1118,6 @@ class Localiser:
         points: FloatArray,
         result: MatchResult,
         cov_pred: FloatArray | None = None,
-        predicted: Pose2D | None = None,
     ) -> tuple[FloatArray, Pose2D | None]:
         """The match's information (`match_information`) with its information along the
         scan's weakest position direction ``d`` limited to what sliding the scan along ``d``
@@ -1182,7 +1164,7 @@ class Localiser:
                 shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
             elif col == 1:
                 break
-            info, found = self._slide_along(points, result, info, v, shift, cov_pred, predicted)
+            info, found = self._slide_along(points, result, info, v, shift)
             better = better or found
         return info, better
 
@@ -1193,8 +1175,6 @@ class Localiser:
         info: FloatArray,
         v: FloatArray,
         shift: float,
-        cov_pred: FloatArray | None = None,
-        predicted: Pose2D | None = None,
     ) -> tuple[FloatArray, Pose2D | None]:
         """`_slide_test` along one direction ``v`` (unit, x y yaw) up to ``shift`` [m]."""
         cfg = self.config
@@ -1218,8 +1198,6 @@ class Localiser:
         supported = fraction * n_eff / cfg.match_sigma_m**2
         if supported >= dd:
             return info, better
-        if self._lookalike_of_prediction(points, result, v, cov_pred, predicted):
-            supported = 0.0
         idv = info @ v
         out: FloatArray = info - np.outer(idv, idv) / dd
         out += supported * np.outer(v, v)
@@ -1286,38 +1264,6 @@ class Localiser:
         if near.score >= (1.0 - cfg.mode_drop) * far.score:
             return near
         return result
-
-    def _lookalike_of_prediction(
-        self,
-        points: FloatArray,
-        result: MatchResult,
-        v: FloatArray,
-        cov_pred: FloatArray | None,
-        predicted: Pose2D | None,
-    ) -> bool:
-        """Whether the match, along a direction ``v`` where the slide test found the scan
-        ambiguous, lies more than ``lookalike_sigma`` sigmas of the prediction from the
-        predicted pose while the scan fits there within ``lookalike_drop`` as well
-        (`slide_profile`, the prediction projected on ``v``).
-
-        Such a match has jumped to another optimum of a repetitive scene, not measured the
-        pose: its offset along ``v`` is no evidence, yet fused scan after scan with the little
-        information the slide test leaves it, it drags the pose and keeps the covariance
-        small (realistic ISR tour, seed 3, the north corridor at x = 22.5-24 m: matches
-        alternating between the right pose and one 13-15 cm east, where the slide test left
-        1 % of the information along the corridor, took the pose 11 cm east in 1.5 m of
-        travel with exact odometry, reported sigma 5-6 cm while 15 cm off). A prediction
-        that fits clearly worse (an odometry that has drifted) is corrected as before."""
-        cfg = self.config
-        if cfg.lookalike_sigma <= 0.0 or cov_pred is None or predicted is None:
-            return False
-        p = result.pose
-        t = (predicted.x - p.x) * v[0] + (predicted.y - p.y) * v[1]
-        spread = math.sqrt(max(float(v @ cov_pred @ v), 0.0))
-        if abs(t) <= cfg.lookalike_sigma * spread:
-            return False
-        ratio = self.slide_profile(points, p, v, np.array([abs(t)]))[0 if t > 0.0 else 1, 0]
-        return bool(ratio >= 1.0 - cfg.lookalike_drop)
 
     def _fuse(
         self,
