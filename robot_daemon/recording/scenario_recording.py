@@ -22,7 +22,6 @@ from interbot_core.topics import (
     Battery,
     Odom,
     PoseMsg,
-    RouteMsg,
     Status,
     Topic,
     Twist,
@@ -131,16 +130,7 @@ class ScenarioRecorder:
         route = stack.route
         if route is not None and route.route_id != self._route_id:
             self._route_id = route.route_id
-            waypoints = tuple((g.x, g.y, g.yaw) for g in route.goals)
-            message = RouteMsg(
-                route.route_id,
-                waypoints,
-                route.node_ids,
-                route.approach_tolerance,
-                route.goal_tolerance,
-                route.yaw_tolerance,
-            )
-            rec.command(Topic.ROUTE, message, t, source=SCENARIO)
+            rec.command(Topic.ROUTE, route.msg, t, source=SCENARIO)
         if route is not None:
             key = (route.route_id, route.index, route.state)
             if key != self._route_key:
