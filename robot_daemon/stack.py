@@ -38,11 +38,12 @@ import math
 import threading
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import numpy.typing as npt
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT, LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -90,12 +91,8 @@ class StackConfig:
     degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
 
     def __post_init__(self) -> None:
-        if not (
-            math.isfinite(self.degraded_speed_scale) and 0.0 <= self.degraded_speed_scale <= 1.0
-        ):
-            raise StackError(
-                f"degraded_speed_scale must be in [0, 1], got {self.degraded_speed_scale}"
-            )
+        scale = Annotated[float, schema.within(0.0, 1.0)]
+        schema.checked(self.degraded_speed_scale, scale, "degraded_speed_scale", StackError)
 
 
 @dataclass
