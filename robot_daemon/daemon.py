@@ -166,7 +166,10 @@ class Daemon:
         else:
             logger.warning("no topological map %s: goals by node id are refused", config.topo_yaml)
         rates = config.rates
-        self.start_pose = self._start_pose(options.start_node)
+        self.start_pose = Pose2D(0.0, 0.0, 0.0)
+        if self.topo is not None:
+            node = self.topo.home_id if options.start_node is None else options.start_node
+            self.start_pose = self.topo.node(node).pose
         if backend is None:
             if config.backend == "hardware":
                 backend = build_hardware_backend(config)
@@ -218,12 +221,6 @@ class Daemon:
             # stop (it re-asserts its operator's stop, or releases it, on every connection).
             self.stack.on_lock(STOP_TOPIC, True, 0.0)
             self.stack.on_lock(STOP_TOPIC, False, 0.0)  # latched, released only by stop_release
-
-    def _start_pose(self, start_node: int | None) -> Pose2D:
-        if self.topo is None:
-            return Pose2D(0.0, 0.0, 0.0)
-        node = self.topo.home_id if start_node is None else start_node
-        return self.topo.node(node).pose
 
     # -- time ------------------------------------------------------------------------------
 
