@@ -184,33 +184,16 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # a pose on the slide profile scoring this much better: re-match
     slide_better: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.05
     slide_points: Annotated[int, Meta(ge=20, le=5000)] = 150  # end points the slide test uses
-    # A look-alike of the prediction (`_lookalike_of_prediction`): where the slide test has
-    # capped the information along the weak direction, a match more than lookalike_sigma
-    # sigmas of the prediction from it there, at a pose the prediction itself fits within
-    # lookalike_drop of (score ratio), has only jumped to another optimum of a repetitive
-    # scene: no information along that direction from this scan. 0: off.
-    # OFF by default: measured (2026-11-24, load 6-10) with 2 sigma and a drop of 0.02, it
-    # removes ISR seed 3's drift at x = 22.5-24 m (16 cm, reported sigma 6 cm -> the 4 cm of
-    # the corridor before it; tour RMS 4.3 -> 4.1 cm, the max stays the pane's 21 cm; with
-    # beam gating also on 3.4 / 9.6 cm) and improves the Intel and ACES revisits (2.81 ->
-    # 2.66, 1.99 -> 1.88 cm), but seed 1 goes 4.4 / 17.4 -> 4.6 / 18.1 cm (worse already
-    # before its path changes), seed 2's max 8.0 -> 8.7 cm and Freiburg 079 3.11 / 3.24 ->
-    # 3.12 / 3.27 cm. Without the drop test (2 sigma alone) seeds 1 and 3 gain (4.2 / 17.4,
-    # 3.9 / 19.5 cm) but Freiburg 079's revisit goes 3.11 -> 3.73 cm. Scores within 1-2 % of
-    # 1 counted as equal in the slide test itself fix seed 3 too, but leave the corridors
-    # degraded for 310-560 s of the tour (0 s today).
-    lookalike_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 0.0
-    lookalike_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.02
     # Two optima of one scan (`_nearest_mode`): a match more than mode_sigma sigmas of the
     # prediction from it (Mahalanobis, position) is checked against the optimum nearest the
     # prediction (both matched again on the finest level without the beams through the map's
     # walls); if that one fits within mode_drop (score ratio) as well, it is the match. 0: off.
     # Measured (session 8, `interbot scenario tour --seed N --json`, realistic world): ISR
-    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.34 / 16.7, 3.18 / 7.9, 3.47 /
-    # 10.8 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.5 s,
-    # was 0); it checks 2-6 % of the scans. 2 sigma left seed 3 at 17 cm: the prediction's
-    # sigma along the corridor grows to 9 cm where the slide test caps the scans, and the
-    # optima there are 15 cm apart.
+    # seeds 1-3 4.44 / 17.4, 3.23 / 8.0, 4.34 / 21.3 cm -> 4.42 / 17.3, 3.30 / 9.0, 3.36 /
+    # 9.9 cm (all stops, 0 collisions, 0 losses, 0 silent failures; seed 1 degraded 3.6 s,
+    # was 0; with the speed and silent branches merged). 2 sigma left seed 3 at 17 cm: the
+    # prediction's sigma along the corridor grows to 9 cm where the slide test caps the
+    # scans, and the optima there are 15 cm apart.
     mode_sigma: Annotated[float, Meta(ge=0.0, le=100.0)] = 1.0
     mode_drop: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.01
     # Mahalanobis gate on the match (chi-square, 3 dof, 99.9 %)
@@ -525,14 +508,14 @@ class Localiser:
                 result = self.matcher.match(gated, predicted, start)
                 result = self._nearest_mode(gated, result, predicted, cov_pred)
             self._first_match = False
-            info, better = self._slide_test(gated, result, cov_pred, predicted)
+            info, better = self._slide_test(gated, result, cov_pred)
             if better is not None:
                 # The profile along the weak direction found a clearly better fit: the match
                 # stopped in a local optimum of a corridor. Match again from there.
                 retry = self.matcher.match(gated, better, min(1, len(self.matcher.levels) - 1))
                 if retry.score > result.score:
                     result = retry
-                    info, _ = self._slide_test(gated, result, cov_pred, predicted)
+                    info, _ = self._slide_test(gated, result, cov_pred)
             fused = self._fuse(predicted, cov_pred, result, step, info)
             if fused is None:
                 pose, cov = predicted, cov_pred
@@ -1135,7 +1118,6 @@ class Localiser:
         points: FloatArray,
         result: MatchResult,
         cov_pred: FloatArray | None = None,
-        predicted: Pose2D | None = None,
     ) -> tuple[FloatArray, Pose2D | None]:
         """The match's information (`match_information`) with its information along the
         scan's weakest position direction ``d`` limited to what sliding the scan along ``d``
@@ -1182,7 +1164,7 @@ class Localiser:
                 shift = min(max(shift, spread), max(cfg.slide_max_m, shift))
             elif col == 1:
                 break
-            info, found = self._slide_along(points, result, info, v, shift, cov_pred, predicted)
+            info, found = self._slide_along(points, result, info, v, shift)
             better = better or found
         return info, better
 
@@ -1193,8 +1175,6 @@ class Localiser:
         info: FloatArray,
         v: FloatArray,
         shift: float,
-        cov_pred: FloatArray | None = None,
-        predicted: Pose2D | None = None,
     ) -> tuple[FloatArray, Pose2D | None]:
         """`_slide_test` along one direction ``v`` (unit, x y yaw) up to ``shift`` [m]."""
         cfg = self.config
@@ -1218,8 +1198,6 @@ class Localiser:
         supported = fraction * n_eff / cfg.match_sigma_m**2
         if supported >= dd:
             return info, better
-        if self._lookalike_of_prediction(points, result, v, cov_pred, predicted):
-            supported = 0.0
         idv = info @ v
         out: FloatArray = info - np.outer(idv, idv) / dd
         out += supported * np.outer(v, v)
@@ -1241,8 +1219,8 @@ class Localiser:
         prediction favours: the two hypotheses are compared by fit (within ``mode_drop``:
         alike) and then by Mahalanobis distance to the prediction.
 
-        Checked only when the match lies more than ``mode_sigma`` sigmas (position) from a
-        prediction tight enough to judge by (``gate_max_sigma_m``, its heading
+        Checked only when the match lies more than ``mode_sigma`` sigmas (position), and two
+        widths of the finest level's field, from a prediction tight enough to judge by (``gate_max_sigma_m``, its heading
         ``gate_max_sigma_rad``: after the CSAIL revisit's 40-48 degree turns between 1 Hz
         scans the heading is 4.5 degrees off, the far match is the correction, and good beams
         look through walls at the prediction; checked there, one scan was lost). Both
@@ -1269,6 +1247,11 @@ class Localiser:
         d2_far = float(far_off @ inv @ far_off)
         if d2_far <= cfg.mode_sigma**2:
             return result
+        # Two optima of the finest level's field lie at least two of its widths apart (closer
+        # ones merge into one): a match nearer the prediction is no other mode (speed: at the
+        # real logs' 1 Hz, 6 scans in 10 lie more than 1 sigma off and were checked in vain).
+        if math.hypot(far_off[0], far_off[1]) < 2.0 * self.matcher.levels[0].sigma:
+            return result
         fine = subsample_points(points, cfg.matcher.max_points)
         through, _ = self._trace_impossible(fine, predicted, fine.shape[0])
         if through.any() and np.count_nonzero(~through) >= 10:
@@ -1281,38 +1264,6 @@ class Localiser:
         if near.score >= (1.0 - cfg.mode_drop) * far.score:
             return near
         return result
-
-    def _lookalike_of_prediction(
-        self,
-        points: FloatArray,
-        result: MatchResult,
-        v: FloatArray,
-        cov_pred: FloatArray | None,
-        predicted: Pose2D | None,
-    ) -> bool:
-        """Whether the match, along a direction ``v`` where the slide test found the scan
-        ambiguous, lies more than ``lookalike_sigma`` sigmas of the prediction from the
-        predicted pose while the scan fits there within ``lookalike_drop`` as well
-        (`slide_profile`, the prediction projected on ``v``).
-
-        Such a match has jumped to another optimum of a repetitive scene, not measured the
-        pose: its offset along ``v`` is no evidence, yet fused scan after scan with the little
-        information the slide test leaves it, it drags the pose and keeps the covariance
-        small (realistic ISR tour, seed 3, the north corridor at x = 22.5-24 m: matches
-        alternating between the right pose and one 13-15 cm east, where the slide test left
-        1 % of the information along the corridor, took the pose 11 cm east in 1.5 m of
-        travel with exact odometry, reported sigma 5-6 cm while 15 cm off). A prediction
-        that fits clearly worse (an odometry that has drifted) is corrected as before."""
-        cfg = self.config
-        if cfg.lookalike_sigma <= 0.0 or cov_pred is None or predicted is None:
-            return False
-        p = result.pose
-        t = (predicted.x - p.x) * v[0] + (predicted.y - p.y) * v[1]
-        spread = math.sqrt(max(float(v @ cov_pred @ v), 0.0))
-        if abs(t) <= cfg.lookalike_sigma * spread:
-            return False
-        ratio = self.slide_profile(points, p, v, np.array([abs(t)]))[0 if t > 0.0 else 1, 0]
-        return bool(ratio >= 1.0 - cfg.lookalike_drop)
 
     def _fuse(
         self,

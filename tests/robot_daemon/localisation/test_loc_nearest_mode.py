@@ -80,6 +80,26 @@ def test_a_match_within_mode_sigma_of_the_prediction_is_kept_without_a_check() -
     assert calls == []  # no extra match
 
 
+def test_a_match_nearer_than_two_field_widths_is_no_other_mode() -> None:
+    """8 cm from the prediction is 4 sigma of a 2 cm prior but closer than two widths of the
+    finest level's field (2 x 5 cm), where two optima would merge: kept, nothing matched."""
+    loc, points = _setup()
+    result = loc.matcher.match(points, TRUTH, 0)
+    tight = np.diag([0.02**2, 0.02**2, 0.003**2])
+    calls: list[Pose2D] = []
+    match = loc.matcher.match
+
+    def counting(pts: np.ndarray, initial: Pose2D, start: int | None = None) -> MatchResult:
+        calls.append(initial)
+        return match(pts, initial, start)
+
+    loc.matcher.match = counting  # type: ignore[method-assign]
+    assert loc._nearest_mode(points, result, _shifted(result.pose, 0.08), tight) is result
+    assert calls == []
+    loc._nearest_mode(points, result, _shifted(result.pose, 0.12), tight)
+    assert calls  # 12 cm: checked (the prediction's own optimum matched)
+
+
 def test_a_far_match_that_fits_clearly_better_keeps_correcting_the_pose() -> None:
     """An end wall 3 m ahead: one period off, the scan's end points on it miss by 0.6 m."""
     loc, points = _setup(end_wall_x=TRUTH.x + 3.0)
