@@ -28,6 +28,7 @@ from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import msgspec
 import numpy as np
@@ -283,7 +284,13 @@ class Daemon:
     def publish(self, link: RobotLink) -> None:
         now, stack, due = self.now, self.stack, self._due
         if due["pose"](now):
-            publish_state(stack, now, link.publish)
+            named: dict[Topic, Callable[[Any], None]] = {  # the link's (and test doubles') own
+                Topic.POSE: link.publish_pose,
+                Topic.ODOM: link.publish_odom,
+                Topic.CMD_VEL: link.publish_cmd_vel,
+                Topic.MUX: link.publish_mux,
+            }
+            publish_state(stack, now, lambda topic, message: named[topic](message))
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
