@@ -47,6 +47,7 @@ from interbot_core.topics import (
     Lock,
     MuxMsg,
     Odom,
+    PlanMsg,
     PoseMsg,
     RangeEncoding,
     Relocalise,
@@ -165,7 +166,10 @@ class Daemon:
         else:
             logger.warning("no topological map %s: goals by node id are refused", config.topo_yaml)
         rates = config.rates
-        self.start_pose = self._start_pose(options.start_node)
+        self.start_pose = Pose2D(0.0, 0.0, 0.0)
+        if self.topo is not None:
+            node = self.topo.home_id if options.start_node is None else options.start_node
+            self.start_pose = self.topo.node(node).pose
         if backend is None:
             if config.backend == "hardware":
                 backend = build_hardware_backend(config)
@@ -217,12 +221,6 @@ class Daemon:
             # stop (it re-asserts its operator's stop, or releases it, on every connection).
             self.stack.on_lock(STOP_TOPIC, True, 0.0)
             self.stack.on_lock(STOP_TOPIC, False, 0.0)  # latched, released only by stop_release
-
-    def _start_pose(self, start_node: int | None) -> Pose2D:
-        if self.topo is None:
-            return Pose2D(0.0, 0.0, 0.0)
-        node = self.topo.home_id if start_node is None else start_node
-        return self.topo.node(node).pose
 
     # -- time ------------------------------------------------------------------------------
 
@@ -287,24 +285,7 @@ class Daemon:
     def publish(self, link: RobotLink) -> None:
         now, stack, due = self.now, self.stack, self._due
         if due["pose"](now):
-            pose, estimate = stack.pose, stack.last_estimate
-            confidence = estimate.confidence if estimate is not None else 0.0
-            cov: tuple[float, ...] = ()
-            if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
-                pose, confidence = Pose2D(0.0, 0.0, 0.0), 0.0
-            else:
-                clipped = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
-                cov = tuple(clipped.ravel().tolist())
-            state = stack.reported_localisation
-            link.publish(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
-            odom = stack.last_odometry
-            if odom is not None:
-                p = odom.pose
-                link.publish(Topic.ODOM, Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
-            with stack.motion_lock:  # in order with the command thread's mux samples
-                out = stack.last_output
-                link.publish(Topic.CMD_VEL, Twist(out.linear, out.angular, now))
-                link.publish(Topic.MUX, mux_message(out, now))
+            publish_state(stack, now, link.publish)
         if due["scan"](now) and stack.last_scan is not None:
             link.publish_scan(stack.last_scan, RangeEncoding.UINT16_MM)
         if due["image"](now) and stack.last_jpeg is not None and link.subscribed(Topic.IMAGE):
@@ -329,9 +310,7 @@ class Daemon:
 
     def _publish_plan(self, link: RobotLink, now: float) -> None:
         """The navigator's path, when it changed (the snapshot keeps it for late stations)."""
-        route = self.stack.route
-        route_id = route.route_id if route is not None and not route.finished else 0
-        plan = plan_message(route_id, self.stack.navigator.path if route_id else [], now)
+        plan = current_plan(self.stack, now)
         key = (plan.route_id, plan.points)
         if key != self._plan_key:
             self._plan_key = key
@@ -484,6 +463,35 @@ class Daemon:
                 self.backend.set_cmd_vel(0.0, 0.0, self.now)
         except Exception:  # the backend itself is broken: log and go on
             logger.exception("could not set the motors to zero")
+
+
+def publish_state(stack: RobotStack, now: float, publish: Callable[[Topic, object], None]) -> None:
+    """The pose, odometry, cmd_vel and mux at the pose rate (`ScenarioRecorder` records them)."""
+    pose, estimate = stack.pose, stack.last_estimate
+    confidence = estimate.confidence if estimate is not None else 0.0
+    cov: tuple[float, ...] = ()
+    if pose is None:  # no pose yet: unset, or a start-up search (PoseMsg.known)
+        pose, confidence = Pose2D(0.0, 0.0, 0.0), 0.0
+    else:
+        clipped = np.clip(stack.pose_covariance, -MAX_POSE_VARIANCE, MAX_POSE_VARIANCE)
+        cov = tuple(clipped.ravel().tolist())
+    state = stack.reported_localisation
+    publish(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, now, state, confidence, cov))
+    odom = stack.last_odometry
+    if odom is not None:
+        p = odom.pose
+        publish(Topic.ODOM, Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, now))
+    with stack.motion_lock:  # in order with the command thread's mux samples
+        out = stack.last_output
+        publish(Topic.CMD_VEL, Twist(out.linear, out.angular, now))
+        publish(Topic.MUX, mux_message(out, now))
+
+
+def current_plan(stack: RobotStack, now: float) -> PlanMsg:
+    """The navigator's path on the route in progress (none: route 0, no points)."""
+    route = stack.route
+    route_id = route.route_id if route is not None and not route.finished else 0
+    return plan_message(route_id, stack.navigator.path if route_id else [], now)
 
 
 def mux_message(out: MuxOutput, now: float) -> MuxMsg:

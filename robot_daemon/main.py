@@ -31,7 +31,6 @@ from robot_daemon.config import (
     SecuritySettings,
     ZenohSettings,
     load_config,
-    validate_endpoint,
 )
 
 logger = logging.getLogger("robot_daemon")
@@ -102,18 +101,13 @@ def resolve_config(args: argparse.Namespace) -> DaemonConfig:
     config = load_config(args.config) if args.config else DaemonConfig(source="command line")
     if args.sim and config.backend != "sim":
         config = config.with_overrides(backend="sim")
-    sim = config.sim
     sim_changes = {"seed": args.seed, "people": args.people, "realtime_factor": args.speed}
-    if any(v is not None for v in sim_changes.values()):
-        sim = msgspec.structs.replace(
-            sim, **{k: v for k, v in sim_changes.items() if v is not None}
-        )
+    sim = msgspec.structs.replace(
+        config.sim, **{k: v for k, v in sim_changes.items() if v is not None}
+    )
     zenoh = config.zenoh
     if args.listen or args.connect or args.mode:
-        for endpoint in args.listen:
-            validate_endpoint("--listen", "listen", endpoint)
-        for endpoint in args.connect:
-            validate_endpoint("--connect", "connect", endpoint)
+        # ZenohSettings checks the endpoints (pattern, port range) as it is built.
         mode = args.mode or zenoh.mode
         listen = tuple(args.listen) if args.listen or args.connect else zenoh.listen
         connect = tuple(args.connect) if args.listen or args.connect else zenoh.connect

@@ -38,11 +38,12 @@ import math
 import threading
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import numpy.typing as npt
 
+from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import INTERBOT_LASER_MOUNT, LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
@@ -90,28 +91,24 @@ class StackConfig:
     degraded_speed_scale: float = 0.5  # planner's linear speed factor while degraded
 
     def __post_init__(self) -> None:
-        if not (
-            math.isfinite(self.degraded_speed_scale) and 0.0 <= self.degraded_speed_scale <= 1.0
-        ):
-            raise StackError(
-                f"degraded_speed_scale must be in [0, 1], got {self.degraded_speed_scale}"
-            )
+        scale = Annotated[float, schema.within(0.0, 1.0)]
+        schema.checked(self.degraded_speed_scale, scale, "degraded_speed_scale", StackError)
 
 
 @dataclass
 class RouteState:
     """The route the robot is driving, in the station's numbering."""
 
-    route_id: int
+    msg: RouteMsg  # as the station sent it (ids, nodes, tolerances)
     goals: tuple[Pose2D, ...]
-    node_ids: tuple[int, ...]
-    approach_tolerance: float
-    goal_tolerance: float
-    yaw_tolerance: float
     index: int = 0  # goal the robot is heading for
     state: str = "active"  # active | paused | succeeded | aborted | canceled
     reason: str = ""
     offset: int = 0  # goal index at which the navigator's current (re)plan starts
+
+    @property
+    def route_id(self) -> int:
+        return self.msg.route_id
 
     @property
     def finished(self) -> bool:
@@ -169,7 +166,7 @@ class RobotStack:
         self._localise_due = Periodic(config.rates.localiser_hz)
         self._control_due = Periodic(config.rates.controller_hz)
         self.route: RouteState | None = None
-        self._suspended_reason: str | None = None
+        self.suspended_reason: str | None = None
         self.last_odometry: OdometryReading | None = None
         self.last_scan: LaserScan | None = None
         self._scan_localised: LaserScan | None = None
@@ -271,15 +268,8 @@ class RobotStack:
                 f"route {msg.route_id}: goal ({goals[-1].x:.2f}, {goals[-1].y:.2f}) "
                 f"is not in free space of {self.grid.source}"
             )
-        self.route = RouteState(
-            msg.route_id,
-            goals,
-            msg.node_ids,
-            msg.approach_tolerance,
-            msg.goal_tolerance,
-            msg.yaw_tolerance,
-        )
-        self._suspended_reason = "new route"
+        self.route = RouteState(msg, goals)
+        self.suspended_reason = "new route"
         self.navigator.cancel()
         self._event(now, "info", f"route {msg.route_id}: {len(goals)} goal(s)")
 
@@ -288,7 +278,7 @@ class RobotStack:
             self.route.state, self.route.reason = "canceled", reason
             self._event(now, "info", f"route {self.route.route_id} {reason}")
         self.navigator.cancel()
-        self._suspended_reason = None
+        self.suspended_reason = None
 
     def abort_route(self, now: float, reason: str) -> None:
         """Give up the route in progress and zero the planner's input (an internal error)."""
@@ -298,19 +288,15 @@ class RobotStack:
             self.route.state, self.route.reason = "aborted", reason
             self._event(now, "error", f"route {self.route.route_id} aborted: {reason}")
         self.navigator.cancel()
-        self._suspended_reason = None
+        self.suspended_reason = None
 
     def reconfigure(self, params: dict[str, Any], now: float) -> None:
         """Planner parameters on the fly (names of `PlannerConfig` fields); all or nothing."""
-        allowed = set(PlannerConfig.__struct_fields__)
-        unknown = set(params) - allowed
-        if unknown:
-            raise StackError(f"unknown planner parameter(s) {sorted(unknown)}")
         try:
             self.navigator.reconfigure(**params)
         except PlannerConfigError as exc:
             raise StackError(str(exc)) from None
-        self._suspended_reason = self._suspended_reason or "reconfigured"
+        self.suspended_reason = self.suspended_reason or "reconfigured"
         self._event(now, "info", f"planner reconfigured: {params}")
 
     # -- state -------------------------------------------------------------------------------
@@ -351,10 +337,6 @@ class RobotStack:
         )
         out: npt.NDArray[np.float64] = jac @ cov @ jac.T
         return out
-
-    @property
-    def suspended_reason(self) -> str | None:
-        return self._suspended_reason
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -496,13 +478,14 @@ class RobotStack:
             LocaliserState.DEGRADED,
         ):
             return
-        route.index = next_goal_index(route.goals, route.index, pose, route.approach_tolerance)
+        msg = route.msg
+        route.index = next_goal_index(route.goals, route.index, pose, msg.approach_tolerance)
         final = route.goals[-1]
         if route.index == len(route.goals) - 1 and final_goal_reached(
-            pose, final, route.goal_tolerance, route.yaw_tolerance
+            pose, final, msg.goal_tolerance, msg.yaw_tolerance
         ):
             route.state, route.reason = "succeeded", "goal reached"
-            self._suspended_reason = None
+            self.suspended_reason = None
             self._event(now, "info", f"route {route.route_id} done: goal reached")
 
     def _control(self, now: float) -> None:
@@ -512,25 +495,25 @@ class RobotStack:
         blocker = self._autonomy_blocker(now)
         pose = self.pose
         if blocker is not None or pose is None:
-            if self._suspended_reason is None:
+            if self.suspended_reason is None:
                 self.navigator.cancel()
                 self._event(now, "info", f"route {route.route_id} suspended: {blocker}")
-            self._suspended_reason = blocker or "no pose"
+            self.suspended_reason = blocker or "no pose"
             route.state = "paused"
             self._judge_progress(route, pose, now)
             return
-        if self._suspended_reason is not None:
+        if self.suspended_reason is not None:
             remaining = route.goals[route.index :]
             self.navigator.set_route(
                 remaining,
-                approach_tolerance=route.approach_tolerance,
-                goal_xy_tol=route.goal_tolerance,
-                goal_yaw_tol=route.yaw_tolerance,
+                approach_tolerance=route.msg.approach_tolerance,
+                goal_xy_tol=route.msg.goal_tolerance,
+                goal_yaw_tol=route.msg.yaw_tolerance,
                 now=now,
             )
             route.offset = route.index
             route.state = "active"
-            self._suspended_reason = None
+            self.suspended_reason = None
         command = self.navigator.update(now, pose, self.last_scan)
         route.index = min(route.offset + command.goal_index, len(route.goals) - 1)
         if command.state == NavState.SUCCEEDED:

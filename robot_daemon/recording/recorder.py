@@ -102,13 +102,6 @@ def ns(t: float) -> int:
     return round(t * 1e9)
 
 
-def json_schema(cls: type[msgspec.Struct]) -> dict[str, Any]:
-    """msgspec's standard JSON Schema of a declared message (`interbot_core.topics`), for
-    Foxglove's plots."""
-    generated: dict[str, Any] = msgspec.json.schema(cls)["$defs"][cls.__name__]
-    return generated
-
-
 def is_message(value: object) -> bool:
     """A message instance: a msgspec Struct or a dataclass (not the class itself)."""
     return isinstance(value, msgspec.Struct) or (
@@ -411,7 +404,9 @@ class Recorder:
 
     def _json_channel(self, name: str, cls: type[msgspec.Struct] | None = None) -> Any:
         title = "interbot" + "".join(part.title() for part in re.split(r"[/_]", name))
-        schema = json_schema(cls) if cls is not None else {"type": "object", "title": title}
+        schema: dict[str, Any] = {"type": "object", "title": title}
+        if cls is not None:  # msgspec's JSON Schema of a declared message, for Foxglove's plots
+            schema = msgspec.json.schema(cls)["$defs"][cls.__name__]
         return self._channel(
             name, lambda: foxglove.Channel(name, schema=schema, context=self._context)
         )
@@ -465,7 +460,8 @@ class Recorder:
             scan = fc.scan_message(self.epoch_offset + message.stamp, message)  # sensor time
             self._log(SCAN, LaserScanChannel, scan, now, metadata=meta)
             if "/tf_static" not in self._latched:
-                self._log_mount(now)
+                mount = fc.laser_mount_transform(self.epoch_offset + now, self._laser_mount)
+                self._log("/tf_static", FrameTransformsChannel, mount, now, latch=True)
         elif topic is Topic.MAP and isinstance(message, OccupancyGrid):
             self._log(MAP, GridChannel, fc.grid_message(t, message), now, latch=True)
         elif topic is Topic.IMAGE and isinstance(message, ImageMsg | bytes):
@@ -494,16 +490,7 @@ class Recorder:
     def _log_tf(self, transforms: Any, now: float) -> None:
         self._log(TF, FrameTransformsChannel, transforms, now)
 
-    def _log_mount(self, now: float) -> None:
-        mount = fc.laser_mount_transform(self.epoch_offset + now, self._laser_mount)
-        self._log("/tf_static", FrameTransformsChannel, mount, now, latch=True)
-
     # ------------------------------------------------------------------ files
-
-    def _write_options(self) -> MCAPWriteOptions:
-        return MCAPWriteOptions(
-            compression=MCAPCompression.Zstd, chunk_size=self._chunk_bytes, compression_threads=0
-        )
 
     def _open(self, path: Path) -> None:
         try:
@@ -511,7 +498,11 @@ class Recorder:
                 path,
                 allow_overwrite=True,
                 context=self._context,
-                writer_options=self._write_options(),
+                writer_options=MCAPWriteOptions(
+                    compression=MCAPCompression.Zstd,
+                    chunk_size=self._chunk_bytes,
+                    compression_threads=0,
+                ),
             )
         except Exception as exc:
             raise RecorderError(f"cannot open {path} for recording: {exc}") from None

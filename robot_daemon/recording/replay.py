@@ -107,7 +107,9 @@ class RecordingSource:
             if channel.topic == SCAN and "range_max" in channel.metadata:
                 meta = channel.metadata
                 self._scan_range = (float(meta["range_min"]), float(meta["range_max"]))
-        meta = self._metadata()
+        meta = next(
+            (dict(m.metadata) for m in self._reader.iter_metadata() if m.name == "interbot"), {}
+        )
         m = re.match(r"^([A-Za-z0-9_-]{1,32})_\d{8}-\d{6}_\d+$", path.stem)
         self.robot_id = meta.get("robot_id") or (m.group(1) if m else "replay")
         try:
@@ -116,12 +118,6 @@ class RecordingSource:
         except ValueError:
             self.epoch_offset = 0.0
         self.decode_errors = 0
-
-    def _metadata(self) -> dict[str, str]:
-        for metadata in self._reader.iter_metadata():
-            if metadata.name == "interbot":
-                return dict(metadata.metadata)
-        return {}
 
     def close(self) -> None:
         self._file.close()

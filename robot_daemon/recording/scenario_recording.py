@@ -20,15 +20,10 @@ from typing import TYPE_CHECKING, Any
 from interbot_core.supervisor import PauseNavigation, RouteCancelled
 from interbot_core.topics import (
     Battery,
-    Odom,
-    PoseMsg,
-    RouteMsg,
     Status,
     Topic,
-    Twist,
 )
-from robot_daemon.daemon import mux_message, route_progress
-from robot_daemon.planning.path_report import plan_message
+from robot_daemon.daemon import current_plan, publish_state, route_progress
 from robot_daemon.recording.recorder import Recorder
 from robot_daemon.stack import Periodic
 
@@ -38,7 +33,7 @@ if TYPE_CHECKING:
 SCENARIO = "station (scenario)"
 TRUTH = "/truth"
 TASKS = "/tasks"
-RATES_HZ = {"state": 20.0, "scan": 10.0, "mux": 5.0, "battery": 1.0}  # the daemon's rates
+RATES_HZ = {"state": 20.0, "scan": 10.0, "battery": 1.0}  # the daemon's rates
 
 
 class ScenarioRecorder:
@@ -60,7 +55,7 @@ class ScenarioRecorder:
         self._events_seen = 0
         self._route_key: tuple[int, int, str] | None = None
         self._route_id: int | None = None
-        self._path: list[tuple[float, float]] | None = None
+        self._plan: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self.recorder.state(Topic.MAP, system.grid, self._offset + system.now)
 
     def sample(self, system: SimulatedSystem) -> None:
@@ -71,20 +66,7 @@ class ScenarioRecorder:
         self._end = t
         due = self._due
         if due["state"](system.now):
-            pose = stack.pose
-            state = stack.localisation_state.value
-            estimate = stack.last_estimate
-            confidence = estimate.confidence if estimate is not None else 0.0
-            if pose is None:
-                rec.state(Topic.POSE, PoseMsg(0.0, 0.0, 0.0, t, "unset", 0.0), t)
-            else:
-                rec.state(Topic.POSE, PoseMsg(pose.x, pose.y, pose.yaw, t, state, confidence), t)
-            odom = stack.last_odometry
-            if odom is not None:
-                p = odom.pose
-                rec.state(Topic.ODOM, Odom(p.x, p.y, p.yaw, odom.linear, odom.angular, t), t)
-            out = stack.last_output
-            rec.state(Topic.CMD_VEL, Twist(out.linear, out.angular, t), t)
+            publish_state(stack, t, lambda topic, message: rec.state(topic, message, t))
             truth = system.sim.true_pose()
             linear, angular = system.sim.true_velocity()
             rec.json(
@@ -100,14 +82,10 @@ class ScenarioRecorder:
                 },
                 t,
             )
-            route = stack.route
-            route_id = route.route_id if route is not None and not route.finished else 0
-            path = stack.navigator.path if route_id else []
-            if path != self._path:  # the daemon's plan topic: replayed, and /planned_path
-                self._path = path
-                rec.state(Topic.PLAN, plan_message(route_id, path, t), t)
-        if due["mux"](system.now):
-            rec.state(Topic.MUX, mux_message(stack.last_output, t), t)
+            plan = current_plan(stack, t)
+            if (plan.route_id, plan.points) != self._plan:  # replayed, and /planned_path
+                self._plan = (plan.route_id, plan.points)
+                rec.state(Topic.PLAN, plan, t)
         if due["scan"](system.now) and stack.last_scan is not None:
             rec.state(Topic.SCAN, stack.last_scan, t)
         if due["battery"](system.now) and stack.last_battery is not None:
@@ -131,16 +109,7 @@ class ScenarioRecorder:
         route = stack.route
         if route is not None and route.route_id != self._route_id:
             self._route_id = route.route_id
-            waypoints = tuple((g.x, g.y, g.yaw) for g in route.goals)
-            message = RouteMsg(
-                route.route_id,
-                waypoints,
-                route.node_ids,
-                route.approach_tolerance,
-                route.goal_tolerance,
-                route.yaw_tolerance,
-            )
-            rec.command(Topic.ROUTE, message, t, source=SCENARIO)
+            rec.command(Topic.ROUTE, route.msg, t, source=SCENARIO)
         if route is not None:
             key = (route.route_id, route.index, route.state)
             if key != self._route_key:

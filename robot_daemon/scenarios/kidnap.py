@@ -243,13 +243,6 @@ def _station_next_leg(run: KidnapRun, system: SimulatedSystem) -> None:
     system.apply(system.supervisor.submit(run.next_task(system, system.sim.true_pose())))
 
 
-def _station_task_ends(system: SimulatedSystem) -> None:
-    """The kidnap is settled: the station's task (if any) is cancelled, so the scenario's own
-    wander goes on."""
-    system.apply(system.supervisor.cancel())
-    system.apply(system.supervisor.clear_queue())
-
-
 def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAPS) -> _Tally:
     rng = np.random.default_rng(options.seed)
     run = KidnapRun(options, topo, rng)
@@ -288,7 +281,10 @@ def run_kidnaps(options: ScenarioOptions, topo: Path | None, count: int = KIDNAP
             leg_run = KidnapRun(options, topo, np.random.default_rng([options.seed, k, 17]))
             next_leg = (at_stop + TOUR_DWELL_S, partial(_station_next_leg, leg_run, system))
         _watch(system, record, system.now, next_leg)
-        _station_task_ends(system)
+        # The kidnap is settled: the station's task (if any) is cancelled, so the scenario's
+        # own wander goes on.
+        system.apply(system.supervisor.cancel())
+        system.apply(system.supervisor.clear_queue())
         tally.records.append(record)
         logger.info("kidnap %d (%s): %s", k, "standing" if standing else "moving", record)
         if record.relocalise_s is None:

@@ -44,7 +44,6 @@ from msgspec import Meta
 
 from interbot_core import schema
 from interbot_core.geometry import Pose2D, angle_diff
-from interbot_core.velocity_mux import MuxConfig
 from interbot_core.watchdog import LatencyWatchdog, PeriodStats
 from robot_daemon.scenarios.runner import (
     ScenarioOptions,
@@ -170,14 +169,6 @@ def lay_out_run(
     return start, length, point
 
 
-def _mux_with_timeout(config: MuxConfig, timeout: float) -> MuxConfig:
-    inputs = tuple(
-        msgspec.structs.replace(i, timeout=timeout) if i.topic in TOPIC.values() else i
-        for i in config.inputs
-    )
-    return dataclasses.replace(config, inputs=inputs)
-
-
 class CircuitSender:
     """The controller's 100 ms loop: the Fig. 6.1 circuit on the pose the robot publishes."""
 
@@ -276,8 +267,12 @@ def run_trial(
     if controller not in CONTROLLERS:
         raise ValueError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
     opts = dataclasses.replace(options, seed=seed, people=0)
-    base = StackConfig()
-    stack_config = dataclasses.replace(base, mux=_mux_with_timeout(base.mux, config.mux_timeout))
+    mux = StackConfig().mux
+    inputs = tuple(  # the commands' inputs time out after config.mux_timeout
+        msgspec.structs.replace(i, timeout=config.mux_timeout) if i.topic in TOPIC.values() else i
+        for i in mux.inputs
+    )
+    stack_config = StackConfig(mux=dataclasses.replace(mux, inputs=inputs))
     system = SimulatedSystem(opts, start_node=0, stack_config=stack_config)
     system.localise()
     segments = straight_segments(system.grid, system.topo)

@@ -112,11 +112,6 @@ def mission_nodes(topo: TopologicalMap) -> tuple[int, int]:
     return room, bar
 
 
-def _polyline(topo: TopologicalMap, nodes: list[int], start: tuple[float, float]) -> np.ndarray:
-    points = [start] + [(topo.node(n).pose.x, topo.node(n).pose.y) for n in nodes]
-    return np.asarray(points, dtype=np.float64)
-
-
 def _at_fraction(points: np.ndarray, fraction: float) -> tuple[float, float]:
     seg = np.hypot(*np.diff(points, axis=0).T)
     cum = np.concatenate(([0.0], np.cumsum(seg)))
@@ -139,7 +134,7 @@ def choose_checkpoints(
     ):
         first = origin or (topo.node(leg[0]).pose.x, topo.node(leg[0]).pose.y)
         nodes = leg if origin is not None else leg[1:]
-        points = _polyline(topo, nodes, first)
+        points = np.asarray([first] + [(topo.node(n).pose.x, topo.node(n).pose.y) for n in nodes])
         seg = np.hypot(*np.diff(points, axis=0).T)
         cum = np.concatenate(([0.0], np.cumsum(seg)))
         total = cum[-1] if cum[-1] > 0 else 1.0

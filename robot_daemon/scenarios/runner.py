@@ -181,16 +181,13 @@ class Metrics:
                 self.silent_failures += 1
             if error > self.worst[0]:
                 self.worst = (error, truth.x, truth.y)
-            self._sample_covariance(estimate, truth, stack.pose_covariance)
+            e, cov = pose_error(estimate, truth), stack.pose_covariance
+            self.nees_pose.append(nees(e, cov))
+            self.nees_position.append(nees(e[:2], cov[:2, :2]))
             if self.echo is not None and self._ok_samples % self.echo_every == 0:
                 self._sample_echo(estimate, truth)
             self._ok_samples += 1
         self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
-
-    def _sample_covariance(self, estimate: Pose2D, truth: Pose2D, cov: np.ndarray) -> None:
-        e = pose_error(estimate, truth)
-        self.nees_pose.append(nees(e, cov))
-        self.nees_position.append(nees(e[:2], cov[:2, :2]))
 
     def _sample_echo(self, estimate: Pose2D, truth: Pose2D) -> None:
         assert self.echo is not None

@@ -341,10 +341,6 @@ def _summary(outcomes: list[Outcome]) -> dict[str, Any]:
     }
 
 
-def _ratio(a: float, b: float) -> float | None:
-    return round(a / b, 3) if b > 0 else None
-
-
 def run(
     options: ScenarioOptions,
     setups: tuple[str, ...] = SETUPS,
@@ -368,8 +364,9 @@ def run(
     }
     for other in ("unassisted", "unprotected"):
         if other in results and "assisted" in results:
-            figures[f"progress_ratio_vs_{other}"] = _ratio(
-                a["progress_m"], results[other]["progress_m"]
+            theirs = results[other]["progress_m"]
+            figures[f"progress_ratio_vs_{other}"] = (
+                round(a["progress_m"] / theirs, 3) if theirs > 0 else None
             )
     return ScenarioResult("teleop", format_table(results), figures)
 

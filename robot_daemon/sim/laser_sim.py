@@ -421,16 +421,12 @@ class LaserSim:
         farther = np.where(ranges[chosen] > ranges[chosen + 1], chosen, chosen + 1)
         ranges[farther] = near + self._rng.random(chosen.size) * (far - near)
 
-    def sensor_pose(self, robot_pose: Pose2D) -> Pose2D:
-        """World pose of the laser frame for a base_link pose."""
-        return robot_pose.compose(self.config.mount)
-
     def scan(
         self, robot_pose: Pose2D, stamp: float, circles: FloatArray | None = None
     ) -> LaserScan:
         """One scan from the laser mounted on a robot at ``robot_pose`` (true, map frame)."""
         c = self.config
-        sensor = self.sensor_pose(robot_pose)
+        sensor = robot_pose.compose(c.mount)  # the laser frame in the world
         true = self.caster.cast(
             sensor.x,
             sensor.y,

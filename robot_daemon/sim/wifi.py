@@ -115,12 +115,6 @@ class WifiLink:
         self.sent_count = 0
         self.handovers = 0
 
-    def _zone_at(self, x: float, y: float) -> int | None:
-        for index, zone in enumerate(self.config.zones):
-            if zone.contains(x, y):
-                return index
-        return None
-
     def send(self, now: float, payload: Any, position: Sequence[float] = (0.0, 0.0)) -> Delivery:
         """Queue ``payload`` sent at ``now`` [s] from ``position`` [m]; returns its fate."""
         if not math.isfinite(now) or now < self._last_sent:
@@ -128,7 +122,7 @@ class WifiLink:
         self._last_sent = now
         cfg, rng = self.config, self._rng
         x, y = float(position[0]), float(position[1])
-        zone = self._zone_at(x, y)
+        zone = next((i for i, z in enumerate(cfg.zones) if z.contains(x, y)), None)
         if self._zone_known and zone != self._zone:
             stall = float(rng.uniform(cfg.handover_min, cfg.handover_max))
             self._stall_until = max(self._stall_until, now + stall)

@@ -230,21 +230,15 @@ class World:
         pts = to_world(pose, self._footprint_points(footprint))
         return bool(self.is_blocked(pts[:, 0], pts[:, 1]).any())
 
-    @staticmethod
-    def footprint_hits_people(footprint: RobotFootprint, pose: Pose2D, circles: FloatArray) -> bool:
-        """True if any person circle (rows x, y, r) overlaps the footprint at ``pose``."""
-        if circles.size == 0:
-            return False
-        d = footprint.distance_to_points(pose, circles[:, :2])
-        return bool((d < circles[:, 2]).any())
-
     def footprint_collides(
         self, footprint: RobotFootprint, pose: Pose2D, circles: FloatArray | None = None
     ) -> bool:
-        """Wall or person collision of the footprint at ``pose``."""
+        """Wall or person (circles: rows x, y, r) collision of the footprint at ``pose``."""
         if self.footprint_hits_wall(footprint, pose):
             return True
-        return circles is not None and self.footprint_hits_people(footprint, pose, circles)
+        if circles is None or circles.size == 0:
+            return False
+        return bool((footprint.distance_to_points(pose, circles[:, :2]) < circles[:, 2]).any())
 
     def footprint_clearance(
         self, footprint: RobotFootprint, pose: Pose2D, circles: FloatArray | None = None

@@ -41,7 +41,7 @@ def robot_route(rig: Any) -> RouteState | None:
 
 def route_to(rig: Any, node: int, state: str) -> bool:
     route = robot_route(rig)
-    return route is not None and route.node_ids[-1:] == (node,) and route.state == state
+    return route is not None and route.msg.node_ids[-1:] == (node,) and route.state == state
 
 
 def test_goal_from_the_map_take_me_there(make_rig: Any) -> None:
@@ -56,7 +56,7 @@ def test_goal_from_the_map_take_me_there(make_rig: Any) -> None:
 
     rig.wait(lambda: route_to(rig, SECRETARIAT, "active"), 5.0, "the robot to start the route")
     route = robot_route(rig)
-    assert route is not None and route.node_ids == (1, SECRETARIAT)  # via the SW corner
+    assert route is not None and route.msg.node_ids == (1, SECRETARIAT)  # via the SW corner
     rig.wait(lambda: route_to(rig, SECRETARIAT, "succeeded"), 30.0, "the robot to arrive")
     goal = rig.node_pose(SECRETARIAT)
     assert rig.truth().distance_to(goal) < ARRIVAL_M
@@ -129,7 +129,9 @@ def test_guided_tour_resume_at_the_first_stop_then_end(make_rig: Any) -> None:
     rig.wait(lambda: rig.daemon.stack.route is not None
              and rig.daemon.stack.route.state == "succeeded", 5.0, "the route to succeed")  # fmt: skip
     route = rig.daemon.stack.route
-    assert route is not None and route.state == "succeeded" and route.node_ids[-1] == SECRETARIAT
+    assert (
+        route is not None and route.state == "succeeded" and route.msg.node_ids[-1] == SECRETARIAT
+    )
     assert any(
         "tour ended by the user after 2 of" in e.text for e in rig.station.selected.state.log
     )
@@ -164,7 +166,7 @@ def test_request_picked_up_accepted_and_delivered(make_rig: Any) -> None:
     rig.click(shown.accept_button)
     rig.wait(lambda: route_to(rig, SERVER_ROOM, "active"), 5.0, "the route to the target")
     route = robot_route(rig)
-    assert route is not None and route.node_ids == (ISR_DOOR, SERVER_ROOM)
+    assert route is not None and route.msg.node_ids == (ISR_DOOR, SERVER_ROOM)
     rig.wait(lambda: route_to(rig, SERVER_ROOM, "succeeded"), 30.0, "the delivery")
     assert rig.truth().distance_to(rig.node_pose(SERVER_ROOM)) < ARRIVAL_M
     rig.wait(lambda: any(m.goal == SERVER_ROOM and m.reached for m in rig.seen.goal_status),
