@@ -189,7 +189,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return _fail(f"cannot open the zenoh session: {exc}{hint}")
 
-    from PySide6.QtCore import Qt
+    from PySide6.QtCore import Qt, QTimer
     from PySide6.QtWidgets import QApplication
 
     from base_station_app.main_window import MainWindow
@@ -232,8 +232,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     window.setAttribute(Qt.WidgetAttribute.WA_DeleteOnClose, False)
     app.aboutToQuit.connect(window.shutdown)
     app.aboutToQuit.connect(holder.close)
-    # The frame timer runs Python every 25 ms, so these handlers are not starved by Qt.
-    previous = {s: signal.signal(s, lambda *_: app.quit()) for s in (signal.SIGTERM, signal.SIGINT)}
+
+    # The frame timer runs Python every 25 ms, so these handlers are not starved by Qt. A Python
+    # handler runs between two bytecodes of whatever the main thread is doing, possibly inside
+    # a lock (the robot switch holds the tablet teleop's): quitting there ran the shutdown inline,
+    # which waits for the tablet thread, which waited for that lock (a deadlock seen in CI). So
+    # the handler only queues the quit; it runs from the event loop, with no lock held.
+    def on_signal(*_: object) -> None:
+        QTimer.singleShot(0, app.quit)
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         if not controller.start():
             return 1
