@@ -607,14 +607,25 @@ class Localiser:
         cfg = self.config
         if not (cfg.gate_through_walls and self._saw_through) or self._first_match:
             return points
+        if not self._tight_prior(cov_pred):
+            return points
+        kept = self._not_through_walls(subsample_points(points, cfg.matcher.max_points), predicted)
+        return points if kept is None else kept
+
+    def _tight_prior(self, cov_pred: FloatArray) -> bool:
+        """Whether the prediction is sure enough to judge beams and optima by
+        (``gate_max_sigma_m``, ``gate_max_sigma_rad``)."""
+        cfg = self.config
         if math.sqrt(_max_eig_2x2(cov_pred)) > cfg.gate_max_sigma_m:
-            return points
-        if math.sqrt(max(float(cov_pred[2, 2]), 0.0)) > cfg.gate_max_sigma_rad:
-            return points
-        fine = subsample_points(points, cfg.matcher.max_points)
+            return False
+        return math.sqrt(max(float(cov_pred[2, 2]), 0.0)) <= cfg.gate_max_sigma_rad
+
+    def _not_through_walls(self, fine: FloatArray, predicted: Pose2D) -> FloatArray | None:
+        """``fine`` without the beams that pass through the map's walls at the prediction
+        (`_trace_impossible`); None if none do or fewer than 10 would be left."""
         through, _ = self._trace_impossible(fine, predicted, fine.shape[0])
         if not through.any() or np.count_nonzero(~through) < 10:
-            return points
+            return None
         out: FloatArray = fine[~through]
         return out
 
@@ -1220,8 +1231,8 @@ class Localiser:
         alike) and then by Mahalanobis distance to the prediction.
 
         Checked only when the match lies more than ``mode_sigma`` sigmas (position), and two
-        widths of the finest level's field, from a prediction tight enough to judge by (``gate_max_sigma_m``, its heading
-        ``gate_max_sigma_rad``: after the CSAIL revisit's 40-48 degree turns between 1 Hz
+        widths of the finest level's field, from a prediction tight enough to judge by
+        (`_tight_prior`: after the CSAIL revisit's 40-48 degree turns between 1 Hz
         scans the heading is 4.5 degrees off, the far match is the correction, and good beams
         look through walls at the prediction; checked there, one scan was lost). Both
         hypotheses are matched again on the finest level, the near one from the prediction
@@ -1233,11 +1244,7 @@ class Localiser:
         correcting the pose; the slide test still caps the chosen mode's information along
         the direction where the other one lies."""
         cfg = self.config
-        if cfg.mode_sigma <= 0.0:
-            return result
-        if math.sqrt(_max_eig_2x2(cov_pred)) > cfg.gate_max_sigma_m:
-            return result
-        if math.sqrt(max(float(cov_pred[2, 2]), 0.0)) > cfg.gate_max_sigma_rad:
+        if cfg.mode_sigma <= 0.0 or not self._tight_prior(cov_pred):
             return result
         try:
             inv = np.linalg.inv(cov_pred[:2, :2])
@@ -1253,9 +1260,8 @@ class Localiser:
         if math.hypot(far_off[0], far_off[1]) < 2.0 * self.matcher.levels[0].sigma:
             return result
         fine = subsample_points(points, cfg.matcher.max_points)
-        through, _ = self._trace_impossible(fine, predicted, fine.shape[0])
-        if through.any() and np.count_nonzero(~through) >= 10:
-            fine = fine[~through]
+        kept = self._not_through_walls(fine, predicted)
+        fine = fine if kept is None else kept
         near = self.matcher.match(fine, predicted, 0)
         near_off = np.array([near.pose.x - predicted.x, near.pose.y - predicted.y])
         if float(near_off @ inv @ near_off) >= d2_far:
