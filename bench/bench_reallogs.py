@@ -19,7 +19,9 @@ me!"), so ``lost_scans`` counts the losses and the errors measure tracking, not 
 The logged poses are SLAM estimates (a few centimetres), not ground truth.
 
 Keys ``reallog_<log>_<method>_<figure>`` with figures ``scans``, ``rms_m``, ``median_m``,
-``max_m``, ``heading_rms_deg``, ``lost_scans``, ``degraded_scans``, ``silent_failures`` (error
+``max_m``, ``heading_rms_deg`` (every scan, whatever its state), ``ok_rms_m`` and ``ok_max_m``
+(the scans reported ``ok``: what a user relies on; the rest are reported degraded or lost),
+``lost_scans``, ``degraded_scans``, ``silent_failures`` (error
 > 0.3 m or > 10 degrees reported ``ok``: the figure that must be 0), ``nees_mean`` (3 if the
 covariance is calibrated), ``nees_within_95`` (0.95 if calibrated), ``ms_median``, ``ms_p99``
 (wall clock per `Localiser.on_scan` alone, covariance included: the replay's map building,
@@ -113,6 +115,8 @@ FIGURES = (
     "rms_m",
     "median_m",
     "max_m",
+    "ok_rms_m",
+    "ok_max_m",
     "lost_scans",
     "degraded_scans",
     "silent_failures",
