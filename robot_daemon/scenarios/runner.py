@@ -45,7 +45,7 @@ from interbot_core.topics import RouteMsg
 from interbot_core.topological_map import TopologicalMap, load_topological_map
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO, LocaliserSettings
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.localisation.wall_model import wall_model_setting
 from robot_daemon.scenarios.map_echo import NEAR_M as ECHO_NEAR_M
 from robot_daemon.scenarios.map_echo import MapEcho, nees, pose_error
 from robot_daemon.sim.laser_sim import LaserConfig
@@ -334,9 +334,9 @@ class SimulatedSystem:
             self.initial_pose_error = person_set_pose_error(np.random.default_rng(pose_seed))
         self.sim = Simulator(world_grid, sim_config, rng_seed=options.seed)
         if stack_config is None:  # the daemon's wall model, the same as on the robot
-            surface = LocaliserSettings().map_surface
+            matcher, wall_model = wall_model_setting(LocaliserSettings().map_surface)
             stack_config = StackConfig(
-                localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface))
+                localiser=LocaliserConfig(matcher=matcher, wall_model=wall_model)
             )
         rates = stack_config.rates
         self.backend = SimBackend(
