@@ -82,7 +82,7 @@ class WallModelConfig(schema.Declared, frozen=True):
     # off, the matcher's surface is fixed.
     learn: bool = False
     # travel between two samples: other walls in view
-    sample_every_m: Annotated[float, Meta(ge=0.0, le=100.0, extra={"unit": "m"})] = 1.0
+    sample_every_m: Annotated[float, Meta(ge=0.0, le=100.0, extra={"unit": "m"})] = 0.5
     # sample only while the filter's largest position sigma is below this
     max_sigma_m: Annotated[float, Meta(ge=1e-3, le=1.0, extra={"unit": "m"})] = 0.05
     # ... and the scan's hit fraction is at least this
