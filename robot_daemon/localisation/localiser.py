@@ -605,16 +605,16 @@ class Localiser:
         self, points: FloatArray, pose: Pose2D, cov: FloatArray, confidence: float
     ) -> None:
         """While learning, on a sample of well tracked scans, the depth of the beams' end
-        points in the map's walls (`wall_model.beam_depths`, on the map as given: a wall a
-        person added later is no evidence); once the votes decide, the matcher is rebuilt with
-        the learnt model if it is not the one in use (once; the promoted obstacles added
-        again)."""
+        points in the map's walls (`wall_model.beam_depths`, in the surfaces the matcher
+        matches against, without the obstacles promoted since: those are no evidence of how
+        the map was made); once the votes decide, the matcher is rebuilt with the learnt model
+        if it is not the one in use (once; the promoted obstacles added again)."""
         learner = self._wall_model
         sigma = math.sqrt(max(_max_eig_2x2(cov), 0.0))
         if not learner.wants_sample(self._travel_m, sigma, confidence):
             return
         fine = subsample_points(points, self.config.matcher.max_points)
-        depths = beam_depths(self._map_grid, fine, pose) / self._map_grid.resolution
+        depths = beam_depths(self._grid, fine, pose) / self._grid.resolution
         decided = learner.add(depths, self._travel_m)
         if decided is None or decided == self.config.matcher.surface:
             return

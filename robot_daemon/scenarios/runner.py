@@ -185,6 +185,7 @@ class Metrics:
             self.nees_pose.append(nees(e, cov))
             self.nees_position.append(nees(e[:2], cov[:2, :2]))
             if self.echo is not None and self._ok_samples % self.echo_every == 0:
+                self.echo.follow(stack.localiser.config.matcher)  # a learnt wall model
                 self._sample_echo(estimate, truth)
             self._ok_samples += 1
         self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
