@@ -84,6 +84,14 @@ class ScenarioOptions:
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
 
 
+def daemon_localiser_config() -> LocaliserConfig:
+    """The localiser as the daemon configures it by default: its wall model
+    (``localiser.map_surface``, learnt from the scans), the same as on the robot: never one
+    chosen to suit the simulator (issue 12)."""
+    matcher, wall_model = wall_model_setting(LocaliserSettings().map_surface)
+    return LocaliserConfig(matcher=matcher, wall_model=wall_model)
+
+
 @dataclass
 class ScenarioResult:
     """A scenario's table (thesis form) and its figures (the JSON line)."""
@@ -335,10 +343,7 @@ class SimulatedSystem:
             self.initial_pose_error = person_set_pose_error(np.random.default_rng(pose_seed))
         self.sim = Simulator(world_grid, sim_config, rng_seed=options.seed)
         if stack_config is None:  # the daemon's wall model, the same as on the robot
-            matcher, wall_model = wall_model_setting(LocaliserSettings().map_surface)
-            stack_config = StackConfig(
-                localiser=LocaliserConfig(matcher=matcher, wall_model=wall_model)
-            )
+            stack_config = StackConfig(localiser=daemon_localiser_config())
         rates = stack_config.rates
         self.backend = SimBackend(
             self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0
