@@ -17,6 +17,7 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.config import DaemonConfig
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
 from robot_daemon.localisation.wall_model import (
@@ -26,6 +27,7 @@ from robot_daemon.localisation.wall_model import (
     beam_depths,
     wall_model_setting,
 )
+from robot_daemon.scenarios.runner import daemon_localiser_config
 from tests.robot_daemon.localisation.carmen_log import read_laser_records
 from tests.robot_daemon.localisation.log_replay import grid_from_scans, localise_interleaved
 from tests.robot_daemon.localisation.synthetic_office import (
@@ -193,3 +195,12 @@ def test_the_intel_labs_binned_map_is_learnt_to_have_walls_through_the_centres(
     assert stats["wall_learnt_scans"] > 0.5
     assert stats["silent_failures"] == 0
     assert math.isfinite(stats["rms_m"]) and stats["rms_m"] < 0.05
+
+
+def test_the_daemon_and_the_scenarios_learn_the_wall_model_by_default() -> None:
+    """One way for every backend: the daemon's default ``map_surface`` is ``learn``, and the
+    scenarios build their localiser from it (never `LocaliserConfig`'s fixed default)."""
+    matcher, wall = wall_model_setting(DaemonConfig().localiser.map_surface)
+    assert wall.learn and matcher.surface == "cell_centre"
+    config = daemon_localiser_config()
+    assert config.wall_model.learn and config.matcher.surface == "cell_centre"
