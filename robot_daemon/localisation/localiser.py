@@ -90,6 +90,12 @@ from robot_daemon.localisation.scan_matcher import (
     ScanMatcherConfig,
     subsample_points,
 )
+from robot_daemon.localisation.wall_model import (
+    WallModelConfig,
+    WallModelLearner,
+    WallModelStatus,
+    beam_depths,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -119,6 +125,8 @@ class LocaliserConfig(schema.Declared, frozen=True):
     dynamic_map: DynamicMapConfig = msgspec.field(default_factory=DynamicMapConfig)
     odometry_scale: OdometryScaleConfig = msgspec.field(default_factory=OdometryScaleConfig)
     odometry_yaw_bias: OdometryYawBiasConfig = msgspec.field(default_factory=OdometryYawBiasConfig)
+    # where the map's walls lie in their cells: learnt from the scans, or fixed (`wall_model`)
+    wall_model: WallModelConfig = msgspec.field(default_factory=WallModelConfig)
     # beams beyond are ignored
     max_range_m: Annotated[float, Meta(ge=0.5, le=200.0, extra={"unit": "m"})] = 30.0
     # an end point this close to the map counts as a hit
@@ -351,6 +359,8 @@ class Localiser:
         self._jump: tuple[FloatArray, FloatArray] | None = None
         self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
         self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
+        # the map's wall model: the matcher's, or learnt from the scans and switched once
+        self._wall_model = WallModelLearner(self.config.wall_model, self.config.matcher.surface)
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
     # ------------------------------------------------------------------ inputs
@@ -549,6 +559,8 @@ class Localiser:
         self._pose, self._cov = pose, cov
         judged = self._with_map_floor(cov)  # what the state judges
         state = self._update_state(reason, judged, now, confidence, impossible, jump)
+        if state is LocaliserState.OK and not reason:
+            self._learn_wall_model(points, pose, cov, confidence)
         reported = self.reported_covariance(cov)  # with an unconfirmed jump's spread
         certainty = 0.0 if state is LocaliserState.LOST else self._certainty(reported)
         if not reason and state is LocaliserState.DEGRADED:
@@ -583,6 +595,37 @@ class Localiser:
         finally:
             self._reuse_trace = False
         return impossible
+
+    @property
+    def wall_model(self) -> WallModelStatus:
+        """The wall model the matcher uses and how it was chosen (`wall_model`)."""
+        return self._wall_model.status()
+
+    def _learn_wall_model(
+        self, points: FloatArray, pose: Pose2D, cov: FloatArray, confidence: float
+    ) -> None:
+        """While learning, on a sample of well tracked scans, the depth of the beams' end
+        points in the map's walls (`wall_model.beam_depths`, in the surfaces the matcher
+        matches against, without the obstacles promoted since: those are no evidence of how
+        the map was made); once the votes decide, the matcher is rebuilt with the learnt model
+        if it is not the one in use (once; the promoted obstacles added again)."""
+        learner = self._wall_model
+        sigma = math.sqrt(max(_max_eig_2x2(cov), 0.0))
+        if not learner.wants_sample(self._travel_m, sigma, confidence):
+            return
+        fine = subsample_points(points, self.config.matcher.max_points)
+        depths = beam_depths(self._grid, fine, pose) / self._grid.resolution
+        decided = learner.add(depths, self._travel_m)
+        if decided is None or decided == self.config.matcher.surface:
+            return
+        self.config = msgspec.structs.replace(
+            self.config, matcher=msgspec.structs.replace(self.config.matcher, surface=decided)
+        )
+        self.matcher = ScanMatcher(self._grid, self.config.matcher)
+        rows, cols = np.nonzero(self.dynamic.promoted)
+        if rows.size:
+            xs, ys = self._grid.cell_to_world(rows, cols)
+            self.matcher.add_obstacles(xs, ys)
 
     def _keep_odometry_prediction(self) -> None:
         """No pose update this scan: the odometry's scale and drift keep their predictions."""
