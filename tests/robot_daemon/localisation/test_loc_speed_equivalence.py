@@ -8,6 +8,7 @@ poses and scans of the synthetic office, including rays and points that leave th
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import (
+    INLIER_M,
     PAD,
     LikelihoodLevel,
     MatchResult,
@@ -563,6 +565,32 @@ def test_first_matches_from_stacked_starts_estimate_as_one_by_one() -> None:
     assert runs[0] == runs[1]
 
 
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_starts_stopped_on_level_one_and_finished_equal_whole_matches(surface: str) -> None:
+    """`match_many` down to level 1 (``last_level``), then on from those poses on the finest
+    level, gives every start the result of one whole `match_many`, bit for bit (what lets
+    `_match_from_starts` finish only the best few); the level-1 scores are the level's mean M
+    at those poses."""
+    rng = np.random.default_rng(13)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for truth in _poses(rng, 4):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, truth.yaw + math.radians(10.0))
+        starts = _starts_around(prior, 0.15, math.radians(10.0))
+        coarse = matcher.match_many(points, starts, last_level=1)
+        finished = matcher.match_many(points, [c.pose for c in coarse], start_level=0)
+        for whole, result in zip(matcher.match_many(points, starts), finished, strict=True):
+            assert _same_match(result, whole)
+        level1 = subsample_points(subsample_points(points, 400), 200)
+        for c in coarse[:3]:
+            cs, sn = math.cos(c.pose.yaw), math.sin(c.pose.yaw)
+            xs = c.pose.x + cs * level1[:, 0] - sn * level1[:, 1]
+            ys = c.pose.y + sn * level1[:, 0] + cs * level1[:, 1]
+            assert c.score == pytest.approx(float(np.mean(matcher.levels[1].value(xs, ys))))
+
+
 @pytest.mark.realdata
 def test_match_many_equals_one_match_per_start_on_a_real_log() -> None:
     """The same on the Intel lab's log (a map of its first 300 scans, every second one, in the
@@ -594,6 +622,68 @@ def interpolate_reference(level: LikelihoodLevel, px: np.ndarray, py: np.ndarray
     return a + fy * (b - a), (m01 - m00 + fy * ((m11 - m10) - (m01 - m00))) * inv, (b - a) * inv
 
 
+def normal_information_reference(
+    m: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    rx: np.ndarray,
+    ry: np.ndarray,
+    tensor: np.ndarray,
+) -> tuple[np.ndarray, int]:
+    """`scan_matcher.normal_information` with boolean masks and the tensor at every point
+    (`LikelihoodLevel.tensor_at`), the normals computed everywhere."""
+    g = np.hypot(gx, gy)
+    sel = (m > INLIER_M) & (g > 1e-9)
+    n = int(np.count_nonzero(sel))
+    if n == 0:
+        return np.zeros((3, 3)), 0
+    inv = 1.0 / g[sel]
+    nx, ny = gx[sel] * inv, gy[sel] * inv
+    t = tensor[sel].astype(np.float64)
+    have = ~np.isnan(t[:, 0])
+    txx = np.where(have, t[:, 0], nx * nx)
+    txy = np.where(have, t[:, 1], nx * ny)
+    tyy = np.where(have, t[:, 2], ny * ny)
+    jx, jy = -ry[sel], rx[sel]
+    ax, ay = txx * jx + txy * jy, txy * jx + tyy * jy
+    a, b, d = float(txx.sum()), float(txy.sum()), float(tyy.sum())
+    e, f, c = float(ax.sum()), float(ay.sum()), float((jx * ax + jy * ay).sum())
+    return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
+
+
+def test_normal_information_at_the_inliers_equals_the_plain_one() -> None:
+    """`normal_information` taking each inlier once and the tensor only at the inliers
+    (`LikelihoodLevel.tensor_rows`), bit for bit the plain version, with the tensor known at
+    every inlier, at some (new obstacles: NaN rows) and given as (N, 3) rows."""
+    grid = office_grid()
+    matcher = ScanMatcher(grid)
+    level = matcher.levels[0]
+    rng = np.random.default_rng(5)
+    loc = Localiser(grid)
+    for truth in _poses(rng, 6):
+        points = subsample_points(loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng)), 400)
+        c, s = math.cos(truth.yaw), math.sin(truth.yaw)
+        rx = c * points[:, 0] - s * points[:, 1]
+        ry = s * points[:, 0] + c * points[:, 1]
+        mxy = np.stack((rx + truth.x, ry + truth.y))
+        grad = np.empty_like(mxy)
+        m = level.interpolate_xy(mxy, grad)
+        tensor = level.tensor_at(mxy[0], mxy[1])
+        holed = tensor.copy()
+        holed[::3] = np.nan
+        expected = normal_information_reference(m, grad[0], grad[1], rx, ry, tensor)
+        got = normal_information(
+            m, grad[0], grad[1], rx, ry, functools.partial(level.tensor_rows, mxy)
+        )
+        assert got[1] == expected[1] > 0
+        assert np.array_equal(got[0], expected[0])
+        for table in (tensor, holed):
+            want = normal_information_reference(m, grad[0], grad[1], rx, ry, table)
+            info, n = normal_information(m, grad[0], grad[1], rx, ry, table)
+            assert n == want[1]
+            assert np.array_equal(info, want[0])
+
+
 def match_reference(
     matcher: ScanMatcher, points: np.ndarray, initial: Pose2D, start_level: int | None = None
 ) -> MatchResult:
@@ -620,7 +710,7 @@ def match_reference(
             h = jac @ jac.T
             if li == 0 and (it == n_max or (it >= n_iter and converged)):
                 tensor = level.tensor_at(rx + px, ry + py)
-                info, n_in = normal_information(m, gx, gy, rx, ry, tensor)
+                info, n_in = normal_information_reference(m, gx, gy, rx, ry, tensor)
                 score = float(np.add.reduce(m)) / m.size
                 return MatchResult(Pose2D(px, py, yaw), h, score, len(fine), info, n_in)
             r = 1.0 - m
