@@ -641,7 +641,6 @@ class ScanMatcher:
         points: FloatArray,
         initials: Sequence[Pose2D],
         start_level: int | None = None,
-        last_level: int = 0,
     ) -> list[MatchResult]:
         """`match` from each of ``initials``, result for result the same (bit for bit), with
         the starts' Gauss-Newton iterations stacked: one numpy call per step for all of them.
@@ -653,15 +652,10 @@ class ScanMatcher:
         operations in its order (rows of a stacked sum reduce as a lone row does; each start's
         ``H`` is one BLAS product as in `_hessian`; `_solve3` on arrays);
         `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` compares the two.
-
-        ``last_level`` > 0: stop after that (coarser) level; each result is then only the pose
-        there and its score on that level (`coarse_score`; no H, no information). Matching from
-        those poses with ``start_level=0`` finishes each start exactly as a match from the
-        coarsest level would (`Localiser._match_from_starts` finishes only the best few).
         """
         cfg = self.config
         fine = subsample_points(points, cfg.max_points)
-        if last_level <= 0 and (fine.shape[0] == 0 or len(initials) < 2):
+        if fine.shape[0] == 0 or len(initials) < 2:
             return [self.match(points, p, start_level) for p in initials]
         px = np.array([p.x for p in initials])
         py = np.array([p.y for p in initials])
@@ -670,7 +664,7 @@ class ScanMatcher:
         n_levels = len(self.levels)
         first = n_levels - 1 if start_level is None else min(max(start_level, 0), n_levels - 1)
         amax = cfg.max_angular_step
-        for li in range(first, last_level - 1, -1):
+        for li in range(first, -1, -1):
             level = self.levels[li]
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
             sx = np.ascontiguousarray(pts[:, 0])[None, :]
@@ -700,9 +694,13 @@ class ScanMatcher:
                 for k in np.flatnonzero(done).tolist():
                     # Final evaluation only: H and score at the solution (as `match`).
                     row_m = m[k]
-                    tensor = level.tensor_at(mxy[0, k], mxy[1, k])
                     normal_info, n_inliers = normal_information(
-                        row_m, gx[k], gy[k], rx[k], ry[k], tensor
+                        row_m,
+                        gx[k],
+                        gy[k],
+                        rx[k],
+                        ry[k],
+                        functools.partial(level.tensor_rows, mxy[:, k]),
                     )
                     results[int(active[k])] = MatchResult(
                         Pose2D(float(px[k]), float(py[k]), float(yaw[k])),
@@ -735,40 +733,9 @@ class ScanMatcher:
                 px = px + dx
                 py = py + dy
                 yaw = yaw + dth
-        if last_level > 0:
-            poses = [
-                Pose2D(x, y, t)
-                for x, y, t in zip(px.tolist(), py.tolist(), yaw.tolist(), strict=True)
-            ]
-            scores = self.level_scores(fine, poses, last_level)
-            return [
-                MatchResult(p, np.zeros((3, 3)), score, int(fine.shape[0]), np.zeros((3, 3)), 0)
-                for p, score in zip(poses, scores, strict=True)
-            ]
         out = [r for r in results if r is not None]
         if len(out) != len(initials):  # every start ends on the finest level
             raise RuntimeError("match_many: a start did not finish")
-        return out
-
-    def level_scores(self, points: FloatArray, poses: Sequence[Pose2D], level: int) -> list[float]:
-        """Mean M of the scan at each pose on ``level``, with the end points that level matches
-        (``max_points >> level`` of ``points``, as `match`): the coarse stage's ranking."""
-        if not poses:
-            return []
-        fine = subsample_points(points, self.config.max_points)
-        pts = (
-            fine if level == 0 else subsample_points(fine, max(self.config.max_points >> level, 30))
-        )
-        if pts.shape[0] == 0:
-            return [0.0] * len(poses)
-        yaw = np.array([p.yaw for p in poses])[:, None]
-        c, s = np.cos(yaw), np.sin(yaw)
-        sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
-        pxy = np.empty((2, len(poses), pts.shape[0]))
-        pxy[0] = np.array([p.x for p in poses])[:, None] + c * sx - s * sy
-        pxy[1] = np.array([p.y for p in poses])[:, None] + s * sx + c * sy
-        m = self.levels[level].value_xy(pxy)
-        out: list[float] = (np.add.reduce(m, axis=1) / m.shape[1]).tolist()
         return out
 
 

@@ -565,32 +565,6 @@ def test_first_matches_from_stacked_starts_estimate_as_one_by_one() -> None:
     assert runs[0] == runs[1]
 
 
-@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
-def test_starts_stopped_on_level_one_and_finished_equal_whole_matches(surface: str) -> None:
-    """`match_many` down to level 1 (``last_level``), then on from those poses on the finest
-    level, gives every start the result of one whole `match_many`, bit for bit (what lets
-    `_match_from_starts` finish only the best few); the level-1 scores are the level's mean M
-    at those poses."""
-    rng = np.random.default_rng(13)
-    grid = office_grid()
-    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
-    loc = Localiser(grid)
-    for truth in _poses(rng, 4):
-        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
-        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, truth.yaw + math.radians(10.0))
-        starts = _starts_around(prior, 0.15, math.radians(10.0))
-        coarse = matcher.match_many(points, starts, last_level=1)
-        finished = matcher.match_many(points, [c.pose for c in coarse], start_level=0)
-        for whole, result in zip(matcher.match_many(points, starts), finished, strict=True):
-            assert _same_match(result, whole)
-        level1 = subsample_points(subsample_points(points, 400), 200)
-        for c in coarse[:3]:
-            cs, sn = math.cos(c.pose.yaw), math.sin(c.pose.yaw)
-            xs = c.pose.x + cs * level1[:, 0] - sn * level1[:, 1]
-            ys = c.pose.y + sn * level1[:, 0] + cs * level1[:, 1]
-            assert c.score == pytest.approx(float(np.mean(matcher.levels[1].value(xs, ys))))
-
-
 @pytest.mark.realdata
 def test_match_many_equals_one_match_per_start_on_a_real_log() -> None:
     """The same on the Intel lab's log (a map of its first 300 scans, every second one, in the
