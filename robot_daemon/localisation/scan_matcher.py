@@ -637,10 +637,7 @@ class ScanMatcher:
         )
 
     def match_many(
-        self,
-        points: FloatArray,
-        initials: Sequence[Pose2D],
-        start_level: int | None = None,
+        self, points: FloatArray, initials: Sequence[Pose2D], start_level: int | None = None
     ) -> list[MatchResult]:
         """`match` from each of ``initials``, result for result the same (bit for bit), with
         the starts' Gauss-Newton iterations stacked: one numpy call per step for all of them.
