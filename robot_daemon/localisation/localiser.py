@@ -250,6 +250,8 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # 13k occupied ones; the ISR map has none). Off, only occupied cells are surfaces.
     unknown_edges_are_surfaces: bool = True
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
+    # ... and any match whose prediction's heading sigma exceeds this (`_match_from_starts`)
+    starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.1
     see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
     see_through_moved_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.6
     # In a crowd the hit fraction drops (people are misses), so a scan at the right pose that
@@ -349,6 +351,9 @@ class Localiser:
         # The last jump's correction (x, y, yaw) and its spread (`reported_covariance`) while
         # the pose it led to is unconfirmed.
         self._jump: tuple[FloatArray, FloatArray] | None = None
+        # The last trusted estimate carried forward by odometry alone, while the current one is
+        # not trusted (`_match_trusted`); None while it is.
+        self._trusted: tuple[Pose2D, FloatArray] | None = None
         self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
         self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
@@ -442,6 +447,7 @@ class Localiser:
         self._pose = pose
         self._state = LocaliserState.OK
         self._jump = None
+        self._trusted = None
         self._bad_since = None
         self._bad_scans = 0
         self._good_since = None
@@ -472,6 +478,11 @@ class Localiser:
             self._pose, raw_step, step, self._propagate(self._pose, step, self._cov)
         )
         cov_pred = self.yaw_bias.predict(self._pose, step, cov_pred)
+        # The last trusted estimate's branch, carried by the same odometry step.
+        trusted = self._trusted
+        if trusted is not None:
+            trusted = (trusted[0].compose(step), self._propagate(trusted[0], step, trusted[1]))
+        self._trusted = None
         if self._state is LocaliserState.LOST:
             self._keep_odometry_prediction()
             self._pose, self._cov = predicted, cov_pred
@@ -502,7 +513,7 @@ class Localiser:
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
             gated = self._gate_through_walls(points, predicted, cov_pred)
             first_match = self._first_match
-            if self._first_match and cfg.initial_starts:
+            if (self._first_match and cfg.initial_starts) or syaw > cfg.starts_above_rad:
                 result = self._match_from_starts(gated, predicted, cov_pred)
             else:
                 result = self.matcher.match(gated, predicted, start)
@@ -517,6 +528,11 @@ class Localiser:
                     result = retry
                     info, _ = self._slide_test(gated, result, cov_pred)
             fused = self._fuse(predicted, cov_pred, result, step, info)
+            switched = False
+            if trusted is not None and not first_match:
+                branch = self._match_trusted(points, trusted, result, fused, step)
+                if branch is not None:
+                    (result, fused), switched = branch, True
             if fused is None:
                 pose, cov = predicted, cov_pred
                 reason = "match rejected (inconsistent with odometry)"
@@ -528,11 +544,16 @@ class Localiser:
                 correction = _pose_difference(pose, predicted)
                 if not first_match and self._is_jump(correction):
                     jump = (correction, _jump_spread(cov_pred, cov, correction))
-                self.scale.update(cov_pred, cov, correction)
-                if self.yaw_bias.learns_from(raw_step):
-                    self.yaw_bias.update(cov_pred, cov, correction)
+                if switched:
+                    # The correction is a choice between branches, not what the odometry
+                    # erred by in this step: the scale and drift learn nothing from it.
+                    self._keep_odometry_prediction()
                 else:
-                    self.yaw_bias.keep_prediction()
+                    self.scale.update(cov_pred, cov, correction)
+                    if self.yaw_bias.learns_from(raw_step):
+                        self.yaw_bias.update(cov_pred, cov, correction)
+                    else:
+                        self.yaw_bias.keep_prediction()
             score = result.score
             fine = subsample_points(points, cfg.matcher.max_points)
             confidence = self._hit_fraction(fine, pose)
@@ -549,6 +570,10 @@ class Localiser:
         self._pose, self._cov = pose, cov
         judged = self._with_map_floor(cov)  # what the state judges
         state = self._update_state(reason, judged, now, confidence, impossible, jump)
+        if state is not LocaliserState.LOST and (reason or self._jump is not None):
+            # Not trusted: keep the last trusted estimate's branch (this scan's prediction, if
+            # the previous estimate was trusted).
+            self._trusted = trusted if trusted is not None else (predicted, cov_pred)
         reported = self.reported_covariance(cov)  # with an unconfirmed jump's spread
         certainty = 0.0 if state is LocaliserState.LOST else self._certainty(reported)
         if not reason and state is LocaliserState.DEGRADED:
@@ -1270,6 +1295,55 @@ class Localiser:
         if near.score >= (1.0 - cfg.mode_drop) * far.score:
             return near
         return result
+
+    def _match_trusted(
+        self,
+        points: FloatArray,
+        trusted: tuple[Pose2D, FloatArray],
+        result: MatchResult,
+        fused: tuple[Pose2D, FloatArray] | None,
+        step: Pose2D,
+    ) -> tuple[MatchResult, tuple[Pose2D, FloatArray]] | None:
+        """The scan matched and fused from the last trusted estimate's branch instead, when
+        that fits clearly better; None to keep the prediction's (``result``, ``fused``).
+
+        While the estimate is not trusted (a bad scan or an unconfirmed jump since, see
+        `on_scan`), the pose before the trouble, carried by odometry alone (``trusted``: its
+        prediction and covariance), is a second hypothesis (multiple-hypothesis tracking in
+        its smallest form: the jump rule's two poses, `_jump_spread`, kept alive as poses). A
+        wrong correction otherwise cannot be undone: the filter's covariance says nothing of
+        it, the gate then rejects the right optimum and the matcher never reaches it from the
+        wrong pose. CSAIL revisit, odometry seeds 2 and 4-6: three scans of a fast spin in
+        place fit the map 11 degrees off the logged poses (hit fraction 0.96-0.98 there,
+        0.39-0.54 with 14-17 % of the beams through walls at the logged pose: the scans lag
+        the odometry), the filter followed two of them, and after the spin the right optimum
+        lay 12.8 degrees, 4.4 sigma, from its prediction (matched from there: score 0.26
+        against 0.82); lost four scans later. Örebro whole log, seed 2: a poorly fitting
+        corridor scan (hit fraction 0.50) moved the pose 0.78 m along the corridor, and the
+        next four matches, on the right pose, were rejected as inconsistent with it.
+
+        The branch is matched only when its prediction is distinct from the filter's match (two
+        widths of the finest level's field apart, or a degree); it wins when its match passes
+        its own gate and fits better than the filter's by ``slide_better`` (or at least as
+        well, when the filter's was rejected). The switch is then judged like any correction
+        (`_is_jump`): a jump, reported degraded until re-confirmed."""
+        cfg = self.config
+        pred, cov_pred = trusted
+        off = math.hypot(pred.x - result.pose.x, pred.y - result.pose.y)
+        turn = abs(wrap_angle(pred.yaw - result.pose.yaw))
+        if off < 2.0 * self.matcher.levels[0].sigma and turn < math.radians(1.0):
+            return None
+        sxy = math.sqrt(max(float(cov_pred[0, 0]), float(cov_pred[1, 1])))
+        syaw = math.sqrt(max(float(cov_pred[2, 2]), 0.0))
+        other = self.matcher.match(points, pred, self.matcher.start_level(sxy, syaw))
+        need = result.score if fused is None else (1.0 + cfg.slide_better) * result.score
+        if other.score < need:
+            return None
+        info, _ = self._slide_test(points, other, cov_pred)
+        other_fused = self._fuse(pred, cov_pred, other, step, info)
+        if other_fused is None:
+            return None
+        return other, other_fused
 
     def _fuse(
         self,
