@@ -251,7 +251,7 @@ class LocaliserConfig(schema.Declared, frozen=True):
     unknown_edges_are_surfaces: bool = True
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
     # ... and any match whose prediction's heading sigma exceeds this (`_match_from_starts`)
-    starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.1
+    starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.17
     see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
     see_through_moved_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.6
     # In a crowd the hit fraction drops (people are misses), so a scan at the right pose that
