@@ -27,7 +27,7 @@ import pytest
 from interbot_core.geometry import Pose2D
 from robot_daemon.localisation import Localiser, LocaliserConfig
 from robot_daemon.localisation.localiser import LocaliserState
-from tests.robot_daemon.localisation.carmen_log import read_laser_records
+from tests.robot_daemon.localisation.carmen_log import LaserRecord, read_laser_records
 from tests.robot_daemon.localisation.log_replay import (
     localise_interleaved,
     log_config,
@@ -102,7 +102,7 @@ def test_a_wide_heading_prior_is_matched_from_several_starts(starts_above_rad: f
         assert yaw_error > math.radians(3.0)  # the old behaviour: the test can fail
 
 
-def _log(name: str) -> list:
+def _log(name: str) -> list[LaserRecord]:
     path = LOGS / f"{name}-corrected.log.gz"
     if not path.is_file():
         pytest.skip(f"real laser log {path} is absent (see ../shared/data/README.md)")
