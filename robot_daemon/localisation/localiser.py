@@ -250,6 +250,8 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # 13k occupied ones; the ISR map has none). Off, only occupied cells are surfaces.
     unknown_edges_are_surfaces: bool = True
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
+    # While the pose is untrusted, match from the last trusted estimate too (`_match_trusted`)
+    trusted_branch: bool = True
     # ... and any match whose prediction's heading sigma exceeds this (`_match_from_starts`)
     starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.17
     see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
@@ -354,6 +356,7 @@ class Localiser:
         # The last trusted estimate carried forward by odometry alone, while the current one is
         # not trusted (`_match_trusted`); None while it is.
         self._trusted: tuple[Pose2D, FloatArray] | None = None
+        self._was_trusted = False  # whether the last estimate was trusted
         self.scale = OdometryScale(self.config.odometry_scale)  # the odometry's, learnt online
         self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
@@ -447,7 +450,7 @@ class Localiser:
         self._pose = pose
         self._state = LocaliserState.OK
         self._jump = None
-        self._trusted = None
+        self._trusted, self._was_trusted = None, True
         self._bad_since = None
         self._bad_scans = 0
         self._good_since = None
@@ -482,8 +485,8 @@ class Localiser:
         trusted = self._trusted
         if trusted is not None:
             trusted = (trusted[0].compose(step), self._propagate(trusted[0], step, trusted[1]))
-        self._trusted = None
         if self._state is LocaliserState.LOST:
+            self._trusted, self._was_trusted = None, False
             self._keep_odometry_prediction()
             self._pose, self._cov = predicted, cov_pred
             self._last = LocaliserEstimate(
@@ -529,7 +532,7 @@ class Localiser:
                     info, _ = self._slide_test(gated, result, cov_pred)
             fused = self._fuse(predicted, cov_pred, result, step, info)
             switched = False
-            if trusted is not None and not first_match:
+            if trusted is not None and not first_match and cfg.trusted_branch:
                 branch = self._match_trusted(points, trusted, result, fused, step)
                 if branch is not None:
                     (result, fused), switched = branch, True
@@ -570,10 +573,7 @@ class Localiser:
         self._pose, self._cov = pose, cov
         judged = self._with_map_floor(cov)  # what the state judges
         state = self._update_state(reason, judged, now, confidence, impossible, jump)
-        if state is not LocaliserState.LOST and (reason or self._jump is not None):
-            # Not trusted: keep the last trusted estimate's branch (this scan's prediction, if
-            # the previous estimate was trusted).
-            self._trusted = trusted if trusted is not None else (predicted, cov_pred)
+        self._keep_trusted_branch(state, bool(reason), trusted, (predicted, cov_pred))
         reported = self.reported_covariance(cov)  # with an unconfirmed jump's spread
         certainty = 0.0 if state is LocaliserState.LOST else self._certainty(reported)
         if not reason and state is LocaliserState.DEGRADED:
@@ -608,6 +608,33 @@ class Localiser:
         finally:
             self._reuse_trace = False
         return impossible
+
+    def _keep_trusted_branch(
+        self,
+        state: LocaliserState,
+        bad_scan: bool,
+        carried: tuple[Pose2D, FloatArray] | None,
+        predicted: tuple[Pose2D, FloatArray],
+    ) -> None:
+        """After a scan: the estimate is *trusted* unless the scan was bad or a jump awaits
+        re-confirmation (`_update_state`); while it is not, the last trusted estimate is
+        carried forward by odometry (``carried``; ``predicted``, this scan's prediction, when
+        the previous estimate was the trusted one) as `_match_trusted`'s second hypothesis,
+        until it is no surer than a person's initial pose (``initial_sigma_m``,
+        ``initial_sigma_rad``) or the pose is lost."""
+        cfg = self.config
+        was_trusted = self._was_trusted
+        self._was_trusted = not bad_scan and self._jump is None and state is not LocaliserState.LOST
+        branch = predicted if was_trusted else carried
+        self._trusted = None
+        if self._was_trusted or state is LocaliserState.LOST or branch is None:
+            return
+        cov = branch[1]
+        if (
+            math.sqrt(_max_eig_2x2(cov)) <= cfg.initial_sigma_m
+            and math.sqrt(max(float(cov[2, 2]), 0.0)) <= cfg.initial_sigma_rad
+        ):
+            self._trusted = branch
 
     def _keep_odometry_prediction(self) -> None:
         """No pose update this scan: the odometry's scale and drift keep their predictions."""
@@ -1324,9 +1351,13 @@ class Localiser:
 
         The branch is matched only when its prediction is distinct from the filter's match (two
         widths of the finest level's field apart, or a degree); it wins when its match passes
-        its own gate and fits better than the filter's by ``slide_better`` (or at least as
-        well, when the filter's was rejected). The switch is then judged like any correction
-        (`_is_jump`): a jump, reported degraded until re-confirmed."""
+        its own gate, fits better than the filter's by ``slide_better`` (or at all, when the
+        filter's was rejected) and fits the map well where it puts the pose (a hit fraction of
+        ``degraded_confidence``, no more than ``lost_impossible`` of the beams through walls:
+        on the Freiburg campus, outdoors, a branch carried for minutes switched between poses
+        where the scan fitted nothing, 10 m apart). The switch is then judged like any
+        correction (`_is_jump`): a jump, reported degraded until re-confirmed. The branch ends
+        where it is no surer than a person's initial pose (`on_scan`)."""
         cfg = self.config
         pred, cov_pred = trusted
         off = math.hypot(pred.x - result.pose.x, pred.y - result.pose.y)
@@ -1337,12 +1368,19 @@ class Localiser:
         syaw = math.sqrt(max(float(cov_pred[2, 2]), 0.0))
         other = self.matcher.match(points, pred, self.matcher.start_level(sxy, syaw))
         need = result.score if fused is None else (1.0 + cfg.slide_better) * result.score
-        if other.score < need:
+        if other.score <= need:
             return None
         info, _ = self._slide_test(points, other, cov_pred)
         other_fused = self._fuse(pred, cov_pred, other, step, info)
         if other_fused is None:
             return None
+        pose = other_fused[0]
+        if (
+            self._hit_fraction(subsample_points(points, cfg.matcher.max_points), pose)
+            < (cfg.degraded_confidence)
+            or self.impossible_fraction(points, pose) > cfg.lost_impossible
+        ):
+            return None  # not a pose the scan fits well
         return other, other_fused
 
     def _fuse(
