@@ -252,7 +252,8 @@ class LocaliserConfig(schema.Declared, frozen=True):
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
     # While the pose is untrusted, match from the last trusted estimate too (`_match_trusted`)
     trusted_branch: bool = True
-    # ... and any match whose prediction's heading sigma exceeds this (`_match_from_starts`)
+    # ... and any match whose prediction's heading sigma exceeds this (`_wide_heading_match`;
+    # 0.17 rad: a person's initial 10 degrees, `initial_sigma_rad`, which needs them too)
     starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.17
     see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
     see_through_moved_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.6
@@ -516,11 +517,13 @@ class Localiser:
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
             gated = self._gate_through_walls(points, predicted, cov_pred)
             first_match = self._first_match
-            if (self._first_match and cfg.initial_starts) or syaw > cfg.starts_above_rad:
+            if self._first_match and cfg.initial_starts:
                 result = self._match_from_starts(gated, predicted, cov_pred)
             else:
                 result = self.matcher.match(gated, predicted, start)
                 result = self._nearest_mode(gated, result, predicted, cov_pred)
+                if syaw > cfg.starts_above_rad:
+                    result = self._wide_heading_match(gated, result, predicted, cov_pred)
             self._first_match = False
             info, better = self._slide_test(gated, result, cov_pred)
             if better is not None:
@@ -1094,6 +1097,28 @@ class Localiser:
         for result in results[1:]:
             if result.score > best.score:
                 best = result
+        return best
+
+    def _wide_heading_match(
+        self, points: FloatArray, result: MatchResult, predicted: Pose2D, cov_pred: FloatArray
+    ) -> MatchResult:
+        """Under a prediction whose heading sigma exceeds ``starts_above_rad``, the best of
+        `_match_from_starts` instead of the prediction's own ``result`` when it fits better and
+        is not a bad scan where it lands (hit fraction at least ``lost_confidence``).
+
+        Gauss-Newton converges only within a few degrees of heading, and the prediction can be
+        farther off than that where the odometry's turn is uncertain: Örebro's whole log, 5 m
+        between scans (heading sigma 15 degrees), odometry seed 2: from 5.8 degrees off the
+        match settled 0.8 m along a corridor, and the pose was lost four scans later. Among
+        scans that fit nowhere (the Freiburg campus while lost, scores 0.02-0.15) the best
+        start is chance: five of six such picks were farther from the truth than the
+        prediction's own match, one 20 m away."""
+        best = self._match_from_starts(points, predicted, cov_pred)
+        if best.score <= result.score:
+            return result
+        fine = subsample_points(points, self.config.matcher.max_points)
+        if self._hit_fraction(fine, best.pose) < self.config.lost_confidence:
+            return result
         return best
 
     def _propagate(self, pose: Pose2D, step: Pose2D, cov: FloatArray) -> FloatArray:
