@@ -76,6 +76,40 @@ def test_the_filter_keeps_its_match_when_the_branch_fits_no_better() -> None:
     assert loc._match_trusted(points, same, right, fused, Pose2D(0.0, 0.0, 0.0)) is None
 
 
+def test_the_branch_is_kept_while_untrusted_and_no_wider_than_a_persons_pose() -> None:
+    """After a bad scan the previous estimate (this scan's prediction) becomes the branch and
+    is carried while the estimate stays untrusted; it ends once wider than a person's initial
+    pose (0.3 m, 10 degrees), and when the estimate is trusted again."""
+    loc, _ = _office()
+    tight = (TRUTH, np.diag([0.05**2, 0.05**2, 0.03**2]))
+    wide = (TRUTH, np.diag([0.35**2, 0.05**2, 0.03**2]))
+    loc._was_trusted = True
+    loc._keep_trusted_branch(LocaliserState.DEGRADED, True, None, tight)
+    assert loc._trusted is tight  # the last trusted estimate, carried from now on
+    loc._keep_trusted_branch(LocaliserState.DEGRADED, True, tight, wide)
+    assert loc._trusted is tight  # still untrusted: the carried branch, not the prediction
+    loc._keep_trusted_branch(LocaliserState.DEGRADED, True, wide, tight)
+    assert loc._trusted is None  # no surer than a person's pose: ended
+    loc._was_trusted = True
+    loc._keep_trusted_branch(LocaliserState.OK, False, None, tight)
+    assert loc._trusted is None and loc._was_trusted  # trusted: no branch
+
+
+def test_a_best_start_where_the_scan_fits_nowhere_is_not_taken() -> None:
+    """`_wide_heading_match` keeps the prediction's own match when the best of the starts is
+    a bad scan where it lands (hit fraction under ``lost_confidence``): end points that
+    belong to no wall of the office fit somewhere by chance."""
+    loc, _ = _office()
+    rng = np.random.default_rng(4)
+    angles = rng.uniform(-2.0, 2.0, 300)
+    ranges = rng.uniform(0.5, 1.5, 300)  # clutter within 1.5 m of a laser in open floor
+    points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+    middle = Pose2D(10.0, 6.0, 0.0)
+    own = loc.matcher.match(points, middle, 0)
+    cov = np.diag([0.1**2, 0.1**2, 0.3**2])
+    assert loc._wide_heading_match(points, own, middle, cov) is own
+
+
 @pytest.mark.parametrize("starts_above_rad", [0.17, math.pi])
 def test_a_wide_heading_prior_is_matched_from_several_starts(starts_above_rad: float) -> None:
     """The odometry reports a 40 degree turn where the robot turned 25 (odom_alpha_rot 0.5:
