@@ -1108,9 +1108,11 @@ class Localiser:
     def _wide_heading_match(
         self, points: FloatArray, result: MatchResult, predicted: Pose2D, cov_pred: FloatArray
     ) -> MatchResult:
-        """Under a prediction whose heading sigma exceeds ``starts_above_rad``, the best of
-        `_match_from_starts` instead of the prediction's own ``result`` when it fits better and
-        is not a bad scan where it lands (hit fraction at least ``lost_confidence``).
+        """Under a prediction whose heading sigma exceeds ``starts_above_rad``, the best match
+        from the prediction turned by ±0.5 and ±1 sigma instead of the prediction's own
+        ``result``, when it fits better and is not a bad scan where it lands (hit fraction at
+        least ``lost_confidence``). Four starts, in heading only (the first match after a set
+        pose, `_match_from_starts`, needs 25: its position is a person's guess too).
 
         Gauss-Newton converges only within a few degrees of heading, and the prediction can be
         farther off than that where the odometry's turn is uncertain: Örebro's whole log, 5 m
@@ -1119,8 +1121,14 @@ class Localiser:
         scans that fit nowhere (the Freiburg campus while lost, scores 0.02-0.15) the best
         start is chance: five of six such picks were farther from the truth than the
         prediction's own match, one 20 m away."""
-        best = self._match_from_starts(points, predicted, cov_pred)
-        if best.score <= result.score:
+        syaw = math.sqrt(max(float(cov_pred[2, 2]), 0.0))
+        p = predicted
+        starts = [Pose2D(p.x, p.y, p.yaw + k * syaw) for k in (-1.0, -0.5, 0.5, 1.0)]
+        best = result
+        for other in self.matcher.match_many(points, starts):
+            if other.score > best.score:
+                best = other
+        if best is result:
             return result
         fine = subsample_points(points, self.config.matcher.max_points)
         if self._hit_fraction(fine, best.pose) < self.config.lost_confidence:
