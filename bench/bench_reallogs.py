@@ -126,6 +126,8 @@ FIGURES = (
     "odometry_only_rms_m",
     "reference_offset_rms_m",
     "estimate_fits_better",
+    "wall_face_scans",
+    "wall_learnt_scans",
 )
 
 
@@ -228,6 +230,24 @@ def _arguments(argv: Sequence[str]) -> tuple[list[str], int]:
     return logs, seed
 
 
+def _surface_argument(argv: Sequence[str]) -> tuple[list[str], str | None]:
+    """The command line without ``--surface learn|cell_centre|cell_face`` and that wall model
+    (None: the daemon's, `log_replay.REPLAY_SURFACE`)."""
+    rest = list(argv)
+    if "--surface" not in rest:
+        return rest, None
+    k = rest.index("--surface")
+    choices = ("learn", "cell_centre", "cell_face")
+    if k + 1 >= len(rest) or rest[k + 1] not in choices:
+        raise SystemExit(f"--surface needs one of {', '.join(choices)}")
+    surface = rest[k + 1]
+    del rest[k : k + 2]
+    return rest, surface
+
+
 if __name__ == "__main__":
-    _logs, _seed = _arguments(sys.argv[1:])
+    _argv, _surface = _surface_argument(sys.argv[1:])
+    _logs, _seed = _arguments(_argv)
+    if _surface is not None:
+        log_replay.REPLAY_SURFACE = _surface
     print(json.dumps(run(logs=_logs or None, seed=_seed), indent=2))  # command-line output

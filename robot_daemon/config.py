@@ -11,7 +11,7 @@ configuration is logged once at start-up. Example (all keys optional except wher
     safety: ../resources/config/collision_monitor.yaml  # collision monitor, assisted teleop
     zenoh: {listen: ["tcp/127.0.0.1:7447"], connect: []}  # tls/HOST:PORT with security
     security: {keys: /etc/interbot/keys, insecure: false}  # docs/security.md
-    localiser: {map_surface: cell_centre, help_after_s: 20, look_around: true}  # surface: cell_centre | cell_face
+    localiser: {map_surface: learn, help_after_s: 20, look_around: true}  # learn | cell_centre | cell_face
     rates: {controller_hz: 10, localiser_hz: 10, pose_hz: 20, scan_hz: 10, image_hz: 5}
     sim: {seed: 1, people: 4, odometry: calibrated, realtime_factor: 1.0}
     start_latched: true                 # start with the emergency stop latched (see below)
@@ -114,21 +114,23 @@ class ZenohSettings(Section, frozen=True, kw_only=False):
             )
 
 
-MAP_SURFACES = ("cell_face", "cell_centre")
+MAP_SURFACES = ("learn", "cell_face", "cell_centre")
 
 
 class LocaliserSettings(Section, frozen=True):
-    """Where a wall lies in an occupied map cell, for the scan matcher: ONE model for the map,
-    whatever the backend (issue 12: the choice must not suit the simulator).
+    """Where a wall lies in an occupied map cell, for the scan matcher: a property of the map,
+    never chosen per backend (issue 12: the choice must not suit the simulator).
 
-    ``cell_centre`` (default): through the cell, true on average for maps built from laser end
-    points (SLAM: gmapping, Hector, Cartographer), the maps real robots use. ``cell_face``: on
-    the cell's boundary with free space, for maps rasterised from a floor plan when the plan is
-    known to be exact.
+    ``learn`` (default): the robot finds it out from its own scans
+    (`robot_daemon.localisation.wall_model`), matching through the cell centres until the
+    evidence decides, then switching once. ``cell_centre``: fixed, through the cell, true on
+    average for maps built from laser end points (SLAM: gmapping, Hector, Cartographer).
+    ``cell_face``: fixed, on the cell's boundary with free space, for maps rasterised from a
+    floor plan.
     """
 
     ROOT: ClassVar[str] = "localiser"
-    map_surface: Annotated[str, schema.one_of(*MAP_SURFACES)] = "cell_centre"
+    map_surface: Annotated[str, schema.one_of(*MAP_SURFACES)] = "learn"
     # a global search undecided this long asks for "Help me!"
     help_after_s: Annotated[float, Meta(ge=0.0, le=3600.0, extra={"unit": "s"})] = 20.0
     # while a global search is undecided, turn in place (at most one turn) to see more

@@ -78,7 +78,7 @@ from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.look_around import LookAroundConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import RelocaliserConfig
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.localisation.wall_model import wall_model_setting
 from robot_daemon.planning.path_report import plan_message
 from robot_daemon.safety.motion_guard import load_safety_config
 from robot_daemon.sim.odometry_model import OdometryErrorModel
@@ -178,12 +178,13 @@ class Daemon:
                     config, self.grid, self.start_pose, max(rates.localiser_hz, rates.scan_hz)
                 )
         self.backend = backend
-        surface = config.localiser.map_surface  # one wall model, sim or hardware
+        # the map's wall model, learnt (or fixed) the same way in sim and on hardware
+        matcher, wall_model = wall_model_setting(config.localiser.map_surface)
         stack_config = StackConfig(
             rates=rates,
             mux=load_mux_config(config.mux_yaml),
             motion_guard=motion_guard,
-            localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+            localiser=LocaliserConfig(matcher=matcher, wall_model=wall_model),
             relocalisation=RelocalisationConfig(
                 relocaliser=RelocaliserConfig(help_after_s=config.localiser.help_after_s),
                 on_unset=options.relocalise,

@@ -37,7 +37,7 @@ from robot_daemon.config import LocaliserSettings
 from robot_daemon.localisation.localiser import LocaliserConfig
 from robot_daemon.localisation.relocalisation import RelocalisationConfig
 from robot_daemon.localisation.relocaliser import Relocaliser
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.localisation.wall_model import wall_model_setting
 from robot_daemon.scenarios import kidnap as kd
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
 from robot_daemon.stack import StackConfig
@@ -53,9 +53,9 @@ def main() -> None:
     options = ScenarioOptions(
         map_yaml=args.map, topo_yaml=kd.topo_for(args.map, args.topo) or args.topo, seed=args.seed
     )
-    surface = LocaliserSettings().map_surface
+    matcher, wall_model = wall_model_setting(LocaliserSettings().map_surface)
     config = StackConfig(
-        localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface)),
+        localiser=LocaliserConfig(matcher=matcher, wall_model=wall_model),
         relocalisation=RelocalisationConfig(on_unset=False, on_lost=False, background=False),
     )
     system = SimulatedSystem(options, stack_config=config)

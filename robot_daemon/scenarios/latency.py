@@ -50,6 +50,7 @@ from robot_daemon.scenarios.runner import (
     ScenarioResult,
     SimulatedSystem,
     StraightSegment,
+    daemon_localiser_config,
     drive_to_pose,
     run_ticks,
     straight_segments,
@@ -272,7 +273,9 @@ def run_trial(
         msgspec.structs.replace(i, timeout=config.mux_timeout) if i.topic in TOPIC.values() else i
         for i in mux.inputs
     )
-    stack_config = StackConfig(mux=dataclasses.replace(mux, inputs=inputs))
+    stack_config = StackConfig(
+        mux=dataclasses.replace(mux, inputs=inputs), localiser=daemon_localiser_config()
+    )
     system = SimulatedSystem(opts, start_node=0, stack_config=stack_config)
     system.localise()
     segments = straight_segments(system.grid, system.topo)

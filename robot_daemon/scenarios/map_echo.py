@@ -30,7 +30,7 @@ import numpy as np
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation.localiser import LocaliserConfig, surfaces_with_unknown_edges
-from robot_daemon.localisation.scan_matcher import ScanMatcher
+from robot_daemon.localisation.scan_matcher import ScanMatcher, ScanMatcherConfig
 from robot_daemon.sim.laser_sim import LaserConfig, RayCaster
 from robot_daemon.sim.world import World
 
@@ -55,6 +55,7 @@ class MapEcho:
         robot believes it (the localiser's frame)."""
         if localiser.unknown_edges_are_surfaces:
             grid = surfaces_with_unknown_edges(grid)
+        self._grid = grid
         self._matcher = ScanMatcher(grid, localiser.matcher)
         self._caster = RayCaster(world)
         self._laser = laser
@@ -63,6 +64,12 @@ class MapEcho:
         self._max_range = min(laser.range_max, localiser.max_range_m)
         self._mount = robot_mount
         self._mount_inv = robot_mount.inverse()
+
+    def follow(self, matcher: ScanMatcherConfig) -> None:
+        """Match with the robot's matcher as it is now: a localiser that learns its map's wall
+        model (`robot_daemon.localisation.wall_model`) switches it once."""
+        if matcher != self._matcher.config:
+            self._matcher = ScanMatcher(self._grid, matcher)
 
     def noise_free_points(self, truth: Pose2D) -> np.ndarray:
         """Sensor-frame end points of a noise-free, people-free scan from base_link ``truth``."""

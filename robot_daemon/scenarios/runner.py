@@ -45,7 +45,7 @@ from interbot_core.topics import RouteMsg
 from interbot_core.topological_map import TopologicalMap, load_topological_map
 from robot_daemon.config import DEFAULT_MAP, DEFAULT_TOPO, LocaliserSettings
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig
+from robot_daemon.localisation.wall_model import wall_model_setting
 from robot_daemon.scenarios.map_echo import NEAR_M as ECHO_NEAR_M
 from robot_daemon.scenarios.map_echo import MapEcho, nees, pose_error
 from robot_daemon.sim.laser_sim import LaserConfig
@@ -82,6 +82,14 @@ class ScenarioOptions:
     # standing still; by default the operator presses it at once)
     idle_at_power_on: bool = False
     recorder: ScenarioRecorder | None = None  # --record FILE.mcap (robot_daemon/recording)
+
+
+def daemon_localiser_config() -> LocaliserConfig:
+    """The localiser as the daemon configures it by default: its wall model
+    (``localiser.map_surface``, learnt from the scans), the same as on the robot: never one
+    chosen to suit the simulator (issue 12)."""
+    matcher, wall_model = wall_model_setting(LocaliserSettings().map_surface)
+    return LocaliserConfig(matcher=matcher, wall_model=wall_model)
 
 
 @dataclass
@@ -185,6 +193,7 @@ class Metrics:
             self.nees_pose.append(nees(e, cov))
             self.nees_position.append(nees(e[:2], cov[:2, :2]))
             if self.echo is not None and self._ok_samples % self.echo_every == 0:
+                self.echo.follow(stack.localiser.config.matcher)  # a learnt wall model
                 self._sample_echo(estimate, truth)
             self._ok_samples += 1
         self.degraded_s += dt if state == LocaliserState.DEGRADED else 0.0
@@ -334,10 +343,7 @@ class SimulatedSystem:
             self.initial_pose_error = person_set_pose_error(np.random.default_rng(pose_seed))
         self.sim = Simulator(world_grid, sim_config, rng_seed=options.seed)
         if stack_config is None:  # the daemon's wall model, the same as on the robot
-            surface = LocaliserSettings().map_surface
-            stack_config = StackConfig(
-                localiser=LocaliserConfig(matcher=ScanMatcherConfig(surface=surface))
-            )
+            stack_config = StackConfig(localiser=daemon_localiser_config())
         rates = stack_config.rates
         self.backend = SimBackend(
             self.sim, scan_rate_hz=max(rates.localiser_hz, rates.controller_hz), camera_rate_hz=0

@@ -45,6 +45,7 @@ from robot_daemon.scenarios.runner import (
     ScenarioResult,
     SimulatedSystem,
     clearance_along,
+    daemon_localiser_config,
     free_space_distance,
     straight_segments,
 )
@@ -286,7 +287,7 @@ def drive(system: SimulatedSystem, run: Run) -> Outcome:
 def make_system(options: ScenarioOptions, setup: str) -> SimulatedSystem:
     if setup not in SETUPS:
         raise ValueError(f"setup must be one of {SETUPS}, got {setup!r}")
-    config = StackConfig()
+    config = StackConfig(localiser=daemon_localiser_config())
     if setup == "unprotected":
         safety = config.motion_guard
         config = dataclasses.replace(

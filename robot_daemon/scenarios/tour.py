@@ -15,6 +15,7 @@ from typing import Any
 
 from interbot_core.supervisor import GuidedTour, TaskFinished, TourStopReached
 from robot_daemon.localisation.localiser import LocaliserState
+from robot_daemon.localisation.wall_model import wall_model_figures
 from robot_daemon.scenarios.runner import (
     ScenarioOptions,
     ScenarioResult,
@@ -63,6 +64,7 @@ def run(options: ScenarioOptions) -> ScenarioResult:
         "seed": options.seed,
         "world": "ideal (world = map)" if options.ideal_world else "realistic",
         **system.metrics.figures(),
+        **wall_model_figures(system.stack.localiser.wall_model),
         "realtime_factor": round(system.realtime_factor(), 1),
         "cpu_realtime_factor": round(system.cpu_realtime_factor(), 1),
     }

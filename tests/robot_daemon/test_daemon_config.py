@@ -58,12 +58,15 @@ def test_unreadable_and_invalid_yaml(tmp_path: Path) -> None:
 
 
 def test_map_surface_is_one_model_whatever_the_backend(tmp_path: Path) -> None:
-    """One wall model (SLAM maps put walls through cell centres), not one chosen per backend."""
-    assert DaemonConfig().localiser.map_surface == "cell_centre"
-    assert DaemonConfig(backend="hardware").localiser.map_surface == "cell_centre"
+    """The wall model is the map's, learnt from the scans the same way whatever the backend
+    (``learn``, issue 12), or fixed by the user; never one chosen per backend."""
+    assert DaemonConfig().localiser.map_surface == "learn"
+    assert DaemonConfig(backend="hardware").localiser.map_surface == "learn"
     (tmp_path / "robot.yaml").write_text("localiser: {map_surface: cell_face}\n")
     cfg = load_config(tmp_path / "robot.yaml")
     assert cfg.localiser.map_surface == "cell_face"
+    (tmp_path / "robot.yaml").write_text("localiser: {map_surface: cell_centre}\n")
+    assert load_config(tmp_path / "robot.yaml").localiser.map_surface == "cell_centre"
     with pytest.raises(ConfigError, match="map_surface"):
         parse_config({"localiser": {"map_surface": "auto"}}, "robot.yaml", tmp_path)
     with pytest.raises(ConfigError, match="map_surface"):

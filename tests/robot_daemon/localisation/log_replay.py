@@ -41,8 +41,10 @@ import numpy.typing as npt
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from robot_daemon.config import LocaliserSettings
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
-from robot_daemon.localisation.scan_matcher import ScanMatcherConfig, subsample_points
+from robot_daemon.localisation.scan_matcher import subsample_points
+from robot_daemon.localisation.wall_model import wall_model_setting
 
 REVISIT_RADIUS_M = 1.0  # [m] a scan revisits the map when its pose is this close to a mapping pose
 BRIDGE_RADIUS_M = 2.0  # [m] two revisit runs are one if the path between stays this close
@@ -52,6 +54,10 @@ if TYPE_CHECKING:  # the records come from the caller (tests and bench/bench_rea
 SILENT_ERROR_M = 0.3  # [m] an error above this (or SILENT_ERROR_RAD) reported ok is silent
 SILENT_ERROR_RAD = math.radians(10.0)
 MAP_RESOLUTION = 0.05  # [m]
+# The wall model replayed: the daemon's default (``learn``: the robot finds out; on a map binned
+# from scan end points it should settle on ``cell_centre``), or a fixed one
+# (``bench/bench_reallogs.py --surface cell_centre``).
+REPLAY_SURFACE = LocaliserSettings().map_surface
 
 
 class LogReplayError(ValueError):
@@ -76,6 +82,10 @@ class ScanOutcome:
     # The first scan after the logged pose was given again (a re-set after a loss): the
     # localiser's first match then runs from 25 starts (`Localiser._match_from_starts`).
     after_set_pose: bool = False
+    # The wall model the matcher used for this scan (`Localiser.wall_model`) and whether it was
+    # learnt by then.
+    wall_model: str = ""
+    wall_model_learnt: bool = False
 
     @property
     def silent(self) -> bool:
@@ -84,16 +94,16 @@ class ScanOutcome:
         return wrong and self.state is LocaliserState.OK
 
 
-def log_config() -> LocaliserConfig:
-    """The localiser's configuration for maps built from logged scans (`grid_from_scans`): a
-    wall lies anywhere in its (binned) cell, on average mid-cell; and every surface the mapping
+def log_config(map_surface: str | None = None) -> LocaliserConfig:
+    """The localiser's configuration for maps built from logged scans (`grid_from_scans`): the
+    wall model of ``map_surface`` (default `REPLAY_SURFACE`; a wall lies anywhere in its binned
+    cell, on average mid-cell, which ``learn`` must find out); and every surface the mapping
     scans saw is an occupied cell, so the edge between free and unknown space is where those
     scans ran out of range or out of view, never a wall (``unknown_edges_are_surfaces`` is for
     map_server maps whose walls are grey edges; here it made the Freiburg campus whole-log RMS
     8.3 m instead of 14 cm, reported degraded/lost)."""
-    return LocaliserConfig(
-        matcher=ScanMatcherConfig(surface="cell_centre"), unknown_edges_are_surfaces=False
-    )
+    matcher, wall_model = wall_model_setting(map_surface or REPLAY_SURFACE)
+    return LocaliserConfig(matcher=matcher, wall_model=wall_model, unknown_edges_are_surfaces=False)
 
 
 def map_of(records: Sequence[LaserRecord]) -> OccupancyGrid:
@@ -212,6 +222,8 @@ def replay_run(
                 offset,
                 fits_better,
                 after_set_pose,
+                loc.wall_model.surface,
+                loc.wall_model.decided,
             )
         )
         after_set_pose = est.state is LocaliserState.LOST and reinit_lost
@@ -241,6 +253,8 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99``, ``ms_p99_tracking`` (the p99
     without the scans just after a re-set pose, whose first match runs from 25 starts),
     ``set_pose_scans`` (how many those are) and ``odometry_only_rms_m``;
+    ``wall_face_scans`` and ``wall_learnt_scans``: the fractions of scans matched with walls on
+    the cell faces, and after the wall model was learnt (`Localiser.wall_model`);
     and, on the reference itself (`reference_check`), ``reference_offset_rms_m`` (logged pose
     to the scan's best fit in the map near it) and ``estimate_fits_better`` (fraction of scans
     whose estimate fits the scan to the map at least as well as the logged pose).
@@ -278,6 +292,8 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
         if np.isfinite(offsets).any()
         else math.nan,
         "estimate_fits_better": float(np.mean([o.estimate_fits_better for o in outcomes])),
+        "wall_face_scans": float(np.mean([o.wall_model == "cell_face" for o in outcomes])),
+        "wall_learnt_scans": float(np.mean([o.wall_model_learnt for o in outcomes])),
     }
 
 

@@ -83,6 +83,19 @@ def test_short_realistic_tour_splits_its_error_into_the_map_s_and_the_localiser_
     assert f["loc_own_max_m"] < 0.3 and f["loc_echo_max_m"] < 0.3
 
 
+def test_short_realistic_tour_learns_that_the_plan_drawn_map_has_walls_on_faces(
+    short_tour: dict[str, Any],
+) -> None:
+    """The ISR map is rasterised from a floor plan: the localiser, started with the daemon's
+    ``map_surface: learn`` (through the cell centres), learns within a few metres that the
+    walls lie on the cell faces, from the realistic world's scans, and the figures say so."""
+    f = short_tour
+    assert f["loc_wall_model"] == "cell_face"
+    assert f["loc_wall_model_decided"] is True
+    assert f["loc_wall_model_decided_at_m"] < 10.0
+    assert f["loc_wall_model_votes"]["cell_face"] > f["loc_wall_model_votes"]["cell_centre"]
+
+
 def test_short_realistic_tour_covariance_is_honest(short_tour: dict[str, Any]) -> None:
     """The reported covariance covers the error against the truth: NEES per degree of
     freedom near 1 (over 2: too confident), most samples inside the 95 % region."""
