@@ -39,9 +39,10 @@ Departures from Hector (documented choices):
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, ClassVar
 
@@ -172,6 +173,12 @@ class LikelihoodLevel:
         padded[p:-p, p:-p] = tensor
         self.tensor = padded.reshape(-1, 3)
 
+    @property
+    def _node_bounds(self) -> npt.NDArray[np.intp]:
+        """The last lattice column and row, as a column (2, 1) that broadcasts over (2, N)."""
+        h, w = self.field.shape
+        return np.array([[w - 1], [h - 1]], dtype=np.intp)
+
     def tensor_at(self, px: FloatArray, py: FloatArray) -> npt.NDArray[np.float32]:
         """(txx, txy, tyy) at the lattice node nearest each map-frame point (NaN rows: none)."""
         if self.tensor is None:
@@ -184,6 +191,29 @@ class LikelihoodLevel:
         _clip_into(v, 0, h - 1)
         out: npt.NDArray[np.float32] = self.tensor[v * w + u]
         return out
+
+    def tensor_rows(self, pxy: FloatArray, index: npt.NDArray[np.intp]) -> FloatArray | None:
+        """`tensor_at` of the points ``pxy[:, index]`` (stacked x and y, shape (2, N)) as rows
+        (txx, txy, tyy) of shape (3, len(index)) in float64; None without a tensor.
+
+        Speed (issue 12): `normal_information` needs the tensor at the inliers only, and x and
+        y go through each numpy call together; each element is `tensor_at`'s, with the same
+        operations (`test_loc_speed_equivalence.py`)."""
+        if self.tensor is None:
+            return None
+        w = self.field.shape[1]
+        origin, _ = self._columns(2)
+        uv = pxy.take(index, axis=1)
+        uv -= origin
+        uv *= 1.0 / self.resolution
+        uv += PAD - self.lattice_offset
+        ij = np.rint(uv, out=uv).astype(np.intp)
+        np.minimum(ij, self._node_bounds, out=ij)  # `tensor_at`'s clip, on integers
+        np.maximum(ij, 0, out=ij)
+        k = ij[1] * w
+        k += ij[0]
+        rows: FloatArray = self.tensor.take(k, axis=0).T.astype(np.float64, order="C")
+        return rows
 
     @property
     def corners(self) -> FloatArray:
@@ -584,8 +614,9 @@ class ScanMatcher:
                     # Final evaluation only: H and score at the solution.
                     hessian = jac @ jac.T
                     score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # m.mean()
-                    tensor = level.tensor_at(mxy[0], mxy[1])
-                    normal_info, n_inliers = normal_information(m, gx, gy, rx, ry, tensor)
+                    normal_info, n_inliers = normal_information(
+                        m, gx, gy, rx, ry, functools.partial(level.tensor_rows, mxy)
+                    )
                     break
                 r = 1.0 - m
                 # H and g as Python floats (the same values: numpy's float64 arithmetic on
@@ -660,9 +691,13 @@ class ScanMatcher:
                 for k in np.flatnonzero(done).tolist():
                     # Final evaluation only: H and score at the solution (as `match`).
                     row_m = m[k]
-                    tensor = level.tensor_at(mxy[0, k], mxy[1, k])
                     normal_info, n_inliers = normal_information(
-                        row_m, gx[k], gy[k], rx[k], ry[k], tensor
+                        row_m,
+                        gx[k],
+                        gy[k],
+                        rx[k],
+                        ry[k],
+                        functools.partial(level.tensor_rows, mxy[:, k]),
                     )
                     results[int(active[k])] = MatchResult(
                         Pose2D(float(px[k]), float(py[k]), float(yaw[k])),
@@ -707,7 +742,9 @@ def normal_information(
     gy: FloatArray,
     rx: FloatArray,
     ry: FloatArray,
-    tensor: npt.NDArray[np.float32] | None = None,
+    tensor: npt.NDArray[np.float32]
+    | Callable[[npt.NDArray[np.intp]], FloatArray | None]
+    | None = None,
 ) -> tuple[FloatArray, int]:
     """Point-to-surface information ``Σ Aᵢᵀ Tᵢ Aᵢ`` of the inliers, and their number.
 
@@ -722,22 +759,33 @@ def normal_information(
     obstacles). Only inliers (``M > INLIER_M``: within 2 sigma of a surface) count, so beams
     into open space or onto people add nothing. Along a featureless corridor every ``Tᵢ`` is
     across it, so the information along it is (near) zero.
+
+    ``tensor``: (N, 3) rows, or a function of the inliers' indices that returns their rows
+    transposed, (3, n) (`LikelihoodLevel.tensor_rows`: looked up at the inliers only, speed).
     """
     g = np.hypot(gx, gy)
     sel = (m > INLIER_M) & (g > 1e-9)
-    n = int(np.count_nonzero(sel))
+    index = np.flatnonzero(sel)  # one selection, taken from each array (the same elements)
+    n = int(index.size)
     if n == 0:
         return np.zeros((3, 3)), 0
-    inv = 1.0 / g[sel]
-    nx, ny = gx[sel] * inv, gy[sel] * inv
-    txx, txy, tyy = nx * nx, nx * ny, ny * ny
-    if tensor is not None:
-        t = tensor[sel].astype(np.float64)
-        have = ~np.isnan(t[:, 0])
-        txx = np.where(have, t[:, 0], txx)
-        txy = np.where(have, t[:, 1], txy)
-        tyy = np.where(have, t[:, 2], tyy)
-    jx, jy = -ry[sel], rx[sel]  # ∂S/∂ψ = R'(ψ) sᵢ
+    rows: FloatArray | None = None
+    if callable(tensor):
+        rows = tensor(index)
+    elif tensor is not None:
+        rows = tensor.take(index, axis=0).T.astype(np.float64, order="C")
+    have = np.zeros(0, dtype=bool) if rows is None else ~np.isnan(rows[0])
+    if rows is not None and np.count_nonzero(have) == n:
+        txx, txy, tyy = rows[0], rows[1], rows[2]  # a surface's tensor at every inlier
+    else:
+        inv = 1.0 / g.take(index)
+        nx, ny = gx.take(index) * inv, gy.take(index) * inv
+        txx, txy, tyy = nx * nx, nx * ny, ny * ny
+        if rows is not None:
+            txx = np.where(have, rows[0], txx)
+            txy = np.where(have, rows[1], txy)
+            tyy = np.where(have, rows[2], tyy)
+    jx, jy = -ry.take(index), rx.take(index)  # ∂S/∂ψ = R'(ψ) sᵢ
     ax = txx * jx + txy * jy  # T (∂S/∂ψ)
     ay = txy * jx + tyy * jy
     add = np.add.reduce  # ndarray.sum without its wrapper: the same sums

@@ -8,6 +8,7 @@ poses and scans of the synthetic office, including rays and points that leave th
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from robot_daemon.localisation import localiser as localiser_module
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import (
+    INLIER_M,
     PAD,
     LikelihoodLevel,
     MatchResult,
@@ -384,15 +386,20 @@ def test_background_check_skips_the_search_only_when_no_place_can_fit_better() -
 
 
 class FreshTraces(Localiser):
-    """A localiser that traces every time it is asked (no reuse), counting the traces."""
+    """A localiser that traces every beam every time it is asked (no reuse, no halves),
+    counting the rays traced."""
 
     traces = 0
 
     def _trace_impossible(
         self, points: np.ndarray, pose: Pose2D, max_beams: int | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        self.traces += 1
-        return self._trace_rays(points, pose, max_beams or self.config.impossible_max_beams)
+        beams = max_beams or self.config.impossible_max_beams
+        self.traces += subsample_points(points, beams).shape[0]
+        return self._trace_rays(points, pose, beams)
+
+    def _trace_in_halves(self, points: np.ndarray, pose: Pose2D) -> tuple | None:
+        return self._trace_impossible(points, pose)
 
 
 class CountedTraces(Localiser):
@@ -403,7 +410,7 @@ class CountedTraces(Localiser):
     def _trace_rays(
         self, points: np.ndarray, pose: Pose2D, max_beams: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        self.traces += 1
+        self.traces += subsample_points(points, max_beams).shape[0]
         return super()._trace_rays(points, pose, max_beams)
 
 
@@ -435,7 +442,9 @@ def test_see_through_reuses_the_trace_of_the_scan_and_estimates_alike() -> None:
         estimates.append((run, loc.traces))
     (reused, traced_once), (fresh, traced_fresh) = estimates
     assert reused == fresh
-    assert traced_once == 15  # one trace per scan
+    # One trace of the scan's beams per scan (in halves: the odd beams next to an impossible
+    # even one are traced once more), not two or three.
+    assert traced_once <= 15 * 1.25 * LocaliserConfig().impossible_max_beams
     assert traced_fresh > 20  # the see-through test asked again on most scans
 
 
@@ -594,6 +603,68 @@ def interpolate_reference(level: LikelihoodLevel, px: np.ndarray, py: np.ndarray
     return a + fy * (b - a), (m01 - m00 + fy * ((m11 - m10) - (m01 - m00))) * inv, (b - a) * inv
 
 
+def normal_information_reference(
+    m: np.ndarray,
+    gx: np.ndarray,
+    gy: np.ndarray,
+    rx: np.ndarray,
+    ry: np.ndarray,
+    tensor: np.ndarray,
+) -> tuple[np.ndarray, int]:
+    """`scan_matcher.normal_information` with boolean masks and the tensor at every point
+    (`LikelihoodLevel.tensor_at`), the normals computed everywhere."""
+    g = np.hypot(gx, gy)
+    sel = (m > INLIER_M) & (g > 1e-9)
+    n = int(np.count_nonzero(sel))
+    if n == 0:
+        return np.zeros((3, 3)), 0
+    inv = 1.0 / g[sel]
+    nx, ny = gx[sel] * inv, gy[sel] * inv
+    t = tensor[sel].astype(np.float64)
+    have = ~np.isnan(t[:, 0])
+    txx = np.where(have, t[:, 0], nx * nx)
+    txy = np.where(have, t[:, 1], nx * ny)
+    tyy = np.where(have, t[:, 2], ny * ny)
+    jx, jy = -ry[sel], rx[sel]
+    ax, ay = txx * jx + txy * jy, txy * jx + tyy * jy
+    a, b, d = float(txx.sum()), float(txy.sum()), float(tyy.sum())
+    e, f, c = float(ax.sum()), float(ay.sum()), float((jx * ax + jy * ay).sum())
+    return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
+
+
+def test_normal_information_at_the_inliers_equals_the_plain_one() -> None:
+    """`normal_information` taking each inlier once and the tensor only at the inliers
+    (`LikelihoodLevel.tensor_rows`), bit for bit the plain version, with the tensor known at
+    every inlier, at some (new obstacles: NaN rows) and given as (N, 3) rows."""
+    grid = office_grid()
+    matcher = ScanMatcher(grid)
+    level = matcher.levels[0]
+    rng = np.random.default_rng(5)
+    loc = Localiser(grid)
+    for truth in _poses(rng, 6):
+        points = subsample_points(loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng)), 400)
+        c, s = math.cos(truth.yaw), math.sin(truth.yaw)
+        rx = c * points[:, 0] - s * points[:, 1]
+        ry = s * points[:, 0] + c * points[:, 1]
+        mxy = np.stack((rx + truth.x, ry + truth.y))
+        grad = np.empty_like(mxy)
+        m = level.interpolate_xy(mxy, grad)
+        tensor = level.tensor_at(mxy[0], mxy[1])
+        holed = tensor.copy()
+        holed[::3] = np.nan
+        expected = normal_information_reference(m, grad[0], grad[1], rx, ry, tensor)
+        got = normal_information(
+            m, grad[0], grad[1], rx, ry, functools.partial(level.tensor_rows, mxy)
+        )
+        assert got[1] == expected[1] > 0
+        assert np.array_equal(got[0], expected[0])
+        for table in (tensor, holed):
+            want = normal_information_reference(m, grad[0], grad[1], rx, ry, table)
+            info, n = normal_information(m, grad[0], grad[1], rx, ry, table)
+            assert n == want[1]
+            assert np.array_equal(info, want[0])
+
+
 def match_reference(
     matcher: ScanMatcher, points: np.ndarray, initial: Pose2D, start_level: int | None = None
 ) -> MatchResult:
@@ -620,7 +691,7 @@ def match_reference(
             h = jac @ jac.T
             if li == 0 and (it == n_max or (it >= n_iter and converged)):
                 tensor = level.tensor_at(rx + px, ry + py)
-                info, n_in = normal_information(m, gx, gy, rx, ry, tensor)
+                info, n_in = normal_information_reference(m, gx, gy, rx, ry, tensor)
                 score = float(np.add.reduce(m)) / m.size
                 return MatchResult(Pose2D(px, py, yaw), h, score, len(fine), info, n_in)
             r = 1.0 - m
@@ -695,3 +766,70 @@ def test_match_equals_its_plain_numpy_version_on_a_real_log() -> None:
         for start_level in (None, 1):
             expected = match_reference(loc.matcher, points, record.pose, start_level)
             assert _same_match(loc.matcher.match(points, record.pose, start_level), expected)
+
+
+# -- the impossible fraction traced in halves ---------------------------------------------------
+
+
+def impossible_fraction_reference(loc: Localiser, points: np.ndarray, pose: Pose2D) -> float:
+    """`Localiser.impossible_fraction` without ``see_through``: one trace of every beam, the
+    runs of at least ``impossible_min_run`` counted."""
+    mask, _ = trace_impossible_reference(loc, points, pose)
+    if mask.size == 0:
+        return 0.0
+    k = loc.config.impossible_min_run
+    if k > 1 and mask.any():
+        mask = localiser_module._long_runs(mask, k)
+    return float(np.count_nonzero(mask)) / mask.size
+
+
+@pytest.mark.parametrize("depth", [0.1, 0.0])
+def test_impossible_fraction_traced_in_halves_equals_one_trace(depth: float) -> None:
+    """The even beams first, the odd ones next to an impossible one, the rest only when a run
+    of two is found (`Localiser._trace_in_halves`): the fraction equals one trace of every
+    beam, and the trace kept for `_see_through` equals it bit for bit. Scans at the truth
+    (most fractions 0, decided on the even half) and 0.05-1 m off (runs through walls)."""
+    rng = np.random.default_rng(5)
+    screened = traced = 0
+    for grid in (office_grid(), _holed_office()):
+        loc = Localiser(grid, LocaliserConfig(impossible_depth_m=depth))
+        for pose in _poses(rng, 25):
+            points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
+            for sigma in (0.0, 0.05, 0.3, 1.0):
+                at = Pose2D(pose.x + rng.normal(0, sigma), pose.y + rng.normal(0, sigma), pose.yaw)
+                loc._last_trace = None
+                fraction = loc.impossible_fraction(points, at)
+                assert fraction == impossible_fraction_reference(loc, points, at)
+                if loc._last_trace is None:
+                    screened += 1
+                    assert fraction == 0.0
+                    continue
+                traced += 1
+                ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
+                assert np.array_equal(loc._last_trace[3], ref_mask)
+                assert np.array_equal(loc._last_trace[4], ref_crossing, equal_nan=True)
+    assert screened > 20 and traced > 20  # both ways were taken
+
+
+def test_a_run_of_two_across_the_halves_is_found() -> None:
+    """Every pair of neighbouring beams, one of them even: a run of exactly two impossible
+    beams is counted whichever of the two is the even one."""
+    loc = Localiser(office_grid())
+    n = 40
+    for first in (10, 11):
+        mask = np.zeros(n, dtype=bool)
+        mask[first : first + 2] = True
+
+        def fake(points: np.ndarray, pose: Pose2D, max_beams: int, m: np.ndarray = mask):
+            # The rays are told apart by their x coordinate (their index in the full scan).
+            flags = m[points[:, 0].astype(int)]
+            return flags, np.where(flags, 1.0, np.nan)
+
+        loc._trace_rays = fake  # type: ignore[method-assign]
+        points = np.column_stack([np.arange(n, dtype=float), np.ones(n)])
+        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 2 / n
+        assert np.array_equal(loc._last_trace[3], mask)
+        lone = np.zeros(n, dtype=bool)
+        lone[[first, first + 3]] = True  # two lone beams: no run
+        loc._trace_rays = lambda p, q, b, m=lone: fake(p, q, b, m)  # type: ignore[method-assign]
+        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 0.0
