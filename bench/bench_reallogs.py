@@ -187,9 +187,11 @@ def run(quick: bool = False, logs: Sequence[str] | None = None, seed: int = 0) -
     """Every log's figures (``logs``: only these keys of `CASES`, e.g. to iterate on one).
 
     ``seed``: the replayed odometry's noise (the bench's figures are seed 0). One seed is one
-    draw of the noise: the CSAIL revisit is 2.2-2.3 cm RMS with seeds 0, 1 and 3 and lost once,
-    23-37 cm RMS (not silent), with seeds 2, 4, 5 and 6; Örebro's whole log is 2.5-2.9 cm with
-    seeds 0, 1 and 3 and 21 cm, lost once, with seed 2 (session 8): compare changes on several.
+    draw of the noise: in session 8 the CSAIL revisit was 2.2-2.3 cm RMS with seeds 0, 1 and 3
+    and lost once, 23-37 cm RMS (not silent), with seeds 2, 4, 5 and 6, and Örebro's whole log
+    21 cm, lost once, with seed 2; since the trusted branch and the heading starts
+    (`Localiser._match_trusted`, `_wide_heading_match`) 2.2-3.3 and 2.4-2.7 cm on seeds 0-6,
+    never lost. Compare changes on several.
     The silent failures are counted over ``seed`` and the `MORE_SEEDS` after it (``seed + 1``,
     ``seed + 2``: `log_replay.replay_seeds`).
     """
