@@ -647,7 +647,7 @@ class Localiser:
         sigma = math.sqrt(max(_max_eig_2x2(cov), 0.0))
         if not learner.wants_sample(self._travel_m, sigma, confidence):
             return
-        fine = subsample_points(points, self.config.matcher.max_points)
+        fine = subsample_points(points, learner.config.sample_beams)
         depths = beam_depths(self._grid, fine, pose) / self._grid.resolution
         decided = learner.add(depths, self._travel_m)
         if decided is None or decided == self.config.matcher.surface:

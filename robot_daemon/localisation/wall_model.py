@@ -92,6 +92,9 @@ class WallModelConfig(schema.Declared, frozen=True):
     min_confidence: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.8
     # a sample needs at least this many beams ending near an occupied cell
     min_beams: Annotated[int, Meta(ge=5, le=5000)] = 50
+    # end points traced per sample, a fixed stride over the scan's valid beams (the median
+    # depth needs no more; 400, the matcher's, cost 0.5-0.9 ms per sample)
+    sample_beams: Annotated[int, Meta(ge=20, le=5000)] = 160
     # a sample whose median depth [cells] is below this votes cell_face ...
     face_below_cells: Annotated[float, Meta(ge=-1.0, le=2.0)] = 0.2
     # ... above this cell_centre; between, it does not vote
