@@ -528,8 +528,7 @@ class Localiser:
             reason = "too few beams"
             self._keep_odometry_prediction()
         else:
-            sxy = math.sqrt(max(cov_pred[0, 0], cov_pred[1, 1]))
-            syaw = math.sqrt(cov_pred[2, 2])
+            sxy, syaw = _prior_sigmas(cov_pred)
             start = None if self._full_search else self.matcher.start_level(sxy, syaw)
             gated = self._gate_through_walls(points, predicted, cov_pred)
             first_match = self._first_match
@@ -644,6 +643,8 @@ class Localiser:
         the map was made); once the votes decide, the matcher is rebuilt with the learnt model
         if it is not the one in use (once; the promoted obstacles added again)."""
         learner = self._wall_model
+        if not learner.learning:  # decided, or fixed: nothing to do on the scan path
+            return
         sigma = math.sqrt(max(_max_eig_2x2(cov), 0.0))
         if not learner.wants_sample(self._travel_m, sigma, confidence):
             return
@@ -684,7 +685,7 @@ class Localiser:
         cov = branch[1]
         if (
             math.sqrt(_max_eig_2x2(cov)) <= cfg.initial_sigma_m
-            and math.sqrt(max(float(cov[2, 2]), 0.0)) <= cfg.initial_sigma_rad
+            and _prior_sigmas(cov)[1] <= cfg.initial_sigma_rad
         ):
             self._trusted = branch
 
@@ -1170,8 +1171,8 @@ class Localiser:
         seed 1: from 7.6 degrees off it settled 5 degrees off, its beams through walls). The
         scan is matched from the prior and from starts at ±0.5 and ±1 sigma in yaw, each also
         ±0.5 sigma in x and y; the best score wins (the Kalman gate still applies)."""
-        sxy = 0.5 * math.sqrt(max(float(cov[0, 0]), float(cov[1, 1])))
-        syaw = math.sqrt(max(float(cov[2, 2]), 0.0))
+        sigma_xy, syaw = _prior_sigmas(cov)
+        sxy = 0.5 * sigma_xy
         starts = [prior]
         for dyaw in (0.0, -0.5 * syaw, 0.5 * syaw, -syaw, syaw):
             for dx, dy in ((0.0, 0.0), (sxy, 0.0), (-sxy, 0.0), (0.0, sxy), (0.0, -sxy)):
@@ -1202,7 +1203,7 @@ class Localiser:
         scans that fit nowhere (the Freiburg campus while lost, scores 0.02-0.15) the best
         start is chance: five of six such picks were farther from the truth than the
         prediction's own match, one 20 m away."""
-        syaw = math.sqrt(max(float(cov_pred[2, 2]), 0.0))
+        syaw = _prior_sigmas(cov_pred)[1]
         p = predicted
         starts = [Pose2D(p.x, p.y, p.yaw + k * syaw) for k in (-1.0, -0.5, 0.5, 1.0)]
         best = result
@@ -1484,9 +1485,7 @@ class Localiser:
         turn = abs(wrap_angle(pred.yaw - result.pose.yaw))
         if off < 2.0 * self.matcher.levels[0].sigma and turn < math.radians(1.0):
             return None
-        sxy = math.sqrt(max(float(cov_pred[0, 0]), float(cov_pred[1, 1])))
-        syaw = math.sqrt(max(float(cov_pred[2, 2]), 0.0))
-        other = self.matcher.match(points, pred, self.matcher.start_level(sxy, syaw))
+        other = self.matcher.match(points, pred, self.matcher.start_level(*_prior_sigmas(cov_pred)))
         need = result.score if fused is None else (1.0 + cfg.slide_better) * result.score
         if other.score <= need:
             return None
@@ -1497,7 +1496,7 @@ class Localiser:
         pose = other_fused[0]
         if (
             self._hit_fraction(subsample_points(points, cfg.matcher.max_points), pose)
-            < (cfg.degraded_confidence)
+            < cfg.degraded_confidence
             or self.impossible_fraction(points, pose) > cfg.lost_impossible
         ):
             return None  # not a pose the scan fits well
@@ -1660,6 +1659,15 @@ def _jump_spread(cov_pred: FloatArray, cov: FloatArray, delta: FloatArray) -> Fl
 def _pose_difference(a: Pose2D, b: Pose2D) -> FloatArray:
     """``a - b`` as (x, y, yaw) in the map frame, the yaw wrapped."""
     return np.array([a.x - b.x, a.y - b.y, wrap_angle(a.yaw - b.yaw)])
+
+
+def _prior_sigmas(cov: FloatArray) -> tuple[float, float]:
+    """A prior's position sigma (the larger of x and y) and heading sigma, as the matcher's
+    start level (`ScanMatcher.start_level`) and the heading starts take them."""
+    return (
+        math.sqrt(max(float(cov[0, 0]), float(cov[1, 1]))),
+        math.sqrt(max(float(cov[2, 2]), 0.0)),
+    )
 
 
 def _max_eig_2x2(cov: FloatArray) -> float:

@@ -49,6 +49,19 @@ def _shifted(pose: Pose2D, dx: float) -> Pose2D:
     return Pose2D(pose.x + dx, pose.y, pose.yaw)
 
 
+def _count_matches(loc: Localiser) -> list[Pose2D]:
+    """The starts of every `ScanMatcher.match` call on ``loc`` from now on (the list fills)."""
+    calls: list[Pose2D] = []
+    match = loc.matcher.match
+
+    def counting(pts: np.ndarray, initial: Pose2D, start: int | None = None) -> MatchResult:
+        calls.append(initial)
+        return match(pts, initial, start)
+
+    loc.matcher.match = counting  # type: ignore[method-assign]
+    return calls
+
+
 def test_a_far_optimum_that_fits_alike_gives_way_to_the_one_the_prediction_favours() -> None:
     loc, points = _setup()
     far: MatchResult = loc.matcher.match(points, _shifted(TRUTH, PERIOD), 0)
@@ -68,14 +81,7 @@ def test_a_match_within_mode_sigma_of_the_prediction_is_kept_without_a_check() -
     loc, points = _setup()
     result = loc.matcher.match(points, TRUTH, 0)
     predicted = _shifted(TRUTH, 0.15)  # 0.75 sigma
-    calls: list[Pose2D] = []
-    match = loc.matcher.match
-
-    def counting(pts: np.ndarray, initial: Pose2D, start: int | None = None) -> MatchResult:
-        calls.append(initial)
-        return match(pts, initial, start)
-
-    loc.matcher.match = counting  # type: ignore[method-assign]
+    calls = _count_matches(loc)
     assert loc._nearest_mode(points, result, predicted, PRIOR) is result
     assert calls == []  # no extra match
 
@@ -86,14 +92,7 @@ def test_a_match_nearer_than_two_field_widths_is_no_other_mode() -> None:
     loc, points = _setup()
     result = loc.matcher.match(points, TRUTH, 0)
     tight = np.diag([0.02**2, 0.02**2, 0.003**2])
-    calls: list[Pose2D] = []
-    match = loc.matcher.match
-
-    def counting(pts: np.ndarray, initial: Pose2D, start: int | None = None) -> MatchResult:
-        calls.append(initial)
-        return match(pts, initial, start)
-
-    loc.matcher.match = counting  # type: ignore[method-assign]
+    calls = _count_matches(loc)
     assert loc._nearest_mode(points, result, _shifted(result.pose, 0.08), tight) is result
     assert calls == []
     loc._nearest_mode(points, result, _shifted(result.pose, 0.12), tight)
