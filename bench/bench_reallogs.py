@@ -36,9 +36,10 @@ replayed without the clock and the reference check, on the same map and a copy o
 localiser. ``reallog_all_silent_failures`` sums ``silent_failures_seeds`` over every log and
 method (the figure that must be 0); ``reallog_seeds`` says over how many seeds.
 
-Two figures check the reference itself, not the localiser (`log_replay.reference_check`; they
-change no other figure): ``reference_offset_rms_m``, the RMS distance from each logged pose to
-the map's own best fit of its scan near it (the scan matched from the logged pose), and
+Three figures check the reference itself, not the localiser (`log_replay.reference_check`; they
+change no other figure): ``reference_offset_rms_m`` and ``reference_heading_offset_rms_deg``, the
+RMS distance and heading difference from each logged pose to the map's own best fit of its scan
+near it (the scan matched from the logged pose), and
 ``estimate_fits_better``, the fraction of scans whose estimate explains the scan in the map at
 least as well as the logged pose does. Where the offset is as large as the RMS error and the
 estimate fits better in most scans, the error is mostly the reference's disagreement with the
@@ -134,10 +135,17 @@ FIGURES = (
     "wall_learnt_scans",
 )
 
+# Figures reported in degrees, from `log_replay.summarise`'s radians.
+DEGREE_FIGURES = {
+    "heading_rms_deg": "rms_yaw_rad",
+    "reference_heading_offset_rms_deg": "reference_heading_offset_rms_rad",
+}
+
 
 def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
     out = {f"{prefix}_{name}": stats[name] for name in FIGURES}
-    out[f"{prefix}_heading_rms_deg"] = math.degrees(stats["rms_yaw_rad"])
+    for name, radians in DEGREE_FIGURES.items():
+        out[f"{prefix}_{name}"] = math.degrees(stats[radians])
     return out
 
 

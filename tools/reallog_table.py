@@ -37,7 +37,7 @@ METHODS = ("revisit", "whole")
 
 HEADER = (
     "| log | method | scans | RMS / median / max cm | RMS over ok scans cm | heading RMS ° "
-    "| reference's own offset cm | lost / degraded scans | silent failures (seeds) "
+    "| reference's own offset cm / ° | lost / degraded scans | silent failures (seeds) "
     "| ms per scan median / p99 (p99 tracking) |\n"
     "|---|---|---|---|---|---|---|---|---|---|"
 )
@@ -100,7 +100,7 @@ def _row(figures: Mapping[str, float], log: str, method: str, name: str) -> str:
         f"{cm(get('rms_m'))} / {cm(get('median_m'))} / {_fmt(100.0, 1)(get('max_m'))}",
         f"{cm(get('ok_rms_m'))}",
         f"{_fmt(1.0, 2)(get('heading_rms_deg'))}",
-        f"{cm(get('reference_offset_rms_m'))}",
+        f"{cm(get('reference_offset_rms_m'))} / {_fmt(1.0, 2)(get('reference_heading_offset_rms_deg'))}",
         f"{_fmt(1.0, 0)(get('lost_scans'))} / {_fmt(1.0, 0)(get('degraded_scans'))}",
         f"{_fmt(1.0, 0)(get('silent_failures'))} ({_fmt(1.0, 0)(get('silent_failures_seeds'))})",
         f"{_fmt(1.0, 2)(get('ms_median'))} / {_fmt(1.0, 2)(get('ms_p99'))} ({_fmt(1.0, 2)(get('ms_p99_tracking'))})",

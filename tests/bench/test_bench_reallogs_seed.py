@@ -20,7 +20,7 @@ def test_the_seed_reaches_both_methods(monkeypatch: pytest.MonkeyPatch) -> None:
     if not module.LOGS.is_dir():
         pytest.skip(f"{LOGS} is absent: bench_reallogs returns {{}}")
     seeds: list[tuple[str, int]] = []
-    stats = {name: 1.0 for name in (*module.FIGURES, "rms_yaw_rad")}
+    stats = {name: 1.0 for name in (*module.FIGURES, *module.DEGREE_FIGURES.values())}
 
     def revisits(path: Path, split: float, ms: int, ls: int, seed: int, **_: Any) -> Any:
         seeds.append(("revisit", seed))

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from interbot_core.geometry import Pose2D
+from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.config import LocaliserSettings
@@ -75,8 +75,9 @@ class ScanOutcome:
     seconds: float  # time in Localiser.on_scan by the injected clock (0 without one)
     odometry_error_m: float  # dead reckoning alone from the run's start
     # How the logged pose itself sits in the map (`reference_check`): the distance [m] from it
-    # to the scan's own best fit in the map near it, and whether the estimate fits the scan to
-    # the map at least as well as the logged pose does.
+    # to the scan's own best fit in the map near it (the heading difference is the last
+    # field), and whether the estimate fits the scan to the map at least as well as the logged
+    # pose does.
     reference_offset_m: float = math.nan
     estimate_fits_better: bool = False
     # The first scan after the logged pose was given again (a re-set after a loss): the
@@ -86,6 +87,8 @@ class ScanOutcome:
     # learnt by then.
     wall_model: str = ""
     wall_model_learnt: bool = False
+    # The heading part of the reference offset above [rad] (`reference_check`).
+    reference_heading_offset_rad: float = math.nan
 
     @property
     def silent(self) -> bool:
@@ -123,9 +126,12 @@ def map_fit(loc: Localiser, points: np.ndarray, pose: Pose2D) -> float:
     return float(np.mean(level.value(xs, ys))) if points.size else 0.0
 
 
-def reference_check(loc: Localiser, record: LaserRecord, estimate: Pose2D) -> tuple[float, bool]:
-    """How far the logged pose is from the map's own best fit of its scan, and whether the
-    estimate explains the scan at least as well as the logged pose.
+def reference_check(
+    loc: Localiser, record: LaserRecord, estimate: Pose2D
+) -> tuple[float, float, bool]:
+    """How far the logged pose is from the map's own best fit of its scan (distance [m],
+    heading [rad]), and whether the estimate explains the scan at least as well as the logged
+    pose.
 
     The logged poses are a SLAM estimate, and the revisit method's map comes from an earlier
     pass whose poses have errors of their own: where the two disagree, no localiser can be
@@ -140,10 +146,11 @@ def reference_check(loc: Localiser, record: LaserRecord, estimate: Pose2D) -> tu
         record.scan.points(loc.config.max_range_m), loc.matcher.config.max_points
     )
     if points.shape[0] < 10:
-        return math.nan, False
+        return math.nan, math.nan, False
     optimum = loc.matcher.match(points, record.pose).pose
     better = map_fit(loc, points, estimate) >= map_fit(loc, points, record.pose)
-    return optimum.distance_to(record.pose), better
+    turn = abs(wrap_angle(optimum.yaw - record.pose.yaw))
+    return optimum.distance_to(record.pose), turn, better
 
 
 def replay_run(
@@ -208,8 +215,8 @@ def replay_run(
             nees = float(e @ np.linalg.solve(est.covariance, e))
         except np.linalg.LinAlgError:
             nees = math.inf
-        offset, fits_better = (
-            reference_check(loc, cur, est.pose) if check_reference else (math.nan, False)
+        offset, turn, fits_better = (
+            reference_check(loc, cur, est.pose) if check_reference else (math.nan, math.nan, False)
         )
         out.append(
             ScanOutcome(
@@ -219,11 +226,12 @@ def replay_run(
                 nees,
                 seconds,
                 run[0].pose.compose(odom).distance_to(cur.pose),
-                offset,
-                fits_better,
-                after_set_pose,
-                loc.wall_model.surface,
-                loc.wall_model.decided,
+                reference_offset_m=offset,
+                reference_heading_offset_rad=turn,
+                estimate_fits_better=fits_better,
+                after_set_pose=after_set_pose,
+                wall_model=loc.wall_model.surface,
+                wall_model_learnt=loc.wall_model.decided,
             )
         )
         after_set_pose = est.state is LocaliserState.LOST and reinit_lost
@@ -255,8 +263,9 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     ``set_pose_scans`` (how many those are) and ``odometry_only_rms_m``;
     ``wall_face_scans`` and ``wall_learnt_scans``: the fractions of scans matched with walls on
     the cell faces, and after the wall model was learnt (`Localiser.wall_model`);
-    and, on the reference itself (`reference_check`), ``reference_offset_rms_m`` (logged pose
-    to the scan's best fit in the map near it) and ``estimate_fits_better`` (fraction of scans
+    and, on the reference itself (`reference_check`), ``reference_offset_rms_m`` and
+    ``reference_heading_offset_rms_rad`` (logged pose to the scan's best fit in the map near it,
+    position and heading) and ``estimate_fits_better`` (fraction of scans
     whose estimate fits the scan to the map at least as well as the logged pose).
     """
     if not outcomes:
@@ -269,6 +278,7 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     ms = np.array([o.seconds for o in outcomes]) * 1e3
     tracking = np.array([not o.after_set_pose for o in outcomes])
     offsets = np.array([o.reference_offset_m for o in outcomes])
+    turns = np.array([o.reference_heading_offset_rad for o in outcomes])
     return {
         "scans": float(err.size),
         "rms_m": float(np.sqrt(np.mean(err**2))),
@@ -290,6 +300,9 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
         "odometry_only_rms_m": float(np.sqrt(np.mean([o.odometry_error_m**2 for o in outcomes]))),
         "reference_offset_rms_m": float(np.sqrt(np.nanmean(offsets**2)))
         if np.isfinite(offsets).any()
+        else math.nan,
+        "reference_heading_offset_rms_rad": float(np.sqrt(np.nanmean(turns**2)))
+        if np.isfinite(turns).any()
         else math.nan,
         "estimate_fits_better": float(np.mean([o.estimate_fits_better for o in outcomes])),
         "wall_face_scans": float(np.mean([o.wall_model == "cell_face" for o in outcomes])),

@@ -186,7 +186,9 @@ def test_reference_check_measures_a_logged_pose_that_disagrees_with_the_map(
     least as well in most scans; with every logged pose moved 0.15 m east (a reference that
     disagrees with the map, as the Infinite Corridor's second pass does with its first by
     0.16-0.26 m) the localiser still follows the map, and the check says so: offsets of
-    0.15 m and the estimate fitting better almost everywhere."""
+    0.15 m and the estimate fitting better almost everywhere. With every logged heading turned
+    2 degrees instead (CSAIL's scans lag their logged headings by about that much in a turn),
+    the heading offset says 2 degrees."""
     records = _records("intel")[:300]
     fair = localise_interleaved(_log("intel"), 2, records=records)
     grid = map_of(records[0::2])
@@ -195,12 +197,24 @@ def test_reference_check_measures_a_logged_pose_that_disagrees_with_the_map(
         for r in records[1::2]
     ]
     shifted = summarise(replay_run(grid, moved, np.random.default_rng(0)))
-    for key in ("reference_offset_rms_m", "estimate_fits_better", "rms_m"):
+    turned_records = [
+        dataclasses.replace(r, pose=Pose2D(r.pose.x, r.pose.y, r.pose.yaw + math.radians(2.0)))
+        for r in records[1::2]
+    ]
+    turned = summarise(replay_run(grid, turned_records, np.random.default_rng(0)))
+    keys = ("reference_offset_rms_m", "reference_heading_offset_rms_rad", "estimate_fits_better")
+    for key in (*keys, "rms_m"):
         record_property(f"fair_{key}", fair[key])
         record_property(f"shifted_{key}", shifted[key])
+        record_property(f"turned_{key}", turned[key])
     assert fair["reference_offset_rms_m"] < 0.04
     assert fair["estimate_fits_better"] > 0.6
     assert fair["rms_m"] < 0.03
     assert 0.12 < shifted["reference_offset_rms_m"] < 0.18
     assert shifted["estimate_fits_better"] > 0.95
     assert 0.12 < shifted["rms_m"] < 0.18  # the error figure is against the (moved) log
+    # Every logged heading turned 2 degrees: the heading offset says so, the position's does not.
+    assert fair["reference_heading_offset_rms_rad"] < math.radians(0.7)
+    assert math.radians(1.5) < turned["reference_heading_offset_rms_rad"] < math.radians(2.5)
+    assert turned["reference_offset_rms_m"] < 0.06
+    assert turned["estimate_fits_better"] > 0.9
