@@ -65,6 +65,9 @@ def run(options: ScenarioOptions) -> ScenarioResult:
         "world": "ideal (world = map)" if options.ideal_world else "realistic",
         **system.metrics.figures(),
         **wall_model_figures(system.stack.localiser.wall_model),
+        # the floor under the reported covariance, learnt from the corrections (`map_floor`)
+        "loc_map_floor_m": round(system.stack.localiser.map_floor.sigma_m, 4),
+        "loc_map_floor_windows": system.stack.localiser.map_floor.windows,
         "realtime_factor": round(system.realtime_factor(), 1),
         "cpu_realtime_factor": round(system.cpu_realtime_factor(), 1),
     }

@@ -237,9 +237,10 @@ def test_covariance_is_not_overconfident_where_the_building_is_off_its_map() -> 
     """Walls 3 cm east and 2.5 cm south of the map's (about one sigma of issue 12's room
     offsets): every scan fits the map perfectly 3.9 cm off the truth, so hundreds of beams and
     scans do not make the pose any surer than the map is. Without the map's own error in the
-    reported covariance (``map_sigma_m = 0``) the same run claims 1-2 cm and its NEES per
+    reported covariance (``map_sigma_m = 0``, not learnt: `map_floor`) the same run claims 1-2 cm and its NEES per
     degree of freedom is over 3 (3.4): this test catches that overconfident covariance."""
     config = LocaliserConfig(map_update=False)
     assert _mean_nees_per_dof(config, (0.03, -0.025)) < 2.0
-    blind = msgspec.structs.replace(config, map_sigma_m=0.0, map_sigma_rad=0.0)
+    no_floor = msgspec.structs.replace(config.map_floor, learn=False)
+    blind = msgspec.structs.replace(config, map_sigma_m=0.0, map_sigma_rad=0.0, map_floor=no_floor)
     assert _mean_nees_per_dof(blind, (0.03, -0.025)) > 3.0

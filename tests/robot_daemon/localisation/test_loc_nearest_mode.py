@@ -11,6 +11,8 @@ off (odometry that drifted is corrected as before).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from interbot_core.geometry import Pose2D
@@ -97,6 +99,31 @@ def test_a_match_nearer_than_two_field_widths_is_no_other_mode() -> None:
     assert calls == []
     loc._nearest_mode(points, result, _shifted(result.pose, 0.12), tight)
     assert calls  # 12 cm: checked (the prediction's own optimum matched)
+
+
+def test_a_near_match_turned_off_the_prediction_gives_way_to_the_predictions_optimum() -> None:
+    """8 cm along the corridor (closer than two field widths) but 1.2 degrees turned (4 sigma
+    of the prediction's heading): where a coarse level left the match on the realistic ISR
+    tour, seed 3, passing the Meeting Room's pane. It is another optimum for all that
+    (`_distinct_optima`), checked and replaced by the prediction's own, which fits as well."""
+    loc, points = _setup()
+    turned = Pose2D(TRUTH.x + 0.08, TRUTH.y, TRUTH.yaw + math.radians(1.2))
+    stuck = MatchResult(turned, np.zeros((3, 3)), 0.5, points.shape[0])
+    tight = np.diag([0.03**2, 0.02**2, 0.003**2])
+    chosen = loc._nearest_mode(points, stuck, TRUTH, tight)
+    assert chosen is not stuck
+    assert abs(chosen.pose.x - TRUTH.x) < 0.02
+    assert abs(chosen.pose.yaw - TRUTH.yaw) < math.radians(0.3)
+
+
+def test_a_near_match_turned_less_than_a_degree_is_no_other_mode() -> None:
+    loc, points = _setup()
+    result = loc.matcher.match(points, TRUTH, 0)
+    tight = np.diag([0.02**2, 0.02**2, 0.003**2])
+    predicted = Pose2D(result.pose.x + 0.08, result.pose.y, result.pose.yaw + math.radians(0.5))
+    calls = _count_matches(loc)
+    assert loc._nearest_mode(points, result, predicted, tight) is result
+    assert calls == []
 
 
 def test_a_far_match_that_fits_clearly_better_keeps_correcting_the_pose() -> None:
