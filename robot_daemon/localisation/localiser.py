@@ -269,6 +269,9 @@ class LocaliserConfig(schema.Declared, frozen=True):
     # ... and any match whose prediction's heading sigma exceeds this (`_wide_heading_match`;
     # 0.17 rad: a person's initial 10 degrees, `initial_sigma_rad`, which needs them too)
     starts_above_rad: Annotated[float, Meta(ge=0.0, le=math.pi, extra={"unit": "rad"})] = 0.17
+    # ... of which this many, ranked by their fit on the matcher's level 1 (10 cm cells), are
+    # matched on to the finest level (speed, issue 12); 4: all, the best there wins.
+    heading_starts_finished: Annotated[int, Meta(ge=1, le=4)] = 4
     see_through_opening_m: Annotated[float, Meta(ge=0.0, le=10.0, extra={"unit": "m"})] = 1.5
     see_through_moved_m: Annotated[float, Meta(ge=0.0, le=2.0, extra={"unit": "m"})] = 0.6
     # In a crowd the hit fraction drops (people are misses), so a scan at the right pose that
@@ -534,11 +537,11 @@ class Localiser:
             first_match = self._first_match
             if self._first_match and cfg.initial_starts:
                 result = self._match_from_starts(gated, predicted, cov_pred)
+            elif syaw > cfg.starts_above_rad:
+                result = self._wide_heading_match(gated, predicted, cov_pred, start)
             else:
                 result = self.matcher.match(gated, predicted, start)
                 result = self._nearest_mode(gated, result, predicted, cov_pred)
-                if syaw > cfg.starts_above_rad:
-                    result = self._wide_heading_match(gated, result, predicted, cov_pred)
             self._first_match = False
             info, better = self._slide_test(gated, result, cov_pred)
             if better is not None:
@@ -1188,12 +1191,17 @@ class Localiser:
         return best
 
     def _wide_heading_match(
-        self, points: FloatArray, result: MatchResult, predicted: Pose2D, cov_pred: FloatArray
+        self,
+        points: FloatArray,
+        predicted: Pose2D,
+        cov_pred: FloatArray,
+        start_level: int | None,
     ) -> MatchResult:
-        """Under a prediction whose heading sigma exceeds ``starts_above_rad``, the best match
-        from the prediction turned by ±0.5 and ±1 sigma instead of the prediction's own
-        ``result``, when it fits better and is not a bad scan where it lands (hit fraction at
-        least ``lost_confidence``). Four starts, in heading only (the first match after a set
+        """Under a prediction whose heading sigma exceeds ``starts_above_rad``: the
+        prediction's own match (from ``start_level``, then `_nearest_mode`) or, when it fits
+        better and is not a bad scan where it lands (hit fraction at least
+        ``lost_confidence``), the best match from the prediction turned by ±0.5 and ±1 sigma
+        (from the coarsest level). Four starts, in heading only (the first match after a set
         pose, `_match_from_starts`, needs 25: its position is a person's guess too).
 
         Gauss-Newton converges only within a few degrees of heading, and the prediction can be
@@ -1202,18 +1210,37 @@ class Localiser:
         match settled 0.8 m along a corridor, and the pose was lost four scans later. Among
         scans that fit nowhere (the Freiburg campus while lost, scores 0.02-0.15) the best
         start is chance: five of six such picks were farther from the truth than the
-        prediction's own match, one 20 m away."""
+        prediction's own match, one 20 m away.
+
+        Speed (issue 12): where the prediction's match starts on the coarsest level too (every
+        such scan of the real logs: the prior is wide), all five are iterated as one stack
+        (`ScanMatcher.match_many`, bit for bit the matches one by one), and with
+        ``heading_starts_finished`` below 4 the starts are ranked on level 1 and only the best
+        ones matched on to the finest level (`ScanMatcher.coarse_many`, `finish`)."""
+        cfg = self.config
         syaw = _prior_sigmas(cov_pred)[1]
         p = predicted
         starts = [Pose2D(p.x, p.y, p.yaw + k * syaw) for k in (-1.0, -0.5, 0.5, 1.0)]
+        coarsest = len(self.matcher.levels) - 1
+        if start_level not in (None, coarsest):
+            result = self.matcher.match(points, predicted, start_level)
+            others = self.matcher.match_many(points, starts)
+        elif cfg.heading_starts_finished < len(starts) and coarsest >= 1:
+            coarse = self.matcher.coarse_many(points, [predicted, *starts], 1)
+            ranked = sorted(range(1, 5), key=coarse.scores.__getitem__, reverse=True)
+            keep = [0, *sorted(ranked[: cfg.heading_starts_finished])]
+            result, *others = self.matcher.finish(points, coarse, keep)
+        else:
+            result, *others = self.matcher.match_many(points, [predicted, *starts])
+        result = self._nearest_mode(points, result, predicted, cov_pred)
         best = result
-        for other in self.matcher.match_many(points, starts):
+        for other in others:
             if other.score > best.score:
                 best = other
         if best is result:
             return result
-        fine = subsample_points(points, self.config.matcher.max_points)
-        if self._hit_fraction(fine, best.pose) < self.config.lost_confidence:
+        fine = subsample_points(points, cfg.matcher.max_points)
+        if self._hit_fraction(fine, best.pose) < cfg.lost_confidence:
             return result
         return best
 
