@@ -301,10 +301,14 @@ def test_slide_profile_equals_the_stacked_reference_bit_for_bit() -> None:
     for pose in _poses(rng, 8):
         points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
         pts = subsample_points(points, loc.config.slide_points)
-        for direction in (np.array([0.6, 0.8, 0.0]), np.array([0.8, -0.6, 0.3])):
-            offsets = np.array([0.15, 0.3, 0.45])
+        for direction, offsets in (
+            (np.array([0.6, 0.8, 0.0]), np.array([0.15, 0.3, 0.45])),
+            (np.array([0.8, -0.6, 0.3]), np.array([0.15, 0.3, 0.45])),
+            (np.array([0.8, -0.6, 0.0]), np.array([0.2, 0.4])),  # profiles of other lengths
+        ):
+            k = offsets.size
             along = np.concatenate(([0.0], np.repeat(offsets, 3), -np.repeat(offsets, 3)))
-            turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 6)))
+            turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 2 * k)))
             yaw = pose.yaw + along * direction[2] + turns
             c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
             px = (pose.x + along * direction[0])[:, None]
@@ -312,7 +316,7 @@ def test_slide_profile_equals_the_stacked_reference_bit_for_bit() -> None:
             xs = px + c * pts[:, 0] - s * pts[:, 1]
             ys = py + s * pts[:, 0] + c * pts[:, 1]
             scores = np.add.reduce(interpolate_reference(level, xs, ys)[0], axis=1) / pts.shape[0]
-            expected = scores[1:].reshape(2, 3, 3).max(axis=2) / scores[0]
+            expected = scores[1:].reshape(2, k, 3).max(axis=2) / scores[0]
             assert np.array_equal(loc.slide_profile(points, pose, direction, offsets), expected)
 
 
