@@ -120,6 +120,21 @@ class MatchResult:
     n_inliers: int = 0
 
 
+@dataclass(frozen=True)
+class CoarseStarts:
+    """Several starts matched down to a coarse ``level`` (`ScanMatcher.coarse_many`): their
+    poses there (x, y, yaw as iterated, yaw not wrapped) and their scores on that level."""
+
+    level: int
+    x: FloatArray
+    y: FloatArray
+    yaw: FloatArray
+    scores: list[float]
+
+    def pose(self, k: int) -> Pose2D:
+        return Pose2D(float(self.x[k]), float(self.y[k]), float(self.yaw[k]))
+
+
 class LikelihoodLevel:
     """One map level: a smooth field M in [0, 1] and its bilinear-interpolation corner table.
 
@@ -654,22 +669,113 @@ class ScanMatcher:
         fine = subsample_points(points, cfg.max_points)
         if fine.shape[0] == 0 or len(initials) < 2:
             return [self.match(points, p, start_level) for p in initials]
+        results: list[MatchResult | None] = [None] * len(initials)
+        poses = (
+            np.array([p.x for p in initials]),
+            np.array([p.y for p in initials]),
+            np.array([p.yaw for p in initials]),
+        )
+        self._descend(fine, poses, start_level, 0, results)
+        out = [r for r in results if r is not None]
+        if len(out) != len(initials):  # every start ends on the finest level
+            raise RuntimeError("match_many: a start did not finish")
+        return out
+
+    def coarse_many(
+        self,
+        points: FloatArray,
+        initials: Sequence[Pose2D],
+        stop_level: int,
+        start_level: int | None = None,
+    ) -> CoarseStarts:
+        """`match_many` stopped after level ``stop_level`` (> 0, a coarse one): each start's
+        pose there and its score on that level (`level_score`); `finish` one of them for
+        `match_many`'s result for that start, bit for bit (`test_loc_speed_equivalence.py`).
+
+        Speed (issue 12): the finest level holds most of a match's cost (400 points, up to
+        ``fine_max_iterations``); a caller that keeps only the best of several starts
+        (`Localiser._wide_heading_match`) can rank them here and finish one."""
+        n_levels = len(self.levels)
+        if not 0 < stop_level < n_levels:
+            raise ValueError(f"coarse_many: stop_level must be 1..{n_levels - 1}, got {stop_level}")
+        if start_level is not None and start_level < stop_level:
+            raise ValueError(
+                f"coarse_many: start_level {start_level} is finer than stop_level {stop_level}"
+            )
+        fine = subsample_points(points, self.config.max_points)
         px = np.array([p.x for p in initials])
         py = np.array([p.y for p in initials])
         yaw = np.array([p.yaw for p in initials])
-        results: list[MatchResult | None] = [None] * len(initials)
+        if fine.shape[0] > 0 and initials:
+            px, py, yaw = self._descend(fine, (px, py, yaw), start_level, stop_level, None)
+        scores = [
+            self._level_score(fine, x, y, t, stop_level)
+            for x, y, t in zip(px.tolist(), py.tolist(), yaw.tolist(), strict=True)
+        ]
+        return CoarseStarts(stop_level, px, py, yaw, scores)
+
+    def finish(
+        self, points: FloatArray, starts: CoarseStarts, ks: Sequence[int]
+    ) -> list[MatchResult]:
+        """Starts ``ks`` of `coarse_many` matched on down to the finest level, stacked:
+        `match_many`'s results for them (the poses carried on unwrapped, as there)."""
+        fine = subsample_points(points, self.config.max_points)
+        if fine.shape[0] == 0:
+            return [self.match(points, starts.pose(k), 0) for k in ks]
+        index = np.array(ks, dtype=np.intp)
+        results: list[MatchResult | None] = [None] * index.size
+        poses = (starts.x[index], starts.y[index], starts.yaw[index])
+        self._descend(fine, poses, starts.level - 1, 0, results)
+        out = [r for r in results if r is not None]
+        if len(out) != index.size:  # every start ends on the finest level
+            raise RuntimeError("finish: a start did not finish")
+        return out
+
+    def level_score(self, points: FloatArray, pose: Pose2D, level: int) -> float:
+        """Mean M of the end points at ``pose`` on ``level``, over the points `match` uses
+        there (``max_points >> level`` of them, at least 30)."""
+        fine = subsample_points(points, self.config.max_points)
+        return self._level_score(fine, pose.x, pose.y, pose.yaw, level)
+
+    def _level_score(self, fine: FloatArray, x: float, y: float, yaw: float, level: int) -> float:
+        cfg = self.config
+        pts = fine if level == 0 else subsample_points(fine, max(cfg.max_points >> level, 30))
+        if pts.shape[0] == 0:
+            return 0.0
+        c, s = math.cos(yaw), math.sin(yaw)
+        pxy = np.empty((2, pts.shape[0]))
+        np.add(c * pts[:, 0] - s * pts[:, 1], x, out=pxy[0])
+        np.add(s * pts[:, 0] + c * pts[:, 1], y, out=pxy[1])
+        m = self.levels[level].value_xy(pxy)
+        return float(np.add.reduce(m)) / m.size
+
+    def _descend(
+        self,
+        fine: FloatArray,
+        poses: tuple[FloatArray, FloatArray, FloatArray],
+        start_level: int | None,
+        stop_level: int,
+        results: list[MatchResult | None] | None,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """`match_many`'s stacked iterations from ``start_level`` down to ``stop_level``; on
+        the finest level (``stop_level`` 0) each start's result goes into ``results`` when it
+        stops. Returns the poses (x, y, yaw arrays) of the starts still iterating at the end
+        (every start after a coarse ``stop_level``). ``poses``: the starts' x, y and yaw."""
+        cfg = self.config
+        px, py, yaw = poses
         n_levels = len(self.levels)
         first = n_levels - 1 if start_level is None else min(max(start_level, 0), n_levels - 1)
+        first = max(first, stop_level)
         amax = cfg.max_angular_step
-        for li in range(first, -1, -1):
+        for li in range(first, stop_level - 1, -1):
             level = self.levels[li]
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
             sx = np.ascontiguousarray(pts[:, 0])[None, :]
             sy = np.ascontiguousarray(pts[:, 1])[None, :]
             n_iter = cfg.iterations[n_levels - 1 - li]
             n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
-            active = np.arange(len(initials))  # the starts still iterating on this level
-            converged = np.zeros(len(initials), dtype=bool)
+            active = np.arange(px.size)  # the starts still iterating on this level
+            converged = np.zeros(px.size, dtype=bool)
             for it in range(n_max + (1 if li == 0 else 0)):
                 # math.cos, as `match` (numpy's may differ in the last bit).
                 c = np.array([math.cos(v) for v in yaw.tolist()])[:, None]
@@ -690,6 +796,7 @@ class ScanMatcher:
                 )
                 for k in np.flatnonzero(done).tolist():
                     # Final evaluation only: H and score at the solution (as `match`).
+                    assert results is not None  # done only on the finest level
                     row_m = m[k]
                     normal_info, n_inliers = normal_information(
                         row_m,
@@ -712,7 +819,7 @@ class ScanMatcher:
                     active, px, py, yaw = active[keep], px[keep], py[keep], yaw[keep]
                     m, jac = m[keep], jac[keep]
                     if active.size == 0:
-                        break
+                        return px, py, yaw
                 r = 1.0 - m
                 h = jac @ jac.transpose(0, 2, 1)
                 # Per start and row of J, the sum of J r (each row reduces as a lone one does).
@@ -730,10 +837,7 @@ class ScanMatcher:
                 px = px + dx
                 py = py + dy
                 yaw = yaw + dth
-        out = [r for r in results if r is not None]
-        if len(out) != len(initials):  # every start ends on the finest level
-            raise RuntimeError("match_many: a start did not finish")
-        return out
+        return px, py, yaw
 
 
 def normal_information(

@@ -301,10 +301,14 @@ def test_slide_profile_equals_the_stacked_reference_bit_for_bit() -> None:
     for pose in _poses(rng, 8):
         points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
         pts = subsample_points(points, loc.config.slide_points)
-        for direction in (np.array([0.6, 0.8, 0.0]), np.array([0.8, -0.6, 0.3])):
-            offsets = np.array([0.15, 0.3, 0.45])
+        for direction, offsets in (
+            (np.array([0.6, 0.8, 0.0]), np.array([0.15, 0.3, 0.45])),
+            (np.array([0.8, -0.6, 0.3]), np.array([0.15, 0.3, 0.45])),
+            (np.array([0.8, -0.6, 0.0]), np.array([0.2, 0.4])),  # profiles of other lengths
+        ):
+            k = offsets.size
             along = np.concatenate(([0.0], np.repeat(offsets, 3), -np.repeat(offsets, 3)))
-            turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 6)))
+            turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 2 * k)))
             yaw = pose.yaw + along * direction[2] + turns
             c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
             px = (pose.x + along * direction[0])[:, None]
@@ -312,7 +316,7 @@ def test_slide_profile_equals_the_stacked_reference_bit_for_bit() -> None:
             xs = px + c * pts[:, 0] - s * pts[:, 1]
             ys = py + s * pts[:, 0] + c * pts[:, 1]
             scores = np.add.reduce(interpolate_reference(level, xs, ys)[0], axis=1) / pts.shape[0]
-            expected = scores[1:].reshape(2, 3, 3).max(axis=2) / scores[0]
+            expected = scores[1:].reshape(2, k, 3).max(axis=2) / scores[0]
             assert np.array_equal(loc.slide_profile(points, pose, direction, offsets), expected)
 
 
@@ -534,6 +538,74 @@ def test_match_many_equals_one_match_per_start(surface: str, start_level: int | 
         assert len(many) == len(starts)
         for start, result in zip(starts, many, strict=True):
             assert _same_match(result, matcher.match(points, start, start_level))
+
+
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_starts_stopped_on_a_coarse_level_and_finished_equal_match_many(surface: str) -> None:
+    """`ScanMatcher.coarse_many` then `finish` of some of the starts gives those starts
+    `match_many`'s results bit for bit (headings carried on unwrapped: starts across ±pi), and
+    `coarse_many`'s scores are `level_score`'s at its poses."""
+    rng = np.random.default_rng(13)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    for k, truth in enumerate(_poses(rng, 4)):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        yaw = math.pi - 0.05 if k == 0 else truth.yaw + math.radians(10.0)  # across +-pi
+        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, yaw)
+        starts = _starts_around(prior, 0.15, math.radians(10.0))
+        many = matcher.match_many(points, starts)
+        coarse = matcher.coarse_many(points, starts, 1)
+        for j in range(len(starts)):
+            # (to the last bits: the pose's heading is wrapped, the stack's is not)
+            score = matcher.level_score(points, coarse.pose(j), 1)
+            assert coarse.scores[j] == pytest.approx(score, rel=1e-12, abs=1e-15)
+        finish = [0, 3, 7, len(starts) - 1]
+        for j, result in zip(finish, matcher.finish(points, coarse, finish), strict=True):
+            assert _same_match(result, many[j])
+
+
+def wide_heading_reference(
+    loc: Localiser, points: np.ndarray, predicted: Pose2D, cov: np.ndarray, start: int | None
+) -> MatchResult:
+    """The prediction's match, `_nearest_mode`, then the four heading starts matched apart
+    (`Localiser._wide_heading_match` before its matches were stacked)."""
+    result = loc.matcher.match(points, predicted, start)
+    result = loc._nearest_mode(points, result, predicted, cov)
+    syaw = math.sqrt(float(cov[2, 2]))
+    starts = [
+        Pose2D(predicted.x, predicted.y, predicted.yaw + k * syaw) for k in (-1, -0.5, 0.5, 1)
+    ]
+    best = result
+    for other in loc.matcher.match_many(points, starts):
+        if other.score > best.score:
+            best = other
+    fine = subsample_points(points, loc.config.matcher.max_points)
+    if best is result or loc._hit_fraction(fine, best.pose) < loc.config.lost_confidence:
+        return result
+    return best
+
+
+@pytest.mark.parametrize("start", [None, 2, 1])
+def test_wide_heading_match_with_every_start_finished_equals_the_matches_apart(
+    start: int | None,
+) -> None:
+    """With ``heading_starts_finished`` 4 the prediction's match and the four heading starts
+    iterated as one stack give the matches made apart bit for bit (from 10 and 20 degrees off
+    the truth, where a start wins, and on the truth, where the prediction's match does)."""
+    rng = np.random.default_rng(14)
+    loc = Localiser(office_grid(), LocaliserConfig(heading_starts_finished=4))
+    cov = np.diag([0.15**2, 0.15**2, 0.3**2])
+    won = 0
+    for truth in _poses(rng, 4):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        for off in (0.0, 10.0, -20.0):
+            predicted = Pose2D(truth.x + 0.05, truth.y, truth.yaw + math.radians(off))
+            ref = wide_heading_reference(loc, points, predicted, cov, start)
+            fast = loc._wide_heading_match(points, predicted, cov, start)
+            assert _same_match(fast, ref)
+            won += fast.pose.yaw != loc.matcher.match(points, predicted, start).pose.yaw
+    assert won > 0  # some heading start beat the prediction's own match
 
 
 class OneStartAtATime(Localiser):

@@ -107,7 +107,8 @@ def test_a_best_start_where_the_scan_fits_nowhere_is_not_taken() -> None:
     middle = Pose2D(10.0, 6.0, 0.0)
     own = loc.matcher.match(points, middle, 0)
     cov = np.diag([0.1**2, 0.1**2, 0.3**2])
-    assert loc._wide_heading_match(points, own, middle, cov) is own
+    kept = loc._wide_heading_match(points, middle, cov, 0)
+    assert (kept.pose, kept.score) == (own.pose, own.score)
 
 
 @pytest.mark.parametrize("starts_above_rad", [0.17, math.pi])
