@@ -171,6 +171,14 @@ class WallModelStatus:
     samples: int  # scans sampled (votes and abstentions)
     decided_at_m: float = math.nan
 
+    def notice(self) -> str | None:
+        """The line the operator reads once the model is learnt (the station's log), else
+        None."""
+        if not self.decided:
+            return None
+        where = "on the cell faces" if self.surface == "cell_face" else "through the cell centres"
+        return f"Localiser: this map's walls lie {where} (learnt after {self.decided_at_m:.1f} m)"
+
     def describe(self) -> str:
         votes = ", ".join(f"{k} {v}" for k, v in self.votes.items())
         if self.decided:

@@ -1,7 +1,8 @@
 """The learnt wall model's matcher is built off the scan path and swapped in at a scan boundary
 (`matcher_swap`, issue 12): at the first well-tracked scan ``swap_after_s`` after the decision
 on the localiser's clock, whatever the build's speed, so a run is the same for a seed; the
-scans before it go on with the old matcher while the build runs.
+scans before it go on with the old matcher while the build runs. And the one line the operator
+reads once the model is learnt.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.scan_matcher import ScanMatcher, ScanMatcherConfig
-from robot_daemon.localisation.wall_model import WallModelConfig
+from robot_daemon.localisation.wall_model import WallModelConfig, WallModelStatus
 from tests.robot_daemon.localisation.synthetic_office import OFFICE_BOXES, office_grid, utm_scan
 
 SCAN_PERIOD_S = 0.1
@@ -123,3 +124,21 @@ def test_a_slow_build_does_not_stall_the_scans_and_the_run_is_the_same(
     assert run.decided_at == reference.decided_at
     assert run.surfaces == reference.surfaces
     assert run.poses == reference.poses
+
+
+def test_the_learnt_model_is_one_line_for_the_operator() -> None:
+    """What the daemon sends the station once the model is learnt (`RobotStack`'s status log;
+    tests/e2e/test_e2e_wall_model.py sees it arrive); nothing while learning or fixed."""
+    votes = {"cell_centre": 0, "cell_face": 8}
+    face = WallModelStatus("cell_face", False, True, votes, 10, 4.62)
+    assert face.notice() == (
+        "Localiser: this map's walls lie on the cell faces (learnt after 4.6 m)"
+    )
+    centre = WallModelStatus(
+        "cell_centre", False, True, {"cell_centre": 9, "cell_face": 1}, 12, 17.4
+    )
+    assert centre.notice() == (
+        "Localiser: this map's walls lie through the cell centres (learnt after 17.4 m)"
+    )
+    assert WallModelStatus("cell_centre", True, False, votes, 10).notice() is None
+    assert WallModelStatus("cell_face", False, False, votes, 0).notice() is None
