@@ -45,7 +45,7 @@ No ``QObject.sender()`` in this thread: each connection's slots are bound to tha
 the object's signal-slot mutex (one of a pool of 131, chosen by address). A disconnect in the
 Qt thread holds such a mutex while it calls the sender's ``disconnectNotify``, which PySide's
 wrapper answers only after taking the GIL: each thread waited for the other's lock and the
-whole station froze (seen once in 20-40 loops of the end-to-end tests under load: the tablet
+whole station froze (seen in the 10th loop of the end-to-end task tests under load: the tablet
 thread in ``_on_object``'s ``self.sender()``, the Qt thread in a pytest-qt wait's disconnect;
 `tests/base_station_app/test_tablet_lock_order.py` holds that mutex on purpose).
 """

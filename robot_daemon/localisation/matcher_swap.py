@@ -5,8 +5,8 @@ its matcher uses, the matcher is rebuilt: its likelihood levels are distance tra
 whole map, 0.2-0.4 s of CPU on the ISR, Willow and Fetch maps (1.2 s under load 5). Built on
 the scan path, that was a stall of the localiser, and of the daemon's control loop around it,
 once per map. Here a worker thread builds it while the scans go on with the old matcher; the
-new one is taken at a scan at least ``delay_s`` after the decision on the localiser's clock,
-waiting for the build only if it has not finished by then.
+new one is taken at a scan at least ``WallModelConfig.swap_after_s`` after the decision on the
+localiser's clock, waiting for the build only if it has not finished by then.
 
 Why a delay on the clock and not "when the build is done": the swap point then depends on the
 clock alone, so a run on simulated time (scenarios, benches, tests) gives the same figures for

@@ -1,6 +1,6 @@
 """The tablet thread never waits for a Qt object mutex while holding the GIL (a station freeze).
 
-Seen once in 20-40 loops of the end-to-end tests under load: the whole process froze with the
+Seen in the 10th loop of the end-to-end task tests under load: the whole process froze with the
 tablet thread in ``TabletServer._on_object`` at ``self.sender()`` (PySide keeps the GIL; Qt
 locks the server's signal-slot mutex) and the Qt thread in a disconnect (pytest-qt's wait
 dropping its timer's connection), which holds such a mutex while it calls the sender's
