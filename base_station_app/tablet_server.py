@@ -39,6 +39,15 @@ called from any thread: they run in the server's thread (`ThreadCall`) and retur
 That thread runs at real-time priority where the OS allows it (`priority` says;
 `interbot_link.command_priority`): a speed command that arrives while the Qt thread draws, or
 other programs keep the cores busy, is read and forwarded at once.
+
+No ``QObject.sender()`` in this thread: each connection's slots are bound to that connection
+(`functools.partial`). PySide calls ``sender()`` holding the GIL, and Qt's ``sender()`` locks
+the object's signal-slot mutex (one of a pool of 131, chosen by address). A disconnect in the
+Qt thread holds such a mutex while it calls the sender's ``disconnectNotify``, which PySide's
+wrapper answers only after taking the GIL: each thread waited for the other's lock and the
+whole station froze (seen in the 10th loop of the end-to-end task tests under load: the tablet
+thread in ``_on_object``'s ``self.sender()``, the Qt thread in a pytest-qt wait's disconnect;
+`tests/base_station_app/test_tablet_lock_order.py` holds that mutex on purpose).
 """
 
 from __future__ import annotations
@@ -46,6 +55,7 @@ from __future__ import annotations
 import logging
 import socket as pysocket
 from collections.abc import Callable
+from functools import partial
 
 from PySide6.QtCore import QCoreApplication, QObject, QThread, QTimer, Signal
 from PySide6.QtNetwork import QAbstractSocket, QHostAddress, QTcpServer, QTcpSocket
@@ -307,16 +317,16 @@ class TabletServer(QObject):
         self.policy.reset()
         self._newest_speed = None
         self._last_pong = self._clock()
-        conn.object_received.connect(self._on_object)
-        conn.batch_finished.connect(self._on_batch_finished)
+        # Bound to this connection, not found with sender() (module docstring: lock order).
+        conn.object_received.connect(partial(self._on_object, conn))
+        conn.batch_finished.connect(partial(self._on_batch_finished, conn))
         conn.frame_error.connect(self._report)
-        conn.disconnected.connect(self._on_disconnected)
+        conn.disconnected.connect(partial(self._on_disconnected, conn))
         self._ping_timer.start()
         logger.info("tablet connected from %s", peer)
         self.connected.emit(peer)
 
-    def _on_disconnected(self) -> None:
-        conn = self.sender()
+    def _on_disconnected(self, conn: QtTcpConnection) -> None:
         if conn is not self._conn or self._conn is None:
             return
         self._conn = None
@@ -335,8 +345,8 @@ class TabletServer(QObject):
             why = "frame too large" if fatal else "repeated protocol errors"
             self.disconnect_tablet(why)
 
-    def _on_object(self, obj: object) -> None:
-        if self.sender() is not self._conn:
+    def _on_object(self, conn: QtTcpConnection, obj: object) -> None:
+        if conn is not self._conn:
             return  # a turn still running for a connection that was just dropped
         if not self.policy.admit(obj, self._clock()):
             return
@@ -359,8 +369,8 @@ class TabletServer(QObject):
         else:
             self.message_received.emit(msg)
 
-    def _on_batch_finished(self) -> None:
-        if self.sender() is not self._conn:
+    def _on_batch_finished(self, conn: QtTcpConnection) -> None:
+        if conn is not self._conn:
             return
         speed, self._newest_speed = self._newest_speed, None
         if speed is not None:

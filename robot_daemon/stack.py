@@ -176,6 +176,7 @@ class RobotStack:
         self.last_jpeg: bytes | None = None
         self._events: deque[StackEvent] = deque(maxlen=200)
         self._localisation_state = LocaliserState.UNSET
+        self._wall_model_told = False  # the learnt wall model is told to the station once
         self.last_scan_time = 0.0  # [s] of the last localised scan
         for name in ("station_vel", "tablet_vel", PLANNER_TOPIC):
             config.mux.input_by_topic(name)  # raises if the mux config lacks an input we need
@@ -361,6 +362,7 @@ class RobotStack:
             self.last_estimate = self.localiser.on_scan(self.last_scan, now)
             self._relocalise(now)
             self._track_localisation(now)
+            self._track_wall_model(now)
         if self._control_due(now):
             self._look_around(now)
             self._control(now)
@@ -410,6 +412,17 @@ class RobotStack:
                 # Stop now: do not drive blind on the planner's last command until it times out.
                 with self.motion_lock:
                     self.mux.on_twist(PLANNER_TOPIC, 0.0, 0.0, now)
+
+    def _track_wall_model(self, now: float) -> None:
+        """Once the localiser has learnt where its map's walls lie, say so on the status log
+        (the station shows it): a model that moves every wall by half a cell is the
+        operator's to know, not only the robot's log's."""
+        if self._wall_model_told:
+            return
+        notice = self.localiser.wall_model.notice()
+        if notice is not None:
+            self._wall_model_told = True
+            self._event(now, "info", notice)
 
     def _look_around(self, now: float) -> None:
         """While a global search is undecided, turn in place to see more (`look_around`):

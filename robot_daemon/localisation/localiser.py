@@ -90,6 +90,7 @@ from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
 from robot_daemon.localisation.map_floor import MapFloor, MapFloorConfig
+from robot_daemon.localisation.matcher_swap import MatcherBuild
 from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
 from robot_daemon.localisation.odometry_yaw_bias import OdometryYawBias, OdometryYawBiasConfig
 from robot_daemon.localisation.scan_matcher import (
@@ -623,7 +624,7 @@ class Localiser:
         clean = state is LocaliserState.OK and not (reason or jump or switched or first_match)
         self._learn_map_floor(step, correction, clean)
         if state is LocaliserState.OK and not reason:
-            self._learn_wall_model(points, pose, cov, confidence)
+            self._learn_wall_model(points, pose, cov, confidence, now)
         self._keep_trusted_branch(state, bool(reason), trusted, (predicted, cov_pred))
         reported = self.reported_covariance(cov)  # with an unconfirmed jump's spread
         certainty = 0.0 if state is LocaliserState.LOST else self._certainty(reported)
@@ -665,14 +666,21 @@ class Localiser:
         """The wall model the matcher uses and how it was chosen (`wall_model`)."""
         return self._wall_model.status()
 
+    # The matcher with the learnt wall model while a worker builds it (`matcher_swap`).
+    _matcher_build: MatcherBuild | None = None
+
     def _learn_wall_model(
-        self, points: FloatArray, pose: Pose2D, cov: FloatArray, confidence: float
+        self, points: FloatArray, pose: Pose2D, cov: FloatArray, confidence: float, now: float
     ) -> None:
         """While learning, on a sample of well tracked scans, the depth of the beams' end
         points in the map's walls (`wall_model.beam_depths`, in the surfaces the matcher
         matches against, without the obstacles promoted since: those are no evidence of how
-        the map was made); once the votes decide, the matcher is rebuilt with the learnt model
-        if it is not the one in use (once; the promoted obstacles added again)."""
+        the map was made). Once the votes decide on a model other than the matcher's, a worker
+        builds the matcher with it, swapped in at the first well-tracked scan
+        ``swap_after_s`` later (`_swap_matcher`; once)."""
+        if self._matcher_build is not None:
+            self._swap_matcher(now)
+            return
         learner = self._wall_model
         if not learner.learning:  # decided, or fixed: nothing to do on the scan path
             return
@@ -684,10 +692,21 @@ class Localiser:
         decided = learner.add(depths, self._travel_m)
         if decided is None or decided == self.config.matcher.surface:
             return
-        self.config = msgspec.structs.replace(
-            self.config, matcher=msgspec.structs.replace(self.config.matcher, surface=decided)
-        )
-        self.matcher = ScanMatcher(self._grid, self.config.matcher)
+        config = msgspec.structs.replace(self.config.matcher, surface=decided)
+        self._matcher_build = MatcherBuild(self._grid, config, now + learner.config.swap_after_s)
+        self._swap_matcher(now)  # at once if swap_after_s is 0
+
+    def _swap_matcher(self, now: float) -> None:
+        """The matcher built with the learnt wall model, once due: in use from the next scan,
+        with the obstacles promoted since the start added again (waits for the build only if
+        it has not finished by then: the swap point depends on the clock alone)."""
+        build = self._matcher_build
+        if build is None or now < build.due:
+            return
+        self._matcher_build = None
+        matcher = build.take()
+        self.config = msgspec.structs.replace(self.config, matcher=matcher.config)
+        self.matcher = matcher
         rows, cols = np.nonzero(self.dynamic.promoted)
         if rows.size:
             xs, ys = self._grid.cell_to_world(rows, cols)

@@ -37,6 +37,7 @@ from interbot_core.topics import (
     StopRelease,
     Topic,
     Twist,
+    decode,
     key,
     robot_wildcard,
 )
@@ -244,16 +245,52 @@ def test_state_topics_reach_the_station(pair: Pair) -> None:
 
 
 def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
+    """Fifty poses while the station does not poll: its next poll returns the newest that has
+    arrived, not a queue of older ones.
+
+    The pose is a stream zenoh may drop at the sender (congestion control DROP,
+    `interbot_link.qos`): while the robot's transmit thread waits for a busy CPU, the tail of a
+    burst never leaves the robot. Measured under load 6: 12 of 60 bursts lost their tail (from
+    the 2nd to the 45th sample on), which a second subscriber in the station's session never
+    received either; with the pose publisher set to BLOCK, 0 of 60. The daemon publishes its
+    state every period, so the test does the same (the newest again until it has arrived), and
+    a probe subscriber in the station's session records what arrived, in order.
+    """
     pair.select()
-    for i in range(50):
-        pair.robot.publish(Topic.POSE, PoseMsg(float(i), 0.0, 0.0, float(i)))
-    newest: list[object] = [None]
+    arrived: list[float] = []
+    newest_arrived = threading.Event()
 
-    def the_last_arrived() -> bool:
-        newest.extend(pair.station.poll_state().values())
-        return isinstance(newest[-1], PoseMsg) and newest[-1].x == 49.0
+    def probe(sample: zenoh.Sample) -> None:
+        pose = decode(Topic.POSE, sample.payload.to_bytes())
+        assert isinstance(pose, PoseMsg)
+        arrived.append(pose.x)
+        if pose.x == 49.0:
+            newest_arrived.set()
 
-    wait_until(the_last_arrived)
+    subscriber = pair.station_session.declare_subscriber(key(ROBOT, Topic.POSE), probe)
+    try:
+        for i in range(50):
+            pair.robot.publish(Topic.POSE, PoseMsg(float(i), 0.0, 0.0, float(i)))
+        deadline = time.monotonic() + 2.0
+        while not newest_arrived.wait(0.02):
+            assert time.monotonic() < deadline, f"pose 49 never arrived; arrived {arrived}"
+            pair.robot.publish(Topic.POSE, PoseMsg(49.0, 0.0, 0.0, 49.0))
+    finally:
+        subscriber.undeclare()
+    # The probe and the station's ring get each sample in one delivery, in either order: when
+    # the probe has seen the first 49, the ring holds it or the sample delivered just before.
+    first = arrived.index(49.0)
+    before = arrived[first - 1] if first else None
+    polled: list[float] = []
+
+    def the_newest_polled() -> bool:
+        pose = pair.station.poll_state().get(Topic.POSE)
+        if isinstance(pose, PoseMsg):
+            polled.append(pose.x)
+        return polled[-1:] == [49.0]
+
+    wait_until(the_newest_polled)
+    assert polled in ([49.0], [before, 49.0]), (polled, arrived)
 
 
 def test_scans_in_millimetres_arrive_quantised(pair: Pair) -> None:
