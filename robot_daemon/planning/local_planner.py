@@ -16,7 +16,10 @@ Admissibility. The rectangular footprint (``robot_length x robot_width``) is cov
 circles on its long axis (radius ``sqrt((L / 2n)^2 + (W / 2)^2)``); a pose collides when the
 Euclidean distance transform of a robot-centred obstacle grid (live scan points and the
 costmap's lethal cells) at a circle centre is below its radius. All trajectories x all steps x
-all circles are checked in one vectorised lookup.
+all circles are checked in one vectorised lookup. A trajectory keeps half a grid cell of margin;
+when the robot already stands inside that margin (none can keep it) but clear of contact, the
+*escape* trajectories are admissible instead: clear of contact throughout, ending farther from
+the obstacles and nearer the carrot than the robot is now.
 
 Objective (lower is better; Fox's heading, dist and velocity terms, DWB-style)::
 
@@ -61,7 +64,7 @@ class LocalPlan:
     linear: float  # [m/s]
     angular: float  # [rad/s]
     valid: bool  # False: no admissible trajectory; the command brakes
-    mode: str  # "dwa", "rotate_to_heading", "rotate_to_goal" or "brake"
+    mode: str  # "dwa", "escape", "rotate_to_heading", "rotate_to_goal" or "brake"
     clearance: float  # [m] footprint clearance at the current pose
     admissible: int = 0  # number of collision-free trajectories
 
@@ -281,13 +284,24 @@ class DWAPlanner:
         # over two axes at once (twice the cost of this whole line).
         traj_clearance = d.min(axis=0).min(axis=1) - radius
         admissible = traj_clearance > margin
+        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
+        mode = "dwa"
+        if not admissible.any() and 0.0 < clearance <= margin:
+            # Already inside the margin (a map or a pose a few cm off, a person stepping
+            # close): every rollout starts there, so none keeps the margin, not even those that
+            # lead out, and the robot would brake beside a wall for ever. Admit the ones that
+            # stay clear of contact, end farther from the obstacles than the robot is now and
+            # nearer the carrot (out along the path, not a crawl along a wall across it).
+            end_clearance = d[:, :, -1].min(axis=0) - radius
+            nearer = np.hypot(carrot[0] - xe, carrot[1] - ye) < math.hypot(*carrot)
+            admissible = (traj_clearance > 0.0) & (end_clearance > clearance) & nearer
+            mode = "escape"
         count = int(admissible.sum())
         if count == 0:
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
             w = limit_step(0.0, w0, dw, -c.max_angular_speed, c.max_angular_speed)
             return LocalPlan(v, w, False, "brake", clearance, 0)
 
-        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
         progress = np.hypot(carrot[0] - xe, carrot[1] - ye) / (
             c.lookahead + c.max_linear_speed * c.sim_time
         )
@@ -311,7 +325,7 @@ class DWAPlanner:
         )
         score = np.where(admissible, score, np.inf)
         best = int(score.argmin())
-        return LocalPlan(float(v_s[best]), float(w_s[best]), True, "dwa", clearance, count)
+        return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
 
     def rotate_to_yaw(
         self, pose: Pose2D, goal_yaw: float, angular_velocity: float, dt: float

@@ -112,6 +112,40 @@ def test_passes_a_0_9_m_door() -> None:
     assert poses[-1].x > 2.5
 
 
+@pytest.mark.parametrize("yaw_deg", [-62.0, -40.0])
+@pytest.mark.parametrize("gap", [0.01, 0.02, 0.04])
+def test_drives_out_from_inside_the_margin_beside_a_corner(gap: float, yaw_deg: float) -> None:
+    """Issue 12, Willow seed 1 at (20.4, 23.9): coming round a wall's end into a 1.2 m corridor
+    the robot stood with the corner 1-4 cm beside its rear half, inside the DWA's half-cell
+    margin; every rollout starts there, so none was admissible and it braked until blocked."""
+    walls = np.vstack(
+        (
+            segment_points((0.0, 0.0), (0.0, -4.0)),  # the corridor's west wall, its end at (0, 0)
+            segment_points((-2.0, 0.0), (0.0, 0.0)),  # the room's wall going west from the corner
+            segment_points((1.2, -4.0), (1.2, 2.0)),  # the corridor's east wall
+        )
+    )
+    yaw = math.radians(yaw_deg)
+    # The corner at robot-frame (-0.1, -(0.275 + gap)): beside the rear half, right side.
+    lx, ly = -0.1, -(0.275 + gap)
+    c, s = math.cos(yaw), math.sin(yaw)
+    pose = Pose2D(-(c * lx - s * ly), -(s * lx + c * ly), yaw)
+    assert rectangle_clearance(walls, pose) == pytest.approx(gap, abs=1e-9)
+    path = np.vstack(
+        (
+            np.linspace((pose.x, pose.y), (0.65, -0.6), 4),
+            np.column_stack((np.full(12, 0.65), np.linspace(-0.85, -3.6, 12))),
+        )
+    )
+    poses, _ = drive(DWAPlanner(CONFIG), walls, path, pose, 200)
+    assert min(rectangle_clearance(walls, p) for p in poses) > 0.0
+    assert poses[-1].y < -2.5  # down the corridor
+    plan = DWAPlanner(CONFIG).compute(
+        pose, (0.0, 0.0), path, DWAPlanner(CONFIG).make_field(to_robot(walls, pose)), DT
+    )
+    assert plan.valid and plan.mode == "escape" and plan.linear > 0.0
+
+
 def test_slows_down_near_obstacles() -> None:
     planner = DWAPlanner(CONFIG)
     path = straight_path(0.0, 5.0)
