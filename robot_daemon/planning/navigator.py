@@ -111,6 +111,8 @@ class Navigator:
         self._stuck_since: float | None = None
         self._last_obstacle_points: npt.NDArray[np.float64] | None = None
         self._episode_start: float | None = None
+        self._episode_pose: Pose2D | None = None
+        self._episode_index = 0
         self._recovery_step = 0
         self._behaviour: _Behaviour | None = None
 
@@ -369,14 +371,18 @@ class Navigator:
 
     def _reset_recovery(self) -> None:
         self._episode_start = None
+        self._episode_pose = None
         self._recovery_step = 0
         self._behaviour = None
         self._stuck_since = None
 
     def _start_recovery(self, now: float, pose: Pose2D, reason: str) -> NavCommand:
         cfg = self.config
+        if self._episode_start is not None and self._left_episode_start(pose):
+            self._reset_recovery()  # the last recoveries worked; a new obstacle, a new episode
         if self._episode_start is None:
-            self._episode_start = now
+            self._episode_start, self._episode_pose = now, pose
+            self._episode_index = self._index
         if now - self._episode_start >= cfg.blocked_timeout:
             self._state = NavState.BLOCKED
             self._path = None
@@ -397,6 +403,22 @@ class Navigator:
             self.costmap.clear()
             return self._finish_behaviour(now, pose)
         return self._emit(*self._brake(DEFAULT_DT))
+
+    def _left_episode_start(self, pose: Pose2D) -> bool:
+        """Whether the robot got away from where this recovery episode began: past a goal since,
+        or ``progress_distance`` from there and nearer its goal. The progress checker's window
+        restarts after every behaviour, so a robot edging through a doorway while people step
+        aside (issue 12, Fetch seed 1: 0.6 m in 36 s, two people in turn) was reported "blocked:
+        recoveries made no progress" although they had. Nearer the goal, so that shuttling
+        between two stuck places cannot restart the episode for ever."""
+        start = self._episode_pose
+        if start is None:
+            return False
+        if self._index > self._episode_index:
+            return True
+        target = self._goals[self._index]
+        moved = pose.distance_to(start) >= self.config.progress_distance
+        return moved and pose.distance_to(target) < start.distance_to(target)
 
     def _where(self, pose: Pose2D) -> str:
         """Where the robot is boxed in and by what (for the blocked message)."""

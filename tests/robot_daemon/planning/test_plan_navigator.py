@@ -284,3 +284,40 @@ def test_route_tolerances_are_checked_as_the_route_message_declares_them() -> No
         assert nav.state is NavState.IDLE  # a refused route changes nothing
     nav.set_route(goal, approach_tolerance=1, goal_xy_tol=0.3, now=0.0)
     assert nav.state is NavState.PLANNING
+
+
+def _edge_behind(nav: Navigator, grid: OccupancyGrid, xs: list[float]) -> list[NavCommand]:
+    """Feed the robot at x (corridor centre line, facing east) with someone standing 0.7 m ahead
+    across the corridor, one 0.1 s step per x: the robot's motion is imposed, not integrated."""
+    commands = []
+    for i, x in enumerate(xs):
+        now = i * DT
+        pose = Pose2D(x, 1.5, 0.0)
+        world = with_box(grid, x + 0.7, 0.9, x + 0.95, 2.1)
+        commands.append(nav.update(now, pose, cast_scan(world, pose, now)))
+    return commands
+
+
+def test_edging_forward_behind_people_is_not_reported_blocked() -> None:
+    """Issue 12 (Fetch seed 1): people in a doorway step aside in turn and the robot edges
+    through, 0.6 m in 36 s; every 10 s progress window failed, but the recoveries were getting it
+    on. Slower than the progress checker's 0.5 m per 10 s yet 2 m on in 60 s: not blocked."""
+    grid = corridor()
+    nav = Navigator(grid, PlannerConfig(blocked_timeout=15.0, wait_duration=2.0))
+    nav.set_route([Pose2D(9.0, 1.5, 0.0)], now=0.0)
+    commands = _edge_behind(nav, grid, [3.0 + 0.035 * i * DT for i in range(600)])
+    states = [c.state for c in commands]
+    assert NavState.RECOVERING in states  # it did need the recoveries
+    assert NavState.BLOCKED not in states, next(c.reason for c in commands if c.state == "blocked")
+
+
+def test_shuttling_without_getting_nearer_is_still_blocked() -> None:
+    """Moving is not progress: a robot that shuttles 0.8 m back and forth in front of an
+    obstacle is no nearer its goal, and the recovery episode runs out as before."""
+    grid = corridor()
+    nav = Navigator(grid, PlannerConfig(blocked_timeout=15.0, wait_duration=2.0))
+    nav.set_route([Pose2D(9.0, 1.5, 0.0)], now=0.0)
+    xs = [3.0 + 0.4 * (1.0 - math.cos(2.0 * math.pi * i * DT / 13.0)) for i in range(600)]
+    commands = _edge_behind(nav, grid, xs)
+    assert commands[-1].state is NavState.BLOCKED, commands[-1]
+    assert "recoveries made no progress for 15 s" in commands[-1].reason
