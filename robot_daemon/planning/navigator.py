@@ -7,7 +7,9 @@ avoiding static and dynamic obstacles, with configurable speed limits and goal t
 (and at once when the local planner finds no admissible trajectory); a progress checker (less than
 ``progress_distance`` in ``progress_timeout``) starts the recoveries *clear costmap -> spin -> back
 up -> wait*, in turn; when ``blocked_timeout`` passes without progress the navigator stops and
-reports ``blocked`` with a reason instead of oscillating.
+reports ``blocked`` with a reason instead of oscillating. A recovery episode ends once the robot
+has got away from where it began (past a goal, or ``progress_distance`` from there and nearer
+the goal): edging through a door as people step aside in turn is progress, shuttling is not.
 
 Pure and deterministic: time is passed to every call (``now`` [s], monotonic); the caller runs
 :meth:`Navigator.update` at the controller rate (10-20 Hz) and sends the returned command.
