@@ -419,10 +419,12 @@ class RobotStack:
         operator's to know, not only the robot's log's."""
         if self._wall_model_told:
             return
-        notice = self.localiser.wall_model.notice()
+        status = self.localiser.wall_model
+        notice = status.notice()
         if notice is not None:
-            self._wall_model_told = True
             self._event(now, "info", notice)
+        # Told, or fixed by configuration (nothing to tell): not looked at again on the scan path.
+        self._wall_model_told = notice is not None or not status.learning
 
     def _look_around(self, now: float) -> None:
         """While a global search is undecided, turn in place to see more (`look_around`):

@@ -400,6 +400,8 @@ class Localiser:
         self.yaw_bias = OdometryYawBias(self.config.odometry_yaw_bias)  # its heading drift
         # the map's wall model: the matcher's, or learnt from the scans and switched once
         self._wall_model = WallModelLearner(self.config.wall_model, self.config.matcher.surface)
+        # the matcher with the learnt wall model while a worker builds it (`matcher_swap`)
+        self._matcher_build: MatcherBuild | None = None
         # the floor under the reported covariance: map_sigma_m until learnt (`map_floor`)
         self.map_floor = MapFloor(self.config.map_floor, self.config.map_sigma_m)
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
@@ -665,9 +667,6 @@ class Localiser:
     def wall_model(self) -> WallModelStatus:
         """The wall model the matcher uses and how it was chosen (`wall_model`)."""
         return self._wall_model.status()
-
-    # The matcher with the learnt wall model while a worker builds it (`matcher_swap`).
-    _matcher_build: MatcherBuild | None = None
 
     def _learn_wall_model(
         self, points: FloatArray, pose: Pose2D, cov: FloatArray, confidence: float, now: float
