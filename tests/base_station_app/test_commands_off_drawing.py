@@ -9,6 +9,8 @@ These tests assert counts and ordering, never wall time (the speed figures are
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
@@ -65,10 +67,11 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
     window.show()
     qtbot.waitExposed(window)
     station.display_rate = DisplayRate(15.0)
-    trace: list[tuple[str, object]] = []  # what the Qt and tablet threads did, in order
+    # What the Qt and tablet threads did, in order, each entry with the thread that did it.
+    trace: list[tuple[str, object, int]] = []
 
     def arrived(msg: object) -> None:
-        trace.append(("arrived", round(msg.angular, 6)))  # type: ignore[attr-defined]
+        trace.append(("arrived", round(msg.angular, 6), threading.get_ident()))  # type: ignore[attr-defined]
 
     # The speed path runs in the tablet thread (issue 14): note each arrival there, just
     # before the station's own slot forwards it.
@@ -76,12 +79,14 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
     speed_received.disconnect(forward)
     speed_received.connect(arrived, Qt.ConnectionType.DirectConnection)
     speed_received.connect(forward)
-    station.frame_ready.connect(lambda: trace.append(("frame", station.selected.state.scan)))
+    station.frame_ready.connect(
+        lambda: trace.append(("frame", station.selected.state.scan, threading.get_ident()))
+    )
     real_send = station._send
 
     def send(topic: Topic, message: object) -> bool:
         if topic is Topic.TABLET_VEL and isinstance(message, Twist) and message.angular:
-            trace.append(("sent", round(message.angular, 6)))
+            trace.append(("sent", round(message.angular, 6), threading.get_ident()))
         return real_send(topic, message)
 
     monkeypatch.setattr(station, "_send", send)
@@ -100,25 +105,29 @@ def test_a_flood_of_scans_neither_delays_nor_drops_nor_reorders_commands(
             station._on_frame_timer()
             polls += 1
             qtbot.wait(1)
-        arrived = sum(1 for kind, _ in trace if kind == "arrived")
+        arrived = sum(1 for kind, _, _ in trace if kind == "arrived")
         t.send({"speed": {"linear": 0.0, "angular": angular}})
         qtbot.waitUntil(
-            lambda n=arrived: sum(1 for kind, _ in trace if kind == "arrived") == n + 1,
+            lambda n=arrived: sum(1 for kind, _, _ in trace if kind == "arrived") == n + 1,
             timeout=3000,
         )
 
     # Every command was forwarded, in order, and the robot received them all in that order.
-    assert [v for kind, v in trace if kind == "sent"] == speeds
+    assert [v for kind, v, _ in trace if kind == "sent"] == speeds
     qtbot.waitUntil(
         lambda: len([v for v in robot.of("tablet_vel") if v.angular]) == 20, timeout=3000
     )
     assert [round(v.angular, 6) for v in robot.of("tablet_vel") if v.angular] == speeds
-    # Each was sent the moment it arrived: nothing (no frame) in between.
-    for i, (kind, value) in enumerate(trace):
+    # Each was sent the moment it arrived, by the thread it arrived in: that thread did nothing
+    # (drew no frame) in between. The Qt thread may draw meanwhile; it cannot hold the command up.
+    for i, (kind, value, thread) in enumerate(trace):
         if kind == "arrived":
-            assert trace[i + 1] == ("sent", value)
+            next_in_thread = next((k, v) for k, v, th in trace[i + 1 :] if th == thread)
+            assert next_in_thread == ("sent", value)
+    main_thread = threading.main_thread().ident
+    assert all(th == main_thread for kind, _, th in trace if kind == "frame")
     # The display was coalesced: 100 polls at 40 Hz behind 2000 scans gave ~15 Hz of frames.
-    frames = [scan for kind, scan in trace if kind == "frame"]
+    frames = [scan for kind, scan, _ in trace if kind == "frame"]
     assert scans == 2000 and polls == 100
     assert 30 <= len(frames) <= 40  # 2.5 s of polls at 15 Hz (+ the first)
     assert station.display_rate.coalesced == polls - station.display_rate.frames
