@@ -274,7 +274,7 @@ class Daemon:
         """
         route_id = secrets.randbits(63)
         target = Pose2D(goal.x, goal.y, goal.yaw)
-        pose = self.stack.pose
+        pose = self.stack.map_pose  # planned on the map, as navigation
         if goal.node_id is None or self.route_planner is None or pose is None:
             return RouteMsg(route_id, ((target.x, target.y, target.yaw),))
         route = self.route_planner.plan(pose, goal.node_id)

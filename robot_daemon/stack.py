@@ -304,7 +304,19 @@ class RobotStack:
 
     @property
     def pose(self) -> Pose2D | None:
-        """base_link in ``map`` now: the last match moved by odometry since (None if unset)."""
+        """base_link in the building now, the pose the robot reports (the station, the tablet,
+        the figures): the last estimate moved by odometry since, the map's own offset there
+        taken out (`Localiser.building_pose`, `map_offset`: off by default, then the map pose;
+        None if unset)."""
+        laser = self.localiser.current_building_pose
+        return None if laser is None else laser.compose(self._mount_inv)
+
+    @property
+    def map_pose(self) -> Pose2D | None:
+        """base_link *on the map* now: where the map's walls are relative to the robot, the pose
+        navigation acts on (the planner plans among the map's walls, a door is where the scans
+        put it; the route's stops are the map's). Differs from `pose` by the map's offset
+        (a few centimetres)."""
         laser = self.localiser.current_pose
         return None if laser is None else laser.compose(self._mount_inv)
 
@@ -325,10 +337,11 @@ class RobotStack:
 
     @property
     def pose_covariance(self) -> npt.NDArray[np.float64]:
-        """3x3 covariance of `pose` (base_link x, y, yaw in ``map``), from the localiser's
-        laser-pose covariance through ``base = laser ⊕ mount⁻¹``; zeros while unset."""
-        laser = self.localiser.current_pose
-        cov = self.localiser.covariance
+        """3x3 covariance of `pose` (base_link x, y, yaw in the building), from the localiser's
+        laser-pose covariance (`Localiser.building_covariance`) through ``base = laser ⊕
+        mount⁻¹``; zeros while unset."""
+        laser = self.localiser.current_building_pose
+        cov = self.localiser.building_covariance
         if laser is None:
             return cov
         c, s = math.cos(laser.yaw), math.sin(laser.yaw)
@@ -508,7 +521,7 @@ class RobotStack:
         if route is None or route.finished:
             return
         blocker = self._autonomy_blocker(now)
-        pose = self.pose
+        pose = self.map_pose  # navigation plans on the map
         if blocker is not None or pose is None:
             if self.suspended_reason is None:
                 self.navigator.cancel()

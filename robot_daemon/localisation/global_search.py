@@ -324,6 +324,7 @@ class GlobalSearch:
         region: SearchRegion | None = None,
         exclude: Sequence[Pose2D] = (),
         max_nodes: int | None = None,
+        keep_margin: float | None = None,
     ) -> SearchResult:
         """Every pose of the laser scoring within ``keep_margin`` of the best, ranked.
 
@@ -332,12 +333,16 @@ class GlobalSearch:
         ``exclude``: laser poses already shown wrong (by verification); leaves within
         ``cluster_xy_m`` and ``cluster_yaw_rad`` of one are not answers, so the search
         returns the best places *besides* them. ``max_nodes`` overrides the node budget per
-        level (a larger one for a search that must be exhaustive).
+        level (a larger one for a search that must be exhaustive); ``keep_margin`` overrides
+        the configured one (a wider band for places people may have cost score).
         """
         cfg = self.config
         budget = cfg.max_nodes if max_nodes is None else max_nodes
         if budget < 1:
             raise GlobalSearchConfigError(f"max_nodes must be >= 1, got {budget}")
+        margin = cfg.keep_margin if keep_margin is None else keep_margin
+        if not 0.0 <= margin <= 1.0:
+            raise GlobalSearchConfigError(f"keep_margin must be in [0, 1], got {margin}")
         excl = _pose_array(exclude)
         offsets, n_end = self.search_offsets(points)
         n = int(offsets[0].shape[1])
@@ -356,7 +361,7 @@ class GlobalSearch:
         order = _best(sums, cfg.beam_width)
         incumbent, cost = self._dive(top, offsets, grp[order], ii[order], jj[order], region, excl)
         evaluated += cost
-        tau = max(cfg.min_score, incumbent - cfg.keep_margin)
+        tau = max(cfg.min_score, incumbent - margin)
         tau_int = math.ceil(tau * to_int - 1e-6)
 
         # 2. Exact pruning level by level: every leaf with score >= tau survives.
@@ -377,12 +382,12 @@ class GlobalSearch:
                     h - 1, offsets, grp[order], ii[order], jj[order], region, excl
                 )
                 evaluated += cost
-                tau = max(tau, leaf - cfg.keep_margin)
+                tau = max(tau, leaf - margin)
                 tau_int = math.ceil(tau * to_int - 1e-6)
             if h == 1 and excl.size:
                 sums[self._excluded(excl, grp, ii, jj)] = 0
             if h == 1 and sums.size:
-                tau = max(tau, float(sums.max()) / to_int - cfg.keep_margin)
+                tau = max(tau, float(sums.max()) / to_int - margin)
                 tau_int = math.ceil(tau * to_int - 1e-6)
             keep_mask = sums >= tau_int
             grp, ii, jj, sums = grp[keep_mask], ii[keep_mask], jj[keep_mask], sums[keep_mask]

@@ -90,6 +90,7 @@ from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
 from robot_daemon.localisation.map_floor import MapFloor, MapFloorConfig
+from robot_daemon.localisation.map_offset import MapOffset, MapOffsetConfig
 from robot_daemon.localisation.matcher_swap import MatcherBuild
 from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
 from robot_daemon.localisation.odometry_yaw_bias import OdometryYawBias, OdometryYawBiasConfig
@@ -138,6 +139,8 @@ class LocaliserConfig(schema.Declared, frozen=True):
     wall_model: WallModelConfig = msgspec.field(default_factory=WallModelConfig)
     # the map's own error under the reported covariance, learnt from the corrections (`map_floor`)
     map_floor: MapFloorConfig = msgspec.field(default_factory=MapFloorConfig)
+    # the robot's position in the building, apart from the map's offset (`map_offset`)
+    map_offset: MapOffsetConfig = msgspec.field(default_factory=MapOffsetConfig)
     # beams beyond are ignored
     max_range_m: Annotated[float, Meta(ge=0.5, le=200.0, extra={"unit": "m"})] = 30.0
     # an end point this close to the map counts as a hit
@@ -404,6 +407,8 @@ class Localiser:
         self._matcher_build: MatcherBuild | None = None
         # the floor under the reported covariance: map_sigma_m until learnt (`map_floor`)
         self.map_floor = MapFloor(self.config.map_floor, self.config.map_sigma_m)
+        # the position in the building beside the map pose, tied across doors by odometry
+        self.map_offset = MapOffset(self.config.map_offset)
         self._last = LocaliserEstimate(None, LocaliserState.UNSET, 0.0, 0.0, -math.inf)
 
     # ------------------------------------------------------------------ inputs
@@ -446,6 +451,47 @@ class Localiser:
         var = self.map_floor.sigma_m**2
         out: FloatArray = cov + np.diag([var, var, self.config.map_sigma_rad**2])
         return out
+
+    @property
+    def building_pose(self) -> Pose2D | None:
+        """The latest pose in the building (`map_offset`): the map pose (`pose`) less the map's
+        offset learnt there, the map pose's heading. The map pose while the filter is off, not
+        started or the localiser lost (None while unset)."""
+        pose, position = self._pose, self._building_position()
+        if pose is None or position is None:
+            return pose
+        return Pose2D(position[0], position[1], pose.yaw)
+
+    @property
+    def building_covariance(self) -> FloatArray:
+        """3x3 covariance of `building_pose`: the building filter's position covariance (the
+        offset's uncertainty in it), the reported heading variance (`covariance`), and an
+        unconfirmed jump's spread; `covariance` while `building_pose` is the map pose."""
+        cov = self.covariance
+        if self._building_position() is None:
+            return cov
+        out: FloatArray = np.zeros((3, 3))
+        out[:2, :2] = self.map_offset.position_covariance()
+        out[2, 2] = cov[2, 2]
+        if self._jump is not None:
+            out += self._jump[1]
+        return out
+
+    def _building_position(self) -> tuple[float, float] | None:
+        """`map_offset`'s position, or None where the building pose is the map pose."""
+        if self._pose is None or self._state is LocaliserState.LOST:
+            return None
+        if not self.config.map_offset.enabled:
+            return None
+        return self.map_offset.position()
+
+    @property
+    def current_building_pose(self) -> Pose2D | None:
+        """`building_pose` moved by the odometry since its scan (as `current_pose`)."""
+        pose = self.building_pose
+        if pose is None or self._odom is None or self._odom_at_scan is None:
+            return pose
+        return pose.compose(self._odom.relative_to(self._odom_at_scan))
 
     @property
     def current_pose(self) -> Pose2D | None:
@@ -505,6 +551,7 @@ class Localiser:
         self.scale.reset_cross()
         self.yaw_bias.reset_cross()
         self.map_floor.restart(clean=False)
+        self.map_offset.restart()
         self.dynamic.reset_streaks()
 
     def on_odometry(self, odom_pose: Pose2D, now: float) -> None:
@@ -624,7 +671,7 @@ class Localiser:
         judged = self._with_map_floor(cov)  # what the state judges
         state = self._update_state(reason, judged, now, confidence, impossible, jump)
         clean = state is LocaliserState.OK and not (reason or jump or switched or first_match)
-        self._learn_map_floor(step, correction, clean)
+        self._learn_map(raw_step, step, correction, clean)
         if state is LocaliserState.OK and not reason:
             self._learn_wall_model(points, pose, cov, confidence, now)
         self._keep_trusted_branch(state, bool(reason), trusted, (predicted, cov_pred))
@@ -711,12 +758,18 @@ class Localiser:
             xs, ys = self._grid.cell_to_world(rows, cols)
             self.matcher.add_obstacles(xs, ys)
 
-    def _learn_map_floor(self, step: Pose2D, correction: FloatArray | None, clean: bool) -> None:
-        """The scan's correction and travel to the map floor's current window (`map_floor`):
-        ``clean`` when the scan was ok and fused, without a jump, a switch of branch or a first
-        match after a set pose."""
+    def _learn_map(
+        self, raw_step: Pose2D, step: Pose2D, correction: FloatArray | None, clean: bool
+    ) -> None:
+        """What the scan teaches about the map: its correction and travel to the map floor's
+        current window (`map_floor`; ``clean`` when the scan was ok and fused, without a jump, a
+        switch of branch or a first match after a set pose), and the odometry and the map pose
+        to the building-pose filter (`map_offset`; a fused pose updates it unless lost)."""
         dx, dy = (0.0, 0.0) if correction is None else (float(correction[0]), float(correction[1]))
         self.map_floor.add(dx, dy, math.hypot(step.x, step.y), clean and correction is not None)
+        if self._pose is not None:
+            fused = correction is not None and self._state is not LocaliserState.LOST
+            self.map_offset.step(raw_step, self._pose, fused, self.map_floor.sigma_m)
 
     def _keep_trusted_branch(
         self,
@@ -1265,13 +1318,8 @@ class Localiser:
                 if dyaw == 0.0 and dx == 0.0 and dy == 0.0:
                     continue
                 starts.append(Pose2D(prior.x + dx, prior.y + dy, prior.yaw + dyaw))
-        # All starts at once (`ScanMatcher.match_many`: the same results as one by one).
-        results = self.matcher.match_many(points, starts)
-        best = results[0]
-        for result in results[1:]:
-            if result.score > best.score:
-                best = result
-        return best
+        # All starts at once, the best kept (`ScanMatcher.match_best`: the result one by one).
+        return self.matcher.match_best(points, starts)[0]
 
     def _wide_heading_match(
         self,
@@ -1297,7 +1345,8 @@ class Localiser:
 
         Speed (issue 12): where the prediction's match starts on the coarsest level too (every
         such scan of the real logs: the prior is wide), all five are iterated as one stack
-        (`ScanMatcher.match_many`, bit for bit the matches one by one), and with
+        (`ScanMatcher.match_many`, bit for bit the matches one by one; `match_best`: of the
+        four heading starts only the best one's information is computed), and with
         ``heading_starts_finished`` below 4 the starts are ranked on level 1 and only the best
         ones matched on to the finest level (`ScanMatcher.coarse_many`, `finish`)."""
         cfg = self.config
@@ -1307,14 +1356,14 @@ class Localiser:
         coarsest = len(self.matcher.levels) - 1
         if start_level not in (None, coarsest):
             result = self.matcher.match(points, predicted, start_level)
-            others = self.matcher.match_many(points, starts)
+            others = self.matcher.match_best(points, starts)  # only the best can win
         elif cfg.heading_starts_finished < len(starts) and coarsest >= 1:
             coarse = self.matcher.coarse_many(points, [predicted, *starts], 1)
             ranked = sorted(range(1, 5), key=coarse.scores.__getitem__, reverse=True)
             keep = [0, *sorted(ranked[: cfg.heading_starts_finished])]
             result, *others = self.matcher.finish(points, coarse, keep)
         else:
-            result, *others = self.matcher.match_many(points, [predicted, *starts])
+            result, *others = self.matcher.match_best(points, [predicted, *starts], keep=1)
         result = self._nearest_mode(points, result, predicted, cov_pred)
         best = result
         for other in others:

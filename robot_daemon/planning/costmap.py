@@ -287,8 +287,9 @@ class Costmap:
     def _mark(
         self, rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], now: float, until: float
     ) -> None:
-        """Mark cells (rows, cols), all inside the grid, as live obstacles until ``until``."""
-        self._marked_until[rows, cols] = until
+        """Mark cells (rows, cols), all inside the grid, as live obstacles until ``until`` (or
+        later, where a mark is remembered longer: `remember_near`)."""
+        self._marked_until[rows, cols] = np.maximum(self._marked_until[rows, cols], until)
         if rows.size:
             box = (
                 until,
@@ -319,6 +320,33 @@ class Costmap:
             int(boxes[:, 2].min()),
             int(boxes[:, 3].max()),
         )
+
+    def remember_near(
+        self, now: float, until: float, points: npt.NDArray[np.float64], radius: float
+    ) -> int:
+        """Keep the live marks within ``radius`` [m] of map-frame ``points`` (N, 2) until
+        ``until`` [s] (unless a beam sees through them sooner); returns how many.
+
+        The navigator's memory of a blockage it drives round: out of the laser's sight the marks
+        would expire and the plan turn back through it (`navigator` module docstring)."""
+        box = self._live_box(now)
+        b0, b1, d0, d1 = (0, self.grid.height, 0, self.grid.width) if box is None else box
+        rows, cols = np.nonzero(self._marked_until[b0:b1, d0:d1] > now)
+        if rows.size == 0 or len(points) == 0:
+            return 0
+        rows, cols = rows + b0, cols + d0
+        x, y = self.grid.cell_to_world(rows, cols)
+        gaps = np.hypot(x[:, None] - points[None, :, 0], y[:, None] - points[None, :, 1])
+        near = gaps.min(axis=1) <= radius
+        rows, cols = rows[near], cols[near]
+        later = np.maximum(self._marked_until[rows, cols], until)
+        self._marked_until[rows, cols] = later
+        if rows.size:
+            self._mark_boxes.append(
+                (until, int(rows.min()), int(rows.max()) + 1, int(cols.min()), int(cols.max()) + 1)
+            )
+        self._touch()
+        return int(rows.size)
 
     def clear(self) -> None:
         """Forget every live obstacle (the "clear costmap" recovery)."""

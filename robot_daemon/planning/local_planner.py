@@ -29,7 +29,8 @@ Objective (lower is better; Fox's heading, dist and velocity terms, DWB-style)::
 where the *carrot* is the path point ``lookahead`` metres past the point nearest the robot.
 The speed limit shrinks with the footprint's clearance (doors, people) and, on the final leg, with
 the distance to the goal. A path heading error beyond ``rotate_to_heading_angle`` is first
-turned away in place (as Nav2's rotation shim does).
+turned away in place (as Nav2's rotation shim does); where that turn is not admissible, the
+robot first drives to the most open place within reach (`DWAPlanner._room_to_turn`).
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ class LocalPlan:
     linear: float  # [m/s]
     angular: float  # [rad/s]
     valid: bool  # False: no admissible trajectory; the command brakes
-    mode: str  # "dwa", "escape", "rotate_to_heading", "rotate_to_goal" or "brake"
+    mode: str  # "dwa", "escape", "rotate_to_heading", "make_room", "rotate_to_goal" or "brake"
     clearance: float  # [m] footprint clearance at the current pose
     admissible: int = 0  # number of collision-free trajectories
 
@@ -251,7 +252,8 @@ class DWAPlanner:
         carrot_angle = math.atan2(carrot[1], carrot[0])
 
         # Turn towards the path first if it lies far off the heading.
-        if abs(carrot_angle) > c.rotate_to_heading_angle and np.hypot(*carrot) > 1e-3:
+        wants_turn = abs(carrot_angle) > c.rotate_to_heading_angle and np.hypot(*carrot) > 1e-3
+        if wants_turn:
             w_target = math.copysign(
                 max(min(abs(c.yaw_gain * carrot_angle), c.max_angular_speed), c.min_rotation_speed),
                 carrot_angle,
@@ -296,6 +298,10 @@ class DWAPlanner:
             nearer = np.hypot(carrot[0] - xe, carrot[1] - ye) < math.hypot(*carrot)
             admissible = (traj_clearance > 0.0) & (end_clearance > clearance) & nearer
             mode = "escape"
+        if wants_turn and mode == "dwa":
+            room = self._room_to_turn(field, x[:, -1], y[:, -1], admissible, margin)
+            if room is not None:
+                return LocalPlan(float(v_s[room]), float(w_s[room]), True, "make_room", clearance)
         count = int(admissible.sum())
         if count == 0:
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
@@ -326,6 +332,33 @@ class DWAPlanner:
         score = np.where(admissible, score, np.inf)
         best = int(score.argmin())
         return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
+
+    def _room_to_turn(
+        self,
+        field: ObstacleField,
+        xe: npt.NDArray[np.float64],
+        ye: npt.NDArray[np.float64],
+        admissible: npt.NDArray[np.bool_],
+        margin: float,
+    ) -> int | None:
+        """The admissible trajectory that ends where the robot has most room to turn in place,
+        when it has not that room here: or None (room enough, or nowhere with more).
+
+        Turning in place sweeps the circle of radius ``max|offset| + radius`` of the footprint's
+        circles. The path lies behind the robot but the turn is not admissible where it stands
+        (a 1.3-1.4 m corridor, off its centre line, or a person beside it); and the objective
+        cannot get it out: without reversing every move takes it away from the path, and the
+        turns that stay admissible over the horizon are the slowest (Willow seeds 6 and 8:
+        0.04 rad/s for tens of seconds). So it first drives to the most open place within reach.
+        """
+        offsets, radius, _ = self._shape()
+        sweep = float(np.abs(offsets).max()) + radius
+        here = float(field.lookup(np.zeros(1), np.zeros(1))[0]) - sweep
+        if here > margin:
+            return None
+        room = np.where(admissible, field.lookup(xe, ye) - sweep, -np.inf)
+        best = int(room.argmax())
+        return best if room[best] > here + 0.5 * margin else None
 
     def rotate_to_yaw(
         self, pose: Pose2D, goal_yaw: float, angular_velocity: float, dt: float

@@ -11,6 +11,18 @@ reports ``blocked`` with a reason instead of oscillating. A recovery episode end
 has got away from where it began (past a goal, or ``progress_distance`` from there and nearer
 the goal): edging through a door as people step aside in turn is progress, shuttling is not.
 
+Detours. Live obstacles are lethal in the global plan, so a person standing in a 1.4 m corridor
+closes it and the planner sends the robot the other way round the building (Willow, issue 12:
+6 m ahead or 21 m back, flipping as people stepped in and out; the robot turned round in the
+corridor, again and again, until it was reported blocked). As Nav2's ``PathLongerOnApproach``
+does, a plan more than ``DETOUR_LENGTH_FACTOR`` times as long as the plan in the a-priori map
+alone is not taken at once: the robot keeps to the a-priori path (the local planner stops short
+of whoever is in the way) for as long as the detour's extra length would take to drive (the
+rent-or-buy rule: waiting can then cost at most twice the better choice), and never longer than
+``progress_timeout``. A blockage that outlasts that is driven round, and remembered for as long
+as the detour takes (out of sight its marks would expire and the plan turn back through it);
+moving ``progress_distance`` on gives the next blockage its own patience.
+
 Pure and deterministic: time is passed to every call (``now`` [s], monotonic); the caller runs
 :meth:`Navigator.update` at the controller rate (10-20 Hz) and sends the returned command.
 
@@ -58,6 +70,9 @@ logger = logging.getLogger(__name__)
 
 RECOVERY_SEQUENCE = ("clear_costmap", "spin", "back_up", "wait")
 STUCK_TIME = 2.0  # [s] without an admissible trajectory before a recovery starts
+# A plan this many times as long as the a-priori map's is a detour round a blockage (Nav2's
+# PathLongerOnApproach ``length_factor`` default); going round a box or a person is shorter.
+DETOUR_LENGTH_FACTOR = 2.0
 DEFAULT_DT = 0.1  # [s] assumed control period before the second update
 
 
@@ -89,6 +104,11 @@ class _Behaviour:
     start_pose: Pose2D
 
 
+def path_length(points: npt.NDArray[np.float64]) -> float:
+    """Length [m] of a polyline (N, 2)."""
+    return float(np.hypot(*np.diff(points, axis=0).T).sum()) if len(points) > 1 else 0.0
+
+
 class Navigator:
     """Drives to a goal or along a route of goals on ``grid``; see the module docstring."""
 
@@ -117,6 +137,11 @@ class Navigator:
         self._episode_index = 0
         self._recovery_step = 0
         self._behaviour: _Behaviour | None = None
+        # Detours (module docstring): when the current blockage was first planned round, and
+        # whether the robot has given up waiting for it and drives round.
+        self._hold_since: float | None = None
+        self._detouring = False
+        self._holding_reason = ""
 
     # -- commands from the daemon ------------------------------------------------------------
 
@@ -171,6 +196,7 @@ class Navigator:
         self._reason = ""
         self._path = None
         self._reset_recovery()
+        self._reset_detour()
         self._progress_pose = None
         if now is not None:
             self._progress_time = now
@@ -183,6 +209,7 @@ class Navigator:
         self._reason = "cancelled"
         self._path = None
         self._reset_recovery()
+        self._reset_detour()
 
     # -- read-only views ----------------------------------------------------------------------
 
@@ -224,6 +251,7 @@ class Navigator:
             logger.info("intermediate goal(s) %d..%d reached", self._index, index - 1)
             self._index = index
             self._path = None
+            self._reset_detour()
             self._progress_pose, self._progress_time = pose, now
         target = self._goals[self._index]
         final = self._index == last
@@ -261,15 +289,18 @@ class Navigator:
         if pose.distance_to(self._progress_pose) >= cfg.progress_distance:
             self._progress_pose, self._progress_time = pose, now
             self._reset_recovery()
+            if not self._detouring:
+                self._hold_since = None  # got on: the next blockage gets its own patience
         elif now - self._progress_time > cfg.progress_timeout:
             return self._start_recovery(
                 now,
                 pose,
                 f"less than {cfg.progress_distance} m progress in {cfg.progress_timeout} s",
             )
-        return self._emit(
-            plan.linear, plan.angular, "" if plan.valid else "braking: no admissible trajectory"
-        )
+        reason = self._holding_reason
+        if not plan.valid:
+            reason = "; ".join(filter(None, ("braking: no admissible trajectory", reason)))
+        return self._emit(plan.linear, plan.angular, reason)
 
     # -- pieces of the cycle ------------------------------------------------------------------
 
@@ -294,8 +325,68 @@ class Navigator:
                 return self._emit(0.0, 0.0, f"goal unreachable in the map: {why}")
             self._path = None
             return self._start_recovery(now, pose, f"no path: {exc}")
-        self._path = np.asarray(points, dtype=np.float64)
+        self._path = self._wait_or_detour(now, pose, target, costs, np.asarray(points, dtype=float))
         return None
+
+    def _reset_detour(self) -> None:
+        self._hold_since = None
+        self._detouring = False
+        self._holding_reason = ""
+
+    def _wait_or_detour(
+        self,
+        now: float,
+        pose: Pose2D,
+        target: Pose2D,
+        costs: npt.NDArray[np.uint8],
+        live: npt.NDArray[np.float64],
+    ) -> npt.NDArray[np.float64]:
+        """The path to follow: ``live`` (planned with the live obstacles), or the a-priori map's
+        path while waiting for a blockage to clear before a detour (module docstring)."""
+        self._holding_reason = ""
+        static_costs = self.costmap.static_costs
+        live_length = path_length(live)
+        direct = math.hypot(target.x - pose.x, target.y - pose.y)
+        if costs is static_costs or live_length <= DETOUR_LENGTH_FACTOR * direct:
+            self._detouring = False  # no plan could be that much shorter: not a detour
+            return live
+        try:
+            points = self.global_planner.plan(static_costs, (pose.x, pose.y), (target.x, target.y))
+        except PlanningError:
+            return live  # the a-priori map has no better way: nothing to wait for
+        static = np.asarray(points, dtype=np.float64)
+        extra = live_length - path_length(static)
+        if live_length <= DETOUR_LENGTH_FACTOR * path_length(static):
+            self._detouring = False
+            return live
+        if self._detouring:
+            return live
+        if self._hold_since is None:
+            self._hold_since = now
+            logger.info("the way ahead is blocked (a detour %.1f m longer): waiting", extra)
+        patience = min(extra / self.config.max_linear_speed, self.config.progress_timeout)
+        if now - self._hold_since >= patience:
+            self._detouring = True
+            # Remember what blocks the way for as long as the detour takes to drive: out of
+            # the laser's sight it would be forgotten and the plan turn back through it.
+            remembered = self.costmap.remember_near(
+                now,
+                now + live_length / self.config.max_linear_speed,
+                static,
+                self.config.inflation_radius,
+            )
+            logger.info(
+                "the way ahead stayed blocked for %.0f s: taking the detour (%.1f m longer;"
+                " %d blocking cells remembered)",
+                now - self._hold_since,
+                extra,
+                remembered,
+            )
+            return live
+        self._holding_reason = (
+            f"waiting for the way ahead to clear (a detour would be {extra:.1f} m longer)"
+        )
+        return static
 
     def _unreachable_in_static_map(self, pose: Pose2D, target: Pose2D, exc: PlanningError) -> bool:
         """Whether ``exc`` would happen without live obstacles too (recoveries cannot help)."""

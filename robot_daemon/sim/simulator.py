@@ -102,7 +102,7 @@ class Simulator:
         self._battery = Battery(config.battery)
         self.crowd = Crowd(self.world, np.random.default_rng(people_seed), config.crowd)
         if config.n_people:
-            self.crowd.spawn(config.n_people)
+            self.crowd.spawn(config.n_people, robot=(self._pose, config.footprint))
         self._true_track = true_track_width(config.odometry, config.drive.track_width)
         self._ticks = 0
         self._pending = 0.0

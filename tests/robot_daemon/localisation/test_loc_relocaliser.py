@@ -166,10 +166,11 @@ class ScriptedSearch(GlobalSearch):
         region: SearchRegion | None = None,
         exclude: Sequence[Pose2D] = (),
         max_nodes: int | None = None,
+        keep_margin: float | None = None,
     ) -> SearchResult:
         self.calls.append((self.now, tuple(exclude), max_nodes))
         if self.script is None:
-            return super().search(points, region, exclude, max_nodes)
+            return super().search(points, region, exclude, max_nodes, keep_margin)
         hyps = tuple(Hypothesis(p, 0.9 - 0.01 * k) for k, p in enumerate(self.script(exclude)))
         return SearchResult(hyps, 100, 1, 0.8, complete=True)
 

@@ -540,6 +540,47 @@ def test_match_many_equals_one_match_per_start(surface: str, start_level: int | 
             assert _same_match(result, matcher.match(points, start, start_level))
 
 
+@pytest.mark.parametrize("keep", [0, 1, 3])
+@pytest.mark.parametrize("start_level", [None, 1])
+@pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
+def test_match_best_equals_match_manys_kept_starts_and_best(
+    surface: str, start_level: int | None, keep: int
+) -> None:
+    """`ScanMatcher.match_best` (only the results it returns evaluated in full) gives the first
+    ``keep`` starts and the best-scoring of the rest (the first of equals) `match_many`'s
+    results bit for bit, whichever start wins (the prior's own, another, starts off the map
+    among the rest), on a blank scan too."""
+    rng = np.random.default_rng(14)
+    grid = office_grid()
+    matcher = ScanMatcher(grid, ScanMatcherConfig(surface=surface))
+    loc = Localiser(grid)
+    winners = set()
+    for truth in _poses(rng, 5):
+        points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+        prior = Pose2D(truth.x + 0.1, truth.y - 0.1, truth.yaw + math.radians(10.0))
+        starts = _starts_around(prior, 0.15, math.radians(10.0))
+        starts = [*starts[-2:], *starts[:-2]]  # the two off the map first
+        many = matcher.match_many(points, starts, start_level)
+        rest = many[keep:]
+        top = max(r.score for r in rest)
+        winner = next(k for k, r in enumerate(rest) if r.score == top)
+        winners.add(winner)
+        best = matcher.match_best(points, starts, start_level, keep)
+        assert len(best) == keep + 1
+        for got, want in zip(best, [*many[:keep], rest[winner]], strict=True):
+            assert _same_match(got, want)
+    assert len(winners) > 1  # not always the same start
+    blank = np.zeros((0, 2))
+    for got, want in zip(
+        matcher.match_best(blank, starts[:3], None, 1),
+        matcher.match_many(blank, starts[:2]),
+        strict=True,
+    ):
+        assert _same_match(got, want)
+    with pytest.raises(ValueError, match="keep"):
+        matcher.match_best(points, starts[:2], None, 2)
+
+
 @pytest.mark.parametrize("surface", ["cell_face", "cell_centre"])
 def test_starts_stopped_on_a_coarse_level_and_finished_equal_match_many(surface: str) -> None:
     """`ScanMatcher.coarse_many` then `finish` of some of the starts gives those starts

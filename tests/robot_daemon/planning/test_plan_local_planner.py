@@ -146,6 +146,22 @@ def test_drives_out_from_inside_the_margin_beside_a_corner(gap: float, yaw_deg: 
     assert plan.valid and plan.mode == "escape" and plan.linear > 0.0
 
 
+def test_turns_round_in_a_corridor_from_off_its_centre_line() -> None:
+    """Issue 12 (Willow seeds 6 and 8): the path behind, in a 1.3 m corridor, the robot 0.25 m
+    off the centre line: the turn in place is not admissible there, and the objective left it
+    standing, turning at a few cm/s of its corners (0.3 rad in 30 s). It drives to where it has
+    room to turn (forward, towards the centre line), turns, and goes."""
+    walls = np.vstack(
+        (segment_points((-6.0, 0.0), (6.0, 0.0)), segment_points((-6.0, 1.3), (6.0, 1.3)))
+    )
+    path = straight_path(-4.0, 0.0, 0.65)[::-1]  # west along the centre line
+    start = Pose2D(0.0, 0.9, 0.0)  # facing east
+    poses, _ = drive(DWAPlanner(CONFIG), walls, path, start, 300)
+    assert min(rectangle_clearance(walls, p) for p in poses) > 0.0
+    assert max(p.x for p in poses) < 0.5  # a short way forward only
+    assert poses[-1].x < -3.0  # then round and down the corridor
+
+
 def test_slows_down_near_obstacles() -> None:
     planner = DWAPlanner(CONFIG)
     path = straight_path(0.0, 5.0)

@@ -321,3 +321,64 @@ def test_shuttling_without_getting_nearer_is_still_blocked() -> None:
     commands = _edge_behind(nav, grid, xs)
     assert commands[-1].state is NavState.BLOCKED, commands[-1]
     assert "recoveries made no progress for 15 s" in commands[-1].reason
+
+
+def ring() -> OccupancyGrid:
+    """12 x 5 m: two 1.3 m corridors (y 0.1..1.4 and 3.6..4.9) joined at both ends round a block
+    of rooms (x 2..10, y 1.4..3.6): from one end of a corridor to the other, 6 m along it or 17 m
+    round the block."""
+    cells = np.full((100, 240), FREE, dtype=np.int8)
+    cells[:2, :] = cells[-2:, :] = OCCUPIED
+    cells[:, :2] = cells[:, -2:] = OCCUPIED
+    cells[28:72, 40:200] = OCCUPIED
+    return OccupancyGrid(cells, RES, 0.0, 0.0, source="ring")
+
+
+def _pass_someone(stands_for: float) -> tuple[list[NavCommand], list[Pose2D]]:
+    """The robot at (3, 0.75) facing east, goal (9, 0.75) down the south corridor; someone stands
+    in the corridor at x = 5.5 for ``stands_for`` seconds, then is gone."""
+    grid = ring()
+    person = with_box(grid, 5.3, 0.5, 5.7, 1.0)  # 1.3 m corridor: 0.4 m either side
+    nav = Navigator(grid)
+    nav.set_route([Pose2D(9.0, 0.75, 0.0)], now=0.0)
+    pose, now = Pose2D(3.0, 0.75, 0.0), 0.0
+    commands, poses = [], [pose]
+    for _ in range(2500):
+        world = person if now < stands_for else grid
+        cmd = nav.update(now, pose, cast_scan(world, pose, now))
+        commands.append(cmd)
+        pose = integrate(pose, cmd.linear, cmd.angular)
+        poses.append(pose)
+        now += DT
+        if cmd.state in (NavState.SUCCEEDED, NavState.BLOCKED):
+            break
+    return commands, poses
+
+
+def test_waits_for_someone_in_a_corridor_instead_of_going_round_the_building() -> None:
+    """Issue 12 (Willow seeds 6 and 8): a person in a 1.4 m corridor closed it in the costmap and
+    the planner sent the robot 15 m round the building; it turned round in the corridor as people
+    stepped in and out, until blocked. A blockage is waited for (as long as the detour's extra
+    length would take, at most the progress timeout) before a detour is taken."""
+    commands, poses = _pass_someone(stands_for=6.0)
+    assert commands[-1].state is NavState.SUCCEEDED, commands[-1]
+    assert any("waiting for the way ahead to clear" in c.reason for c in commands)
+    assert max(p.y for p in poses) < 1.4  # never left the south corridor
+    assert min(p.x for p in poses) > 2.9  # never turned back
+    assert max(abs(wrap_angle(p.yaw)) for p in poses) < math.pi / 2  # nor round
+    assert min(footprint_clearance(ring(), p) for p in poses) > 0.0
+
+
+def test_a_blockage_that_stays_is_driven_round_after_the_wait() -> None:
+    """Someone who does not move: after the wait (at most the progress timeout), the detour."""
+    commands, poses = _pass_someone(stands_for=math.inf)
+    assert commands[-1].state is NavState.SUCCEEDED, commands[-1]
+    waiting = [i for i, c in enumerate(commands) if "waiting for the way" in c.reason]
+    assert waiting
+    # It edged up to the person (every 0.5 m on restarts the patience, the last creeping 0.5 m
+    # too), then waited about the progress timeout, not the 60 s the 15 m detour would take.
+    end = poses[waiting[-1]]
+    stopped = max(i for i in waiting if poses[i].distance_to(end) >= 0.5)
+    assert (waiting[-1] - stopped) * DT <= 2.0 * PlannerConfig().progress_timeout
+    assert max(p.y for p in poses) > 3.6  # round the block, by the north corridor
+    assert NavState.BLOCKED not in [c.state for c in commands]

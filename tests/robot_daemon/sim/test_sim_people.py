@@ -166,3 +166,41 @@ def test_crowd_is_deterministic_for_a_seed() -> None:
 
     assert np.array_equal(trajectory(3), trajectory(3))
     assert not np.array_equal(trajectory(3), trajectory(4))
+
+
+def test_nobody_starts_inside_the_robot() -> None:
+    """Issue 12, Willow seed 7: a person spawned 0.23 m from the robot's centre, inside its body;
+    the robot could not move and was reported blocked at its start. A route whose first waypoint
+    is at the robot is entered at its next waypoint clear of it, with no extra random draws."""
+    world = two_rooms()
+    robot = Pose2D(2.5, 3.0, 0.0)
+    route = [(2.6, 3.1), (2.5, 2.6), (7.0, 3.0), (7.0, 1.0)]  # the 2nd is 0.15 m off its body
+    crowds = [Crowd(world, np.random.default_rng(3)) for _ in range(2)]
+    for crowd in crowds:
+        crowd.random_route = lambda n_waypoints=4, min_clearance=0.6: list(route)  # type: ignore[method-assign]
+    crowds[0].spawn(2)
+    crowds[1].spawn(2, robot=(robot, FP))
+    first = crowds[0].people[0]  # without the robot given: at the first waypoint (on the lattice)
+    assert np.hypot(first.x - 2.6, first.y - 3.1) < 0.2
+    person = crowds[1].people[0]
+    assert np.hypot(person.x - 7.0, person.y - 3.0) < 0.2
+    assert FP.distance_to_point(robot, person.x, person.y) >= 0.25 + 0.3
+    # the same random draws: the blocker flags (drawn after each route) agree
+    assert [p.blocker for p in crowds[0].people] == [p.blocker for p in crowds[1].people]
+    with pytest.raises(PeopleConfigError, match=r"within 0\.55 m of the robot"):
+        crowds[1]._start_clear_of([(2.6, 3.1), (2.5, 2.6)], robot, FP)
+
+
+@pytest.mark.realdata
+def test_nobody_starts_inside_the_robot_on_willow_seed_7(shared_data: Path) -> None:
+    from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
+
+    root = Path(__file__).resolve().parents[3]
+    system = SimulatedSystem(
+        ScenarioOptions(
+            map_yaml=shared_data / "maps" / "willow.yaml",
+            topo_yaml=root / "maps" / "willow_topo.yaml",
+            seed=7,
+        )
+    )
+    assert system.sim.min_clearance() > 0.25
