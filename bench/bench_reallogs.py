@@ -59,6 +59,7 @@ only Intel and Freiburg 079 with coarser strides and seeds 0 and 1. Skipped, ret
 
 from __future__ import annotations
 
+import argparse
 import functools
 import importlib.util
 import json
@@ -231,37 +232,32 @@ def run(quick: bool = False, logs: Sequence[str] | None = None, seed: int = 0) -
     return out
 
 
-def _arguments(argv: Sequence[str]) -> tuple[list[str], int]:
-    """The logs and the seed of a command line ``[log ...] [--seed N]``."""
-    logs, seed = list(argv), 0
-    if "--seed" in logs:
-        k = logs.index("--seed")
-        try:
-            seed = int(logs[k + 1])
-        except (IndexError, ValueError):
-            raise SystemExit("--seed needs an integer, e.g. --seed 2") from None
-        del logs[k : k + 2]
-    return logs, seed
-
-
-def _surface_argument(argv: Sequence[str]) -> tuple[list[str], str | None]:
-    """The command line without ``--surface learn|cell_centre|cell_face`` and that wall model
-    (None: the daemon's, `log_replay.REPLAY_SURFACE`)."""
-    rest = list(argv)
-    if "--surface" not in rest:
-        return rest, None
-    k = rest.index("--surface")
-    choices = ("learn", "cell_centre", "cell_face")
-    if k + 1 >= len(rest) or rest[k + 1] not in choices:
-        raise SystemExit(f"--surface needs one of {', '.join(choices)}")
-    surface = rest[k + 1]
-    del rest[k : k + 2]
-    return rest, surface
+def _arguments(argv: Sequence[str]) -> argparse.Namespace:
+    """The command line ``[log ...] [--seed N] [--surface learn|cell_centre|cell_face]``
+    (``logs``, ``seed``, ``surface``; None: the daemon's wall model, `log_replay.REPLAY_SURFACE`).
+    A bad one exits with argparse's usage message, never a traceback."""
+    parser = argparse.ArgumentParser(
+        prog="bench_reallogs.py",
+        description="The localiser on every real laser log (or the logs named).",
+    )
+    parser.add_argument("logs", nargs="*", metavar="LOG", help=f"only these: {', '.join(CASES)}")
+    parser.add_argument("--seed", type=int, default=0, help="the replayed odometry's noise seed")
+    parser.add_argument(
+        "--surface",
+        choices=("learn", "cell_centre", "cell_face"),
+        help="the wall model (default: the daemon's)",
+    )
+    args = parser.parse_args(list(argv))
+    unknown = sorted(set(args.logs) - set(CASES))
+    if unknown:
+        parser.error(f"unknown log(s) {', '.join(unknown)}: choose from {', '.join(CASES)}")
+    return args
 
 
 if __name__ == "__main__":
-    _argv, _surface = _surface_argument(sys.argv[1:])
-    _logs, _seed = _arguments(_argv)
-    if _surface is not None:
-        log_replay.REPLAY_SURFACE = _surface
-    print(json.dumps(run(logs=_logs or None, seed=_seed), indent=2))  # command-line output
+    _args = _arguments(sys.argv[1:])
+    if _args.surface is not None:
+        log_replay.REPLAY_SURFACE = _args.surface
+    print(
+        json.dumps(run(logs=_args.logs or None, seed=_args.seed), indent=2)
+    )  # command-line output

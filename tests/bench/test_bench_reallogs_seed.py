@@ -40,12 +40,25 @@ def test_the_seed_reaches_both_methods(monkeypatch: pytest.MonkeyPatch) -> None:
     assert seeds[2:] == [("revisit", 0), ("whole", 0)]  # the bench's figures: seed 0
 
 
-def test_the_command_line_takes_logs_and_a_seed() -> None:
+def test_the_command_line_takes_logs_a_seed_and_a_wall_model(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
     module = bench_cli.load(BENCH)
-    assert module._arguments(["csail", "--seed", "2"]) == (["csail"], 2)
-    assert module._arguments(["--seed", "3", "intel", "aces"]) == (["intel", "aces"], 3)
-    assert module._arguments([]) == ([], 0)
-    with pytest.raises(SystemExit, match="--seed needs an integer"):
-        module._arguments(["csail", "--seed"])
-    with pytest.raises(SystemExit, match="--seed needs an integer"):
-        module._arguments(["csail", "--seed", "two"])
+    args = module._arguments(["csail", "--seed", "2"])
+    assert (args.logs, args.seed, args.surface) == (["csail"], 2, None)
+    args = module._arguments(["--seed", "3", "intel", "aces", "--surface", "cell_face"])
+    assert (args.logs, args.seed, args.surface) == (["intel", "aces"], 3, "cell_face")
+    args = module._arguments([])
+    assert (args.logs, args.seed, args.surface) == ([], 0, None)
+    bad = {
+        ("csail", "--seed"): "--seed: expected one argument",
+        ("csail", "--seed", "two"): "--seed: invalid int value: 'two'",
+        ("--help-me",): "unrecognized arguments: --help-me",
+        ("csail", "nowhere"): "unknown log(s) nowhere: choose from",
+        ("--surface", "glass"): "--surface: invalid choice: 'glass'",
+    }
+    for argv, message in bad.items():
+        with pytest.raises(SystemExit) as exit_:
+            module._arguments(list(argv))
+        assert exit_.value.code == 2  # argparse's usage error, not a traceback
+        assert message in capsys.readouterr().err
