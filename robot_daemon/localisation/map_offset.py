@@ -66,7 +66,13 @@ degraded / lost; the building pose never adds a decision.
 --seed N --json`, realistic world; ``loc_map_pose_*`` is the same run's map pose, the pose
 without this filter): RMS / max in the building against on the map, ISR seeds 1-3
 2.67 / 5.6, 2.24 / 5.8, 2.66 / 8.5 against 3.07 / 7.5, 2.49 / 6.8, 2.91 / 10.0 cm; NEES per dof
-0.50, 0.42, 0.54 (the map pose's 0.51, 0.41, 0.52 in session 11; session 11's filter 0.87-0.96).
+0.50, 0.42, 0.54 (the map pose's 0.51, 0.41, 0.52 in session 11; session 11's filter 0.87-0.96);
+Willow seeds 1-3 2.69 / 7.4, 2.98 / 9.7, 3.55 / 8.5 against 3.31 / 8.9, 3.44 / 9.7,
+4.02 / 11.1 (NEES per dof 1.06, 1.37, 1.40); Fetch 1.91 / 5.6, 1.97 / 5.3, 2.20 / 6.7 against
+2.18 / 6.5, 2.27 / 5.3, 2.61 / 7.4; every tour all stops, no collision, loss or silent failure.
+Kidnaps (`interbot scenario kidnap --seed N`, ISR seeds 1-5) as without it: 8, 8, 7, 8, 6 of 8
+relocalised, 8 of 8 detected, 0 wrong (the filter makes no decision). The ideal world
+(map = building, `--ideal-world`, ISR seed 1) pays 0.03 cm: 0.60 / 7.6 against 0.57 / 7.6.
 Real logs (`interbot bench --only reallogs`, the reported pose against the map pose,
 ``map_pose_rms_m``): better on 12 of 16 runs (Intel 2.81 / 2.24 -> 2.70 / 2.08 cm,
 ACES whole 3.35 -> 2.88, CSAIL whole 2.34 -> 2.01, the Infinite Corridor 9.89 / 4.49 ->
