@@ -149,8 +149,9 @@ class MapOffset:
 
     def __init__(self, config: MapOffsetConfig | None = None) -> None:
         self.config = config or MapOffsetConfig()
-        self._x = np.array([0.0, 0.0, 0.0, 0.0, 1.0])
-        self._p = np.diag([0.0, 0.0, 0.0, 0.0, self.config.scale_sigma**2])
+        # x = (p, b, k) and its covariance P, row-major lists (`_predict`)
+        self._x = [0.0, 0.0, 0.0, 0.0, 1.0]
+        self._p = _diag([0.0, 0.0, 0.0, 0.0, self.config.scale_sigma**2])
         self._started = False
         self._yaw = 0.0  # the map-frame heading at the last step [rad]
         self.resets = 0  # times the filter started again (a set pose, a gate, the bound)
@@ -203,9 +204,9 @@ class MapOffset:
         self._started = True
         self.resets += 1
         var_p = self.config.map_pose_sigma_m**2
-        k, var_k = self._x[4], self._p[4, 4]
-        self._x = np.array([map_pose.x, map_pose.y, 0.0, 0.0, k])
-        self._p = np.diag([var_p, var_p, sigma_b**2, sigma_b**2, var_k])
+        k, var_k = self._x[4], self._p[4][4]
+        self._x = [map_pose.x, map_pose.y, 0.0, 0.0, k]
+        self._p = _diag([var_p, var_p, sigma_b**2, sigma_b**2, var_k])
         self._yaw = map_pose.yaw
         self._win = [0.0, 0.0, 0.0]
         self._last_map = (map_pose.x, map_pose.y)
@@ -237,7 +238,7 @@ class MapOffset:
         moved = self._predict(raw_step, sigma_b)
         self._yaw = map_pose.yaw
         self._learn_walk(map_pose, moved, fused, math.hypot(raw_step.x, raw_step.y))
-        if fused and not self._update(map_pose, sigma_b, floor):
+        if fused and not self._update(map_pose, floor):
             self.reset(map_pose, sigma_b)
         elif fused and self.estimating and not was_estimating:
             # the walk is learnt: start the offset at 0 with its prior (a covariance that
@@ -263,7 +264,11 @@ class MapOffset:
             self._win = [0.0, 0.0, 0.0]
 
     def _predict(self, raw_step: Pose2D, sigma_b: float) -> tuple[float, float]:
-        """The odometry's step on the state; returns the position's move [m]."""
+        """The odometry's step on the state; returns the position's move [m].
+
+        ``F P Fᵀ + Q`` with ``F = I`` but ``F[b, b] = φ`` and ``F[p, k] = (ux, uy)``: row
+        operations, then the same on the columns (plain floats: a 5x5 in numpy cost more in
+        call overhead than in arithmetic; the numpy form is the tests' reference)."""
         cfg = self.config
         # The increment is in the frame of the previous pose (``pose ⊕ step``), as in the
         # map-frame filter's prediction.
@@ -273,54 +278,64 @@ class MapOffset:
         phi = math.exp(-d / cfg.correlation_m)
         x = self._x
         k = x[4]
-        self._x = np.array([x[0] + k * ux, x[1] + k * uy, phi * x[2], phi * x[3], k])
-        # F P Fᵀ + Q with F = I but F[b, b] = φ and F[p, k] = (ux, uy), row and column ops.
-        p = self._p.copy()
-        p[0] += ux * p[4]
-        p[1] += uy * p[4]
-        p[2:4] *= phi
-        p[:, 0] += ux * p[:, 4]
-        p[:, 1] += uy * p[:, 4]
-        p[:, 2:4] *= phi
+        self._x = [x[0] + k * ux, x[1] + k * uy, phi * x[2], phi * x[3], k]
+        p = self._p
+        r4 = p[4]
+        p = [
+            [a + ux * b for a, b in zip(p[0], r4, strict=True)],
+            [a + uy * b for a, b in zip(p[1], r4, strict=True)],
+            [phi * a for a in p[2]],
+            [phi * a for a in p[3]],
+            list(r4),
+        ]
+        for row in p:
+            row[0] += ux * row[4]
+            row[1] += uy * row[4]
+            row[2] *= phi
+            row[3] *= phi
         walk, drift = self.odometry_walk_m**2 * d, (1.0 - phi * phi) * sigma_b**2
-        p[0, 0] += walk
-        p[1, 1] += walk
-        p[2, 2] += drift
-        p[3, 3] += drift
-        p[4, 4] += cfg.scale_walk**2 * d
+        p[0][0] += walk
+        p[1][1] += walk
+        p[2][2] += drift
+        p[3][3] += drift
+        p[4][4] += cfg.scale_walk**2 * d
         self._p = p
         return k * ux, k * uy
 
-    def _update(self, map_pose: Pose2D, sigma_b: float, floor: float) -> bool:
+    def _update(self, map_pose: Pose2D, floor: float) -> bool:
         """Condition on ``m = p + b``; False when it does not fit (the gate, or an offset
         beyond the bound): the caller starts again. The gate allows a whole new offset of the
         map's size (``floor``, also while the offset is not estimated: a reset drops the walk's
         window) on top of the prediction's uncertainty: a room's offset
         changes at its door within a few centimetres of travel, a step the Gauss-Markov model
-        calls unlikely, but no jump of the matcher."""
+        calls unlikely, but no jump of the matcher. ``K = P Hᵀ S⁻¹``, ``x += K ν``,
+        ``P -= K (P Hᵀ)ᵀ`` with ``H = [I I 0]``, in plain floats as `_predict`."""
         cfg = self.config
         p = self._p
-        ph = p[:, 0:2] + p[:, 2:4]  # P Hᵀ (5x2)
-        s = ph[0:2] + ph[2:4]  # H P Hᵀ
+        ph = [(r[0] + r[2], r[1] + r[3]) for r in p]  # P Hᵀ (5x2)
         var_m = cfg.map_pose_sigma_m**2
-        s00, s01, s11 = s[0, 0] + var_m, 0.5 * (s[0, 1] + s[1, 0]), s[1, 1] + var_m
+        s00 = ph[0][0] + ph[2][0] + var_m  # H P Hᵀ + R
+        s01 = 0.5 * ((ph[0][1] + ph[2][1]) + (ph[1][0] + ph[3][0]))
+        s11 = ph[1][1] + ph[3][1] + var_m
         x = self._x
         n0, n1 = map_pose.x - x[0] - x[2], map_pose.y - x[1] - x[3]  # the innovation
-        del sigma_b  # the offset's prior is in ``p`` already
         g00, g11 = s00 + floor**2, s11 + floor**2
         det_g, det_s = g00 * g11 - s01 * s01, s00 * s11 - s01 * s01
         if not (det_g > 0.0 and det_s > 0.0):
             return False
         if (g11 * n0 * n0 - 2.0 * s01 * n0 * n1 + g00 * n1 * n1) / det_g > cfg.gate_chi2:
             return False
-        s_inv = np.array([[s11, -s01], [-s01, s00]]) / det_s
-        gain = ph @ s_inv  # 5x2
-        x = x + gain @ np.array([n0, n1])
+        i00, i01, i11 = s11 / det_s, -s01 / det_s, s00 / det_s  # S⁻¹
+        gain = [(a * i00 + b * i01, a * i01 + b * i11) for a, b in ph]  # 5x2
+        x = [xi + (g0 * n0 + g1 * n1) for xi, (g0, g1) in zip(x, gain, strict=True)]
         if math.hypot(map_pose.x - x[0], map_pose.y - x[1]) > cfg.max_offset_m:
             return False
         self._x = x
-        p = p - gain @ ph.T  # (I - K H) P
-        self._p = 0.5 * (p + p.T)
+        q = [
+            [pij - (g0 * a + g1 * b) for pij, (a, b) in zip(row, ph, strict=True)]
+            for row, (g0, g1) in zip(p, gain, strict=True)
+        ]
+        self._p = [[0.5 * (q[i][j] + q[j][i]) for j in range(5)] for i in range(5)]
         return True
 
     def position(self) -> tuple[float, float] | None:
@@ -349,10 +364,17 @@ class MapOffset:
         The map pose's covariance while the offset is not estimated."""
         out: FloatArray = map_cov.copy()
         if self._started and self.estimating:
-            out += self._p[2:4, 2:4] - floor**2 * np.eye(2)
+            p = self._p
+            out += np.array([[p[2][2], p[2][3]], [p[3][2], p[3][3]]]) - floor**2 * np.eye(2)
         return out
 
     def position_covariance(self) -> FloatArray:
         """2x2 covariance of `position` [m²]: the offset's uncertainty included."""
-        out: FloatArray = self._p[:2, :2].copy()
+        p = self._p
+        out: FloatArray = np.array([[p[0][0], p[0][1]], [p[1][0], p[1][1]]])
         return out
+
+
+def _diag(values: list[float]) -> list[list[float]]:
+    """A diagonal matrix as row lists."""
+    return [[v if i == j else 0.0 for j in range(len(values))] for i, v in enumerate(values)]

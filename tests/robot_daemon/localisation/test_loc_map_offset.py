@@ -239,3 +239,77 @@ def test_off_the_building_pose_is_the_map_pose() -> None:
     loc = _localise(off, scans=60)
     assert loc.building_pose == loc.pose
     assert np.array_equal(loc.building_covariance, loc.covariance)
+
+
+class _NumpyReference(MapOffset):
+    """`_predict` and `_update` in numpy matrix form (session 11's code): the readable
+    reference of the plain-float ones."""
+
+    def _predict(self, raw_step: Pose2D, sigma_b: float) -> tuple[float, float]:
+        cfg = self.config
+        c, s = math.cos(self._yaw), math.sin(self._yaw)
+        ux, uy = c * raw_step.x - s * raw_step.y, s * raw_step.x + c * raw_step.y
+        d = math.hypot(raw_step.x, raw_step.y)
+        phi = math.exp(-d / cfg.correlation_m)
+        f = np.eye(5)
+        f[2, 2] = f[3, 3] = phi
+        f[0, 4], f[1, 4] = ux, uy
+        q = np.diag(
+            [
+                self.odometry_walk_m**2 * d,
+                self.odometry_walk_m**2 * d,
+                (1.0 - phi * phi) * sigma_b**2,
+                (1.0 - phi * phi) * sigma_b**2,
+                cfg.scale_walk**2 * d,
+            ]
+        )
+        x = f @ np.array(self._x)
+        self._x = [float(v) for v in x]
+        self._p = (f @ np.array(self._p) @ f.T + q).tolist()
+        k = self._x[4]
+        return k * ux, k * uy
+
+    def _update(self, map_pose: Pose2D, floor: float) -> bool:
+        cfg = self.config
+        h = np.hstack([np.eye(2), np.eye(2), np.zeros((2, 1))])
+        p, x = np.array(self._p), np.array(self._x)
+        s = h @ p @ h.T + cfg.map_pose_sigma_m**2 * np.eye(2)
+        nu = np.array([map_pose.x, map_pose.y]) - h @ x
+        if nu @ np.linalg.solve(s + floor**2 * np.eye(2), nu) > cfg.gate_chi2:
+            return False
+        gain = p @ h.T @ np.linalg.inv(s)
+        x = x + gain @ nu
+        if math.hypot(map_pose.x - x[0], map_pose.y - x[1]) > cfg.max_offset_m:
+            return False
+        self._x = [float(v) for v in x]
+        p = (np.eye(5) - gain @ h) @ p
+        self._p = (0.5 * (p + p.T)).tolist()
+        return True
+
+
+def test_the_plain_float_filter_is_the_matrix_form() -> None:
+    """The same drive (rooms off their map, turns, a jump, a scan not fused) through the
+    plain-float filter and its numpy reference: the same states, covariances and restarts."""
+    fast, slow = MapOffset(ON), _NumpyReference(ON)
+    rng = np.random.default_rng(11)
+    x = y = yaw = 0.0
+    for i in range(1500):
+        turn = float(rng.normal(0.0, 0.05))
+        step = Pose2D(STEP * 1.03, 0.0, turn)
+        yaw += turn
+        x, y = x + STEP * math.cos(yaw), y + STEP * math.sin(yaw)
+        b = _offset_at(abs(x) % 16.0)
+        jump = 0.3 if i == 700 else 0.0
+        noise = rng.normal(0.0, 0.003, 2)
+        map_pose = Pose2D(x + b[0] + noise[0] + jump, y + b[1] + noise[1], yaw)
+        fused = i % 97 != 0
+        for f in (fast, slow):
+            f.step(step, map_pose, fused, SIGMA_B)
+        assert fast.resets == slow.resets
+        assert fast.position() == pytest.approx(slow.position(), abs=1e-12)
+        assert fast.offset == pytest.approx(slow.offset, abs=1e-12)
+        assert fast.building_position(map_pose) == pytest.approx(
+            slow.building_position(map_pose), abs=1e-12
+        )
+        assert np.allclose(fast._p, slow._p, rtol=1e-9, atol=1e-18)
+    assert fast.estimating and fast.resets >= 3  # the start, the walk learnt, the jump
