@@ -23,7 +23,10 @@ Keys ``reallog_<log>_<method>_<figure>`` with figures ``scans``, ``rms_m``, ``me
 (the scans reported ``ok``: what a user relies on; the rest are reported degraded or lost),
 ``lost_scans``, ``degraded_scans``, ``silent_failures`` (error
 > 0.3 m or > 10 degrees reported ``ok``: the figure that must be 0), ``nees_mean`` (3 if the
-covariance is calibrated), ``nees_within_95`` (0.95 if calibrated), ``ms_median``, ``ms_p99``
+covariance is calibrated), ``nees_within_95`` (0.95 if calibrated), ``map_pose_rms_m`` and
+``map_pose_nees_mean`` (the map pose's, navigation's: the other figures are of the pose the
+robot reports, the building pose of `map_offset`, which is the map pose until that filter
+has learnt its odometry's walk), ``ms_median``, ``ms_p99``
 (wall clock per `Localiser.on_scan` alone, covariance included: the replay's map building,
 odometry and scoring are outside it), ``ms_p99_tracking`` (the p99 without the scans just
 after a re-set pose: their first match runs from 25 starts, and on the Freiburg campus, 12
@@ -125,6 +128,8 @@ FIGURES = (
     "silent_failures_seeds",
     "nees_mean",
     "nees_within_95",
+    "map_pose_rms_m",
+    "map_pose_nees_mean",
     "ms_median",
     "ms_p99",
     "ms_p99_tracking",

@@ -306,8 +306,8 @@ class RobotStack:
     def pose(self) -> Pose2D | None:
         """base_link in the building now, the pose the robot reports (the station, the tablet,
         the figures): the last estimate moved by odometry since, the map's own offset there
-        taken out (`Localiser.building_pose`, `map_offset`: off by default, then the map pose;
-        None if unset)."""
+        taken out (`Localiser.building_pose`, `map_offset`; the map pose until the filter has
+        learnt its odometry's walk, or with it off; None if unset)."""
         laser = self.localiser.current_building_pose
         return None if laser is None else laser.compose(self._mount_inv)
 

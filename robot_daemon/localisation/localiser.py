@@ -456,7 +456,7 @@ class Localiser:
     def building_pose(self) -> Pose2D | None:
         """The latest pose in the building (`map_offset`): the map pose (`pose`) less the map's
         offset learnt there, the map pose's heading. The map pose while the filter is off, not
-        started or the localiser lost (None while unset)."""
+        started, not yet estimating or the localiser lost (None while unset)."""
         pose, position = self._pose, self._building_position()
         if pose is None or position is None:
             return pose
@@ -464,26 +464,23 @@ class Localiser:
 
     @property
     def building_covariance(self) -> FloatArray:
-        """3x3 covariance of `building_pose`: the building filter's position covariance (the
-        offset's uncertainty in it), the reported heading variance (`covariance`), and an
-        unconfirmed jump's spread; `covariance` while `building_pose` is the map pose."""
+        """3x3 covariance of `building_pose`: the reported covariance (`covariance`) with the
+        map floor's share of the position replaced by the offset's posterior
+        (`MapOffset.building_covariance`); `covariance` while `building_pose` is the map
+        pose."""
         cov = self.covariance
         if self._building_position() is None:
             return cov
-        out: FloatArray = np.zeros((3, 3))
-        out[:2, :2] = self.map_offset.position_covariance()
-        out[2, 2] = cov[2, 2]
-        if self._jump is not None:
-            out += self._jump[1]
-        return out
+        cov[:2, :2] = self.map_offset.building_covariance(cov[:2, :2], self.map_floor.sigma_m)
+        return cov
 
     def _building_position(self) -> tuple[float, float] | None:
-        """`map_offset`'s position, or None where the building pose is the map pose."""
+        """`map_offset`'s building position, or None where the building pose is the map pose."""
         if self._pose is None or self._state is LocaliserState.LOST:
             return None
         if not self.config.map_offset.enabled:
             return None
-        return self.map_offset.position()
+        return self.map_offset.building_position(self._pose)
 
     @property
     def current_building_pose(self) -> Pose2D | None:

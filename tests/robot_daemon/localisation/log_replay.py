@@ -89,6 +89,11 @@ class ScanOutcome:
     wall_model_learnt: bool = False
     # The heading part of the reference offset above [rad] (`reference_check`).
     reference_heading_offset_rad: float = math.nan
+    # The pose on the map (`Localiser.pose`, navigation's) against the logged pose, and its NEES
+    # under its own covariance: the same as ``error_m`` and ``nees`` where the reported pose is
+    # the map pose (the building-pose filter `map_offset` off, not started, or lost).
+    map_error_m: float = math.nan
+    map_nees: float = math.nan
 
     @property
     def silent(self) -> bool:
@@ -202,19 +207,12 @@ def replay_run(
         t0 = clock() if clock is not None else 0.0
         est = loc.on_scan(cur.scan, now)
         seconds = clock() - t0 if clock is not None else 0.0
-        if est.pose is None:  # cannot happen after set_initial_pose; keeps the types honest
+        # What the robot reports (the building pose, `map_offset`) and the map pose.
+        reported = loc.building_pose
+        if est.pose is None or reported is None:  # not after set_initial_pose; keeps the types
             raise LogReplayError(f"the localiser has no pose at t={now}")
-        e = np.array(
-            [
-                est.pose.x - cur.pose.x,
-                est.pose.y - cur.pose.y,
-                math.remainder(est.pose.yaw - cur.pose.yaw, math.tau),
-            ]
-        )
-        try:
-            nees = float(e @ np.linalg.solve(est.covariance, e))
-        except np.linalg.LinAlgError:
-            nees = math.inf
+        e, nees = _pose_error(reported, loc.building_covariance, cur.pose)
+        e_map, map_nees = _pose_error(est.pose, est.covariance, cur.pose)
         offset, turn, fits_better = (
             reference_check(loc, cur, est.pose) if check_reference else (math.nan, math.nan, False)
         )
@@ -230,6 +228,8 @@ def replay_run(
                 reference_heading_offset_rad=turn,
                 estimate_fits_better=fits_better,
                 after_set_pose=after_set_pose,
+                map_error_m=float(math.hypot(e_map[0], e_map[1])),
+                map_nees=map_nees,
                 wall_model=loc.wall_model.surface,
                 wall_model_learnt=loc.wall_model.decided,
             )
@@ -239,6 +239,17 @@ def replay_run(
             # What the robot's user does ("Help me!"): a new initial pose, here the logged one.
             loc.set_initial_pose(cur.pose, now)
     return out
+
+
+def _pose_error(pose: Pose2D, cov: np.ndarray, truth: Pose2D) -> tuple[np.ndarray, float]:
+    """The error (x, y, yaw) of ``pose`` against ``truth`` and its NEES under ``cov``."""
+    e = np.array(
+        [pose.x - truth.x, pose.y - truth.y, math.remainder(pose.yaw - truth.yaw, math.tau)]
+    )
+    try:
+        return e, float(e @ np.linalg.solve(cov, e))
+    except np.linalg.LinAlgError:
+        return e, math.inf
 
 
 def replay_stamps(run: Sequence[LaserRecord]) -> list[float]:
@@ -255,7 +266,9 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     """Figures over localised scans.
 
     ``scans``, ``rms_m``, ``median_m``, ``max_m``, ``rms_yaw_rad``, ``max_yaw_rad`` (every
-    scan, whatever its state), ``ok_rms_m`` and ``ok_max_m`` (scans reported ok),
+    scan, whatever its state; of the reported pose, the building pose of `map_offset`),
+    ``map_pose_rms_m`` and ``map_pose_nees_mean`` (the map pose's, navigation's: the same where
+    the building pose is the map pose), ``ok_rms_m`` and ``ok_max_m`` (scans reported ok),
     ``lost_scans``, ``degraded_scans``, ``silent_failures``, ``nees_mean`` and
     ``nees_within_95`` (fraction of scans not lost whose error lies in the covariance's 95 %
     ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99``, ``ms_p99_tracking`` (the p99
@@ -275,6 +288,8 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     ok = np.array([o.state is LocaliserState.OK for o in outcomes])
     tracked = [o for o in outcomes if o.state is not LocaliserState.LOST]
     nees = np.array([o.nees for o in tracked]) if tracked else np.array([math.nan])
+    map_nees = np.array([o.map_nees for o in tracked]) if tracked else np.array([math.nan])
+    map_err = np.array([o.map_error_m for o in outcomes])
     ms = np.array([o.seconds for o in outcomes]) * 1e3
     tracking = np.array([not o.after_set_pose for o in outcomes])
     offsets = np.array([o.reference_offset_m for o in outcomes])
@@ -293,6 +308,8 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
         "silent_failures": float(sum(o.silent for o in outcomes)),
         "nees_mean": float(np.mean(nees)),
         "nees_within_95": float(np.mean(nees <= 7.815)),
+        "map_pose_rms_m": float(np.sqrt(np.mean(map_err**2))),
+        "map_pose_nees_mean": float(np.mean(map_nees)),
         "ms_median": float(np.median(ms)),
         "ms_p99": float(np.percentile(ms, 99)),
         "ms_p99_tracking": float(np.percentile(ms[tracking], 99)) if tracking.any() else math.nan,

@@ -14,7 +14,7 @@ from robot_daemon.localisation import Localiser, LocaliserConfig, LocaliserState
 from robot_daemon.localisation.map_offset import MapOffset, MapOffsetConfig, MapOffsetConfigError
 from tests.robot_daemon.localisation.synthetic_office import OFFICE_BOXES, rasterise, utm_scan
 
-ON = MapOffsetConfig(enabled=True)  # off by default (`map_offset`'s docstring)
+ON = MapOffsetConfig(enabled=True)  # the default (`map_offset`'s docstring)
 SIGMA_B = 0.035  # [m] the map's offset per axis (the realistic world's rooms)
 STEP = 0.05  # [m] travel between scans
 ROOM = (6.0, 10.0)  # [m] x range of the stretch whose walls stand off the map (of 16 m)
@@ -31,7 +31,8 @@ def _drive(
     """Back and forth along x from 0 to 16 m, ``laps`` times; the odometry measures ``scale``
     times the true travel (3 %, the simulator's wheels) with 3 mm per sqrt(m) of noise; each scan
     fixes the map pose at the truth plus the map's offset there plus 3 mm of noise. Returns the
-    true x, the map pose's and the building position's errors (last lap only) and the filter."""
+    true x, the map pose's and the reported building position's errors (last lap only) and the
+    filter."""
     rng = np.random.default_rng(seed)
     xs = np.arange(0.0, 16.0 + 1e-9, STEP)
     there = [Pose2D(float(x), 0.0, 0.0) for x in xs]
@@ -53,7 +54,7 @@ def _drive(
         along = scale * step.x + rng.normal(0.0, odom_noise * math.sqrt(moved))
         offset.step(Pose2D(along, scale * step.y, step.yaw), map_pose, True, SIGMA_B)
         if i >= last:
-            position = offset.position()
+            position = offset.building_position(map_pose)
             assert position is not None
             true_x.append(x)
             map_err.append(math.hypot(map_pose.x - x, map_pose.y))
@@ -66,17 +67,18 @@ def _rms(a: np.ndarray) -> float:
 
 
 def test_a_room_off_its_map_is_told_apart_by_the_odometry() -> None:
-    """The map pose is 6.4 cm off throughout a 4 m room on a 16 m stretch; the building
-    position follows the odometry in from the corridor and is off by less there. The filter
-    believes the map right on average, so it pays a little in the corridor (measured, seeds
-    1-4: 4.3-4.7 cm RMS in the room, 67-73 % of the map pose's; 0.8-1.0 cm in the corridor)."""
+    """A drawn map: the map pose is 6.4 cm off throughout a 4 m room on a 16 m stretch; the
+    building position follows the odometry in from the corridor and is off by less there. The
+    filter believes the map right on average, so it pays a little in the corridor."""
     x, map_err, building_err, offset = _drive(_offset_at)
     room = (x >= ROOM[0]) & (x < ROOM[1])
     assert _rms(map_err[room]) > 0.06
     assert _rms(building_err[room]) < 0.8 * _rms(map_err[room])
     assert _rms(building_err[~room]) < 0.02
     assert offset.scale == pytest.approx(1.0 / 1.03, abs=0.003)  # learnt the wheels' scale
-    assert offset.resets == 1  # started once, never thrown back
+    assert offset.estimating
+    # started once, and once more when the walk was learnt (`MapOffset.estimating`)
+    assert offset.resets == 2
 
 
 def test_where_the_building_is_its_map_the_building_position_is_the_map_pose() -> None:
@@ -139,11 +141,35 @@ def test_the_building_position_stays_within_its_bound_of_the_map_pose() -> None:
         assert math.hypot(position[0] - map_pose.x, position[1] - map_pose.y) <= 0.05 + 1e-12
 
 
-def test_off_by_default_it_never_starts() -> None:
-    assert not MapOffsetConfig().enabled
-    offset = MapOffset()
+def test_no_offset_until_the_odometry_walk_is_learnt() -> None:
+    """For the first ``walk_prior_windows`` metres of fused travel the filter does not know
+    its odometry's error, so it estimates no offset: the building position is the map pose
+    itself, and so is its covariance; from there it estimates, its offset's prior the floor."""
+    offset = MapOffset(ON)
+    map_cov = np.diag([0.02**2 + SIGMA_B**2, 0.02**2 + SIGMA_B**2])
+    rng = np.random.default_rng(4)
+    for i in range(400):  # 20 m
+        map_pose = Pose2D(i * STEP + float(rng.normal(0.0, 0.01)), 0.03, 0.0)
+        offset.step(Pose2D(STEP, 0.0, 0.0), map_pose, True, SIGMA_B)
+        position = offset.building_position(map_pose)
+        assert position is not None
+        if offset.walk_windows < ON.walk_prior_windows:
+            assert not offset.estimating
+            assert position == (map_pose.x, map_pose.y)
+            assert np.array_equal(offset.building_covariance(map_cov, SIGMA_B), map_cov)
+    assert offset.estimating
+    cov = offset.building_covariance(map_cov, SIGMA_B)
+    # the offset's posterior in the floor's place: between the map filter's own and the map's
+    assert np.all(np.linalg.eigvalsh(map_cov - cov) >= 0.0)
+    assert np.all(np.linalg.eigvalsh(cov - (map_cov - SIGMA_B**2 * np.eye(2))) > 0.0)
+
+
+def test_on_by_default_and_when_off_it_never_starts() -> None:
+    assert MapOffsetConfig().enabled
+    offset = MapOffset(MapOffsetConfig(enabled=False))
     offset.step(Pose2D(0.1, 0.0, 0.0), Pose2D(1.0, 0.0, 0.0), True, SIGMA_B)
     assert offset.position() is None
+    assert offset.building_position(Pose2D(1.0, 0.0, 0.0)) is None
 
 
 @pytest.mark.parametrize(
@@ -180,23 +206,110 @@ def _localise(config: LocaliserConfig, scans: int = 60) -> Localiser:
 
 
 def test_the_localiser_reports_a_building_pose_near_its_map_pose() -> None:
-    loc = _localise(LocaliserConfig(map_update=False, map_offset=ON), scans=60)
+    """Estimating from the first scan (no walk to learn first, so 12 m show it)."""
+    eager = MapOffsetConfig(walk_prior_windows=0.0)
+    loc = _localise(LocaliserConfig(map_update=False, map_offset=eager), scans=60)
     pose, building = loc.pose, loc.building_pose
     assert pose is not None and building is not None
-    assert building != pose  # a filter of its own
+    assert building != pose  # the offset learnt taken out
     assert building.yaw == pose.yaw  # rooms move, they do not turn
     assert building.distance_to(pose) < loc.config.map_offset.max_offset_m
     cov = loc.building_covariance
     assert cov.shape == (3, 3) and np.allclose(cov, cov.T)
     assert np.all(np.linalg.eigvalsh(cov) > 0.0)
     assert cov[2, 2] == pytest.approx(loc.covariance[2, 2])
-    # its position covariance holds the offset's uncertainty: not below the map floor's half
-    assert min(cov[0, 0], cov[1, 1]) > (0.5 * loc.map_floor.sigma_m) ** 2
+    # the offset's posterior in the map floor's place: no more confident than the map-frame
+    # filter's own covariance, no less than the map pose's reported one
+    floor = loc.map_floor.sigma_m**2 * np.eye(2)
+    assert np.all(np.linalg.eigvalsh(cov[:2, :2] - (loc.covariance[:2, :2] - floor)) >= 0.0)
+    assert np.all(np.linalg.eigvalsh(loc.covariance[:2, :2] - cov[:2, :2]) >= -1e-15)
     current = loc.current_building_pose
     assert current is not None and current.distance_to(building) < 1e-9  # no odometry since
 
 
-def test_off_by_default_the_building_pose_is_the_map_pose() -> None:
-    loc = _localise(LocaliserConfig(map_update=False), scans=20)
+def test_by_default_the_building_pose_is_the_map_pose_until_the_walk_is_learnt() -> None:
+    loc = _localise(LocaliserConfig(map_update=False), scans=20)  # 4 m
+    assert loc.config.map_offset.enabled
     assert loc.building_pose == loc.pose
     assert np.array_equal(loc.building_covariance, loc.covariance)
+
+
+def test_off_the_building_pose_is_the_map_pose() -> None:
+    off = LocaliserConfig(map_update=False, map_offset=MapOffsetConfig(enabled=False))
+    loc = _localise(off, scans=60)
+    assert loc.building_pose == loc.pose
+    assert np.array_equal(loc.building_covariance, loc.covariance)
+
+
+class _NumpyReference(MapOffset):
+    """`_predict` and `_update` in numpy matrix form (session 11's code): the readable
+    reference of the plain-float ones."""
+
+    def _predict(self, raw_step: Pose2D, sigma_b: float) -> tuple[float, float]:
+        cfg = self.config
+        c, s = math.cos(self._yaw), math.sin(self._yaw)
+        ux, uy = c * raw_step.x - s * raw_step.y, s * raw_step.x + c * raw_step.y
+        d = math.hypot(raw_step.x, raw_step.y)
+        phi = math.exp(-d / cfg.correlation_m)
+        f = np.eye(5)
+        f[2, 2] = f[3, 3] = phi
+        f[0, 4], f[1, 4] = ux, uy
+        q = np.diag(
+            [
+                self.odometry_walk_m**2 * d,
+                self.odometry_walk_m**2 * d,
+                (1.0 - phi * phi) * sigma_b**2,
+                (1.0 - phi * phi) * sigma_b**2,
+                cfg.scale_walk**2 * d,
+            ]
+        )
+        x = f @ np.array(self._x)
+        self._x = [float(v) for v in x]
+        self._p = (f @ np.array(self._p) @ f.T + q).tolist()
+        k = self._x[4]
+        return k * ux, k * uy
+
+    def _update(self, map_pose: Pose2D, floor: float) -> bool:
+        cfg = self.config
+        h = np.hstack([np.eye(2), np.eye(2), np.zeros((2, 1))])
+        p, x = np.array(self._p), np.array(self._x)
+        s = h @ p @ h.T + cfg.map_pose_sigma_m**2 * np.eye(2)
+        nu = np.array([map_pose.x, map_pose.y]) - h @ x
+        if nu @ np.linalg.solve(s + floor**2 * np.eye(2), nu) > cfg.gate_chi2:
+            return False
+        gain = p @ h.T @ np.linalg.inv(s)
+        x = x + gain @ nu
+        if math.hypot(map_pose.x - x[0], map_pose.y - x[1]) > cfg.max_offset_m:
+            return False
+        self._x = [float(v) for v in x]
+        p = (np.eye(5) - gain @ h) @ p
+        self._p = (0.5 * (p + p.T)).tolist()
+        return True
+
+
+def test_the_plain_float_filter_is_the_matrix_form() -> None:
+    """The same drive (rooms off their map, turns, a jump, a scan not fused) through the
+    plain-float filter and its numpy reference: the same states, covariances and restarts."""
+    fast, slow = MapOffset(ON), _NumpyReference(ON)
+    rng = np.random.default_rng(11)
+    x = y = yaw = 0.0
+    for i in range(1500):
+        turn = float(rng.normal(0.0, 0.05))
+        step = Pose2D(STEP * 1.03, 0.0, turn)
+        yaw += turn
+        x, y = x + STEP * math.cos(yaw), y + STEP * math.sin(yaw)
+        b = _offset_at(abs(x) % 16.0)
+        jump = 0.3 if i == 700 else 0.0
+        noise = rng.normal(0.0, 0.003, 2)
+        map_pose = Pose2D(x + b[0] + noise[0] + jump, y + b[1] + noise[1], yaw)
+        fused = i % 97 != 0
+        for f in (fast, slow):
+            f.step(step, map_pose, fused, SIGMA_B)
+        assert fast.resets == slow.resets
+        assert fast.position() == pytest.approx(slow.position(), abs=1e-12)
+        assert fast.offset == pytest.approx(slow.offset, abs=1e-12)
+        assert fast.building_position(map_pose) == pytest.approx(
+            slow.building_position(map_pose), abs=1e-12
+        )
+        assert np.allclose(fast._p, slow._p, rtol=1e-9, atol=1e-18)
+    assert fast.estimating and fast.resets >= 3  # the start, the walk learnt, the jump
