@@ -145,14 +145,30 @@ def _next_events(pair: Pair, timeout: float) -> list[object]:
     return events
 
 
-def test_station_sees_the_robot_appear_and_leave_within_a_second(pair: Pair) -> None:
-    assert RobotAppeared(ROBOT) in _next_events(pair, 1.0)
-    assert pair.station.robots == {ROBOT}
-    pair.robot_session.close()  # a clean exit of the daemon
-    start = time.monotonic()
-    assert _next_events(pair, 1.0) == [RobotLeft(ROBOT)]
-    assert time.monotonic() - start < 1.0
-    assert pair.station.robots == frozenset()
+def test_station_sees_the_robot_appear_and_leave_on_a_clean_exit() -> None:
+    """A clean exit is reported from the robot's own goodbye, not from its lease running out.
+
+    Both sessions get a 60 s lease, so a ``RobotLeft`` within 10 s can only come from the
+    closed session's message (it used to be "within a second" on the 2.5 s lease: on a loaded
+    machine the wall-time bound was the scheduler's, the cause is what matters)."""
+    lease_ms = 60_000
+    with ExitStack() as stack:
+        endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        robot_session = stack.enter_context(open_session([endpoint], [], lease_ms=lease_ms))
+        station_session = stack.enter_context(open_session([], [endpoint], lease_ms=lease_ms))
+        robot = RobotLink(robot_session, ROBOT)
+        stack.callback(robot.close)
+        station = stack.enter_context(closing(StationLink(station_session)))
+        events: list[object] = []
+        wait_until(lambda: RobotAppeared(ROBOT) in (events.extend(station.poll_events()) or events))
+        assert station.robots == {ROBOT}
+        robot_session.close()  # a clean exit of the daemon
+        start = time.monotonic()
+        left: list[object] = []
+        wait_until(lambda: bool(left.extend(station.poll_events()) or left))
+        assert time.monotonic() - start < lease_ms / 1000 / 6  # long before the lease
+        assert left == [RobotLeft(ROBOT)]
+        assert station.robots == frozenset()
 
 
 def test_a_robot_already_present_is_found_by_a_late_station(pair: Pair) -> None:
@@ -462,7 +478,8 @@ def test_sessions_close_without_hanging_with_live_subscribers(pair: Pair) -> Non
     start = time.monotonic()
     pair.station_session.close()
     pair.robot_session.close()
-    assert time.monotonic() - start < 1.0
+    # A hang is for ever (zenoh-python#434); 5 s leaves a loaded machine its scheduling.
+    assert time.monotonic() - start < 5.0
     assert pair.robot_session.is_closed() and pair.station_session.is_closed()
 
 
