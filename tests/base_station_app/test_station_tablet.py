@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+from PySide6.QtCore import Qt
+
 from base_station_app.station_config import StationConfig
 from interbot_core.supervisor import GoTo, GuidedTour, SupervisorState
 from interbot_core.topics import RouteMsg, RouteProgress, Topic, Twist
@@ -133,9 +135,16 @@ def test_out_of_order_and_late_speed_commands_are_dropped(
 ):
     t = handshake(qtbot, tablet_factory)
 
+    # One read turn each (a burst in one turn passes on only its newest): each command is
+    # sent once the server has passed the previous one on (a fixed 30 ms pause let a loaded
+    # machine read two in one turn).
+    passed_on: list[object] = []
+    station.tablet.speed_received.connect(passed_on.append, Qt.ConnectionType.DirectConnection)
+
     def speed(linear, seq, t_tablet):
+        n = len(passed_on)
         t.send({"speed": {"linear": linear, "angular": 0.0, "seq": seq, "t": t_tablet}})
-        qtbot.wait(30)  # one read turn each (a burst in one turn forwards only its newest)
+        qtbot.waitUntil(lambda: len(passed_on) > n, timeout=10000)
 
     speed(0.1, 10, 50.0)  # offset 50 s: the fastest delivery so far
     qtbot.waitUntil(lambda: bool(len(robot.of("tablet_vel")) == 1), timeout=3000)
