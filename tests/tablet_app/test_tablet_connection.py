@@ -109,7 +109,7 @@ def test_reconnects_with_backoff_after_the_station_closes(
     assert delays[:3] == [0.05, 0.1, 0.2]
     station.clear()
     station.listen(port)
-    with qtbot.waitSignal(connection.connected, timeout=3000):
+    with qtbot.waitSignal(connection.connected, timeout=10_000):
         pass
     qtbot.waitUntil(lambda: bool(station.messages("hello")))
     assert station.clients_seen == 2
@@ -121,12 +121,12 @@ def test_link_becomes_lossy_when_pongs_stop_and_recovers(qtbot: Any, station: An
     qtbot.waitUntil(lambda: connection.average_latency_ms is not None)
     assert not connection.is_lossy
     station.answer_pings = False
-    with qtbot.waitSignal(connection.link_lossy_changed, timeout=3000) as blocker:
+    with qtbot.waitSignal(connection.link_lossy_changed, timeout=10_000) as blocker:
         pass
     assert blocker.args == [True]
     station.answer_pings = True
     # Pongs answer new pings; the old unanswered ones are overtaken by the newer pong.
-    qtbot.waitUntil(lambda: not connection.is_lossy, timeout=3000)
+    qtbot.waitUntil(lambda: not connection.is_lossy, timeout=10_000)
 
 
 def test_send_when_not_connected_returns_false(qtbot: Any, connection: Any) -> None:
