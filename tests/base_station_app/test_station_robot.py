@@ -200,10 +200,9 @@ def test_initial_pose_and_config_reach_the_robot(qtbot, linked, station, robot, 
 
 
 def test_robot_state_scan_and_lost_robot(qtbot, linked, station, robot, localise):
-    robot.publish_pose(1.0, 2.0, math.pi / 2)
-    robot.publish_scan()
-
-    def got() -> bool:
+    def got() -> bool:  # DROP streams: published until they arrive, as a daemon does
+        robot.publish_pose(1.0, 2.0, math.pi / 2)
+        robot.publish_scan()
         station.poll_link()
         return station.selected.state.scan is not None and station.selected.state.pose is not None
 
@@ -385,9 +384,9 @@ def test_engaged_stop_is_sent_again_while_the_robot_reports_none(
 
     station.emergency_stop()
     qtbot.waitUntil(lambda: bool(robot.of("stop")), timeout=10_000)
-    robot.link.publish(Topic.MUX, MuxMsg(None, "no valid input", ()))  # a robot that lost the stop
 
-    def resent() -> bool:
+    def resent() -> bool:  # a robot that lost the stop (the mux: a DROP stream, every period)
+        robot.link.publish(Topic.MUX, MuxMsg(None, "no valid input", ()))
         station.poll_link()
         clock.advance(0.2)
         station.tick()

@@ -292,9 +292,10 @@ def test_camera_view_shows_jpeg(qtbot, window, station, robot):
     buf = QBuffer(data)
     buf.open(QIODevice.OpenModeFlag.WriteOnly)
     image.save(buf, "JPG")
-    robot.link.publish(Topic.IMAGE, ImageMsg(time.monotonic(), 64, 48, bytes(data.data())))
+    stamp = time.monotonic()
 
-    def shown() -> bool:
+    def shown() -> bool:  # a DROP stream: published until it arrives, as a daemon does
+        robot.link.publish(Topic.IMAGE, ImageMsg(stamp, 64, 48, bytes(data.data())))
         station.poll_link()
         return not window.camera_view.image.isNull()
 
@@ -341,9 +342,9 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
     from interbot_core.topics import PoseMsg
 
     for x, stamp in ((0.0, 10.0), (2.0, 10.2)):  # the pose topic keeps only the newest: wait
-        robot.link.publish(Topic.POSE, PoseMsg(x, 0.0, 0.0, stamp=stamp))
 
-        def got(stamp: float = stamp) -> bool:
+        def got(x: float = x, stamp: float = stamp) -> bool:  # DROP: sent until it arrives
+            robot.link.publish(Topic.POSE, PoseMsg(x, 0.0, 0.0, stamp=stamp))
             station.poll_link()
             return (
                 station.selected.state.pose is not None
@@ -352,9 +353,9 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
 
         qtbot.waitUntil(got, timeout=10_000)
     ranges = np.array([1.0, 1.0], dtype=np.float32)  # straight ahead and 90° left
-    robot.link.publish_scan(LaserScan(10.1, 0.0, math.pi / 2, 0.1, 30.0, ranges))
 
-    def drawn() -> bool:
+    def drawn() -> bool:  # a DROP stream: published until it arrives, as a daemon does
+        robot.link.publish_scan(LaserScan(10.1, 0.0, math.pi / 2, 0.1, 30.0, ranges))
         station.poll_link()
         window.map_view.redraw()
         return len(window.map_view.scan_item) == 2
