@@ -133,7 +133,7 @@ def station(
         controller.poll_link()
         return controller.selected_robot == "r1"
 
-    qtbot.waitUntil(selected, timeout=3000)
+    qtbot.waitUntil(selected, timeout=10_000)
     try:
         yield controller
     finally:
@@ -152,13 +152,13 @@ def linked(qtbot, station: StationController, robot: FakeRobot) -> StationContro
         sent = station._send(Topic.CONFIG, ConfigMsg({"max_linear_speed": 0.5}))
         return sent and not station.selected.stop_assert_pending
 
-    qtbot.waitUntil(ok, timeout=3000)
+    qtbot.waitUntil(ok, timeout=10_000)
 
     def quiet() -> bool:  # everything sent so far has arrived
         qtbot.wait(50)
         return not robot.poll()
 
-    qtbot.waitUntil(quiet, timeout=3000)
+    qtbot.waitUntil(quiet, timeout=10_000)
     robot.commands.clear()
     return station
 
@@ -175,7 +175,7 @@ def localise(qtbot, station: StationController, robot: FakeRobot):
             p = station.selected.state.pose
             return p is not None and (p.x, p.y, p.state) == (pose.x, pose.y, state)
 
-        qtbot.waitUntil(seen, timeout=3000)
+        qtbot.waitUntil(seen, timeout=10_000)
 
     return do
 
@@ -238,7 +238,7 @@ def tablet_factory(station: StationController) -> Iterator:
 
 def robot_arrives(qtbot, station: StationController, robot: FakeRobot) -> None:
     """The robot reports the route it got done; the station mirrors it, then runs its clock."""
-    qtbot.waitUntil(robot.report_arrival, timeout=3000)
+    qtbot.waitUntil(robot.report_arrival, timeout=10_000)
 
     def mirrored() -> bool:
         station.poll_link()
@@ -247,5 +247,5 @@ def robot_arrives(qtbot, station: StationController, robot: FakeRobot) -> None:
             SupervisorState.PAUSED,
         )
 
-    qtbot.waitUntil(mirrored, timeout=3000)
+    qtbot.waitUntil(mirrored, timeout=10_000)
     station.tick()

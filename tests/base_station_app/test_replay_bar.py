@@ -32,7 +32,7 @@ def test_the_bar_shows_a_replay_and_forwards_the_users_input(
             station.poll_link()
             return bar.isVisible()
 
-        qtbot.waitUntil(shown, timeout=3000)
+        qtbot.waitUntil(shown, timeout=10_000)
         assert bar.slider.maximum() == 90 * TICKS_PER_S
         assert bar.slider.value() == 12 * TICKS_PER_S
         assert bar.time_label.text() == "00:12 / 01:30"
@@ -45,21 +45,21 @@ def test_the_bar_shows_a_replay_and_forwards_the_users_input(
             return len(received) >= n
 
         QTest.mouseClick(bar.play_button, Qt.MouseButton.LeftButton)
-        qtbot.waitUntil(lambda: got(1), timeout=3000)
+        qtbot.waitUntil(lambda: got(1), timeout=10_000)
         assert received[0] == ReplayCommand("play")
 
         bar.speed_box.activated.emit(bar.speed_box.findData(20.0))  # as a pick in the list
-        qtbot.waitUntil(lambda: got(2), timeout=3000)
+        qtbot.waitUntil(lambda: got(2), timeout=10_000)
         assert received[1] == ReplayCommand("speed", 20.0)
 
         bar.slider.setValue(45 * TICKS_PER_S)
         bar.slider.sliderReleased.emit()
-        qtbot.waitUntil(lambda: got(3), timeout=3000)
+        qtbot.waitUntil(lambda: got(3), timeout=10_000)
         assert received[2] == ReplayCommand("seek", 45.0)
 
         server.publish_state(ReplayState(True, 20.0, 50.0, 90.0, "r1_rec.mcap"))
         qtbot.waitUntil(
-            lambda: (station.poll_link(), bar.play_button.text() == "Pause")[1], timeout=3000
+            lambda: (station.poll_link(), bar.play_button.text() == "Pause")[1], timeout=10_000
         )
         assert bar.speed_box.currentData() == 20.0
 

@@ -41,9 +41,9 @@ def window(qtbot, station, settings) -> MainWindow:
     w.show()
     qtbot.waitExposed(w)
     w.activateWindow()
-    qtbot.waitUntil(w.isActiveWindow, timeout=3000)
+    qtbot.waitUntil(w.isActiveWindow, timeout=10_000)
     w.map_view.setFocus()
-    qtbot.waitUntil(w.map_view.hasFocus, timeout=3000)
+    qtbot.waitUntil(w.map_view.hasFocus, timeout=10_000)
     return w
 
 
@@ -75,7 +75,7 @@ def test_arrow_keys_on_the_map_drive_and_stop(qtbot, linked, window, robot, cloc
     QTest.keyRelease(view, Qt.Key.Key_Up)
     QTest.keyRelease(view, Qt.Key.Key_A)
     # press, press again, tick, press A, tick, release Up, release A (zero)
-    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 7, timeout=3000)
+    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 7, timeout=10_000)
     v = [(t.linear, t.angular) for t in robot.of("station_vel")]
     lin, ang = linked.config.teleop_linear_max, linked.config.teleop_angular_max
     assert v == [(lin, 0.0)] * 3 + [(lin, ang)] * 2 + [(0.0, ang), (0.0, 0.0)]
@@ -87,16 +87,16 @@ def test_focus_loss_sends_zero(qtbot, linked, window, robot):
     assert linked.arbiter.keys.active
     QApplication.sendEvent(view, QFocusEvent(QEvent.Type.FocusOut))
     assert not linked.arbiter.keys.active
-    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=3000)
+    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=10_000)
     assert robot.of("station_vel")[-1].linear == 0.0
     QTest.keyPress(view, Qt.Key.Key_S)
     window.activateWindow()
-    qtbot.waitUntil(window.isActiveWindow, timeout=3000)
+    qtbot.waitUntil(window.isActiveWindow, timeout=10_000)
     other = QWidget()
     qtbot.addWidget(other)
     other.show()
     other.activateWindow()  # the station window loses activation (changeEvent)
-    qtbot.waitUntil(lambda: not window.isActiveWindow(), timeout=3000)
+    qtbot.waitUntil(lambda: not window.isActiveWindow(), timeout=10_000)
     assert not linked.arbiter.keys.active
 
 
@@ -109,7 +109,7 @@ def test_arrow_pad_buttons_press_and_release(qtbot, linked, window, robot):
     assert linked.arbiter.keys.command() == (0.0, -linked.config.teleop_angular_max)
     QTest.mouseRelease(button, Qt.MouseButton.LeftButton)
     assert not linked.arbiter.keys.active
-    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=3000)
+    qtbot.waitUntil(lambda: len(robot.of("station_vel")) == 2, timeout=10_000)
 
 
 def test_mouse_joystick_drives(qtbot, linked, window, robot):
@@ -133,9 +133,9 @@ def test_estop_buttons_latch_and_release(qtbot, linked, window, robot, clock):
     QTest.mouseClick(panel.estop_button, Qt.MouseButton.LeftButton)
     assert panel.release_button.isEnabled()
     assert not panel.joystick.isEnabled()
-    qtbot.waitUntil(lambda: robot.of("stop") == [Lock(True, stamp=clock.now)], timeout=3000)
+    qtbot.waitUntil(lambda: robot.of("stop") == [Lock(True, stamp=clock.now)], timeout=10_000)
     QTest.mouseClick(panel.release_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: len(robot.of("stop_release")) == 1, timeout=3000)
+    qtbot.waitUntil(lambda: len(robot.of("stop_release")) == 1, timeout=10_000)
     assert isinstance(robot.of("stop_release")[0], StopRelease)
     assert not panel.release_button.isEnabled()
 
@@ -179,7 +179,7 @@ def test_goal_by_click_and_drag(qtbot, window, station):
 def test_initial_pose_arrow_reaches_robot(qtbot, linked, window, robot):
     QTest.mouseClick(window.task_panel.initial_pick_button, Qt.MouseButton.LeftButton)
     drag(window, (-10.0, 2.0), (-14.0, 2.0))
-    qtbot.waitUntil(lambda: len(robot.of("initial_pose")) == 1, timeout=3000)
+    qtbot.waitUntil(lambda: len(robot.of("initial_pose")) == 1, timeout=10_000)
     msg = robot.of("initial_pose")[0]
     assert isinstance(msg, InitialPose)
     assert (msg.x, msg.y) == pytest.approx((-10.0, 2.0), abs=0.2)
@@ -292,13 +292,14 @@ def test_camera_view_shows_jpeg(qtbot, window, station, robot):
     buf = QBuffer(data)
     buf.open(QIODevice.OpenModeFlag.WriteOnly)
     image.save(buf, "JPG")
-    robot.link.publish(Topic.IMAGE, ImageMsg(time.monotonic(), 64, 48, bytes(data.data())))
+    stamp = time.monotonic()
 
-    def shown() -> bool:
+    def shown() -> bool:  # a DROP stream: published until it arrives, as a daemon does
+        robot.link.publish(Topic.IMAGE, ImageMsg(stamp, 64, 48, bytes(data.data())))
         station.poll_link()
         return not window.camera_view.image.isNull()
 
-    qtbot.waitUntil(shown, timeout=3000)
+    qtbot.waitUntil(shown, timeout=10_000)
     assert window.camera_view.image.size().width() == 64
     assert window.camera_view.pixmap() is not None
 
@@ -323,7 +324,7 @@ def test_assisted_driving_checkbox_switches_the_robot_and_shows_the_monitor(
     assert not panel.assist_check.isChecked()
     panel.assist_check.click()  # the operator ticks "Assisted driving"
     # The station's state (off) went out on connecting; the tick sends "on".
-    qtbot.waitUntil(lambda: any(m.enabled for m in robot.of("teleop_assist")), timeout=3000)
+    qtbot.waitUntil(lambda: any(m.enabled for m in robot.of("teleop_assist")), timeout=10_000)
     sent = robot.of("teleop_assist")[-1]
     assert (sent.input, sent.enabled) == ("station_vel", True)
     assert linked.robot_link.assist
@@ -341,25 +342,25 @@ def test_scan_drawn_as_points_from_the_pose_at_its_time(qtbot, window, station, 
     from interbot_core.topics import PoseMsg
 
     for x, stamp in ((0.0, 10.0), (2.0, 10.2)):  # the pose topic keeps only the newest: wait
-        robot.link.publish(Topic.POSE, PoseMsg(x, 0.0, 0.0, stamp=stamp))
 
-        def got(stamp: float = stamp) -> bool:
+        def got(x: float = x, stamp: float = stamp) -> bool:  # DROP: sent until it arrives
+            robot.link.publish(Topic.POSE, PoseMsg(x, 0.0, 0.0, stamp=stamp))
             station.poll_link()
             return (
                 station.selected.state.pose is not None
                 and station.selected.state.pose.stamp == stamp
             )
 
-        qtbot.waitUntil(got, timeout=3000)
+        qtbot.waitUntil(got, timeout=10_000)
     ranges = np.array([1.0, 1.0], dtype=np.float32)  # straight ahead and 90° left
-    robot.link.publish_scan(LaserScan(10.1, 0.0, math.pi / 2, 0.1, 30.0, ranges))
 
-    def drawn() -> bool:
+    def drawn() -> bool:  # a DROP stream: published until it arrives, as a daemon does
+        robot.link.publish_scan(LaserScan(10.1, 0.0, math.pi / 2, 0.1, 30.0, ranges))
         station.poll_link()
         window.map_view.redraw()
         return len(window.map_view.scan_item) == 2
 
-    qtbot.waitUntil(drawn, timeout=3000)
+    qtbot.waitUntil(drawn, timeout=10_000)
     xs, ys = window.map_view.scan_item.getData()
     laser_x = 1.0 + INTERBOT_LASER_MOUNT.x  # robot at x = 1.0 at t = 10.1
     assert sorted(zip(np.round(xs, 3), np.round(ys, 3), strict=False)) == sorted(
@@ -388,7 +389,7 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
         window.map_view.redraw()
         return len(window.map_view.route_item.getData()[0]) == len(bend) + 1
 
-    qtbot.waitUntil(drawn, timeout=3000)
+    qtbot.waitUntil(drawn, timeout=10_000)
     xs, ys = window.map_view.route_item.getData()
     assert np.allclose(np.column_stack((xs, ys))[1:], bend)
     robot.link.publish(Topic.PLAN, PlanMsg(route.route_id + 1, bend))  # another route's plan
@@ -399,7 +400,7 @@ def test_route_drawn_along_the_robots_planned_path(qtbot, window, station, robot
         window.map_view.redraw()
         return len(window.map_view.route_item.getData()[0]) == 0
 
-    qtbot.waitUntil(cleared, timeout=3000)
+    qtbot.waitUntil(cleared, timeout=10_000)
     assert len(window.map_view.goal_item.data) == 1  # the current goal is still marked
 
 
@@ -449,7 +450,7 @@ def test_alerts_from_the_robot_reach_the_list_and_the_badge(qtbot, window, stati
         station.tick()
         return window.alerts_panel.table.rowCount() == 1
 
-    qtbot.waitUntil(listed, timeout=3000)
+    qtbot.waitUntil(listed, timeout=10_000)
     assert window.alerts_panel.table.item(0, 2).text() == "collision"
     assert window.alerts_action.text() == "1 alert"
     QTest.mouseClick(window.alerts_badge, Qt.MouseButton.LeftButton)

@@ -68,12 +68,12 @@ def _pair(qtbot, station: Station) -> TabletCredentials:
     link.paired.connect(creds.append)
     with qtbot.waitSignal(conn.connected, timeout=5000):
         conn.start()
-    qtbot.waitUntil(lambda: station.server.is_connected, timeout=3000)
+    qtbot.waitUntil(lambda: station.server.is_connected, timeout=10_000)
     assert conn.send(Speed(0.2, 0.0))
-    qtbot.waitUntil(lambda: len(station.received) == 1, timeout=3000)
+    qtbot.waitUntil(lambda: len(station.received) == 1, timeout=10_000)
     assert isinstance(station.received[0], Speed)
     conn.stop()
-    qtbot.waitUntil(lambda: not station.server.is_connected, timeout=3000)
+    qtbot.waitUntil(lambda: not station.server.is_connected, timeout=10_000)
     return creds[0]
 
 
@@ -112,10 +112,10 @@ def test_revoked_tablet_is_refused_and_dropped_if_connected(qtbot, station: Stat
     conn, _link = _tablet(qtbot, station, token=creds.token)
     with qtbot.waitSignal(conn.connected, timeout=5000):
         conn.start()
-    qtbot.waitUntil(lambda: station.server.is_connected, timeout=3000)
+    qtbot.waitUntil(lambda: station.server.is_connected, timeout=10_000)
     record = next(r for r in station.auth.registry.records if r.token_sha256)
     station.auth.revoke(record.tablet_id)
-    qtbot.waitUntil(lambda: not station.server.is_connected, timeout=3000)
+    qtbot.waitUntil(lambda: not station.server.is_connected, timeout=10_000)
     conn.stop()
     received = len(station.received)
     conn2, link2 = _tablet(qtbot, station, token=creds.token)
@@ -159,7 +159,7 @@ def test_tls_client_without_token_is_refused_before_anything_is_acted_on(
     sock.connectToHostEncrypted("127.0.0.1", station.port)
     qtbot.waitUntil(lambda: bool(station.refusals), timeout=5000)
     assert "requires a paired tablet" in station.refusals[0]
-    qtbot.waitUntil(lambda: sock.bytesAvailable() > 0 or not sock.isOpen(), timeout=3000)
+    qtbot.waitUntil(lambda: sock.bytesAvailable() > 0 or not sock.isOpen(), timeout=10_000)
     assert b"refused" in bytes(sock.readAll().data())
     assert station.received == [] and not station.server.is_connected
     sock.abort()
@@ -176,7 +176,7 @@ def test_silent_tls_client_times_out(qtbot, keys: Path, tmp_path: Path) -> None:
     sock = QSslSocket()
     sock.setPeerVerifyMode(QSslSocket.PeerVerifyMode.VerifyNone)
     sock.connectToHostEncrypted("127.0.0.1", server.port)
-    qtbot.waitUntil(lambda: bool(refusals), timeout=3000)
+    qtbot.waitUntil(lambda: bool(refusals), timeout=10_000)
     assert "within the time allowed" in refusals[0]
     sock.abort()
     server.close()

@@ -71,7 +71,7 @@ def test_the_watchdog_zero_comes_while_the_qt_thread_is_busy(
     assert not station.arbiter.tablet_forwarding
     qtbot.waitUntil(
         lambda: any("explicit zero sent" in e.text for e in station.selected.state.log),
-        timeout=3000,
+        timeout=10_000,
     )
 
 
@@ -86,7 +86,7 @@ def test_a_tablet_that_disconnects_gets_its_zero_while_the_qt_thread_is_busy(
     t.close()
     assert busy_wait(lambda: len(tablet_vels(robot)) == 2, timeout_s=3.0)
     assert tablet_vels(robot) == [(0.2, 0.0), (0.0, 0.0)]
-    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=3000)
+    qtbot.waitUntil(lambda: not station.tablet.is_connected, timeout=10_000)
     qtbot.wait(100)
     assert tablet_vels(robot) == [(0.2, 0.0), (0.0, 0.0)]  # one zero, not one per thread
     stops = [e.text for e in station.selected.state.log if "tablet speed stopped" in e.text]

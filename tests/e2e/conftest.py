@@ -130,10 +130,13 @@ class Rig:
         """The simulated robot's true pose (ground truth, for assertions only)."""
         return self.backend.sim.true_pose()
 
-    def teleport(self, pose: Pose2D) -> None:
-        """Kidnap the simulated robot: move it to ``pose`` on the daemon's thread."""
-        done = self.backend.call_soon(lambda sim: sim.teleport(pose))
-        assert done.wait(5.0), "the daemon loop did not run the teleport"
+    def teleport(self, pose: Pose2D) -> float:
+        """Kidnap the simulated robot: move it to ``pose`` on the daemon's thread; returns the
+        robot time [s] it happened at (read there, not when this thread learns of it)."""
+        at: list[float] = []
+        done = self.backend.call_soon(lambda sim: (sim.teleport(pose), at.append(sim.time)))
+        assert done.wait(10.0), "the daemon loop did not run the teleport"
+        return at[0]
 
     @property
     def localisation(self) -> LocaliserState:

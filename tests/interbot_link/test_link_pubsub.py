@@ -58,8 +58,12 @@ pytestmark = pytest.mark.timeout(20)
 ROBOT = "interbot_1"
 
 
-def wait_until(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
-    """Poll ``predicate`` every 2 ms until true; fail after ``timeout`` [s]."""
+def wait_until(predicate: Callable[[], bool], timeout: float = 10.0) -> None:
+    """Poll ``predicate`` every 2 ms until true; fail after ``timeout`` [s].
+
+    The default is generous: a wait that passes costs nothing, and on a loaded 2-core machine
+    a zenoh delivery took more than the former 2 s (`test_state_topics_reach_the_station`).
+    """
     deadline = time.monotonic() + timeout
     pause = threading.Event()
     while not predicate():
@@ -96,9 +100,27 @@ class Pair:
         wait_until(lambda: ROBOT in self.station.robots)
         self.station.select_robot(ROBOT)
         wait_until(lambda: self.robot.subscribed(Topic.POSE) and self.robot.subscribed(Topic.MAP))
-        wait_until(lambda: self.station.send(Topic.CONFIG, ConfigMsg({"probe": 1})))
-        self.robot.wait_commands(2.0)
-        self.robot.poll_commands()
+        # Probe until a robot subscriber matches; a probe sent just before the publisher
+        # learnt of the match may arrive too, so number them and drain up to the matched one
+        # (one publisher keeps its order): none can trail into the test's own commands.
+        probes = iter(range(1_000_000))
+        matched: list[int] = []
+
+        def probe() -> bool:
+            n = next(probes)
+            if self.station.send(Topic.CONFIG, ConfigMsg({"probe": n})):
+                matched.append(n)
+            return bool(matched)
+
+        wait_until(probe)
+        last = ConfigMsg({"probe": matched[0]})
+        drained: list[object] = []
+
+        def drain() -> bool:
+            drained.extend(c.message for c in self.robot.poll_commands())
+            return last in drained
+
+        wait_until(drain)
 
 
 @pytest.fixture
@@ -123,14 +145,30 @@ def _next_events(pair: Pair, timeout: float) -> list[object]:
     return events
 
 
-def test_station_sees_the_robot_appear_and_leave_within_a_second(pair: Pair) -> None:
-    assert RobotAppeared(ROBOT) in _next_events(pair, 1.0)
-    assert pair.station.robots == {ROBOT}
-    pair.robot_session.close()  # a clean exit of the daemon
-    start = time.monotonic()
-    assert _next_events(pair, 1.0) == [RobotLeft(ROBOT)]
-    assert time.monotonic() - start < 1.0
-    assert pair.station.robots == frozenset()
+def test_station_sees_the_robot_appear_and_leave_on_a_clean_exit() -> None:
+    """A clean exit is reported from the robot's own goodbye, not from its lease running out.
+
+    Both sessions get a 60 s lease, so a ``RobotLeft`` within 10 s can only come from the
+    closed session's message (it used to be "within a second" on the 2.5 s lease: on a loaded
+    machine the wall-time bound was the scheduler's, the cause is what matters)."""
+    lease_ms = 60_000
+    with ExitStack() as stack:
+        endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        robot_session = stack.enter_context(open_session([endpoint], [], lease_ms=lease_ms))
+        station_session = stack.enter_context(open_session([], [endpoint], lease_ms=lease_ms))
+        robot = RobotLink(robot_session, ROBOT)
+        stack.callback(robot.close)
+        station = stack.enter_context(closing(StationLink(station_session)))
+        events: list[object] = []
+        wait_until(lambda: RobotAppeared(ROBOT) in (events.extend(station.poll_events()) or events))
+        assert station.robots == {ROBOT}
+        robot_session.close()  # a clean exit of the daemon
+        start = time.monotonic()
+        left: list[object] = []
+        wait_until(lambda: bool(left.extend(station.poll_events()) or left))
+        assert time.monotonic() - start < lease_ms / 1000 / 6  # long before the lease
+        assert left == [RobotLeft(ROBOT)]
+        assert station.robots == frozenset()
 
 
 def test_a_robot_already_present_is_found_by_a_late_station(pair: Pair) -> None:
@@ -204,13 +242,28 @@ def test_state_topics_reach_the_station(pair: Pair) -> None:
         Topic.MUX: MuxMsg("station_vel", "highest priority", (), 0.4, 0.1, 2.0),
         Topic.IMAGE: image,
     }
-    for topic, message in latest.items():
-        pair.robot.publish(topic, message)
-    pair.robot.publish_scan(scan)
     seen: dict[Topic, object] = {}
 
+    def publish_missing() -> None:
+        # State topics are streams the robot publishes every period, with congestion control
+        # DROP (`interbot_link.qos`): while its transmit thread waits for a busy CPU, zenoh
+        # drops a sample at the sender (seen under load: one of these never arrived). So, as
+        # the daemon does, publish again what has not arrived yet.
+        for topic, message in latest.items():
+            if topic not in seen:
+                pair.robot.publish(topic, message)
+        if Topic.SCAN not in seen:
+            pair.robot.publish_scan(scan)
+
+    publish_missing()
+    resent = time.monotonic()
+
     def collect() -> bool:
+        nonlocal resent
         seen.update(pair.station.poll_state())
+        if time.monotonic() - resent > 0.1:
+            publish_missing()
+            resent = time.monotonic()
         return len(seen) == len(latest) + 1
 
     wait_until(collect)
@@ -271,7 +324,7 @@ def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
     try:
         for i in range(50):
             pair.robot.publish(Topic.POSE, PoseMsg(float(i), 0.0, 0.0, float(i)))
-        deadline = time.monotonic() + 2.0
+        deadline = time.monotonic() + 10.0
         while not newest_arrived.wait(0.02):
             assert time.monotonic() < deadline, f"pose 49 never arrived; arrived {arrived}"
             pair.robot.publish(Topic.POSE, PoseMsg(49.0, 0.0, 0.0, 49.0))
@@ -296,9 +349,18 @@ def test_high_rate_state_keeps_only_the_newest_sample(pair: Pair) -> None:
 def test_scans_in_millimetres_arrive_quantised(pair: Pair) -> None:
     pair.select()
     ranges = np.array([0.1234, 5.0, np.nan, 29.9999], dtype=np.float32)
-    pair.robot.publish_scan(LaserScan(1.0, -1.0, 0.5, 0.05, 30.0, ranges), RangeEncoding.UINT16_MM)
     state: dict[Topic, object] = {}
-    wait_until(lambda: bool(state.update(pair.station.poll_state()) or state))
+
+    def arrived() -> bool:  # a stream zenoh may drop under load: published until it arrives
+        pair.robot.publish_scan(
+            LaserScan(1.0, -1.0, 0.5, 0.05, 30.0, ranges), RangeEncoding.UINT16_MM
+        )
+        pause.wait(0.05)
+        state.update(pair.station.poll_state())
+        return Topic.SCAN in state
+
+    pause = threading.Event()
+    wait_until(arrived)
     scan = state[Topic.SCAN]
     assert isinstance(scan, LaserScan)
     np.testing.assert_allclose(scan.ranges, [0.123, 5.0, np.nan, 30.0], atol=1e-6)
@@ -344,10 +406,16 @@ def test_the_state_query_has_no_map_when_the_robot_has_none(
 
 def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
     pair.select()
+    # Raw puts that must arrive (zenoh's default for a put is to drop under congestion).
+    block = zenoh.CongestionControl.BLOCK
     station_raw = pair.station_session
-    station_raw.put(key(ROBOT, Topic.ROUTE), b'{"route_id": 1, "waypoints": []}')
-    station_raw.put(key(ROBOT, Topic.STOP), b"\x00garbage")
-    station_raw.put(key(ROBOT, Topic.POSE), b'{"x": 0, "y": 0, "yaw": 0}')  # not a command
+    station_raw.put(
+        key(ROBOT, Topic.ROUTE), b'{"route_id": 1, "waypoints": []}', congestion_control=block
+    )
+    station_raw.put(key(ROBOT, Topic.STOP), b"\x00garbage", congestion_control=block)
+    station_raw.put(
+        key(ROBOT, Topic.POSE), b'{"x": 0, "y": 0, "yaw": 0}', congestion_control=block
+    )  # not a command
     pair.station.send(Topic.STOP, Lock(True))
     commands: list[object] = []
 
@@ -355,17 +423,26 @@ def test_bad_payloads_are_dropped_and_counted(pair: Pair) -> None:
         commands.extend(c.message for c in pair.robot.poll_commands())
         return bool(commands)
 
+    # The stop travels on the commands' priority (`interbot_link.qos`), the raw puts on
+    # zenoh's default one: it may arrive, and be polled, before the garbage. So wait for each
+    # bad payload to be counted (each exactly once) and for the stop, in any order.
     wait_until(collect)
-    assert commands == [Lock(True)]
-    assert pair.robot.decode_errors == {"route": 1, "stop": 1, "pose": 1}
+    wait_until(lambda: pair.robot.decode_errors == {"route": 1, "stop": 1, "pose": 1})
+    collect()
+    assert commands == [Lock(True)]  # no bad payload became a command
 
     robot_raw = pair.robot_session
-    robot_raw.put(key(ROBOT, Topic.POSE), b'{"x": "far"}')
-    robot_raw.put(key(ROBOT, Topic.STATUS), b"[]")
+    robot_raw.put(key(ROBOT, Topic.POSE), b'{"x": "far"}', congestion_control=block)
+    robot_raw.put(key(ROBOT, Topic.STATUS), b"[]", congestion_control=block)
     wait_until(lambda: not pair.station.poll_state() and pair.station.decode_errors["pose"] == 1)
     wait_until(lambda: not pair.station.poll_events() and pair.station.decode_errors["status"] == 1)
-    pair.robot.publish(Topic.POSE, PoseMsg(3.0, 3.0, 0.0))  # the subscriber still works
-    wait_until(lambda: pair.station.poll_state().get(Topic.POSE) == PoseMsg(3.0, 3.0, 0.0))
+
+    def pose_arrives() -> bool:  # the subscriber still works (a stream: sent until it arrives)
+        pair.robot.publish(Topic.POSE, PoseMsg(3.0, 3.0, 0.0))
+        threading.Event().wait(0.05)
+        return pair.station.poll_state().get(Topic.POSE) == PoseMsg(3.0, 3.0, 0.0)
+
+    wait_until(pose_arrives)
 
 
 def test_sending_without_a_robot_or_after_close_fails_clearly(pair: Pair) -> None:
@@ -401,7 +478,8 @@ def test_sessions_close_without_hanging_with_live_subscribers(pair: Pair) -> Non
     start = time.monotonic()
     pair.station_session.close()
     pair.robot_session.close()
-    assert time.monotonic() - start < 1.0
+    # A hang is for ever (zenoh-python#434); 5 s leaves a loaded machine its scheduling.
+    assert time.monotonic() - start < 5.0
     assert pair.robot_session.is_closed() and pair.station_session.is_closed()
 
 

@@ -374,7 +374,7 @@ def test_lossy_warning_appears_when_pongs_stop(qtbot: Any, station: Any, window:
     assert not warning.isVisible()
     assert "ms" in window.joystick_screen.latency_label.text()
     station.answer_pings = False
-    qtbot.waitUntil(warning.isVisible, timeout=3000)
+    qtbot.waitUntil(warning.isVisible, timeout=10_000)
     assert "not be obeyed" in warning.text()
 
 
@@ -383,7 +383,7 @@ def test_disconnect_is_shown_and_reconnect_happens(qtbot: Any, station: Any, win
     station.close()
     qtbot.waitUntil(lambda: "reconnecting" in window.connection_label.text())
     station.listen(port)
-    qtbot.waitUntil(lambda: "Connected" in window.menu.connection_label.text(), timeout=3000)
+    qtbot.waitUntil(lambda: "Connected" in window.menu.connection_label.text(), timeout=10_000)
 
 
 def test_language_switch_to_portuguese_and_back(qtbot: Any, station: Any, window: Any) -> None:

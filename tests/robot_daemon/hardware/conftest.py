@@ -13,8 +13,13 @@ from tests.robot_daemon.hardware.emulators.hokuyo_emulator import HokuyoEmulator
 from tests.robot_daemon.hardware.emulators.roboteq_emulator import RoboteqEmulator
 
 
-def wait_until(predicate: Callable[[], bool], timeout: float = 3.0) -> bool:
-    """Poll ``predicate`` until it holds (like pytest-qt's waitUntil); False on timeout."""
+def wait_until(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
+    """Poll ``predicate`` until it holds (like pytest-qt's waitUntil); False on timeout.
+
+    Timeouts are generous (a wait that passes costs nothing; a loaded 2-core machine starves
+    these threads for hundreds of ms): what a test asserts is that a thing happens, and the
+    states it waits on last until the test changes something (no transient is polled for).
+    """
     deadline = time.monotonic() + timeout
     pause = threading.Event()
     while time.monotonic() < deadline:

@@ -20,8 +20,11 @@ Until = Callable[..., bool]
 
 
 def _driver(port: str) -> HokuyoDriver:
+    # The product's stall timeout (0.5 s) and a long reply timeout: with 0.15 s and 0.3 s a
+    # loaded machine that starved the emulator's or the driver's thread made stalls and
+    # handshake failures the tests did not inject.
     return HokuyoDriver(
-        LaserConfig(port=port, stall_timeout=0.15, reconnect_delay=0.05), reply_timeout=0.3
+        LaserConfig(port=port, stall_timeout=0.5, reconnect_delay=0.05), reply_timeout=2.0
     )
 
 
@@ -86,12 +89,27 @@ def test_handshake_geometry_and_ranges(
 def test_scans_are_stamped_at_their_first_beam(
     hokuyo: HokuyoEmulator, driver: HokuyoDriver, until: Until
 ) -> None:
-    assert until(lambda: driver.latest()[0] >= 20)
-    _, scan = driver.latest()
-    assert scan is not None
-    # The emulator logs the true host time of each scan's first beam.
-    closest = min((first for _, first, _ in hokuyo.sent), key=lambda t: abs(t - scan.stamp))
-    assert abs(scan.stamp - closest) < 0.004  # within the USB/pty transfer jitter
+    """A scan's stamp is the time of its first beam, found from the least-delayed frame
+    (`scip.ScanClock`): a stamp at the reception, or at the last beam, would be one scan
+    duration (18.75 ms) or more late.
+
+    The error of every stamp is the smallest transfer delay seen so far (never negative), so it
+    can only shrink as frames come. A quiet machine gets a frame through within 4 ms at once; a
+    loaded one delayed all of the first 20 by 25 ms, so the test waits (up to 10 s, less than
+    the 400-scan window) for the first frame that came through that quickly. (Measured: a
+    driver that stamps the last beam stays 19 ms off and fails.)"""
+    errors: list[float] = []
+
+    def converged() -> bool:
+        seq, scan = driver.latest()
+        if scan is None or seq < 20:
+            return False
+        # The emulator logs the true host time of each scan's first beam.
+        closest = min((first for _, first, _ in hokuyo.sent), key=lambda t: abs(t - scan.stamp))
+        errors.append(scan.stamp - closest)
+        return abs(errors[-1]) < 0.004  # within the USB/pty transfer jitter
+
+    assert until(converged), f"stamp errors [s]: {errors[:3]} ... {errors[-3:]}"
 
 
 def test_error_codes_become_invalid_beams(tmp_path: Path, until: Until) -> None:
@@ -133,23 +151,29 @@ def test_bad_sum_and_truncated_line_drop_the_scan(
 def test_stall_is_detected_and_driver_reconnects(
     hokuyo: HokuyoEmulator, driver: HokuyoDriver, until: Until
 ) -> None:
+    """The emulator stays silent until the test ends the stall, so the driver's "stalled"
+    state is waited on while it lasts (with a 0.4 s stall, a loaded machine looked after it
+    had reconnected); every reconnection attempt into the silence is a stall too."""
     assert until(lambda: driver.latest()[0] >= 2)
-    hokuyo.stall(0.4)
-    assert until(lambda: driver.status().counters["stalls"] == 1, 2.0)
-    assert not driver.status().ok
+    hokuyo.stall(math.inf)
+    assert until(lambda: driver.status().counters["stalls"] >= 1)
+    status = driver.status()
+    assert not status.ok and "stalled" in status.message
     seq = driver.latest()[0]
-    assert until(lambda: driver.latest()[0] > seq + 2, 4.0)
+    hokuyo.stall(0.0)  # the firmware answers again
+    assert until(lambda: driver.latest()[0] > seq + 2)
     status = driver.status()
     assert status.ok and status.counters["connects"] >= 2
 
 
 def test_unplug_and_replug(hokuyo: HokuyoEmulator, driver: HokuyoDriver, until: Until) -> None:
     assert until(lambda: driver.latest()[0] >= 2)
-    hokuyo.unplug(replug_after=0.3)
-    assert until(lambda: driver.status().counters["disconnects"] >= 1, 2.0)
+    hokuyo.unplug(replug_after=None)  # replugged by the test: the state is seen while it lasts
+    assert until(lambda: driver.status().counters["disconnects"] >= 1)
     assert "serial error" in driver.status().message
     seq = driver.latest()[0]
-    assert until(lambda: driver.latest()[0] > seq + 2, 4.0)
+    hokuyo.replug()
+    assert until(lambda: driver.latest()[0] > seq + 2)
     assert driver.status().ok
 
 
@@ -157,6 +181,7 @@ def test_wrapping_sensor_clock_keeps_stamps_increasing(tmp_path: Path, until: Un
     with HokuyoEmulator(link=tmp_path / "tty", clock_start_ms=scip.TIMESTAMP_MODULUS - 100) as emu:
         drv = _driver(emu.port).start()
         stamps: list[float] = []
+        seqs: list[int] = []
         try:
             last = 0
 
@@ -166,22 +191,25 @@ def test_wrapping_sensor_clock_keeps_stamps_increasing(tmp_path: Path, until: Un
                 if scan is not None and seq != last:
                     last = seq
                     stamps.append(scan.stamp)
+                    seqs.append(seq)
                 return len(stamps) >= 12
 
-            assert until(collect, 3.0)
+            assert until(collect)
         finally:
             drv.close()
         assert any(ts < 100 for _, _, ts in emu.sent)  # the sensor clock did wrap
         assert np.all(np.diff(stamps) > 0.0)
-        assert np.all(np.diff(stamps) < 0.2)
+        # No jump at the wrap: under 0.2 s per scan (25 ms), however many scans a loaded
+        # machine let pass between two looks.
+        assert np.all(np.diff(stamps) < 0.2 * np.diff(seqs))
 
 
 def test_close_sends_qt_and_rs(hokuyo: HokuyoEmulator, until: Until) -> None:
     drv = _driver(hokuyo.port).start()
     assert until(lambda: drv.latest()[0] >= 1)
     drv.close()
-    assert until(lambda: hokuyo.commands[-2:] == ["QT", "RS"], 1.0)
-    assert until(lambda: not hokuyo.streaming, 1.0)
+    assert until(lambda: hokuyo.commands[-2:] == ["QT", "RS"])
+    assert until(lambda: not hokuyo.streaming)
     assert drv.status().message == "closed"
     drv.close()  # idempotent
 

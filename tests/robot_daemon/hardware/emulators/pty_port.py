@@ -152,6 +152,12 @@ class EmulatorThread:
                 float("inf") if replug_after is None else time.monotonic() + replug_after
             )
 
+    def replug(self) -> None:
+        """Recreate an unplugged port now (after ``unplug(replug_after=None)``)."""
+        with self._lock:
+            if self._unplugged_until is not None:
+                self._unplugged_until = time.monotonic()
+
     def _run(self) -> None:
         while not self._stop.is_set():
             now = time.monotonic()

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import logging
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 from tests.robot_daemon.hardware.emulators.pty_port import EmulatorThread, serve_forever
@@ -75,6 +76,10 @@ class RoboteqEmulator(EmulatorThread):
         #: was still running it once the batch of commands that woke it was processed.
         self.resumed: list[tuple[int, float]] = []
         self._resuming: dict[int, float] = {}
+        #: What the motors did after each batch of commands and each watchdog trip, in order:
+        #: a test waits on this history, not on the present state, which lasts only until
+        #: the watchdog trips (a loaded machine may not look within those ``RWD`` ms).
+        self.applied_log: list[tuple[float, float]] = []
         self.changed = threading.Condition(self._lock)
 
     # -- inspection and fault injection -------------------------------------------------------
@@ -114,6 +119,12 @@ class RoboteqEmulator(EmulatorThread):
         with self._lock:
             self._drop += count
 
+    def has_applied(self, predicate: Callable[[tuple[float, float]], bool], since: int = 0) -> bool:
+        """Whether the motors did something matching ``predicate`` at any time after the
+        first ``since`` entries of `applied_log`."""
+        with self._lock:
+            return any(predicate(rpm) for rpm in self.applied_log[since:])
+
     def wait_for(self, predicate: object, timeout: float) -> bool:
         """Wait until ``predicate()`` holds (checked after every processed command or tick)."""
         with self.changed:
@@ -125,6 +136,7 @@ class RoboteqEmulator(EmulatorThread):
         self._rx.clear()
         self.echo = True
         self._tripped = True  # silence while unplugged: the watchdog has stopped the motors
+        self.applied_log.append((0.0, 0.0))
         self._last_bang = None
 
     def _tick(self, now: float) -> None:
@@ -142,6 +154,7 @@ class RoboteqEmulator(EmulatorThread):
         ):
             self._tripped = True
             self.trips += 1
+            self.applied_log.append((0.0, 0.0))
             logger.debug("RoboteQ emulator: serial watchdog tripped")
         self.changed.notify_all()
 
@@ -155,6 +168,9 @@ class RoboteqEmulator(EmulatorThread):
                 self._handle(line.decode("ascii", errors="replace"), now)
         self.resumed += sorted(self._resuming.items())
         self._resuming.clear()
+        applied = (0.0, 0.0) if self._tripped else (self._target_rpm[0], self._target_rpm[1])
+        if not self.applied_log or self.applied_log[-1] != applied:
+            self.applied_log.append(applied)
         if len(self._rx) > 512:
             self._rx.clear()
         self.changed.notify_all()
