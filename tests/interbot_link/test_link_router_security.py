@@ -22,11 +22,11 @@ from interbot_link import (
     open_session,
 )
 from interbot_link.router import open_router, router_config
+from tests.interbot_link.attack import attack
 
 pytestmark = pytest.mark.timeout(60)
 
 ROBOT = "interbot1"
-PAYLOAD = b'{"linear": 1.0, "angular": 0.0, "stamp": 0.0}'
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 10.0) -> None:
@@ -78,26 +78,8 @@ def _client(directory: Path, name: str, endpoint: str) -> zenoh.Config:
 def _attack(
     session: zenoh.Session, robot: RobotLink, until: frozenset[str] = frozenset()
 ) -> set[str]:
-    """Publish on every command topic (stop_release included); return the topics that arrived.
-
-    At least three rounds; for the control (``until``: the topics a station may send) more
-    rounds, up to 10 s, until they have all arrived: a loaded machine may not have settled
-    the link or routed the declarations yet after the fixed 0.3 s pause (a put nobody is
-    known to want goes nowhere).
-    """
-    arrived: set[str] = set()
-    deadline = time.monotonic() + 10.0
-    rounds = 0
-    while rounds < 3 or (not until <= arrived and time.monotonic() < deadline):
-        for topic in sorted(COMMAND_TOPICS):
-            session.put(key(ROBOT, topic), PAYLOAD)
-        time.sleep(0.05)
-        rounds += 1
-        arrived |= {str(c.topic) for c in robot.poll_commands()} | set(robot.decode_errors)
-    robot.wait_commands(0.3)
-    arrived |= {str(c.topic) for c in robot.poll_commands()} | set(robot.decode_errors)
-    robot.decode_errors.clear()
-    return arrived
+    """`attack` on this module's robot."""
+    return attack(session, robot, ROBOT, until)
 
 
 def test_a_plaintext_router_off_loopback_is_refused() -> None:
