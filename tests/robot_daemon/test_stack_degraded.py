@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from interbot_core.topics import RouteMsg
 from robot_daemon.localisation.localiser import LocaliserConfig, LocaliserState
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
 from robot_daemon.stack import StackConfig, StackError
+from tests.robot_daemon.stack_route import localise_and_send_route
 
 GOAL_NODE = 2  # Secretariat, via node 1: down the west corridor from node 0
 
@@ -22,12 +22,7 @@ GOAL_NODE = 2  # Secretariat, via node 1: down the west corridor from node 0
 def _drive(config: StackConfig, seconds: float) -> tuple[SimulatedSystem, list[float], set]:
     system = SimulatedSystem(ScenarioOptions(seed=5, people=0), stack_config=config)
     stack = system.stack
-    system.localise()
-    pose = stack.pose
-    assert pose is not None
-    route = system.route_planner.plan(pose, GOAL_NODE)
-    waypoints = tuple((w.x, w.y, w.yaw) for w in route.waypoints)
-    stack.set_route(RouteMsg(1, waypoints, route.node_ids), system.now)
+    localise_and_send_route(system, GOAL_NODE)
     speeds: list[float] = []
     states: set[LocaliserState] = set()
 

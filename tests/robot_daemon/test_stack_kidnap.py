@@ -15,11 +15,12 @@ import math
 from msgspec.structs import replace
 
 from interbot_core.geometry import Pose2D
-from interbot_core.topics import RouteMsg
 from robot_daemon.localisation.localiser import LocaliserState
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
+from tests.robot_daemon.stack_route import localise_and_send_route
 
 ROUTE_ID = 1
+
 GOAL_NODE = 2  # Secretariat, via node 1 (SW corner): down the west corridor from node 0
 KIDNAP_POSE = Pose2D(-29.4, -2.5, 0.0)  # further down the corridor, turned 90 degrees
 LOST_WITHIN = 2.0  # [s] of simulated time
@@ -34,12 +35,7 @@ def test_kidnapped_robot_is_lost_within_2s_stops_and_recovers_after_a_new_initia
         ScenarioOptions(seed=5, people=0, odometry="calibrated", ideal_world=True)
     )
     stack, sim = system.stack, system.sim
-    system.localise()
-    pose = stack.pose
-    assert pose is not None
-    route = system.route_planner.plan(pose, GOAL_NODE)
-    waypoints = tuple((w.x, w.y, w.yaw) for w in route.waypoints)
-    stack.set_route(RouteMsg(ROUTE_ID, waypoints, route.node_ids), system.now)
+    localise_and_send_route(system, GOAL_NODE, ROUTE_ID)
 
     # Drive about 2.7 m down the corridor, localised, under the planner's command.
     assert system.run_until(lambda: sim.true_pose().y < 1.0, 60.0), "the robot never set off"

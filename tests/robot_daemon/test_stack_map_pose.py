@@ -15,10 +15,10 @@ import msgspec
 import numpy as np
 
 from interbot_core.geometry import Pose2D
-from interbot_core.topics import RouteMsg
 from robot_daemon.localisation.map_offset import MapOffsetConfig
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem, daemon_localiser_config
 from robot_daemon.stack import StackConfig
+from tests.robot_daemon.stack_route import localise_and_send_route
 
 GOAL_NODE = 2  # Secretariat, via node 1: down the west corridor from node 0
 
@@ -33,12 +33,7 @@ def test_navigation_acts_on_the_map_pose_and_the_building_pose_is_reported() -> 
         ScenarioOptions(seed=5, people=0), stack_config=StackConfig(localiser=localiser)
     )
     stack = system.stack
-    system.localise()
-    pose = stack.map_pose
-    assert pose is not None
-    route = system.route_planner.plan(pose, GOAL_NODE)
-    waypoints = tuple((w.x, w.y, w.yaw) for w in route.waypoints)
-    stack.set_route(RouteMsg(1, waypoints, route.node_ids), system.now)
+    localise_and_send_route(system, GOAL_NODE)
     given: list[tuple[Pose2D, Pose2D, Pose2D]] = []  # (to the navigator, map, reported)
     update = stack.navigator.update
 
