@@ -70,6 +70,7 @@ from interbot_link.command_priority import (
     PriorityOutcome,
     raise_current_thread,
 )
+from robot_daemon import jit
 from robot_daemon.backend import RobotBackend
 from robot_daemon.config import DaemonConfig
 from robot_daemon.device_health import DeviceHealth
@@ -335,6 +336,9 @@ class Daemon:
 
     def run(self, link: RobotLink, stop: threading.Event, notifier: SystemdNotifier) -> None:
         """Run until ``stop`` is set."""
+        # Compile (first run on this machine) or load the kernels before the loop needs them.
+        took = jit.warm_up()
+        logger.info("kernels ready in %.2f s (%s)", took, "numba" if jit.ENABLED else "Python")
         link.publish(Topic.MAP, self.grid)
         done = threading.Event()  # the command thread stops with the loop, however it ends
         commands = threading.Thread(
