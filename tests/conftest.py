@@ -16,6 +16,16 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _compiled_kernels() -> None:
+    """Compile the robot's kernels once, before any test (and into the cache the daemons the
+    tests start load from): no test's timing pays for a first compilation."""
+    from robot_daemon import jit
+
+    jit.load_all()
+    jit.warm_up()
+
+
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO_ROOT
