@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections import deque
 from dataclasses import dataclass
 
 from base_station_app.robot_state import RobotState
@@ -33,7 +34,7 @@ from interbot_core.supervisor import (
     TaskStarted,
     TourStopReached,
 )
-from interbot_core.topics import RouteMsg, RouteProgress, Status, Topic
+from interbot_core.topics import RouteMsg, RouteProgress, StandingNotices, Status, Topic
 from interbot_core.topological_map import TopologicalMap
 
 
@@ -90,6 +91,11 @@ class RobotMirror:
         self.assist_pending = True  # (re)send the station's assist flag likewise
         self.shown_request: tuple[int, RequestShown] | None = None
         self.pose_settling_until = -math.inf  # see task_commands.INITIAL_POSE_SETTLE_S
+        # (robot stamp, text) of status lines logged here, so that a standing notice (also
+        # sent as a status line, and in every snapshot) is logged once: the recent lines, and
+        # the notices the robot holds (at most MAX_NOTICES).
+        self.recent_lines: deque[tuple[float, str]] = deque(maxlen=256)
+        self.notices_logged: set[tuple[float, str]] = set()
 
     def __repr__(self) -> str:
         return f"RobotMirror({self.robot_id!r}, online={self.online})"
@@ -164,15 +170,29 @@ class RobotMirror:
             losses.append(lost)
         return losses
 
-    def on_message(self, topic: Topic, message: object) -> tuple[RouteLost | None, Status | None]:
+    def on_message(self, topic: Topic, message: object) -> tuple[RouteLost | None, list[Status]]:
         """A message from this robot: into its state and route mirror. Returns the route it
-        lost and the status line to log (None: none)."""
+        lost and the status lines to log: a status line, or the standing notices not yet
+        logged (a station that joined after they were said reads them from the snapshot)."""
         self.state.apply(topic, message)
         lost = None
         if topic is Topic.ROUTE_PROGRESS and isinstance(message, RouteProgress):
             lost = self.route_mirror.on_progress(message)
-        status = self.state.status if topic is Topic.STATUS else None
-        return lost, status if status is not None and status.text else None
+        fresh: list[Status] = []
+        if topic is Topic.STATUS and isinstance(message, Status) and message.text:
+            key = (message.stamp, message.text)
+            if key not in self.notices_logged and key not in self.recent_lines:
+                self.recent_lines.append(key)
+                fresh.append(message)
+        elif topic is Topic.NOTICES and isinstance(message, StandingNotices):
+            held = set()
+            for line in message.items:
+                key = (line.stamp, line.text)
+                held.add(key)
+                if key not in self.notices_logged and key not in self.recent_lines:
+                    fresh.append(line)
+            self.notices_logged = held
+        return lost, fresh
 
     def on_event(self, event: Event) -> None:
         """What a supervisor event changes in this mirror (the controller acts on the rest)."""

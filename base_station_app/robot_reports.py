@@ -92,9 +92,9 @@ class RobotReports:
         mirror = self._fleet.mirrors.get(event.robot_id)
         if mirror is None:
             return  # a robot never announced: nothing to mirror it into
-        lost, status = mirror.on_message(event.topic, event.message)
+        lost, lines = mirror.on_message(event.topic, event.message)
         self._alert_rules.on_message(mirror.robot_id or "?", event.message, self._clock())
         if lost is not None:
             self._events.route_lost(lost, mirror)
-        if status is not None:
+        for status in lines:
             self._events.log_for(mirror, status.level, f"robot: {status.text}")

@@ -26,6 +26,7 @@ from interbot_core.topics import (
     PoseMsg,
     RouteProgress,
     SafetyMsg,
+    StandingNotices,
     Status,
     Topic,
     Twist,
@@ -55,6 +56,7 @@ _SLOTS: dict[Topic, tuple[str, type]] = {
     Topic.STATUS: ("status", Status),
     Topic.SAFETY: ("safety", SafetyMsg),
     Topic.PLAN: ("plan", PlanMsg),
+    Topic.NOTICES: ("notices", StandingNotices),
 }
 
 
@@ -79,6 +81,7 @@ class RobotState:
         self.status: Status | None = None
         self.safety: SafetyMsg | None = None  # collision monitor (issue 17)
         self.plan: PlanMsg | None = None
+        self.notices: StandingNotices | None = None  # the robot's standing status lines
         self.poses.clear()
         self.version = 0
         self.map_version = 0  # map updates applied (bench_replay counts them)

@@ -113,6 +113,7 @@ class Topic(enum.StrEnum):
     MUX = "mux"
     PLAN = "plan"
     SAFETY = "safety"
+    NOTICES = "notices"
 
 
 def validate_robot_id(robot_id: str) -> str:
@@ -376,6 +377,17 @@ class Status(JsonMessage, frozen=True):
     task: Text = ""
     distance_to_goal: Annotated[float, Meta(ge=0.0, le=1.0e7, extra={"unit": "m"})] | None = None
     stamp: Stamp = 0.0
+
+
+MAX_NOTICES: Final = 16
+
+
+class StandingNotices(JsonMessage, frozen=True):
+    """The robot's standing notices: status lines that stay true once said (the wall model its
+    localiser learnt, ...), oldest first. A station that joins later reads them from the
+    snapshot, which keeps only the newest status line of its own."""
+
+    items: Annotated[tuple[Status, ...], Meta(max_length=MAX_NOTICES)] = ()
 
 
 ParamName = Annotated[str, Meta(pattern=r"^[a-z_][a-z0-9_.]{0,63}$")]
@@ -699,6 +711,7 @@ _SPECS: Final = (
     TopicSpec(Topic.MUX, False, False, False, True, MuxMsg),  # active velocity source
     TopicSpec(Topic.PLAN, False, False, False, True, PlanMsg),  # the navigator's global path
     TopicSpec(Topic.SAFETY, False, False, False, True, SafetyMsg),  # collision monitor zone, distance, assistance
+    TopicSpec(Topic.NOTICES, False, False, True, False, StandingNotices),  # status lines that stay true
 )  # fmt: skip
 
 TOPIC_SPECS: Final[Mapping[Topic, TopicSpec]] = {s.topic: s for s in _SPECS}

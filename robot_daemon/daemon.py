@@ -36,6 +36,7 @@ from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid, load_map
 from interbot_core.route_planner import RoutePlanner, RoutePlanningError
 from interbot_core.topics import (
+    MAX_NOTICES,
     MAX_POSE_VARIANCE,
     MAX_SAFETY_DISTANCE,
     AssistMsg,
@@ -55,6 +56,7 @@ from interbot_core.topics import (
     RouteMsg,
     RouteProgress,
     SafetyMsg,
+    StandingNotices,
     Status,
     StopRelease,
     Topic,
@@ -208,6 +210,7 @@ class Daemon:
         self._progress_key: tuple[int, int, str] | None = None
         self._plan_key: tuple[int, tuple[tuple[float, float], ...]] | None = None
         self._health = DeviceHealth()  # faults and contacts, said once (alerts at the station)
+        self._notices: list[Status] = []  # standing status lines, for stations that join later
         self._time0 = clock()
         self.now = 0.0  # [s] daemon time: simulated in sim mode
         self.component_errors = 0  # errors caught in the loop (each reported, robot stopped)
@@ -308,7 +311,11 @@ class Daemon:
                 logger.log(logging.ERROR if level == "error" else logging.INFO, "%s", text)
                 link.publish(Topic.STATUS, Status(level, text, stamp=now))
         for event in stack.drain_events():
-            link.publish(Topic.STATUS, Status(event.level, event.text, stamp=event.stamp))
+            status = Status(event.level, event.text, stamp=event.stamp)
+            link.publish(Topic.STATUS, status)
+            if event.standing:
+                self._notices = [*self._notices, status][-MAX_NOTICES:]
+                link.publish(Topic.NOTICES, StandingNotices(tuple(self._notices)))
 
     def _publish_plan(self, link: RobotLink, now: float) -> None:
         """The navigator's path, when it changed (the snapshot keeps it for late stations)."""

@@ -117,11 +117,13 @@ class RouteState:
 
 @dataclass(frozen=True)
 class StackEvent:
-    """Something worth a line in the station's status log."""
+    """Something worth a line in the station's status log; ``standing``: it stays true once
+    said (the station keeps it for operators who connect later: `StandingNotices`)."""
 
     stamp: float
     level: str  # info | warning | error
     text: str
+    standing: bool = False
 
 
 class Periodic:
@@ -185,10 +187,10 @@ class RobotStack:
 
     # -- events ----------------------------------------------------------------------------
 
-    def _event(self, now: float, level: str, text: str) -> None:
+    def _event(self, now: float, level: str, text: str, standing: bool = False) -> None:
         log = {"info": logger.info, "warning": logger.warning, "error": logger.error}[level]
         log("%s", text)
-        self._events.append(StackEvent(now, level, text))
+        self._events.append(StackEvent(now, level, text, standing))
 
     def drain_events(self) -> list[StackEvent]:
         """Status-log lines since the last call.
@@ -435,7 +437,7 @@ class RobotStack:
         status = self.localiser.wall_model
         notice = status.notice()
         if notice is not None:
-            self._event(now, "info", notice)
+            self._event(now, "info", notice, standing=True)
         # Told, or fixed by configuration (nothing to tell): not looked at again on the scan path.
         self._wall_model_told = notice is not None or not status.learning
 

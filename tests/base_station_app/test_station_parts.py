@@ -211,13 +211,13 @@ def test_a_robots_messages_land_in_its_mirror_which_says_what_to_act_on(
                 goal_tolerance=0.2, yaw_tolerance=0.3)  # fmt: skip
     m.route_sent(True)
     m.route_mirror.reconnected(0.0)  # asked the robot: its next report is checked
-    assert m.on_message(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok")) == (None, None)
+    assert m.on_message(Topic.POSE, PoseMsg(1.0, 2.0, 0.0, state="ok")) == (None, [])
     assert m.state.pose is not None and m.state.pose.x == 1.0
     lost, _ = m.on_message(Topic.ROUTE_PROGRESS, RouteProgress(0, 0, False, "idle"))
     assert lost is not None and lost.route_id == 8  # the robot restarted: our route is gone
-    assert m.on_message(Topic.STATUS, Status("info", "")) == (None, None)  # nothing to log
-    _, status = m.on_message(Topic.STATUS, Status("warning", "blocked by a door"))
-    assert status is not None and status.text == "blocked by a door"
+    assert m.on_message(Topic.STATUS, Status("info", "")) == (None, [])  # nothing to log
+    _, lines = m.on_message(Topic.STATUS, Status("warning", "blocked by a door"))
+    assert [line.text for line in lines] == ["blocked by a door"]
     m.on_event(GoalReached(4, Pose2D(0.0, 0.0, 0.0)))
     assert m.goal_reached
     m.on_event(TaskStarted(GoTo(5)))
@@ -239,3 +239,26 @@ def test_alert_rules_take_any_message_by_its_kind() -> None:
     rules.on_message("r", Battery(23.0, soc=0.05), 3.0)
     rules.on_message("r", MuxMsg(None), 4.0)  # no rule for it: ignored
     assert [a.kind for a in alerts.alerts] == ["lost", "collision", "battery"]
+
+
+def test_standing_notices_are_logged_once_whether_the_station_heard_them_or_joined_later(
+    topo: TopologicalMap,
+) -> None:
+    """A standing notice (the wall model the localiser learnt) is a status line and an entry of
+    the robot's notices: a station that heard the line logs it once; one that joined later
+    logs it from the snapshot's notices; a snapshot read again logs nothing new."""
+    from interbot_core.topics import StandingNotices, Status
+
+    learnt = Status("info", "walls learnt at cell centres", stamp=12.0)
+    later = Status("info", "odometry scale learnt", stamp=30.0)
+    live = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    assert live.on_message(Topic.STATUS, learnt)[1] == [learnt]
+    assert live.on_message(Topic.NOTICES, StandingNotices((learnt,)))[1] == []
+    assert live.on_message(Topic.NOTICES, StandingNotices((learnt, later)))[1] == [later]
+    assert live.on_message(Topic.STATUS, later)[1] == []  # its line came after its notice
+
+    late = RobotMirror("r", topo, RoutePlanner(topo), SupervisorConfig())
+    snapshot = StandingNotices((learnt, later))
+    assert late.on_message(Topic.NOTICES, snapshot)[1] == [learnt, later]
+    assert late.on_message(Topic.STATUS, later)[1] == []  # the snapshot's newest status line
+    assert late.on_message(Topic.NOTICES, snapshot)[1] == []  # asked again (a reconnect)

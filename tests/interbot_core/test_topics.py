@@ -39,6 +39,7 @@ from interbot_core.topics import (
     RouteMsg,
     RouteProgress,
     SafetyMsg,
+    StandingNotices,
     Status,
     StopRelease,
     Topic,
@@ -120,6 +121,7 @@ EXAMPLES = {
     Topic.MUX: MuxMsg(None, "stop lock engaged", ("stop",), 0.0, 0.0, 5.0),
     Topic.TELEOP_ASSIST: AssistMsg("station_vel", True, 2.0),
     Topic.SAFETY: SafetyMsg("stop", "FootprintStop", 0.03, 0.1, 0.0, ("tablet_vel",), "slid", 3.0),
+    Topic.NOTICES: StandingNotices((Status("info", "walls learnt at cell centres", stamp=4.5),)),
 }
 
 

@@ -115,3 +115,30 @@ def test_the_daemon_says_a_new_contact_once_as_a_collision() -> None:
         daemon.publish(link)
     collisions = [t for t in texts if t.startswith("collision:")]
     assert len(collisions) == 1 and "1 new contact" in collisions[0]
+
+
+def test_the_learnt_wall_model_is_a_standing_notice_for_stations_that_join_later() -> None:
+    """The operator's line about the learnt wall model is published as a status line and kept
+    in the robot's standing notices (in the snapshot a late station reads), once."""
+    from unittest.mock import MagicMock
+
+    from interbot_core.topics import StandingNotices, Status, Topic
+    from robot_daemon.config import DaemonConfig, SimSettings
+    from robot_daemon.daemon import Daemon, DaemonOptions
+    from robot_daemon.localisation.wall_model import WallModelStatus
+
+    daemon = Daemon(DaemonConfig(sim=SimSettings(people=0)), DaemonOptions())
+    learnt = WallModelStatus("cell_centre", False, True, {"cell_centre": 9}, 12, 7.5)
+    daemon.stack.localiser._wall_model.status = lambda: learnt  # type: ignore[method-assign]
+    link = MagicMock()
+    published: list[tuple[Topic, object]] = []
+    link.publish.side_effect = lambda topic, message: published.append((topic, message))
+    for step in range(3):
+        daemon.now = float(step)
+        daemon.stack._track_wall_model(daemon.now)
+        daemon.publish(link)
+    lines = [m for t, m in published if t is Topic.STATUS and isinstance(m, Status)]
+    said = [m for m in lines if "walls lie through the cell centres" in m.text]
+    notices = [m for t, m in published if t is Topic.NOTICES]
+    assert len(said) == 1
+    assert notices == [StandingNotices((said[0],))]
