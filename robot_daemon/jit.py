@@ -95,5 +95,10 @@ def warm_up() -> float:
 
 
 if __name__ == "__main__":  # `python -m robot_daemon.jit`: compile into the cache (make install)
-    load_all()
-    print(f"robot_daemon kernels ready in {warm_up():.1f} s ({'numba' if ENABLED else 'Python'})")
+    # The kernel modules register with the imported module, not with this __main__ copy.
+    from robot_daemon import jit as _jit
+
+    _jit.load_all()
+    took = _jit.warm_up()
+    print(f"robot_daemon: {len(_jit._WARM_UPS)} kernel groups ready in {took:.1f} s", end=" ")
+    print("(numba)" if _jit.ENABLED else "(plain Python: numba absent or INTERBOT_NO_JIT set)")
