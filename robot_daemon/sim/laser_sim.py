@@ -23,17 +23,18 @@ steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaus
 No-return convention (REP-117): a beam with nothing within ``range_max`` reports ``+inf``; a
 return closer than ``range_min`` reports ``-inf``. Consumers use ``LaserScan.valid()``.
 
-Ray casting (sphere tracing, Hart, "Sphere tracing", The Visual Computer 12(10), 1996). All beams
-advance together, in grid-cell units, by the safe step stored per cell by ``World`` (the distance
-to the nearest blocked cell minus sqrt(2), or a fine step of half a cell when that is smaller;
-a beam that clips a blocked cell's corner for less than that step may pass it, a map-discretisation
-error of the same order as the cells themselves, tested against an exact grid traversal):
+Ray casting (sphere tracing, Hart, "Sphere tracing", The Visual Computer 12(10), 1996; compiled
+in `sphere_tracing`). Each beam advances, in grid-cell units, by the safe step stored per cell
+by ``World`` (the distance to the nearest blocked cell minus sqrt(2), or a fine step of half a
+cell when that is smaller; a beam that clips a blocked cell's corner for less than that step may
+pass it, a map-discretisation error of the same order as the cells themselves, tested against
+an exact grid traversal):
 
     t_{k+1} = t_k + step(cell(o + t_k d)),   stop when cell(o + t_k d) is blocked or t_k > r_max.
 
-Beams that have finished are dropped from the working set. The hit is then refined by
-re-sampling the last fine step at a tenth of a cell, so a wall range is exact to about 0.005 m
-plus the cell discretisation of the map itself. People are circles intersected analytically:
+The hit is then refined by re-sampling the last fine step at a tenth of a cell, so a wall range
+is exact to about 0.005 m plus the cell discretisation of the map itself. People are circles
+intersected analytically:
 
     t = (d . (c - o)) - sqrt((d . (c - o))^2 - |c - o|^2 + r^2).
 """
@@ -58,13 +59,10 @@ from interbot_core.laser_scan import (
     UTM30LX_SCAN_TIME,
     LaserScan,
 )
-from robot_daemon.sim.world import RAY_FINE_STEP, World
+from robot_daemon.sim.sphere_tracing import wall_ranges
+from robot_daemon.sim.world import World
 
 FloatArray = npt.NDArray[np.float64]
-_REFINE_SAMPLES = 5  # samples of the last fine step when refining a hit
-_TAIL_BEAMS = 64  # below this many active beams, switch to chunked marching
-_COMPACT_EVERY = 3  # phase-1 iterations between removals of finished beams
-_TAIL_CHUNK = 96  # fine samples per beam per chunk in the tail phase
 
 
 class LaserConfigError(ValueError):
@@ -144,103 +142,30 @@ class RayCaster:
         max_range: float,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Distance [m] along each world-frame angle to the first blocked cell; inf if none.
+        """Distance [m] along each world-frame angle to the first blocked cell; inf if none
+        (sphere tracing, `sphere_tracing.wall_ranges`).
 
         ``trig``: ``(cos(angles), sin(angles))`` if the caller has them.
         """
         w = self.world
-        res = w.resolution
-        field = w.ray_step_flat
-        width = w.padded_width
-        n = angles.size
         cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
-        u0, v0 = w.to_padded_cells(origin_x, origin_y)
-        u0f, v0f = float(u0), float(v0)
-        max_t = max_range / res
-        result = np.full(n, np.inf)
-        if not (0 <= u0f < w.padded_width and 0 <= v0f < w.padded_height):
-            result[:] = 0.0
-            return result
-        idx = np.arange(n)
-        t = np.zeros(n)
-        cs, sn = cos, sin
-        hit_idx: list[npt.NDArray[np.intp]] = []
-        hit_t: list[FloatArray] = []
-        # Phase 1: sphere tracing of all beams, while many are still travelling. Blocked cells
-        # have step 0 in ``field`` (see World), so a beam that hit stays put; finished beams
-        # are dropped every few iterations, which costs fewer numpy calls than every time.
-        tail = max(_TAIL_BEAMS, n // 8)
-        # Position u + i v and direction cos + i sin as complex numbers: one numpy call moves
-        # both coordinates. s * (c + i d) = s c + i s d exactly (the cross terms are 0 * x).
-        uv = np.full(n, complex(u0f, v0f))
-        direction = cs + 1j * sn
-        flat = np.empty(n, dtype=np.intp)
-        s = np.empty(n, dtype=field.dtype)
-        iteration = 0
-        while idx.size > tail:
-            np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
-            field.take(flat, out=s)  # the method: np.take's wrapper costs as much again
-            t += s
-            uv += s * direction
-            iteration += 1
-            if iteration % _COMPACT_EVERY == 0:
-                hit = s == 0.0
-                done = hit | (t > max_t)
-                # np.count_nonzero: the cheapest test (ndarray.any goes through a Python wrapper).
-                if np.count_nonzero(done):
-                    hits = hit & (t <= max_t)
-                    if np.count_nonzero(hits):
-                        hit_idx.append(idx[hits])
-                        hit_t.append(t[hits])
-                    keep = ~done
-                    idx, t, uv, direction = idx[keep], t[keep], uv[keep], direction[keep]
-                    flat = np.empty(idx.size, dtype=np.intp)
-                    s = np.empty(idx.size, dtype=field.dtype)
-        cs, sn = direction.real, direction.imag
-        # Phase 2: the few grazing beams left march in dense chunks of fine samples, then jump
-        # by the safe step at the chunk's end (fewer numpy calls per unit of distance).
-        offsets = np.arange(_TAIL_CHUNK, dtype=np.float64) * RAY_FINE_STEP
-        while idx.size:
-            ts = t[:, None] + offsets[None, :]
-            flat = (v0f + ts * sn[:, None]).astype(np.intp) * width + (
-                u0f + ts * cs[:, None]
-            ).astype(np.intp)
-            # Samples past the first blocked one may leave the grid: clip (they are ignored).
-            s = field.take(flat, mode="clip")
-            blocked = s == 0.0
-            first = blocked.argmax(axis=1)
-            any_blocked = blocked[np.arange(idx.size), first]
-            t_hit = ts[np.arange(idx.size), first]
-            hits = any_blocked & (t_hit <= max_t)
-            if np.count_nonzero(hits):
-                hit_idx.append(idx[hits])
-                hit_t.append(t_hit[hits])
-            t_next = ts[:, -1] + s[:, -1]
-            keep = ~any_blocked & (ts[:, -1] <= max_t)
-            idx, t, cs, sn = idx[keep], t_next[keep], cs[keep], sn[keep]
-        if hit_idx:
-            hi = np.concatenate(hit_idx)
-            ht = np.concatenate(hit_t)
-            result[hi] = self._refine(u0f, v0f, cos[hi], sin[hi], ht) * res
-            result[result > max_range] = np.inf
-        return result
-
-    def _refine(
-        self, u0: float, v0: float, cs: FloatArray, sn: FloatArray, t_hit: FloatArray
-    ) -> FloatArray:
-        """Earliest blocked sample within the last fine step before each hit [cells]."""
-        w = self.world
-        frac = np.arange(1, _REFINE_SAMPLES + 1, dtype=np.float64) / _REFINE_SAMPLES
-        t0 = np.maximum(t_hit - RAY_FINE_STEP, 0.0)
-        ts = t0[:, None] + (t_hit - t0)[:, None] * frac[None, :]
-        u = (u0 + ts * cs[:, None]).astype(np.intp)
-        v = (v0 + ts * sn[:, None]).astype(np.intp)
-        v *= w.padded_width
-        v += u
-        blocked = w.ray_step_flat.take(v) == 0.0
-        first = blocked.argmax(axis=1)  # the last sample (t_hit) is always blocked
-        refined: FloatArray = ts[np.arange(ts.shape[0]), first]
-        return refined
+        u0, v0 = (float(c) for c in w.to_padded_cells(origin_x, origin_y))
+        if not (0 <= u0 < w.padded_width and 0 <= v0 < w.padded_height):
+            return np.zeros(angles.size)
+        ranges = np.empty(angles.size)
+        wall_ranges(  # one layout and dtype, so one compiled specialisation
+            w.ray_step_flat,
+            w.padded_width,
+            u0,
+            v0,
+            np.ascontiguousarray(cos, dtype=np.float64),
+            np.ascontiguousarray(sin, dtype=np.float64),
+            max_range / w.resolution,
+            w.resolution,
+            max_range,
+            ranges,
+        )
+        return ranges
 
     @staticmethod
     def cast_circles(

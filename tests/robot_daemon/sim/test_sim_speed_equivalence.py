@@ -17,6 +17,7 @@ from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon.sim.diff_drive import RobotFootprint, to_world
 from robot_daemon.sim.laser_sim import LaserConfig, LaserSim, RayCaster
 from robot_daemon.sim.world import PAD, RAY_FINE_STEP, SQRT2, RectObstacle, World
+from tests.robot_daemon.sim.numpy_caster import numpy_refine
 
 
 def _office() -> World:
@@ -114,7 +115,7 @@ def test_walls_equal_the_sphere_tracing_before_the_speed_work() -> None:
         assert np.array_equal(np.isfinite(fast), hit)
         cos, sin = np.cos(angles[hit]), np.sin(angles[hit])
         u0, v0 = (float(c) for c in WORLD.to_padded_cells(x, y))
-        refined = caster._refine(u0, v0, cos, sin, t_hit[hit]) * WORLD.resolution
+        refined = numpy_refine(WORLD, u0, v0, cos, sin, t_hit[hit]) * WORLD.resolution
         assert np.array_equal(fast[hit], np.where(refined > 30.0, np.inf, refined))
 
 
