@@ -59,6 +59,7 @@ from interbot_core.laser_scan import (
     UTM30LX_SCAN_TIME,
     LaserScan,
 )
+from robot_daemon.sim.analytic_rays import circle_ranges, pane_ranges
 from robot_daemon.sim.sphere_tracing import wall_ranges
 from robot_daemon.sim.world import World
 
@@ -148,7 +149,7 @@ class RayCaster:
         ``trig``: ``(cos(angles), sin(angles))`` if the caller has them.
         """
         w = self.world
-        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
+        cos, sin = _contiguous_trig(angles, trig)
         u0, v0 = (float(c) for c in w.to_padded_cells(origin_x, origin_y))
         if not (0 <= u0 < w.padded_width and 0 <= v0 < w.padded_height):
             return np.zeros(angles.size)
@@ -158,8 +159,8 @@ class RayCaster:
             w.padded_width,
             u0,
             v0,
-            np.ascontiguousarray(cos, dtype=np.float64),
-            np.ascontiguousarray(sin, dtype=np.float64),
+            cos,
+            sin,
             max_range / w.resolution,
             w.resolution,
             max_range,
@@ -173,49 +174,20 @@ class RayCaster:
         origin_y: float,
         angles: FloatArray,
         circles: FloatArray,
-        increasing: bool | None = None,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
-        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1).
-
-        With increasing ``angles`` (a scan's; ``increasing=None`` checks) each circle is
-        intersected only with the beams of its angular window (`_angle_window`), with the
-        same arithmetic per beam; otherwise with every beam. ``trig``: ``(cos(angles),
-        sin(angles))`` if the caller has them.
-        """
+        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1)
+        (`analytic_rays.circle_ranges`). ``trig``: ``(cos(angles), sin(angles))`` if the caller
+        has them."""
         n = angles.size
+        ranges, nearest = np.empty(n), np.empty(n, dtype=np.intp)
         if circles.size == 0:
-            return np.full(n, np.inf), np.full(n, -1, dtype=np.intp)
-        dx = circles[:, 0] - origin_x
-        dy = circles[:, 1] - origin_y
-        c = dx * dx + dy * dy - circles[:, 2] ** 2
-        if not (_increasing(angles) if increasing is None else increasing):
-            b = np.cos(angles)[:, None] * dx[None, :] + np.sin(angles)[:, None] * dy[None, :]
-            disc = b * b - c[None, :]
-            with np.errstate(invalid="ignore"):
-                t = b - np.sqrt(disc)
-            t = np.where((disc >= 0) & (b > 0), np.where(c[None, :] < 0, 0.0, t), np.inf)
-            which = t.argmin(axis=1)
-            best = t[np.arange(n), which]
-            return best, np.where(np.isfinite(best), which, -1)
-        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
-        best = np.full(n, np.inf)
-        nearest = np.full(n, -1, dtype=np.intp)
-        for j in range(circles.shape[0]):
-            distance = math.hypot(dx[j], dy[j])
-            # Inside the circle every beam ahead hits it at 0; outside, a beam meets it only
-            # within asin(r / distance) of the bearing to its centre.
-            half = math.pi if c[j] < 0 else math.asin(min(1.0, circles[j, 2] / distance))
-            for lo, hi in _angle_window(angles, math.atan2(dy[j], dx[j]), half):
-                b = cos[lo:hi] * dx[j] + sin[lo:hi] * dy[j]
-                disc = b * b - c[j]
-                with np.errstate(invalid="ignore"):
-                    t = b - np.sqrt(disc)
-                t = np.where((disc >= 0) & (b > 0), 0.0 if c[j] < 0 else t, np.inf)
-                closer = t < best[lo:hi]  # strict: the first circle wins a tie, as argmin
-                best[lo:hi][closer] = t[closer]
-                nearest[lo:hi][closer] = j
-        return best, nearest
+            ranges[:], nearest[:] = np.inf, -1
+            return ranges, nearest
+        cos, sin = _contiguous_trig(angles, trig)
+        circles = np.ascontiguousarray(circles, dtype=np.float64)
+        circle_ranges(float(origin_x), float(origin_y), cos, sin, circles, ranges, nearest)
+        return ranges, nearest
 
     def cast_glass(
         self,
@@ -223,47 +195,21 @@ class RayCaster:
         origin_y: float,
         angles: FloatArray,
         return_angle: float,
-        increasing: bool | None = None,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Range [m] to the first glass pane that reflects each beam back (inf if none).
-
-        Slab test per axis-aligned pane: entry at ``t = max(t_x, t_y)`` over the near faces;
-        the face entered is the one of the larger; it reflects when the beam is within
-        ``return_angle`` of that face's normal (``|cos| >= cos(return_angle)``). With
-        increasing ``angles`` (``increasing=None`` checks) only the beams within the pane's
-        angular extent are tested.
-        """
-        n = angles.size
-        best = np.full(n, np.inf)
+        """Range [m] to the first glass pane that reflects each beam back (inf if none): a
+        beam within ``return_angle`` of the normal of the face it enters
+        (`analytic_rays.pane_ranges`). ``trig``: ``(cos(angles), sin(angles))`` if the caller
+        has them."""
+        ranges = np.empty(angles.size)
         if not self.world.glass:
-            return best
-        cx, cy = trig if trig is not None else (np.cos(angles), np.sin(angles))
+            ranges[:] = np.inf
+            return ranges
+        cos, sin = _contiguous_trig(angles, trig)
         threshold = math.cos(return_angle)
-        windowed = _increasing(angles) if increasing is None else increasing
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv_x, inv_y = 1.0 / cx, 1.0 / cy
-            for x0, y0, x1, y1 in self.world.glass:
-                windows = [(0, n)]
-                if windowed and not (x0 <= origin_x <= x1 and y0 <= origin_y <= y1):
-                    windows = _box_windows(angles, origin_x, origin_y, (x0, y0, x1, y1))
-                for lo, hi in windows:
-                    ix, iy = inv_x[lo:hi], inv_y[lo:hi]
-                    tx0, tx1 = (x0 - origin_x) * ix, (x1 - origin_x) * ix
-                    ty0, ty1 = (y0 - origin_y) * iy, (y1 - origin_y) * iy
-                    tx_near, tx_far = np.minimum(tx0, tx1), np.maximum(tx0, tx1)
-                    ty_near, ty_far = np.minimum(ty0, ty1), np.maximum(ty0, ty1)
-                    t_in = np.fmax(tx_near, ty_near)
-                    t_out = np.fmin(tx_far, ty_far)
-                    hit = (t_in <= t_out) & (t_in > 0)
-                    # Normal of the entered face: x-face if tx_near is the later entry.
-                    cos_incidence = np.where(
-                        tx_near >= ty_near, np.abs(cx[lo:hi]), np.abs(cy[lo:hi])
-                    )
-                    reflect = hit & (cos_incidence >= threshold)
-                    part = best[lo:hi]
-                    part[...] = np.where(reflect & (t_in < part), t_in, part)
-        return best
+        panes = np.array(self.world.glass, dtype=np.float64)  # rows x0, y0, x1, y1
+        pane_ranges(float(origin_x), float(origin_y), cos, sin, panes, threshold, ranges)
+        return ranges
 
     def cast(
         self,
@@ -273,13 +219,11 @@ class RayCaster:
         max_range: float,
         circles: FloatArray | None = None,
         glass_return_angle: float = 0.0,
-        increasing: bool | None = None,
     ) -> FloatArray:
         """Noise-free range [m] to walls or people along each world-frame angle; inf if none.
 
         Glass panes (``World.glass``) return only beams within ``glass_return_angle`` of their
-        normal; other beams see through them. ``increasing``: whether ``angles`` increase
-        strictly (None: check).
+        normal; other beams see through them.
         """
         trig = (np.cos(angles), np.sin(angles))  # once for walls, panes and people
         key = (origin_x, origin_y, max_range, self.world.version)
@@ -290,10 +234,10 @@ class RayCaster:
             ranges = self.cast_walls(origin_x, origin_y, angles, max_range, trig)
             self._last_walls = (key, angles.copy(), ranges.copy())
         if self.world.glass:
-            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, increasing, trig)
+            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, trig)
             ranges = np.minimum(ranges, np.where(pane <= max_range, pane, np.inf))
         if circles is not None and circles.size:
-            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, increasing, trig)
+            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, trig)
             ranges = np.minimum(ranges, np.where(people <= max_range, people, np.inf))
         return ranges
 
@@ -359,7 +303,6 @@ class LaserSim:
             c.range_max,
             circles,
             c.glass_return_angle,
-            increasing=c.angle_increment > 0,  # beam_angles() + yaw
         )
         ranges = true.copy()
         if c.mixed_pixel_probability > 0:
@@ -384,43 +327,9 @@ class LaserSim:
         )
 
 
-# Beam windows: a margin [rad] beyond a target's exact angular extent, far above rounding.
-_WINDOW_MARGIN = 1e-6
-
-
-def _increasing(angles: FloatArray) -> bool:
-    """Whether ``angles`` increase strictly (a scan's beams do), so windows can be searched."""
-    return angles.size > 1 and bool(np.all(angles[1:] > angles[:-1]))
-
-
-def _angle_window(angles: FloatArray, bearing: float, half: float) -> list[tuple[int, int]]:
-    """Index ranges ``[lo, hi)`` of the increasing ``angles`` within ``half`` (+ a margin) of
-    ``bearing``, modulo a full turn."""
-    half += _WINDOW_MARGIN
-    if half >= math.pi:
-        return [(0, angles.size)]
-    first = float(angles[0]) - half
-    centre = first + (bearing - first) % (2.0 * math.pi)  # the first turn at or after `first`
-    windows = []
-    while centre - half <= angles[-1]:
-        lo = int(angles.searchsorted(centre - half, side="left"))
-        hi = int(angles.searchsorted(centre + half, side="right"))
-        if hi > lo:
-            windows.append((lo, hi))
-        centre += 2.0 * math.pi
-    return windows
-
-
-def _box_windows(
-    angles: FloatArray, x: float, y: float, box: tuple[float, float, float, float]
-) -> list[tuple[int, int]]:
-    """`_angle_window` of the beams from (x, y), outside the box, that can meet the box: its
-    corners span less than half a turn, around the bearing of its centre."""
-    x0, y0, x1, y1 = box
-    mid = math.atan2((y0 + y1) / 2 - y, (x0 + x1) / 2 - x)
-    half = max(
-        abs(math.remainder(math.atan2(cy - y, cx - x) - mid, 2.0 * math.pi))
-        for cx in (x0, x1)
-        for cy in (y0, y1)
-    )
-    return _angle_window(angles, mid, half)
+def _contiguous_trig(
+    angles: FloatArray, trig: tuple[FloatArray, FloatArray] | None
+) -> tuple[FloatArray, FloatArray]:
+    """``(cos(angles), sin(angles))`` as C-contiguous float64 (one compiled specialisation)."""
+    cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
+    return np.ascontiguousarray(cos, dtype=np.float64), np.ascontiguousarray(sin, dtype=np.float64)

@@ -6,12 +6,12 @@ as it was before the kernel (session 12's `main`): its two phases round differen
 so equality holds only if the kernel follows the same schedule (which beams reach phase 2, and
 when). Worlds: random grids, the speed tests' office with glass, and the tours' buildings (ISR,
 Willow Garage, Fetch office; seed 1); inputs: random poses (free space, in walls, off the grid),
-random beam sets and ranges, and every scan of a short tour.
+random beam sets and ranges, and every scan of a short tour (walls, glass and people against
+``numpy_caster.numpy_cast``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,10 +21,10 @@ import pytest
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon import jit
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
-from robot_daemon.sim import sphere_tracing
+from robot_daemon.sim import analytic_rays, sphere_tracing
 from robot_daemon.sim.laser_sim import LaserConfig, RayCaster
 from robot_daemon.sim.world import PAD, RectObstacle, World
-from tests.robot_daemon.sim.numpy_caster import numpy_cast_walls
+from tests.robot_daemon.sim.numpy_caster import numpy_cast, numpy_cast_walls
 from tests.robot_daemon.sim.test_sim_speed_equivalence import _office
 from tests.robot_daemon.stack_route import localise_and_send_route
 
@@ -174,16 +174,21 @@ def test_compiled_equals_its_plain_python_function() -> None:
             assert np.array_equal(compiled, python)
 
 
-def _signatures(kernel: Callable[..., object]) -> int:
-    return len(getattr(kernel, "signatures", ()))
+def _signatures() -> list[int]:
+    kernels = (
+        sphere_tracing.wall_ranges,
+        analytic_rays.circle_ranges,
+        analytic_rays.pane_ranges,
+    )
+    return [len(getattr(kernel, "signatures", ())) for kernel in kernels]
 
 
 def test_a_short_tour_compiles_nothing_after_the_warm_up_and_casts_as_numpy_did() -> None:
     system = SimulatedSystem(ScenarioOptions(seed=1))  # warms the kernels up
-    before = _signatures(sphere_tracing.wall_ranges)
-    assert before >= 1 or not jit.ENABLED
+    before = _signatures()
+    assert min(before) >= 1 or not jit.ENABLED
     caster = system.sim.laser.caster
-    cast_walls = caster.cast_walls
+    cast = caster.cast
     compared = []
 
     def checked(
@@ -191,15 +196,17 @@ def test_a_short_tour_compiles_nothing_after_the_warm_up_and_casts_as_numpy_did(
         y: float,
         angles: FloatArray,
         max_range: float,
-        trig: tuple[FloatArray, FloatArray] | None = None,
+        circles: FloatArray | None = None,
+        glass_return_angle: float = 0.0,
     ) -> FloatArray:
-        ranges = cast_walls(x, y, angles, max_range, trig)
-        assert np.array_equal(ranges, numpy_cast_walls(caster.world, x, y, angles, max_range))
+        ranges = cast(x, y, angles, max_range, circles, glass_return_angle)
+        old = numpy_cast(caster.world, x, y, angles, max_range, circles, glass_return_angle)
+        assert np.array_equal(ranges, old)
         compared.append(int(np.count_nonzero(np.isfinite(ranges))))
         return ranges
 
-    caster.cast_walls = checked  # type: ignore[method-assign]
+    caster.cast = checked  # type: ignore[method-assign]
     localise_and_send_route(system, 2)
     system.run_until(lambda: False, 30.0)  # 10 scans a second, leaving home among people
     assert len(compared) > 250 and sum(compared) > 0.5 * 1081 * len(compared)  # walls seen
-    assert _signatures(sphere_tracing.wall_ranges) == before
+    assert _signatures() == before
