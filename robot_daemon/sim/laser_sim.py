@@ -60,10 +60,12 @@ from interbot_core.laser_scan import (
     LaserScan,
 )
 from robot_daemon.sim.analytic_rays import circle_ranges, pane_ranges
+from robot_daemon.sim.range_errors import apply_errors, jump_pairs, mix_pairs
 from robot_daemon.sim.sphere_tracing import wall_ranges
 from robot_daemon.sim.world import World
 
 FloatArray = npt.NDArray[np.float64]
+_NONE = np.empty(0)  # no draws
 
 
 class LaserConfigError(ValueError):
@@ -154,15 +156,16 @@ class RayCaster:
         if not (0 <= u0 < w.padded_width and 0 <= v0 < w.padded_height):
             return np.zeros(angles.size)
         ranges = np.empty(angles.size)
+        resolution, max_range = float(w.resolution), float(max_range)
         wall_ranges(  # one layout and dtype, so one compiled specialisation
             w.ray_step_flat,
-            w.padded_width,
+            int(w.padded_width),
             u0,
             v0,
             cos,
             sin,
-            max_range / w.resolution,
-            w.resolution,
+            max_range / resolution,
+            resolution,
             max_range,
             ranges,
         )
@@ -206,7 +209,7 @@ class RayCaster:
             ranges[:] = np.inf
             return ranges
         cos, sin = _contiguous_trig(angles, trig)
-        threshold = math.cos(return_angle)
+        threshold = math.cos(float(return_angle))
         panes = np.array(self.world.glass, dtype=np.float64)  # rows x0, y0, x1, y1
         pane_ranges(float(origin_x), float(origin_y), cos, sin, panes, threshold, ranges)
         return ranges
@@ -275,20 +278,15 @@ class LaserSim:
     def _mix_pixels(self, ranges: FloatArray) -> None:
         """Farther beam of each discontinuous neighbour pair -> a range between the two."""
         c = self.config
-        a, b = ranges[:-1], ranges[1:]
-        finite = np.isfinite(a) & np.isfinite(b)
-        with np.errstate(invalid="ignore"):
-            jump = finite & (np.abs(a - b) > c.mixed_pixel_jump)
-        pairs = np.flatnonzero(jump)
-        if pairs.size == 0:
+        pairs = np.empty(ranges.size, dtype=np.intp)
+        count = jump_pairs(ranges, float(c.mixed_pixel_jump), pairs)
+        if count == 0:
             return
-        chosen = pairs[self._rng.random(pairs.size) < c.mixed_pixel_probability]
+        pairs = pairs[:count]
+        chosen = pairs[self._rng.random(count) < c.mixed_pixel_probability]
         if chosen.size == 0:
             return
-        near = np.minimum(ranges[chosen], ranges[chosen + 1])
-        far = np.maximum(ranges[chosen], ranges[chosen + 1])
-        farther = np.where(ranges[chosen] > ranges[chosen + 1], chosen, chosen + 1)
-        ranges[farther] = near + self._rng.random(chosen.size) * (far - near)
+        mix_pairs(ranges, chosen, self._rng.random(chosen.size))
 
     def scan(
         self, robot_pose: Pose2D, stamp: float, circles: FloatArray | None = None
@@ -307,23 +305,32 @@ class LaserSim:
         ranges = true.copy()
         if c.mixed_pixel_probability > 0:
             self._mix_pixels(ranges)
-        finite = np.isfinite(ranges)
-        if c.noise_sigma > 0:
-            ranges[finite] += self._rng.normal(0.0, c.noise_sigma, int(finite.sum()))
-        if c.bias_sigma > 0:
-            ranges[finite] += self._advance_bias(stamp)
-        if c.dropout_probability > 0 or c.far_dropout_per_m > 0:
-            p = c.dropout_probability + c.far_dropout_per_m * np.where(finite, ranges, 0.0)
-            ranges[finite & (self._rng.random(ranges.size) < p)] = np.inf
-        ranges[finite & (ranges > c.range_max)] = np.inf
-        ranges[finite & (ranges < c.range_min)] = -np.inf
+        # The random draws of the error model, in its order (`range_errors`), then its passes.
+        finite = int(np.count_nonzero(np.isfinite(ranges)))
+        noise = self._rng.normal(0.0, c.noise_sigma, finite) if c.noise_sigma > 0 else _NONE
+        bias = self._advance_bias(stamp) if c.bias_sigma > 0 else 0.0
+        dropout = c.dropout_probability > 0 or c.far_dropout_per_m > 0
+        uniform = self._rng.random(ranges.size) if dropout else _NONE
+        ranges32 = np.empty(ranges.size, dtype=np.float32)
+        apply_errors(  # floats as floats: one compiled specialisation
+            ranges,
+            noise,
+            float(bias),
+            dropout,
+            float(c.dropout_probability),
+            float(c.far_dropout_per_m),
+            uniform,
+            float(c.range_min),
+            float(c.range_max),
+            ranges32,
+        )
         return LaserScan(
             stamp=stamp,
             angle_min=c.angle_min,
             angle_increment=c.angle_increment,
             range_min=c.range_min,
             range_max=c.range_max,
-            ranges=ranges.astype(np.float32),
+            ranges=ranges32,
         )
 
 

@@ -21,7 +21,7 @@ import pytest
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon import jit
 from robot_daemon.scenarios.runner import ScenarioOptions, SimulatedSystem
-from robot_daemon.sim import analytic_rays, sphere_tracing
+from robot_daemon.sim import analytic_rays, range_errors, sphere_tracing
 from robot_daemon.sim.laser_sim import LaserConfig, RayCaster
 from robot_daemon.sim.world import PAD, RectObstacle, World
 from tests.robot_daemon.sim.numpy_caster import numpy_cast, numpy_cast_walls
@@ -179,6 +179,9 @@ def _signatures() -> list[int]:
         sphere_tracing.wall_ranges,
         analytic_rays.circle_ranges,
         analytic_rays.pane_ranges,
+        range_errors.jump_pairs,
+        range_errors.mix_pairs,
+        range_errors.apply_errors,
     )
     return [len(getattr(kernel, "signatures", ())) for kernel in kernels]
 
@@ -209,4 +212,6 @@ def test_a_short_tour_compiles_nothing_after_the_warm_up_and_casts_as_numpy_did(
     localise_and_send_route(system, 2)
     system.run_until(lambda: False, 30.0)  # 10 scans a second, leaving home among people
     assert len(compared) > 250 and sum(compared) > 0.5 * 1081 * len(compared)  # walls seen
+    for _ in range(3):  # the daemon's camera casts too
+        system.sim.camera_frame()
     assert _signatures() == before
