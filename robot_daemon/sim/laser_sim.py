@@ -1,4 +1,4 @@
-"""Simulated Hokuyo UTM-30LX: vectorised sphere tracing on the world's distance transform.
+"""Simulated Hokuyo UTM-30LX: sphere tracing on the world's distance transform.
 
 Sensor (thesis §4.1.5; Hokuyo UTM-30LX datasheet): 1081 beams over 270 degrees (0.25 degree
 steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaussian noise
@@ -19,6 +19,9 @@ steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaus
 * glass (``World.glass``): a beam meeting a pane within ``glass_return_angle`` of its normal is
   reflected back and returns the pane's range; any other beam passes through and returns what is
   behind the pane.
+
+The per-beam passes are compiled (`robot_daemon.jit`): walls in `sphere_tracing`, people and
+panes in `analytic_rays`, the range errors in `range_errors` (the random draws stay here).
 
 No-return convention (REP-117): a beam with nothing within ``range_max`` reports ``+inf``; a
 return closer than ``range_min`` reports ``-inf``. Consumers use ``LaserScan.valid()``.
