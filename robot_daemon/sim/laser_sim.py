@@ -1,4 +1,4 @@
-"""Simulated Hokuyo UTM-30LX: vectorised sphere tracing on the world's distance transform.
+"""Simulated Hokuyo UTM-30LX: sphere tracing on the world's distance transform.
 
 Sensor (thesis §4.1.5; Hokuyo UTM-30LX datasheet): 1081 beams over 270 degrees (0.25 degree
 steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaussian noise
@@ -20,20 +20,24 @@ steps), 0.1-30 m, 40 Hz, mounted ``mount_x`` ahead of base_link. Ranges get Gaus
   reflected back and returns the pane's range; any other beam passes through and returns what is
   behind the pane.
 
+The per-beam passes are compiled (`robot_daemon.jit`): walls in `sphere_tracing`, people and
+panes in `analytic_rays`, the range errors in `range_errors` (the random draws stay here).
+
 No-return convention (REP-117): a beam with nothing within ``range_max`` reports ``+inf``; a
 return closer than ``range_min`` reports ``-inf``. Consumers use ``LaserScan.valid()``.
 
-Ray casting (sphere tracing, Hart, "Sphere tracing", The Visual Computer 12(10), 1996). All beams
-advance together, in grid-cell units, by the safe step stored per cell by ``World`` (the distance
-to the nearest blocked cell minus sqrt(2), or a fine step of half a cell when that is smaller;
-a beam that clips a blocked cell's corner for less than that step may pass it, a map-discretisation
-error of the same order as the cells themselves, tested against an exact grid traversal):
+Ray casting (sphere tracing, Hart, "Sphere tracing", The Visual Computer 12(10), 1996; compiled
+in `sphere_tracing`). Each beam advances, in grid-cell units, by the safe step stored per cell
+by ``World`` (the distance to the nearest blocked cell minus sqrt(2), or a fine step of half a
+cell when that is smaller; a beam that clips a blocked cell's corner for less than that step may
+pass it, a map-discretisation error of the same order as the cells themselves, tested against
+an exact grid traversal):
 
     t_{k+1} = t_k + step(cell(o + t_k d)),   stop when cell(o + t_k d) is blocked or t_k > r_max.
 
-Beams that have finished are dropped from the working set. The hit is then refined by
-re-sampling the last fine step at a tenth of a cell, so a wall range is exact to about 0.005 m
-plus the cell discretisation of the map itself. People are circles intersected analytically:
+The hit is then refined by re-sampling the last fine step at a tenth of a cell, so a wall range
+is exact to about 0.005 m plus the cell discretisation of the map itself. People are circles
+intersected analytically:
 
     t = (d . (c - o)) - sqrt((d . (c - o))^2 - |c - o|^2 + r^2).
 """
@@ -58,13 +62,13 @@ from interbot_core.laser_scan import (
     UTM30LX_SCAN_TIME,
     LaserScan,
 )
-from robot_daemon.sim.world import RAY_FINE_STEP, World
+from robot_daemon.sim.analytic_rays import circle_ranges, pane_ranges
+from robot_daemon.sim.range_errors import apply_errors, jump_pairs, mix_pairs
+from robot_daemon.sim.sphere_tracing import wall_ranges
+from robot_daemon.sim.world import World
 
 FloatArray = npt.NDArray[np.float64]
-_REFINE_SAMPLES = 5  # samples of the last fine step when refining a hit
-_TAIL_BEAMS = 64  # below this many active beams, switch to chunked marching
-_COMPACT_EVERY = 3  # phase-1 iterations between removals of finished beams
-_TAIL_CHUNK = 96  # fine samples per beam per chunk in the tail phase
+_NONE = np.empty(0)  # no draws
 
 
 class LaserConfigError(ValueError):
@@ -144,103 +148,31 @@ class RayCaster:
         max_range: float,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Distance [m] along each world-frame angle to the first blocked cell; inf if none.
+        """Distance [m] along each world-frame angle to the first blocked cell; inf if none
+        (sphere tracing, `sphere_tracing.wall_ranges`).
 
         ``trig``: ``(cos(angles), sin(angles))`` if the caller has them.
         """
         w = self.world
-        res = w.resolution
-        field = w.ray_step_flat
-        width = w.padded_width
-        n = angles.size
-        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
-        u0, v0 = w.to_padded_cells(origin_x, origin_y)
-        u0f, v0f = float(u0), float(v0)
-        max_t = max_range / res
-        result = np.full(n, np.inf)
-        if not (0 <= u0f < w.padded_width and 0 <= v0f < w.padded_height):
-            result[:] = 0.0
-            return result
-        idx = np.arange(n)
-        t = np.zeros(n)
-        cs, sn = cos, sin
-        hit_idx: list[npt.NDArray[np.intp]] = []
-        hit_t: list[FloatArray] = []
-        # Phase 1: sphere tracing of all beams, while many are still travelling. Blocked cells
-        # have step 0 in ``field`` (see World), so a beam that hit stays put; finished beams
-        # are dropped every few iterations, which costs fewer numpy calls than every time.
-        tail = max(_TAIL_BEAMS, n // 8)
-        # Position u + i v and direction cos + i sin as complex numbers: one numpy call moves
-        # both coordinates. s * (c + i d) = s c + i s d exactly (the cross terms are 0 * x).
-        uv = np.full(n, complex(u0f, v0f))
-        direction = cs + 1j * sn
-        flat = np.empty(n, dtype=np.intp)
-        s = np.empty(n, dtype=field.dtype)
-        iteration = 0
-        while idx.size > tail:
-            np.add(uv.imag.astype(np.intp) * width, uv.real.astype(np.intp), out=flat)
-            field.take(flat, out=s)  # the method: np.take's wrapper costs as much again
-            t += s
-            uv += s * direction
-            iteration += 1
-            if iteration % _COMPACT_EVERY == 0:
-                hit = s == 0.0
-                done = hit | (t > max_t)
-                # np.count_nonzero: the cheapest test (ndarray.any goes through a Python wrapper).
-                if np.count_nonzero(done):
-                    hits = hit & (t <= max_t)
-                    if np.count_nonzero(hits):
-                        hit_idx.append(idx[hits])
-                        hit_t.append(t[hits])
-                    keep = ~done
-                    idx, t, uv, direction = idx[keep], t[keep], uv[keep], direction[keep]
-                    flat = np.empty(idx.size, dtype=np.intp)
-                    s = np.empty(idx.size, dtype=field.dtype)
-        cs, sn = direction.real, direction.imag
-        # Phase 2: the few grazing beams left march in dense chunks of fine samples, then jump
-        # by the safe step at the chunk's end (fewer numpy calls per unit of distance).
-        offsets = np.arange(_TAIL_CHUNK, dtype=np.float64) * RAY_FINE_STEP
-        while idx.size:
-            ts = t[:, None] + offsets[None, :]
-            flat = (v0f + ts * sn[:, None]).astype(np.intp) * width + (
-                u0f + ts * cs[:, None]
-            ).astype(np.intp)
-            # Samples past the first blocked one may leave the grid: clip (they are ignored).
-            s = field.take(flat, mode="clip")
-            blocked = s == 0.0
-            first = blocked.argmax(axis=1)
-            any_blocked = blocked[np.arange(idx.size), first]
-            t_hit = ts[np.arange(idx.size), first]
-            hits = any_blocked & (t_hit <= max_t)
-            if np.count_nonzero(hits):
-                hit_idx.append(idx[hits])
-                hit_t.append(t_hit[hits])
-            t_next = ts[:, -1] + s[:, -1]
-            keep = ~any_blocked & (ts[:, -1] <= max_t)
-            idx, t, cs, sn = idx[keep], t_next[keep], cs[keep], sn[keep]
-        if hit_idx:
-            hi = np.concatenate(hit_idx)
-            ht = np.concatenate(hit_t)
-            result[hi] = self._refine(u0f, v0f, cos[hi], sin[hi], ht) * res
-            result[result > max_range] = np.inf
-        return result
-
-    def _refine(
-        self, u0: float, v0: float, cs: FloatArray, sn: FloatArray, t_hit: FloatArray
-    ) -> FloatArray:
-        """Earliest blocked sample within the last fine step before each hit [cells]."""
-        w = self.world
-        frac = np.arange(1, _REFINE_SAMPLES + 1, dtype=np.float64) / _REFINE_SAMPLES
-        t0 = np.maximum(t_hit - RAY_FINE_STEP, 0.0)
-        ts = t0[:, None] + (t_hit - t0)[:, None] * frac[None, :]
-        u = (u0 + ts * cs[:, None]).astype(np.intp)
-        v = (v0 + ts * sn[:, None]).astype(np.intp)
-        v *= w.padded_width
-        v += u
-        blocked = w.ray_step_flat.take(v) == 0.0
-        first = blocked.argmax(axis=1)  # the last sample (t_hit) is always blocked
-        refined: FloatArray = ts[np.arange(ts.shape[0]), first]
-        return refined
+        cos, sin = _contiguous_trig(angles, trig)
+        u0, v0 = (float(c) for c in w.to_padded_cells(origin_x, origin_y))
+        if not (0 <= u0 < w.padded_width and 0 <= v0 < w.padded_height):
+            return np.zeros(angles.size)
+        ranges = np.empty(angles.size)
+        resolution, max_range = float(w.resolution), float(max_range)
+        wall_ranges(  # one layout and dtype, so one compiled specialisation
+            w.ray_step_flat,
+            int(w.padded_width),
+            u0,
+            v0,
+            cos,
+            sin,
+            max_range / resolution,
+            resolution,
+            max_range,
+            ranges,
+        )
+        return ranges
 
     @staticmethod
     def cast_circles(
@@ -248,49 +180,20 @@ class RayCaster:
         origin_y: float,
         angles: FloatArray,
         circles: FloatArray,
-        increasing: bool | None = None,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
-        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1).
-
-        With increasing ``angles`` (a scan's; ``increasing=None`` checks) each circle is
-        intersected only with the beams of its angular window (`_angle_window`), with the
-        same arithmetic per beam; otherwise with every beam. ``trig``: ``(cos(angles),
-        sin(angles))`` if the caller has them.
-        """
+        """Range [m] to the nearest circle along each angle (inf if none) and its index (-1)
+        (`analytic_rays.circle_ranges`). ``trig``: ``(cos(angles), sin(angles))`` if the caller
+        has them."""
         n = angles.size
+        ranges, nearest = np.empty(n), np.empty(n, dtype=np.intp)
         if circles.size == 0:
-            return np.full(n, np.inf), np.full(n, -1, dtype=np.intp)
-        dx = circles[:, 0] - origin_x
-        dy = circles[:, 1] - origin_y
-        c = dx * dx + dy * dy - circles[:, 2] ** 2
-        if not (_increasing(angles) if increasing is None else increasing):
-            b = np.cos(angles)[:, None] * dx[None, :] + np.sin(angles)[:, None] * dy[None, :]
-            disc = b * b - c[None, :]
-            with np.errstate(invalid="ignore"):
-                t = b - np.sqrt(disc)
-            t = np.where((disc >= 0) & (b > 0), np.where(c[None, :] < 0, 0.0, t), np.inf)
-            which = t.argmin(axis=1)
-            best = t[np.arange(n), which]
-            return best, np.where(np.isfinite(best), which, -1)
-        cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
-        best = np.full(n, np.inf)
-        nearest = np.full(n, -1, dtype=np.intp)
-        for j in range(circles.shape[0]):
-            distance = math.hypot(dx[j], dy[j])
-            # Inside the circle every beam ahead hits it at 0; outside, a beam meets it only
-            # within asin(r / distance) of the bearing to its centre.
-            half = math.pi if c[j] < 0 else math.asin(min(1.0, circles[j, 2] / distance))
-            for lo, hi in _angle_window(angles, math.atan2(dy[j], dx[j]), half):
-                b = cos[lo:hi] * dx[j] + sin[lo:hi] * dy[j]
-                disc = b * b - c[j]
-                with np.errstate(invalid="ignore"):
-                    t = b - np.sqrt(disc)
-                t = np.where((disc >= 0) & (b > 0), 0.0 if c[j] < 0 else t, np.inf)
-                closer = t < best[lo:hi]  # strict: the first circle wins a tie, as argmin
-                best[lo:hi][closer] = t[closer]
-                nearest[lo:hi][closer] = j
-        return best, nearest
+            ranges[:], nearest[:] = np.inf, -1
+            return ranges, nearest
+        cos, sin = _contiguous_trig(angles, trig)
+        circles = np.ascontiguousarray(circles, dtype=np.float64)
+        circle_ranges(float(origin_x), float(origin_y), cos, sin, circles, ranges, nearest)
+        return ranges, nearest
 
     def cast_glass(
         self,
@@ -298,47 +201,21 @@ class RayCaster:
         origin_y: float,
         angles: FloatArray,
         return_angle: float,
-        increasing: bool | None = None,
         trig: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
-        """Range [m] to the first glass pane that reflects each beam back (inf if none).
-
-        Slab test per axis-aligned pane: entry at ``t = max(t_x, t_y)`` over the near faces;
-        the face entered is the one of the larger; it reflects when the beam is within
-        ``return_angle`` of that face's normal (``|cos| >= cos(return_angle)``). With
-        increasing ``angles`` (``increasing=None`` checks) only the beams within the pane's
-        angular extent are tested.
-        """
-        n = angles.size
-        best = np.full(n, np.inf)
+        """Range [m] to the first glass pane that reflects each beam back (inf if none): a
+        beam within ``return_angle`` of the normal of the face it enters
+        (`analytic_rays.pane_ranges`). ``trig``: ``(cos(angles), sin(angles))`` if the caller
+        has them."""
+        ranges = np.empty(angles.size)
         if not self.world.glass:
-            return best
-        cx, cy = trig if trig is not None else (np.cos(angles), np.sin(angles))
-        threshold = math.cos(return_angle)
-        windowed = _increasing(angles) if increasing is None else increasing
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv_x, inv_y = 1.0 / cx, 1.0 / cy
-            for x0, y0, x1, y1 in self.world.glass:
-                windows = [(0, n)]
-                if windowed and not (x0 <= origin_x <= x1 and y0 <= origin_y <= y1):
-                    windows = _box_windows(angles, origin_x, origin_y, (x0, y0, x1, y1))
-                for lo, hi in windows:
-                    ix, iy = inv_x[lo:hi], inv_y[lo:hi]
-                    tx0, tx1 = (x0 - origin_x) * ix, (x1 - origin_x) * ix
-                    ty0, ty1 = (y0 - origin_y) * iy, (y1 - origin_y) * iy
-                    tx_near, tx_far = np.minimum(tx0, tx1), np.maximum(tx0, tx1)
-                    ty_near, ty_far = np.minimum(ty0, ty1), np.maximum(ty0, ty1)
-                    t_in = np.fmax(tx_near, ty_near)
-                    t_out = np.fmin(tx_far, ty_far)
-                    hit = (t_in <= t_out) & (t_in > 0)
-                    # Normal of the entered face: x-face if tx_near is the later entry.
-                    cos_incidence = np.where(
-                        tx_near >= ty_near, np.abs(cx[lo:hi]), np.abs(cy[lo:hi])
-                    )
-                    reflect = hit & (cos_incidence >= threshold)
-                    part = best[lo:hi]
-                    part[...] = np.where(reflect & (t_in < part), t_in, part)
-        return best
+            ranges[:] = np.inf
+            return ranges
+        cos, sin = _contiguous_trig(angles, trig)
+        threshold = math.cos(float(return_angle))
+        panes = np.array(self.world.glass, dtype=np.float64)  # rows x0, y0, x1, y1
+        pane_ranges(float(origin_x), float(origin_y), cos, sin, panes, threshold, ranges)
+        return ranges
 
     def cast(
         self,
@@ -348,13 +225,11 @@ class RayCaster:
         max_range: float,
         circles: FloatArray | None = None,
         glass_return_angle: float = 0.0,
-        increasing: bool | None = None,
     ) -> FloatArray:
         """Noise-free range [m] to walls or people along each world-frame angle; inf if none.
 
         Glass panes (``World.glass``) return only beams within ``glass_return_angle`` of their
-        normal; other beams see through them. ``increasing``: whether ``angles`` increase
-        strictly (None: check).
+        normal; other beams see through them.
         """
         trig = (np.cos(angles), np.sin(angles))  # once for walls, panes and people
         key = (origin_x, origin_y, max_range, self.world.version)
@@ -365,10 +240,10 @@ class RayCaster:
             ranges = self.cast_walls(origin_x, origin_y, angles, max_range, trig)
             self._last_walls = (key, angles.copy(), ranges.copy())
         if self.world.glass:
-            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, increasing, trig)
+            pane = self.cast_glass(origin_x, origin_y, angles, glass_return_angle, trig)
             ranges = np.minimum(ranges, np.where(pane <= max_range, pane, np.inf))
         if circles is not None and circles.size:
-            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, increasing, trig)
+            people, _ = self.cast_circles(origin_x, origin_y, angles, circles, trig)
             ranges = np.minimum(ranges, np.where(people <= max_range, people, np.inf))
         return ranges
 
@@ -406,20 +281,15 @@ class LaserSim:
     def _mix_pixels(self, ranges: FloatArray) -> None:
         """Farther beam of each discontinuous neighbour pair -> a range between the two."""
         c = self.config
-        a, b = ranges[:-1], ranges[1:]
-        finite = np.isfinite(a) & np.isfinite(b)
-        with np.errstate(invalid="ignore"):
-            jump = finite & (np.abs(a - b) > c.mixed_pixel_jump)
-        pairs = np.flatnonzero(jump)
-        if pairs.size == 0:
+        pairs = np.empty(ranges.size, dtype=np.intp)
+        count = jump_pairs(ranges, float(c.mixed_pixel_jump), pairs)
+        if count == 0:
             return
-        chosen = pairs[self._rng.random(pairs.size) < c.mixed_pixel_probability]
+        pairs = pairs[:count]
+        chosen = pairs[self._rng.random(count) < c.mixed_pixel_probability]
         if chosen.size == 0:
             return
-        near = np.minimum(ranges[chosen], ranges[chosen + 1])
-        far = np.maximum(ranges[chosen], ranges[chosen + 1])
-        farther = np.where(ranges[chosen] > ranges[chosen + 1], chosen, chosen + 1)
-        ranges[farther] = near + self._rng.random(chosen.size) * (far - near)
+        mix_pairs(ranges, chosen, self._rng.random(chosen.size))
 
     def scan(
         self, robot_pose: Pose2D, stamp: float, circles: FloatArray | None = None
@@ -434,68 +304,42 @@ class LaserSim:
             c.range_max,
             circles,
             c.glass_return_angle,
-            increasing=c.angle_increment > 0,  # beam_angles() + yaw
         )
         ranges = true.copy()
         if c.mixed_pixel_probability > 0:
             self._mix_pixels(ranges)
-        finite = np.isfinite(ranges)
-        if c.noise_sigma > 0:
-            ranges[finite] += self._rng.normal(0.0, c.noise_sigma, int(finite.sum()))
-        if c.bias_sigma > 0:
-            ranges[finite] += self._advance_bias(stamp)
-        if c.dropout_probability > 0 or c.far_dropout_per_m > 0:
-            p = c.dropout_probability + c.far_dropout_per_m * np.where(finite, ranges, 0.0)
-            ranges[finite & (self._rng.random(ranges.size) < p)] = np.inf
-        ranges[finite & (ranges > c.range_max)] = np.inf
-        ranges[finite & (ranges < c.range_min)] = -np.inf
+        # The random draws of the error model, in its order (`range_errors`), then its passes.
+        finite = int(np.count_nonzero(np.isfinite(ranges)))
+        noise = self._rng.normal(0.0, c.noise_sigma, finite) if c.noise_sigma > 0 else _NONE
+        bias = self._advance_bias(stamp) if c.bias_sigma > 0 else 0.0
+        dropout = c.dropout_probability > 0 or c.far_dropout_per_m > 0
+        uniform = self._rng.random(ranges.size) if dropout else _NONE
+        ranges32 = np.empty(ranges.size, dtype=np.float32)
+        apply_errors(  # floats as floats: one compiled specialisation
+            ranges,
+            noise,
+            float(bias),
+            dropout,
+            float(c.dropout_probability),
+            float(c.far_dropout_per_m),
+            uniform,
+            float(c.range_min),
+            float(c.range_max),
+            ranges32,
+        )
         return LaserScan(
             stamp=stamp,
             angle_min=c.angle_min,
             angle_increment=c.angle_increment,
             range_min=c.range_min,
             range_max=c.range_max,
-            ranges=ranges.astype(np.float32),
+            ranges=ranges32,
         )
 
 
-# Beam windows: a margin [rad] beyond a target's exact angular extent, far above rounding.
-_WINDOW_MARGIN = 1e-6
-
-
-def _increasing(angles: FloatArray) -> bool:
-    """Whether ``angles`` increase strictly (a scan's beams do), so windows can be searched."""
-    return angles.size > 1 and bool(np.all(angles[1:] > angles[:-1]))
-
-
-def _angle_window(angles: FloatArray, bearing: float, half: float) -> list[tuple[int, int]]:
-    """Index ranges ``[lo, hi)`` of the increasing ``angles`` within ``half`` (+ a margin) of
-    ``bearing``, modulo a full turn."""
-    half += _WINDOW_MARGIN
-    if half >= math.pi:
-        return [(0, angles.size)]
-    first = float(angles[0]) - half
-    centre = first + (bearing - first) % (2.0 * math.pi)  # the first turn at or after `first`
-    windows = []
-    while centre - half <= angles[-1]:
-        lo = int(angles.searchsorted(centre - half, side="left"))
-        hi = int(angles.searchsorted(centre + half, side="right"))
-        if hi > lo:
-            windows.append((lo, hi))
-        centre += 2.0 * math.pi
-    return windows
-
-
-def _box_windows(
-    angles: FloatArray, x: float, y: float, box: tuple[float, float, float, float]
-) -> list[tuple[int, int]]:
-    """`_angle_window` of the beams from (x, y), outside the box, that can meet the box: its
-    corners span less than half a turn, around the bearing of its centre."""
-    x0, y0, x1, y1 = box
-    mid = math.atan2((y0 + y1) / 2 - y, (x0 + x1) / 2 - x)
-    half = max(
-        abs(math.remainder(math.atan2(cy - y, cx - x) - mid, 2.0 * math.pi))
-        for cx in (x0, x1)
-        for cy in (y0, y1)
-    )
-    return _angle_window(angles, mid, half)
+def _contiguous_trig(
+    angles: FloatArray, trig: tuple[FloatArray, FloatArray] | None
+) -> tuple[FloatArray, FloatArray]:
+    """``(cos(angles), sin(angles))`` as C-contiguous float64 (one compiled specialisation)."""
+    cos, sin = trig if trig is not None else (np.cos(angles), np.sin(angles))
+    return np.ascontiguousarray(cos, dtype=np.float64), np.ascontiguousarray(sin, dtype=np.float64)

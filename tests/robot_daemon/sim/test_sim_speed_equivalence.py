@@ -1,14 +1,12 @@
 """The simulator's fast paths equal their plain versions, bit for bit (issue 12 speed work).
 
-Windows of beams (people, glass panes) against every beam, the float32 ray-casting field against
-the float64 one it replaced, the cast cache against a fresh cast, and the metrics' footprint
-outline against ``RobotFootprint.outline``: equality, not closeness, so the simulated scans (and
-the tours built on them) are unchanged.
+The float32 ray-casting field against the float64 one it replaced, the cast cache against a
+fresh cast, and the metrics' footprint outline against ``RobotFootprint.outline``: equality, not
+closeness, so the simulated scans (and the tours built on them) are unchanged. (The compiled
+casters against the numpy ones: ``test_sim_sphere_tracing.py``, ``test_sim_analytic_rays.py``.)
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -17,6 +15,7 @@ from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon.sim.diff_drive import RobotFootprint, to_world
 from robot_daemon.sim.laser_sim import LaserConfig, LaserSim, RayCaster
 from robot_daemon.sim.world import PAD, RAY_FINE_STEP, SQRT2, RectObstacle, World
+from tests.robot_daemon.sim.numpy_caster import numpy_refine
 
 
 def _office() -> World:
@@ -114,38 +113,8 @@ def test_walls_equal_the_sphere_tracing_before_the_speed_work() -> None:
         assert np.array_equal(np.isfinite(fast), hit)
         cos, sin = np.cos(angles[hit]), np.sin(angles[hit])
         u0, v0 = (float(c) for c in WORLD.to_padded_cells(x, y))
-        refined = caster._refine(u0, v0, cos, sin, t_hit[hit]) * WORLD.resolution
+        refined = numpy_refine(WORLD, u0, v0, cos, sin, t_hit[hit]) * WORLD.resolution
         assert np.array_equal(fast[hit], np.where(refined > 30.0, np.inf, refined))
-
-
-def test_people_windows_equal_every_beam() -> None:
-    rng = np.random.default_rng(12)
-    beams = LaserConfig().beam_angles()
-    for k, (x, y, yaw) in enumerate(_poses(rng, 60)):
-        n = int(rng.integers(1, 7))
-        circles = np.column_stack(
-            (x + rng.uniform(-3, 3, n), y + rng.uniform(-3, 3, n), rng.uniform(0.05, 0.4, n))
-        )
-        if k % 5 == 0:
-            circles[0, :2] = (x + 0.05, y)  # the laser inside a person
-        if k % 7 == 0:
-            circles[-1] = circles[0]  # a tie: the first circle wins
-        angles = beams + yaw + (2 * math.pi if k % 3 == 0 else 0.0)  # windows past +-pi
-        fast = RayCaster.cast_circles(x, y, angles, circles, increasing=True)
-        ref = RayCaster.cast_circles(x, y, angles, circles, increasing=False)
-        assert np.array_equal(fast[0], ref[0]) and np.array_equal(fast[1], ref[1])
-
-
-def test_glass_windows_equal_every_beam() -> None:
-    rng = np.random.default_rng(13)
-    beams = LaserConfig().beam_angles()
-    caster = RayCaster(WORLD)
-    poses = [*_poses(rng, 80), (2.02, 0.8, 0.3)]  # the last one inside a pane
-    for x, y, yaw in poses:
-        angles = beams + yaw
-        fast = caster.cast_glass(x, y, angles, 0.5, increasing=True)
-        ref = caster.cast_glass(x, y, angles, 0.5, increasing=False)
-        assert np.array_equal(fast, ref)
 
 
 def test_cast_cache_equals_a_fresh_cast_and_sees_new_furniture() -> None:
