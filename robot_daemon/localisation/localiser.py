@@ -100,6 +100,7 @@ from robot_daemon.localisation.scan_matcher import (
     ScanMatcherConfig,
     subsample_points,
 )
+from robot_daemon.localisation.sphere_trace import trace_rays, trace_runs_of_two
 from robot_daemon.localisation.wall_model import (
     WallModelConfig,
     WallModelLearner,
@@ -1108,29 +1109,17 @@ class Localiser:
         """`_trace_impossible` for `impossible_fraction` without ``see_through`` and with runs
         of two (``impossible_min_run``), or None when that fraction is certainly 0: traced
         beams are only counted next to another impossible one, and of two neighbours one has
-        an even index. So the even beams are traced first; if none is impossible, or none of
-        the odd beams next to an impossible one is, no run of two exists (most scans: the
-        median scan traces about half the rays, issue 12 speed). Otherwise the odd beams are
-        traced too and the two halves interleaved. Each ray's trace depends on that ray alone
-        (element for element arithmetic), so the result equals one trace of all the beams bit
-        for bit (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`) and is kept
-        for `_see_through` as `_trace_impossible` keeps its own."""
+        an even index. So the even beams are traced first, and the odd ones only next to an
+        impossible one or once a run is found (`sphere_trace.trace_runs_of_two`: the median
+        scan traces about half the rays, issue 12 speed). Each ray's trace depends on that ray
+        alone, so the result equals one trace of all the beams bit for bit
+        (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`) and is kept for
+        `_see_through` as `_trace_impossible` keeps its own."""
         beams = self.config.impossible_max_beams
-        pts = subsample_points(points, beams)
-        n = pts.shape[0]
-        even, even_crossing = self._trace_rays(pts[::2], pose, n)
-        if not even.any():
+        pts = np.ascontiguousarray(subsample_points(points, beams), dtype=np.float64)
+        paired, mask, crossing = trace_runs_of_two(pts, *self._trace_arguments(pose))
+        if not paired:
             return None
-        hits = 2 * np.flatnonzero(even)
-        near = np.union1d(hits - 1, hits + 1)
-        near = near[(near >= 0) & (near < n)]
-        if near.size == 0 or not self._trace_rays(pts[near], pose, n)[0].any():
-            return None
-        odd, odd_crossing = self._trace_rays(pts[1::2], pose, n)
-        mask = np.empty(n, dtype=bool)
-        mask[::2], mask[1::2] = even, odd
-        crossing = np.empty(n)
-        crossing[::2], crossing[1::2] = even_crossing, odd_crossing
         self._last_trace = (points, pose, beams, mask.copy(), crossing.copy())
         return mask, crossing
 
@@ -1155,15 +1144,12 @@ class Localiser:
         enters the map's occupied cells (nan for the others). ``max_beams``: traced beams
         (default ``impossible_max_beams``).
 
-        Speed (issue 12): a pass costs numpy calls, not arithmetic (a few dozen rays, up to 30
-        passes), so the rays' column and row coordinates move as one complex number and, with
-        the laser on the map, each ray's parameter is capped at `_exit_parameters` instead of
-        clipping both coordinates to the field: every sample beyond that reads the border's
-        inf either way. The arithmetic is element for element that of the plain loop, which
-        `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as reference.
-        The last ``_SCALAR_TAIL_RAYS`` rays are traced one by one (`_RayWalk`). Within
-        `_see_through` the trace `on_scan` has just made of the same points at the same pose is
-        returned again instead of being traced a second (and a third) time.
+        Speed: the rays are traced one at a time in a compiled loop (`sphere_trace`; until
+        session 13 up to 30 numpy passes over the rays and a plain-Python tail), with the
+        arithmetic of the plain loop that `tests/robot_daemon/localisation/
+        test_loc_speed_equivalence.py` keeps as reference, bit for bit. Within `_see_through`
+        the trace `on_scan` has just made of the same points at the same pose is returned
+        again instead of being traced a second (and a third) time.
         """
         cfg = self.config
         beams = max_beams or cfg.impossible_max_beams
@@ -1182,124 +1168,39 @@ class Localiser:
     def _trace_rays(
         self, points: FloatArray, pose: Pose2D, max_beams: int
     ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
-        """The sphere tracing of `_trace_impossible` (see there)."""
+        """The sphere tracing of `_trace_impossible` (`sphere_trace.trace_rays`, compiled)."""
+        pts = np.ascontiguousarray(subsample_points(points, max_beams), dtype=np.float64)
+        return trace_rays(pts, *self._trace_arguments(pose))
+
+    def _trace_arguments(
+        self, pose: Pose2D
+    ) -> tuple[
+        tuple[float, float],
+        tuple[float, float],
+        FloatArray,
+        tuple[int, int],
+        float,
+        tuple[float, int, float],
+    ]:
+        """The trace kernels' arguments after the points (`sphere_trace.trace_rays`): the
+        laser's heading, its position in continuous cells of the step field (+1: the field's
+        border of inf cells), the step field and its size, the resolution and the trace's
+        parameters; each of one type (one compiled specialisation)."""
         cfg = self.config
-        pts = subsample_points(points, max_beams)
-        out = np.zeros(pts.shape[0], dtype=bool)
-        crossing = np.full(pts.shape[0], np.nan)
-        if pts.shape[0] == 0:
-            return out, crossing
-        sx, sy = pts[:, 0], pts[:, 1]
-        r = np.hypot(sx, sy)
-        limit = r - cfg.impossible_margin_m
-        idx = np.flatnonzero(limit > 0.0)
-        if idx.size == 0:
-            return out, crossing
         g = self._grid
         inv = 1.0 / g.resolution
-        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-        rs = r[idx]
-        # Ray directions in cells per metre and the laser in continuous cell coordinates of the
-        # inf-bordered field (+1), as complex numbers (column + i row): one numpy call moves
-        # both coordinates, and t * (c + i r) = t c + i t r exactly (the cross terms are 0 * x).
-        dcol = (c * sx[idx] - s * sy[idx]) / rs * inv
-        drow = (s * sx[idx] + c * sy[idx]) / rs * inv
-        direction = dcol + 1j * drow
-        col0 = (pose.x - g.origin_x) * inv + 1.0
-        row0 = (pose.y - g.origin_y) * inv + 1.0
-        origin = complex(col0, row0)
-        limit = limit[idx]
-        steps = self._wall_steps  # the step from each cell: NaN in occupied ones, inf off the map
-        wp = g.width + 2
-        cmax, rmax = g.width + 1, g.height + 1
-        # Each ray's last parameter inside the field (None: the laser is off the map, clip).
-        t_exit = _exit_parameters(col0, row0, dcol, drow, g.width + 2, g.height + 2)
-        min_step = g.resolution
-        depth = cfg.impossible_depth_m
-
-        def lookup(
-            tt: FloatArray, dirs: npt.NDArray[np.complex128], exits: FloatArray | None
-        ) -> FloatArray:
-            # Truncation (astype) equals floor for padded coordinates >= 0; negative ones
-            # truncate to <= 0, which the clipping (off the map) sends to the border, as floor.
-            pos = (tt if exits is None else np.minimum(tt, exits)) * dirs
-            pos += origin
-            col = pos.real.astype(np.intp)
-            row = pos.imag.astype(np.intp)
-            if exits is None:
-                np.minimum(col, cmax, out=col)
-                np.maximum(col, 0, out=col)
-                np.minimum(row, rmax, out=row)
-                np.maximum(row, 0, out=row)
-            row *= wp
-            row += col
-            out_d: FloatArray = steps.take(row)
-            return out_d
-
-        t = np.zeros(idx.shape)
-        first = 0
-        # Every ray's first sample (t = 0) is the laser's own cell: outside a wall, each ray's
-        # first step is that one cell's, one number instead of a pass (speed).
-        laser_col, laser_row = int(col0), int(row0)
-        if t_exit is None:
-            laser_col, laser_row = max(min(laser_col, cmax), 0), max(min(laser_row, rmax), 0)
-        first_step = steps.item(laser_row * wp + laser_col)
-        if first_step == first_step:  # not NaN: no ray starts in an occupied cell
-            t += first_step
-            first = 1
-            keep = t < limit
-            if np.count_nonzero(keep) < keep.size:
-                t, limit, direction, idx = t[keep], limit[keep], direction[keep], idx[keep]
-                if t_exit is not None:
-                    t_exit = t_exit[keep]
-        # Up to 30 passes over a few dozen rays; the rays that end in a pass (through the map:
-        # NaN, at their limit, or off the map: inf) are sorted out only in passes where some do.
-        for step in range(first, cfg.impossible_max_steps):
-            if t.size <= _SCALAR_TAIL_RAYS:
-                # The last few rays (nine traces in ten run all 30 passes, the last ones on a
-                # handful of grazing rays): one by one in plain Python, which costs less than
-                # a pass's numpy calls on so few.
-                walk = _RayWalk(steps, wp, (col0, row0), (cmax, rmax) if t_exit is None else None)
-                walk.trace(
-                    cfg.impossible_max_steps - step,
-                    (t, limit, direction, idx, t_exit),
-                    (min_step, depth),
-                    out,
-                    crossing,
-                )
-                break
-            d = lookup(t, direction, t_exit)
-            t_next = t + d  # NaN where the sample is in an occupied cell
-            keep = t_next < limit
-            if np.count_nonzero(keep) == keep.size:
-                t = t_next
-                continue
-            hit = np.isnan(d)
-            if np.count_nonzero(hit):
-                if depth > 0.0:
-                    # Only a ray that stays inside occupied cells for `depth` goes through the
-                    # map: a lone occupied cell is as likely a stray end point of the mapping
-                    # run. A shallow one steps on by one cell (its cell's step, max(0 - √2 res,
-                    # res)).
-                    deep = hit.copy()
-                    exits = None if t_exit is None else t_exit[hit]
-                    for frac in (0.5, 1.0):
-                        through = np.isnan(lookup(t[deep] + frac * depth, direction[deep], exits))
-                        deep[deep] = through
-                        if exits is not None:
-                            exits = exits[through]
-                    shallow = hit & ~deep
-                    t_next[shallow] = t[shallow] + min_step
-                    keep[shallow] = t_next[shallow] < limit[shallow]
-                    hit = deep
-                out[idx[hit]] = True
-                crossing[idx[hit]] = t[hit]
-            t, limit, direction, idx = t_next[keep], limit[keep], direction[keep], idx[keep]
-            if t_exit is not None:
-                t_exit = t_exit[keep]
-            if t.size == 0:
-                break
-        return out, crossing
+        return (
+            (math.cos(pose.yaw), math.sin(pose.yaw)),
+            ((pose.x - g.origin_x) * inv + 1.0, (pose.y - g.origin_y) * inv + 1.0),
+            self._wall_steps,
+            (int(g.width) + 2, int(g.height) + 2),
+            float(g.resolution),
+            (
+                float(cfg.impossible_margin_m),
+                int(cfg.impossible_max_steps),
+                float(cfg.impossible_depth_m),
+            ),
+        )
 
     def _match_from_starts(self, points: FloatArray, prior: Pose2D, cov: FloatArray) -> MatchResult:
         """The first match after a person set the pose: Gauss-Newton converges only within a
@@ -1849,124 +1750,6 @@ def _max_eig_2x2(cov: FloatArray) -> float:
     """Largest eigenvalue of the position block of a 3x3 covariance."""
     a, b, d = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
     return 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
-
-
-_SCALAR_TAIL_RAYS = 48  # `_trace_impossible` traces this few rays left one by one
-
-
-class _RayWalk:
-    """`Localiser._trace_impossible`'s passes, one ray at a time in plain Python floats: the
-    same operations in the same order as the numpy passes (a float64 product or sum rounds
-    alike in both; ``int`` truncates as ``astype`` does), so each ray ends, and is judged,
-    exactly as there (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`).
-    ``steps``: the trace's step field (`_sphere_steps`); ``clip``: the field's last column and
-    row when the laser is off the map (samples clipped to the border), None when each ray's
-    parameter is capped at its exit instead."""
-
-    def __init__(
-        self,
-        steps: FloatArray,
-        width: int,
-        origin: tuple[float, float],
-        clip: tuple[int, int] | None,
-    ) -> None:
-        self.steps = steps
-        self.width = width
-        self.origin = origin
-        self.clip = clip
-
-    def lookup(self, t: float, dcol: float, drow: float, exit_t: float) -> float:
-        """The field at parameter ``t`` of a ray (the numpy pass's ``lookup``); ``exit_t``
-        is inf when the samples are clipped instead."""
-        tt = min(t, exit_t)
-        col = int(tt * dcol + self.origin[0])
-        row = int(tt * drow + self.origin[1])
-        if self.clip is not None:
-            col = max(min(col, self.clip[0]), 0)
-            row = max(min(row, self.clip[1]), 0)
-        value: float = self.steps.item(row * self.width + col)
-        return value
-
-    def trace(
-        self,
-        passes: int,
-        rays: tuple[
-            FloatArray,
-            FloatArray,
-            npt.NDArray[np.complex128],
-            npt.NDArray[np.intp],
-            FloatArray | None,
-        ],
-        steps: tuple[float, float],
-        out: npt.NDArray[np.bool_],
-        crossing: FloatArray,
-    ) -> None:
-        """Up to ``passes`` more steps of each ray ``(t, limit, direction, index, exit)``;
-        marks ``out`` and ``crossing`` at the index of each one that goes through the map.
-
-        Speed: the lookup is written out in the loop (a call per step costs as much as the
-        step), the step field is read through its memoryview (a subscript, not ``item``'s
-        method call: the same float), and ``min`` is a conditional expression that picks the
-        very operand the built-in picks (``min(a, b)`` is ``b if b < a else a``)."""
-        min_step, depth = steps
-        t, limit, direction, idx, t_exit = rays
-        exits = [math.inf] * t.size if t_exit is None else t_exit.tolist()
-        col0, row0 = self.origin
-        field, width, clip = self.steps.data, self.width, self.clip
-        for tk, lim, dc, dr, k, ex in zip(
-            t.tolist(),
-            limit.tolist(),
-            direction.real.tolist(),
-            direction.imag.tolist(),
-            idx.tolist(),
-            exits,
-            strict=True,
-        ):
-            for _ in range(passes):
-                tt = ex if ex < tk else tk  # min(tk, ex)
-                col = int(tt * dc + col0)
-                row = int(tt * dr + row0)
-                if clip is not None:
-                    col = max(min(col, clip[0]), 0)
-                    row = max(min(row, clip[1]), 0)
-                d: float = field[row * width + col]  # a float: the view of a float64 array
-                if d != d:  # NaN: an occupied cell
-                    if depth <= 0.0 or (
-                        _is_nan(self.lookup(tk + 0.5 * depth, dc, dr, ex))
-                        and _is_nan(self.lookup(tk + 1.0 * depth, dc, dr, ex))
-                    ):
-                        out[k] = True
-                        crossing[k] = tk
-                        break
-                    d = min_step  # not deep: one cell on
-                tk += d
-                if not tk < lim:
-                    break
-
-
-def _is_nan(value: float) -> bool:
-    return value != value
-
-
-def _exit_parameters(
-    col0: float, row0: float, dc: FloatArray, dr: FloatArray, width: int, height: int
-) -> FloatArray | None:
-    """Per ray ``(col0, row0) + t * (dc, dr)`` on a ``width x height`` field with a border of
-    one cell: the ``t`` at which it reaches the middle of the border it leaves by (the first of
-    ``col = 0.5`` or ``width - 0.5`` and the same for rows); None if the start is outside those
-    lines. Up to that ``t`` every sample truncates to a cell of the field; from there on each
-    one lies on or beyond the border, so a sample at that ``t`` reads what a clipped one would.
-    """
-    if not (0.5 < col0 < width - 0.5 and 0.5 < row0 < height - 0.5):
-        return None
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tc = np.where(dc > 0.0, (width - 0.5 - col0) / dc, (0.5 - col0) / dc)
-        tr = np.where(dr > 0.0, (height - 0.5 - row0) / dr, (0.5 - row0) / dr)
-    # A ray parallel to an axis never leaves by that axis (x / 0 is -inf there: no bound).
-    tc[dc == 0.0] = np.inf
-    tr[dr == 0.0] = np.inf
-    out: FloatArray = np.minimum(tc, tr)
-    return out
 
 
 def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:

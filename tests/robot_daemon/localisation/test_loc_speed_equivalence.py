@@ -17,7 +17,9 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
+from robot_daemon import jit
 from robot_daemon.localisation import localiser as localiser_module
+from robot_daemon.localisation import sphere_trace
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import (
@@ -188,13 +190,16 @@ def test_fast_impossible_trace_equals_the_plain_loop_on_the_isr_map() -> None:
         assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
-@pytest.mark.parametrize("scalar_rays", [0, 10_000])
-def test_impossible_trace_one_ray_at_a_time_equals_the_plain_loop(
-    scalar_rays: int, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.parametrize("compiled", [True, False])
+def test_impossible_trace_compiled_or_plain_python_equals_the_plain_loop(
+    compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Every pass in numpy (0) or every ray in plain Python from the first pass (10 000), on
-    and off the map, with and without the depth test: the plain loop's flags and ranges."""
-    monkeypatch.setattr(localiser_module, "_SCALAR_TAIL_RAYS", scalar_rays)
+    """The trace's kernel (`sphere_trace.trace_rays`) compiled and as its plain-Python function,
+    on and off the map, with and without the depth test: the plain loop's flags and ranges."""
+    if not compiled:
+        monkeypatch.setattr(
+            localiser_module, "trace_rays", jit.python_function(sphere_trace.trace_rays)
+        )
     rng = np.random.default_rng(10)
     for depth in (0.1, 0.0):
         loc = Localiser(_holed_office(), LocaliserConfig(impossible_depth_m=depth))
@@ -416,6 +421,11 @@ class CountedTraces(Localiser):
     ) -> tuple[np.ndarray, np.ndarray]:
         self.traces += subsample_points(points, max_beams).shape[0]
         return super()._trace_rays(points, pose, max_beams)
+
+    def _trace_in_halves(self, points: np.ndarray, pose: Pose2D) -> tuple | None:
+        # counted as every beam (it traces half of them, or all when it finds a run of two)
+        self.traces += subsample_points(points, self.config.impossible_max_beams).shape[0]
+        return super()._trace_in_halves(points, pose)
 
 
 def test_see_through_reuses_the_trace_of_the_scan_and_estimates_alike() -> None:
@@ -922,27 +932,3 @@ def test_impossible_fraction_traced_in_halves_equals_one_trace(depth: float) -> 
                 assert np.array_equal(loc._last_trace[3], ref_mask)
                 assert np.array_equal(loc._last_trace[4], ref_crossing, equal_nan=True)
     assert screened > 20 and traced > 20  # both ways were taken
-
-
-def test_a_run_of_two_across_the_halves_is_found() -> None:
-    """Every pair of neighbouring beams, one of them even: a run of exactly two impossible
-    beams is counted whichever of the two is the even one."""
-    loc = Localiser(office_grid())
-    n = 40
-    for first in (10, 11):
-        mask = np.zeros(n, dtype=bool)
-        mask[first : first + 2] = True
-
-        def fake(points: np.ndarray, pose: Pose2D, max_beams: int, m: np.ndarray = mask):
-            # The rays are told apart by their x coordinate (their index in the full scan).
-            flags = m[points[:, 0].astype(int)]
-            return flags, np.where(flags, 1.0, np.nan)
-
-        loc._trace_rays = fake  # type: ignore[method-assign]
-        points = np.column_stack([np.arange(n, dtype=float), np.ones(n)])
-        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 2 / n
-        assert np.array_equal(loc._last_trace[3], mask)
-        lone = np.zeros(n, dtype=bool)
-        lone[[first, first + 3]] = True  # two lone beams: no run
-        loc._trace_rays = lambda p, q, b, m=lone: fake(p, q, b, m)  # type: ignore[method-assign]
-        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 0.0

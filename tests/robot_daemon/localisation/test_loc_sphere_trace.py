@@ -1,0 +1,243 @@
+"""The see-through trace's kernel (`robot_daemon.localisation.sphere_trace`): compiled and plain
+Python give the same flags and crossing ranges bit for bit, and a localiser's run after the
+warm-up compiles nothing more.
+
+Its equality with the plain numpy loop it replaced is tested in `test_loc_speed_equivalence.py`
+(`trace_impossible_reference`), on the synthetic office, the ISR map and a real log here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from interbot_core.geometry import Pose2D
+from robot_daemon import jit
+from robot_daemon.localisation import localiser as localiser_module
+from robot_daemon.localisation import sphere_trace
+from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
+from tests.robot_daemon.localisation.carmen_log import read_laser_records
+from tests.robot_daemon.localisation.log_replay import log_config, map_of, replay_run
+from tests.robot_daemon.localisation.synthetic_office import OFFICE_BOXES, office_grid, utm_scan
+from tests.robot_daemon.localisation.test_loc_speed_equivalence import trace_impossible_reference
+
+INTEL = Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/intel-corrected.log.gz"
+
+
+def _random_case(
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, tuple[float, float], tuple[float, float], np.ndarray, tuple[int, int]]:
+    """A random step field (NaN cells in blobs and alone, inf border), laser and beams: lasers
+    on, at the edge of and off the field, beams of any length (some within the margin)."""
+    width, height = int(rng.integers(3, 60)), int(rng.integers(3, 60))
+    steps = rng.uniform(0.05, 0.6, (height, width))
+    steps[rng.uniform(size=steps.shape) < rng.uniform(0.0, 0.3)] = np.nan
+    steps[[0, -1], :] = np.inf
+    steps[:, [0, -1]] = np.inf
+    laser = (float(rng.uniform(-5.0, width + 5.0)), float(rng.uniform(-5.0, height + 5.0)))
+    n = int(rng.integers(0, 80))
+    ranges = rng.uniform(0.0, 8.0, n)
+    angles = rng.uniform(-math.pi, math.pi, n)
+    points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+    heading = float(rng.uniform(-4.0, 4.0))
+    return points, (math.cos(heading), math.sin(heading)), laser, steps.reshape(-1), (width, height)
+
+
+def test_compiled_kernels_equal_their_plain_python_functions() -> None:
+    """Random fields, lasers and beams, with and without the depth test: the compiled kernels
+    and their plain-Python functions (with the plain per-ray trace and lookup) agree bit for
+    bit."""
+    rng = np.random.default_rng(21)
+    through_seen = possible_seen = paired_seen = 0
+    helpers = ("_step_at", "_trace_ray")
+    for _ in range(300):
+        points, cos_sin, laser, steps, field = _random_case(rng)
+        resolution = float(rng.choice([0.05, 0.1]))
+        trace = (0.3, int(rng.integers(1, 40)), float(rng.choice([0.0, 0.1, 0.25])))
+        args = (points, cos_sin, laser, steps, field, resolution, trace)
+        got = sphere_trace.trace_rays(*args)
+        got_pairs = sphere_trace.trace_runs_of_two(*args)
+        with pytest.MonkeyPatch.context() as patch:
+            for name in helpers:
+                patch.setattr(sphere_trace, name, jit.python_function(getattr(sphere_trace, name)))
+            want = jit.python_function(sphere_trace.trace_rays)(*args)
+            want_pairs = jit.python_function(sphere_trace.trace_runs_of_two)(*args)
+        assert np.array_equal(got[0], want[0])
+        assert np.array_equal(got[1], want[1], equal_nan=True)
+        assert got_pairs[0] == want_pairs[0]
+        assert np.array_equal(got_pairs[1], want_pairs[1])
+        assert np.array_equal(got_pairs[2], want_pairs[2], equal_nan=True)
+        through_seen += int(np.count_nonzero(got[0]))
+        possible_seen += int(np.count_nonzero(~got[0]))
+        paired_seen += int(got_pairs[0])
+    assert through_seen > 100 and possible_seen > 100  # both verdicts were compared
+    assert 10 < paired_seen < 290
+
+
+def test_runs_of_two_trace_as_every_beam_or_find_none() -> None:
+    """`trace_runs_of_two` on the random cases: where it finds a run of two neighbouring
+    impossible beams, its flags and ranges are `trace_rays`' for every beam, bit for bit;
+    where it finds none, `trace_rays` has none either."""
+    rng = np.random.default_rng(25)
+    found = none = 0
+    for k in range(400):
+        points, cos_sin, laser, steps, field = _random_case(rng)
+        args = (points, cos_sin, laser, steps, field, 0.05, (0.3, 30, 0.1 * (k % 2)))
+        through, crossing = sphere_trace.trace_rays(*args)
+        paired, pair_through, pair_crossing = sphere_trace.trace_runs_of_two(*args)
+        run_of_two = bool(np.any(through[1:] & through[:-1]))
+        assert paired == run_of_two
+        if paired:
+            found += 1
+            assert np.array_equal(pair_through, through)
+            assert np.array_equal(pair_crossing, crossing, equal_nan=True)
+        else:
+            none += 1
+    assert found > 20 and none > 20
+
+
+@pytest.mark.parametrize("first", [10, 11])
+def test_a_run_of_two_across_the_halves_is_found(first: int) -> None:
+    """Two neighbouring beams through a wall, the even one first or the odd one: the run is
+    found either way; two lone impossible beams make no run."""
+    resolution, n = 0.05, 40
+    width = height = 200
+    steps = np.full((height, width), resolution)
+    steps[[0, -1], :] = np.inf
+    steps[:, [0, -1]] = np.inf
+    laser = (100.5, 100.5)
+    angles = np.arange(n) * (2.0 * math.pi / n)
+    cols, rows = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+
+    def wall_on(beams: list[int]) -> np.ndarray:
+        """The field with a disc of occupied cells 1.2 m along each of ``beams``."""
+        field = steps.copy()
+        for k in beams:
+            cx = laser[0] + 1.2 / resolution * math.cos(angles[k])
+            cy = laser[1] + 1.2 / resolution * math.sin(angles[k])
+            field[np.hypot(cols - cx, rows - cy) <= 2.5] = np.nan
+        return field.reshape(-1)
+
+    points = np.column_stack((3.0 * np.cos(angles), 3.0 * np.sin(angles)))
+    trace = (0.3, 100, 0.1)
+    for beams, run in (([first, first + 1], True), ([first, first + 3], False)):
+        args = (points, (1.0, 0.0), laser, wall_on(beams), (width, height), resolution, trace)
+        through, _ = sphere_trace.trace_rays(*args)
+        assert np.flatnonzero(through).tolist() == beams
+        paired, pair_through, _ = sphere_trace.trace_runs_of_two(*args)
+        assert paired == run
+        if run:
+            assert np.array_equal(pair_through, through)
+
+
+def test_lookup_truncates_and_clips_as_numpy() -> None:
+    """`sphere_trace._step_at` compiled: the cell of ``astype(np.intp)`` clipped to the field
+    (negative coordinates truncate towards 0), as the plain loop's ``np.clip`` has it."""
+    rng = np.random.default_rng(22)
+    width, height = 17, 11
+    steps = rng.uniform(0.0, 1.0, width * height)
+    for _ in range(2000):
+        t = float(rng.uniform(0.0, 40.0))
+        dcol, drow = (float(v) for v in rng.normal(0.0, 10.0, 2))
+        laser = (float(rng.uniform(-3.0, 20.0)), float(rng.uniform(-3.0, 14.0)))
+        col = np.clip(np.array([laser[0] + t * dcol]).astype(np.intp), 0, width - 1)[0]
+        row = np.clip(np.array([laser[1] + t * drow]).astype(np.intp), 0, height - 1)[0]
+        got = sphere_trace._step_at(steps, t, dcol, drow, laser, (width, height))
+        assert got == steps[row * width + col]
+
+
+def _real_log_localiser() -> tuple[Localiser, list]:
+    if not INTEL.is_file():
+        pytest.skip(f"real laser log {INTEL} is absent (see ../shared/data/README.md)")
+    records = read_laser_records(INTEL)[:400]
+    return Localiser(map_of(records[:300:2]), log_config()), records
+
+
+@pytest.mark.realdata
+def test_trace_equals_the_plain_loop_on_a_real_log() -> None:
+    """The Intel lab's scans (a map of its first 300 scans, every second one), traced at their
+    logged poses and 0.1-1 m off them: the plain numpy loop's flags and ranges, bit for bit."""
+    loc, records = _real_log_localiser()
+    rng = np.random.default_rng(23)
+    through = 0
+    for record in records[1::3]:
+        points = loc._scan_points(record.scan)
+        p = record.pose
+        for sigma in (0.0, 0.1, 1.0):
+            at = Pose2D(p.x + rng.normal(0, sigma), p.y + rng.normal(0, sigma), p.yaw)
+            mask, crossing = loc._trace_rays(points, at, loc.config.impossible_max_beams)
+            ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
+            assert np.array_equal(mask, ref_mask)
+            assert np.array_equal(crossing, ref_crossing, equal_nan=True)
+            through += int(np.count_nonzero(mask))
+    assert through > 50
+
+
+class _CountedTraces:
+    """The localiser's trace kernels, counting their calls."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.calls = 0
+        for name in ("trace_rays", "trace_runs_of_two"):
+            monkeypatch.setattr(localiser_module, name, self._counted(getattr(sphere_trace, name)))
+
+    def _counted(self, kernel: Callable[..., object]) -> Callable[..., object]:
+        def call(*args: object) -> object:
+            self.calls += 1
+            return kernel(*args)
+
+        return call
+
+
+def _signatures() -> tuple[int, ...]:
+    kernels = (
+        sphere_trace.trace_rays,
+        sphere_trace.trace_runs_of_two,
+        sphere_trace._trace_ray,
+        sphere_trace._step_at,
+    )
+    return tuple(len(getattr(k, "signatures", ())) for k in kernels)
+
+
+def test_a_run_after_the_warm_up_compiles_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """300 scans of the synthetic office (tracked, then kidnapped: beams through walls) after
+    `jit.warm_up`: the trace ran on every scan and no kernel gained a signature."""
+    jit.warm_up()
+    before = _signatures()
+    counted = _CountedTraces(monkeypatch)
+    rng = np.random.default_rng(24)
+    loc = Localiser(office_grid(), LocaliserConfig())
+    truth = Pose2D(2.0, 2.0, 0.3)
+    loc.on_odometry(truth, 0.0)
+    loc.set_initial_pose(truth, 0.0)
+    for k in range(300):
+        now = 0.1 * (k + 1)
+        truth = Pose2D(2.0 + 0.05 * (k % 200), 2.0 + 0.01 * (k % 100), 0.3)
+        if k == 250:
+            truth = Pose2D(15.0, 10.0, 2.0)  # kidnapped: the odometry does not know
+        else:
+            loc.on_odometry(truth, now)
+        loc.on_scan(utm_scan(OFFICE_BOXES, truth, now, rng), now)
+    assert counted.calls >= 300
+    assert _signatures() == before
+    if jit.ENABLED:
+        assert before[:2] == (1, 1)  # one specialisation of each kernel: the warm-up's
+
+
+@pytest.mark.realdata
+def test_a_real_log_replay_after_the_warm_up_compiles_nothing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The same on 300 scans of the Intel lab's log replayed as the benchmark does."""
+    jit.warm_up()
+    before = _signatures()
+    counted = _CountedTraces(monkeypatch)
+    loc, records = _real_log_localiser()
+    outcomes = replay_run(loc._map_grid, records[100:400], np.random.default_rng(0), prototype=loc)
+    assert len(outcomes) == 299
+    assert counted.calls >= 299
+    assert _signatures() == before
