@@ -95,11 +95,13 @@ from robot_daemon.localisation.matcher_swap import MatcherBuild
 from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
 from robot_daemon.localisation.odometry_yaw_bias import OdometryYawBias, OdometryYawBiasConfig
 from robot_daemon.localisation.scan_matcher import (
+    PAD,
     MatchResult,
     ScanMatcher,
     ScanMatcherConfig,
     subsample_points,
 )
+from robot_daemon.localisation.slide_profile import likelihood_at_poses
 from robot_daemon.localisation.sphere_trace import trace_rays, trace_runs_of_two
 from robot_daemon.localisation.wall_model import (
     WallModelConfig,
@@ -1341,19 +1343,28 @@ class Localiser:
         if turns is None:  # one per profile length (speed: np.tile costs as much as a pass)
             turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 2 * k)))
             self._slide_turns[(k, t)] = turns
-        px = pose.x + along * direction[0]
-        py = pose.y + along * direction[1]
         yaw = pose.yaw + along * direction[2] + turns
-        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-        sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
-        # The end points at every pose, x and y stacked (`LikelihoodLevel.value_xy`):
-        # x = px + c sx - s sy, y = py + s sx + c sy, evaluated left to right.
-        pxy = np.empty((2, along.size, pts.shape[0]))
-        np.add(px[:, None], c * sx, out=pxy[0])
-        np.subtract(pxy[0], s * sy, out=pxy[0])
-        np.add(py[:, None], s * sx, out=pxy[1])
-        np.add(pxy[1], c * sy, out=pxy[1])
-        m = level.value_xy(pxy)
+        h, w = level.field.shape
+        lattice = (
+            float(level.origin_x),
+            float(level.origin_y),
+            1.0 / level.resolution,
+            float(PAD - level.lattice_offset),
+            w - 1.001,  # `LikelihoodLevel._corners_at`'s clip bounds
+            h - 1.001,
+        )
+        # M of the end points at every pose, compiled (`slide_profile.likelihood_at_poses`:
+        # `LikelihoodLevel.value_xy`'s arithmetic); the headings' cosines and sines numpy's.
+        m = likelihood_at_poses(
+            np.ascontiguousarray(pts, dtype=np.float64),
+            (float(pose.x), float(pose.y)),
+            (float(direction[0]), float(direction[1])),
+            along,
+            (np.cos(yaw), np.sin(yaw)),
+            level.corners,
+            lattice,
+            int(w),
+        )
         scores = np.add.reduce(m, axis=1) / m.shape[1]  # m.mean(axis=1), without the wrapper
         base = float(scores[0])
         if base <= 0.0:
