@@ -18,7 +18,7 @@ import pytest
 from interbot_core.geometry import Pose2D
 from robot_daemon import jit
 from robot_daemon.localisation import localiser as localiser_module
-from robot_daemon.localisation import slide_profile, sphere_trace
+from robot_daemon.localisation import map_distance, slide_profile, sphere_trace
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from tests.robot_daemon.localisation.carmen_log import read_laser_records
 from tests.robot_daemon.localisation.log_replay import log_config, map_of, replay_run
@@ -194,10 +194,11 @@ class _CountedTraces:
 
 
 def _signatures() -> tuple[int, ...]:
-    kernels = (  # every kernel of the localiser (the first three: called from Python)
+    kernels = (  # every kernel of the localiser (the first four: called from Python)
         sphere_trace.trace_rays,
         sphere_trace.trace_runs_of_two,
         slide_profile.likelihood_at_poses,
+        map_distance.end_points_on_map,
         sphere_trace._trace_ray,
         sphere_trace._step_at,
     )
@@ -226,7 +227,7 @@ def test_a_run_after_the_warm_up_compiles_nothing(monkeypatch: pytest.MonkeyPatc
     assert counted.calls >= 300
     assert _signatures() == before
     if jit.ENABLED:
-        assert before[:3] == (1, 1, 1)  # one specialisation of each kernel: the warm-up's
+        assert before[:4] == (1, 1, 1, 1)  # one specialisation of each kernel: the warm-up's
 
 
 @pytest.mark.realdata
