@@ -1072,15 +1072,13 @@ class Localiser:
         if see_through and crowded and k > 1:
             mask = _long_runs(mask, k)  # a stray beam elsewhere is not a second opening
         if see_through and mask.any():
-            pts = subsample_points(points, cfg.impossible_max_beams)
-            xs, ys = self._to_map(pts[mask], pose)
-            landing = self._distance_to_map(xs, ys)
+            sel = subsample_points(points, cfg.impossible_max_beams)[mask]
+            _, _, landing = self._end_points_on_map(sel, pose)
             landed = landing <= cfg.see_through_landing_m
             # Where they cross the map's walls: one opening (a door, a pane) or several places.
-            sel = pts[mask]
             unit = sel / np.maximum(np.hypot(sel[:, 0], sel[:, 1]), 1e-9)[:, None]
-            cx, cy = self._to_map(unit * crossing[mask][:, None], pose)
-            extent = math.hypot(float(np.ptp(cx)), float(np.ptp(cy)))
+            cx, cy, _ = self._end_points_on_map(unit * crossing[mask][:, None], pose)
+            extent = math.hypot(float(cx.max() - cx.min()), float(cy.max() - cy.min()))  # ptp
             if extent <= cfg.see_through_opening_m:
                 if not crowded:
                     landed |= landing <= cfg.see_through_moved_m
