@@ -53,7 +53,7 @@ def test_compiled_kernels_equal_their_plain_python_functions() -> None:
     bit."""
     rng = np.random.default_rng(21)
     through_seen = possible_seen = paired_seen = 0
-    helpers = ("_step_at", "_trace_ray")
+    helpers = ("_step_at", "_advance", "_trace_in_lanes")
     for _ in range(300):
         points, cos_sin, laser, steps, field = _random_case(rng)
         resolution = float(rng.choice([0.05, 0.1]))
@@ -199,7 +199,8 @@ def _signatures() -> tuple[int, ...]:
         sphere_trace.trace_runs_of_two,
         slide_profile.likelihood_at_poses,
         map_distance.end_points_on_map,
-        sphere_trace._trace_ray,
+        sphere_trace._trace_in_lanes,
+        sphere_trace._advance,
         sphere_trace._step_at,
     )
     return tuple(len(getattr(k, "signatures", ())) for k in kernels)
