@@ -103,7 +103,7 @@ from robot_daemon.localisation.scan_matcher import (
     subsample_points,
 )
 from robot_daemon.localisation.slide_profile import likelihood_at_poses
-from robot_daemon.localisation.sphere_trace import trace_rays, trace_runs_of_two
+from robot_daemon.localisation.sphere_trace import trace_rays
 from robot_daemon.localisation.wall_model import (
     WallModelConfig,
     WallModelLearner,
@@ -1060,13 +1060,10 @@ class Localiser:
         """
         cfg = self.config
         k = self.config.impossible_min_run
-        if k == 2 and not see_through and not self._reuse_trace:
-            traced = self._trace_in_halves(points, pose)
-            if traced is None:
-                return 0.0  # no two neighbouring beams can both be impossible
-            mask, crossing = traced
-        else:
-            mask, crossing = self._trace_impossible(points, pose)
+        # Every traced beam at once: tracing only the even ones first where no run of two can
+        # exist without one (`_trace_in_halves` until session 13) saves nothing since the
+        # compiled trace (`sphere_trace`; lockstep A/B on four real logs, CPU per scan).
+        mask, crossing = self._trace_impossible(points, pose)
         if mask.size == 0:
             return 0.0
         if see_through and crowded and k > 1:
@@ -1118,26 +1115,6 @@ class Localiser:
         pts = subsample_points(points, cfg.impossible_max_beams)
         probed, _ = self._trace_rays(pts[::stride], pose, pts.shape[0])
         return not probed.any()
-
-    def _trace_in_halves(
-        self, points: FloatArray, pose: Pose2D
-    ) -> tuple[npt.NDArray[np.bool_], FloatArray] | None:
-        """`_trace_impossible` for `impossible_fraction` without ``see_through`` and with runs
-        of two (``impossible_min_run``), or None when that fraction is certainly 0: traced
-        beams are only counted next to another impossible one, and of two neighbours one has
-        an even index. So the even beams are traced first, and the odd ones only next to an
-        impossible one or once a run is found (`sphere_trace.trace_runs_of_two`: the median
-        scan traces about half the rays, issue 12 speed). Each ray's trace depends on that ray
-        alone, so the result equals one trace of all the beams bit for bit
-        (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`) and is kept for
-        `_see_through` as `_trace_impossible` keeps its own."""
-        beams = self.config.impossible_max_beams
-        pts = np.ascontiguousarray(subsample_points(points, beams), dtype=np.float64)
-        paired, mask, crossing = trace_runs_of_two(pts, *self._trace_arguments(pose))
-        if not paired:
-            return None
-        self._last_trace = (points, pose, beams, mask.copy(), crossing.copy())
-        return mask, crossing
 
     def impossible_beams(self, points: FloatArray, pose: Pose2D) -> npt.NDArray[np.bool_]:
         """Which beams (sensor-frame end points, laser at ``pose``) pass through the map.

@@ -28,9 +28,8 @@ from robot_daemon import jit
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-IntArray = npt.NDArray[np.intp]
 
-LANES = 8  # rays traced side by side (`_trace_in_lanes`)
+LANES = 8  # rays traced side by side (`trace_rays`)
 
 
 @jit.kernel
@@ -77,19 +76,24 @@ def _advance(
 
 
 @jit.kernel
-def _trace_in_lanes(
+def trace_rays(
     points: FloatArray,
-    rays: IntArray,
-    crossing: FloatArray,
     cos_sin: tuple[float, float],
     laser: tuple[float, float],
     steps: FloatArray,
     field: tuple[int, int],
     resolution: float,
     trace: tuple[float, int, float],
-) -> None:
-    """Trace the beams ``points[rays]``, writing each one's crossing range into ``crossing``
-    (NaN where it does not pass through the map); the other arguments as `trace_rays`'.
+) -> tuple[BoolArray, FloatArray]:
+    """Which of the beams ``points`` (sensor-frame end points, (N, 2), C-contiguous) pass
+    through the map, and the range [m] at which each of those enters its occupied cells (NaN
+    for the others).
+
+    ``cos_sin``: the laser's heading; ``laser``: its position in continuous cells of the step
+    field (column, row: the map's cells plus its border of one); ``steps``: the step field,
+    flat row-major, ``field = (width, height)`` cells; ``resolution`` [m]; ``trace = (margin
+    [m], max_steps, depth [m])`` (`LocaliserConfig.impossible_margin_m`,
+    ``impossible_max_steps``, ``impossible_depth_m``).
 
     A beam of range ``r`` and unit direction ``u`` (map frame) is the ray ``x(t) = laser +
     t · u / res``: ``t ← t + step(x(t))`` from 0 until ``t ≥ r - margin`` (possible),
@@ -97,20 +101,22 @@ def _trace_in_lanes(
 
     Speed: `LANES` rays step side by side, one step of each in turn, so the reads of the step
     field of different rays (cache misses on a large map) overlap instead of each waiting for
-    the one before; every ray's arithmetic is its own, in the plain loop's order."""
+    the one before; every ray's arithmetic is its own, in the plain loop's order.
+    """
     c, s = cos_sin
     margin, max_steps, depth = trace
     inv = 1.0 / resolution
+    n = points.shape[0]
+    crossing = np.full(n, np.nan)
     t = np.zeros(LANES)
     limit = np.zeros(LANES)
     dcol = np.zeros(LANES)
     drow = np.zeros(LANES)
     ray = np.zeros(LANES, dtype=np.intp)
     left = np.zeros(LANES, dtype=np.intp)  # steps left; 0: the lane's ray has ended
-    for first in range(0, rays.shape[0], LANES):
+    for first in range(0, n, LANES):
         lanes = 0
-        for i in rays[first : first + LANES]:
-            crossing[i] = math.nan
+        for i in range(first, min(first + LANES, n)):
             sx, sy = points[i, 0], points[i, 1]
             r = math.hypot(sx, sy)
             if not r - margin > 0.0:
@@ -136,66 +142,7 @@ def _trace_in_lanes(
                 else:
                     t[k] = t_next
                     busy = True
-
-
-@jit.kernel
-def trace_rays(
-    points: FloatArray,
-    cos_sin: tuple[float, float],
-    laser: tuple[float, float],
-    steps: FloatArray,
-    field: tuple[int, int],
-    resolution: float,
-    trace: tuple[float, int, float],
-) -> tuple[BoolArray, FloatArray]:
-    """Which of the beams ``points`` (sensor-frame end points, (N, 2), C-contiguous) pass
-    through the map, and the range [m] at which each of those enters its occupied cells (NaN
-    for the others).
-
-    ``cos_sin``: the laser's heading; ``laser``: its position in continuous cells of the step
-    field (column, row: the map's cells plus its border of one); ``steps``: the step field,
-    flat row-major, ``field = (width, height)`` cells; ``resolution`` [m]; ``trace = (margin
-    [m], max_steps, depth [m])`` (`LocaliserConfig.impossible_margin_m`,
-    ``impossible_max_steps``, ``impossible_depth_m``).
-    """
-    n = points.shape[0]
-    crossing = np.empty(n)
-    rays = np.arange(n)
-    _trace_in_lanes(points, rays, crossing, cos_sin, laser, steps, field, resolution, trace)
     return ~np.isnan(crossing), crossing
-
-
-@jit.kernel
-def trace_runs_of_two(
-    points: FloatArray,
-    cos_sin: tuple[float, float],
-    laser: tuple[float, float],
-    steps: FloatArray,
-    field: tuple[int, int],
-    resolution: float,
-    trace: tuple[float, int, float],
-) -> tuple[bool, BoolArray, FloatArray]:
-    """`trace_rays` where only runs of two or more neighbouring impossible beams count:
-    ``(False, ...)`` when there is certainly no such run, else ``(True, through, crossing)``,
-    every beam traced.
-
-    Of two neighbours one has an even index, so the even beams are traced first; if none is
-    impossible, or none of the odd beams next to an impossible one is, no run exists (most
-    scans: about half the rays traced). Otherwise the other odd beams are traced too. Each
-    ray's trace depends on that ray alone, so the result equals `trace_rays`' bit for bit."""
-    n = points.shape[0]
-    crossing = np.full(n, np.nan)
-    args = (cos_sin, laser, steps, field, resolution, trace)
-    _trace_in_lanes(points, np.arange(0, n, 2), crossing, *args)
-    odd = np.arange(1, n, 2)
-    # an odd beam is next to an impossible one (impossible: a crossing range, not NaN)
-    near = ~np.isnan(crossing[odd - 1])
-    near[: (n - 1) // 2] |= ~np.isnan(crossing[odd[: (n - 1) // 2] + 1])
-    _trace_in_lanes(points, odd[near], crossing, *args)
-    paired = bool(np.any(~np.isnan(crossing[odd[near]])))
-    if paired:
-        _trace_in_lanes(points, odd[~near], crossing, *args)
-    return paired, ~np.isnan(crossing), crossing
 
 
 @jit.on_warm_up("localiser's see-through trace")
@@ -206,4 +153,3 @@ def _warm_up() -> None:
     points = np.array([[1.0, 0.0], [0.0, 1.0]])
     args = ((1.0, 0.0), (1.5, 1.5), field, (4, 4), 0.05, (0.3, 30, 0.1))
     trace_rays(points, *args)
-    trace_runs_of_two(points, *args)

@@ -47,91 +47,72 @@ def _random_case(
     return points, (math.cos(heading), math.sin(heading)), laser, steps.reshape(-1), (width, height)
 
 
-def test_compiled_kernels_equal_their_plain_python_functions() -> None:
-    """Random fields, lasers and beams, with and without the depth test: the compiled kernels
-    and their plain-Python functions (with the plain per-ray trace and lookup) agree bit for
-    bit."""
+def test_compiled_trace_equals_its_plain_python_function() -> None:
+    """Random fields, lasers and beams, with and without the depth test: the compiled trace
+    and its plain-Python function (with the plain step and lookup) agree bit for bit."""
     rng = np.random.default_rng(21)
-    through_seen = possible_seen = paired_seen = 0
-    helpers = ("_step_at", "_advance", "_trace_in_lanes")
+    through_seen = possible_seen = 0
     for _ in range(300):
         points, cos_sin, laser, steps, field = _random_case(rng)
         resolution = float(rng.choice([0.05, 0.1]))
-        trace = (0.3, int(rng.integers(1, 40)), float(rng.choice([0.0, 0.1, 0.25])))
+        trace = (0.3, int(rng.integers(0, 40)), float(rng.choice([0.0, 0.1, 0.25])))
         args = (points, cos_sin, laser, steps, field, resolution, trace)
         got = sphere_trace.trace_rays(*args)
-        got_pairs = sphere_trace.trace_runs_of_two(*args)
         with pytest.MonkeyPatch.context() as patch:
-            for name in helpers:
+            for name in ("_step_at", "_advance"):
                 patch.setattr(sphere_trace, name, jit.python_function(getattr(sphere_trace, name)))
             want = jit.python_function(sphere_trace.trace_rays)(*args)
-            want_pairs = jit.python_function(sphere_trace.trace_runs_of_two)(*args)
         assert np.array_equal(got[0], want[0])
         assert np.array_equal(got[1], want[1], equal_nan=True)
-        assert got_pairs[0] == want_pairs[0]
-        assert np.array_equal(got_pairs[1], want_pairs[1])
-        assert np.array_equal(got_pairs[2], want_pairs[2], equal_nan=True)
         through_seen += int(np.count_nonzero(got[0]))
         possible_seen += int(np.count_nonzero(~got[0]))
-        paired_seen += int(got_pairs[0])
     assert through_seen > 100 and possible_seen > 100  # both verdicts were compared
-    assert 10 < paired_seen < 290
 
 
-def test_runs_of_two_trace_as_every_beam_or_find_none() -> None:
-    """`trace_runs_of_two` on the random cases: where it finds a run of two neighbouring
-    impossible beams, its flags and ranges are `trace_rays`' for every beam, bit for bit;
-    where it finds none, `trace_rays` has none either."""
+def trace_one_ray_at_a_time(
+    points: np.ndarray,
+    cos_sin: tuple[float, float],
+    laser: tuple[float, float],
+    steps: np.ndarray,
+    field: tuple[int, int],
+    resolution: float,
+    trace: tuple[float, int, float],
+) -> tuple[np.ndarray, np.ndarray]:
+    """`sphere_trace.trace_rays` without lanes: each ray to its end, then the next."""
+    c, s = cos_sin
+    margin, max_steps, depth = trace
+    inv = 1.0 / resolution
+    crossing = np.full(points.shape[0], np.nan)
+    for i, (sx, sy) in enumerate(points.tolist()):
+        r = math.hypot(sx, sy)
+        if not r - margin > 0.0:
+            continue
+        direction = ((c * sx - s * sy) / r * inv, (s * sx + c * sy) / r * inv)
+        t = 0.0
+        for _ in range(max_steps):
+            t_next, through = sphere_trace._advance(
+                steps, t, direction, laser, field, resolution, depth
+            )
+            if through:
+                crossing[i] = t
+                break
+            if not t_next < r - margin:
+                break
+            t = t_next
+    return ~np.isnan(crossing), crossing
+
+
+def test_rays_in_lanes_trace_as_one_ray_at_a_time() -> None:
+    """Rays stepping side by side (`LANES` of them, some ending early, scans of any length)
+    end exactly where each traced alone ends."""
     rng = np.random.default_rng(25)
-    found = none = 0
-    for k in range(400):
+    for _ in range(300):
         points, cos_sin, laser, steps, field = _random_case(rng)
-        args = (points, cos_sin, laser, steps, field, 0.05, (0.3, 30, 0.1 * (k % 2)))
-        through, crossing = sphere_trace.trace_rays(*args)
-        paired, pair_through, pair_crossing = sphere_trace.trace_runs_of_two(*args)
-        run_of_two = bool(np.any(through[1:] & through[:-1]))
-        assert paired == run_of_two
-        if paired:
-            found += 1
-            assert np.array_equal(pair_through, through)
-            assert np.array_equal(pair_crossing, crossing, equal_nan=True)
-        else:
-            none += 1
-    assert found > 20 and none > 20
-
-
-@pytest.mark.parametrize("first", [10, 11])
-def test_a_run_of_two_across_the_halves_is_found(first: int) -> None:
-    """Two neighbouring beams through a wall, the even one first or the odd one: the run is
-    found either way; two lone impossible beams make no run."""
-    resolution, n = 0.05, 40
-    width = height = 200
-    steps = np.full((height, width), resolution)
-    steps[[0, -1], :] = np.inf
-    steps[:, [0, -1]] = np.inf
-    laser = (100.5, 100.5)
-    angles = np.arange(n) * (2.0 * math.pi / n)
-    cols, rows = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
-
-    def wall_on(beams: list[int]) -> np.ndarray:
-        """The field with a disc of occupied cells 1.2 m along each of ``beams``."""
-        field = steps.copy()
-        for k in beams:
-            cx = laser[0] + 1.2 / resolution * math.cos(angles[k])
-            cy = laser[1] + 1.2 / resolution * math.sin(angles[k])
-            field[np.hypot(cols - cx, rows - cy) <= 2.5] = np.nan
-        return field.reshape(-1)
-
-    points = np.column_stack((3.0 * np.cos(angles), 3.0 * np.sin(angles)))
-    trace = (0.3, 100, 0.1)
-    for beams, run in (([first, first + 1], True), ([first, first + 3], False)):
-        args = (points, (1.0, 0.0), laser, wall_on(beams), (width, height), resolution, trace)
-        through, _ = sphere_trace.trace_rays(*args)
-        assert np.flatnonzero(through).tolist() == beams
-        paired, pair_through, _ = sphere_trace.trace_runs_of_two(*args)
-        assert paired == run
-        if run:
-            assert np.array_equal(pair_through, through)
+        args = (points, cos_sin, laser, steps, field, 0.05, (0.3, int(rng.integers(0, 40)), 0.1))
+        got = sphere_trace.trace_rays(*args)
+        want = trace_one_ray_at_a_time(*args)
+        assert np.array_equal(got[0], want[0])
+        assert np.array_equal(got[1], want[1], equal_nan=True)
 
 
 def test_lookup_truncates_and_clips_as_numpy() -> None:
@@ -182,8 +163,7 @@ class _CountedTraces:
 
     def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
         self.calls = 0
-        for name in ("trace_rays", "trace_runs_of_two"):
-            monkeypatch.setattr(localiser_module, name, self._counted(getattr(sphere_trace, name)))
+        monkeypatch.setattr(localiser_module, "trace_rays", self._counted(sphere_trace.trace_rays))
 
     def _counted(self, kernel: Callable[..., object]) -> Callable[..., object]:
         def call(*args: object) -> object:
@@ -194,12 +174,10 @@ class _CountedTraces:
 
 
 def _signatures() -> tuple[int, ...]:
-    kernels = (  # every kernel of the localiser (the first four: called from Python)
+    kernels = (  # every kernel of the localiser (the first three: called from Python)
         sphere_trace.trace_rays,
-        sphere_trace.trace_runs_of_two,
         slide_profile.likelihood_at_poses,
         map_distance.end_points_on_map,
-        sphere_trace._trace_in_lanes,
         sphere_trace._advance,
         sphere_trace._step_at,
     )
@@ -228,7 +206,7 @@ def test_a_run_after_the_warm_up_compiles_nothing(monkeypatch: pytest.MonkeyPatc
     assert counted.calls >= 300
     assert _signatures() == before
     if jit.ENABLED:
-        assert before[:4] == (1, 1, 1, 1)  # one specialisation of each kernel: the warm-up's
+        assert before[:3] == (1, 1, 1)  # one specialisation of each kernel: the warm-up's
 
 
 @pytest.mark.realdata
