@@ -1060,9 +1060,9 @@ class Localiser:
         """
         cfg = self.config
         k = self.config.impossible_min_run
-        # Every traced beam at once: tracing only the even ones first where no run of two can
-        # exist without one (`_trace_in_halves` until session 13) saves nothing since the
-        # compiled trace (`sphere_trace`; lockstep A/B on four real logs, CPU per scan).
+        # Every traced beam at once. Tracing the even ones first (a run of two holds one;
+        # `_trace_in_halves` until session 13) saves nothing once the trace is compiled
+        # (`sphere_trace`; lockstep A/B on four real logs, CPU per scan).
         mask, crossing = self._trace_impossible(points, pose)
         if mask.size == 0:
             return 0.0

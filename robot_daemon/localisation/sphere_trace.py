@@ -11,10 +11,12 @@ occupied cell, and stays in occupied cells for ``depth`` (probed at half and the
 before its measured range less the margin; a lone occupied cell not that deep is stepped over
 by one cell. A ray that reaches that range, leaves the map or runs out of steps is possible.
 
-One ray at a time in scalar float64 arithmetic (`robot_daemon.jit`): the same operations in the
-same order as the plain numpy loop `tests/robot_daemon/localisation/test_loc_speed_equivalence.py`
-keeps as the reference (``int`` truncates as ``astype(np.intp)`` does, then the cell is clipped
-to the field), so every flag and every crossing range equals it bit for bit.
+Each ray in scalar float64 arithmetic, compiled (`robot_daemon.jit`; a few rays side by side,
+`LANES`): the same operations in the same order as the plain numpy loop that
+`tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as the reference (``int``
+truncates as ``astype(np.intp)`` does, then the cell is clipped to the field; ``math.hypot`` is
+the C library's ``hypot``, as ``np.hypot``), so every flag and every crossing range equals it
+bit for bit.
 """
 
 from __future__ import annotations
