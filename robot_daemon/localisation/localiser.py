@@ -1165,7 +1165,8 @@ class Localiser:
     ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
         """The sphere tracing of `_trace_impossible` (`sphere_trace.trace_rays`, compiled)."""
         pts = np.ascontiguousarray(subsample_points(points, max_beams), dtype=np.float64)
-        return trace_rays(pts, *self._trace_arguments(pose))
+        ranges = np.hypot(pts[:, 0], pts[:, 1])
+        return trace_rays(pts, ranges, *self._trace_arguments(pose))
 
     def _trace_arguments(
         self, pose: Pose2D
@@ -1177,10 +1178,11 @@ class Localiser:
         float,
         tuple[float, int, float],
     ]:
-        """The trace kernels' arguments after the points (`sphere_trace.trace_rays`): the
-        laser's heading, its position in continuous cells of the step field (+1: the field's
-        border of inf cells), the step field and its size, the resolution and the trace's
-        parameters; each of one type (one compiled specialisation)."""
+        """The trace kernel's arguments after the points and their ranges
+        (`sphere_trace.trace_rays`): the laser's heading, its position in continuous cells of
+        the step field (+1: the field's border of inf cells), the step field and its size, the
+        resolution and the trace's parameters; each of one type (one compiled
+        specialisation)."""
         cfg = self.config
         g = self._grid
         inv = 1.0 / g.resolution

@@ -14,9 +14,8 @@ by one cell. A ray that reaches that range, leaves the map or runs out of steps 
 Each ray in scalar float64 arithmetic, compiled (`robot_daemon.jit`; a few rays side by side,
 `LANES`): the same operations in the same order as the plain numpy loop that
 `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as the reference (``int``
-truncates as ``astype(np.intp)`` does, then the cell is clipped to the field; ``math.hypot`` is
-the C library's ``hypot``, as ``np.hypot``), so every flag and every crossing range equals it
-bit for bit.
+truncates as ``astype(np.intp)`` does, then the cell is clipped to the field; the beams'
+lengths are numpy's ``hypot``), so every flag and every crossing range equals it bit for bit.
 """
 
 from __future__ import annotations
@@ -80,6 +79,7 @@ def _advance(
 @jit.kernel
 def trace_rays(
     points: FloatArray,
+    ranges: FloatArray,
     cos_sin: tuple[float, float],
     laser: tuple[float, float],
     steps: FloatArray,
@@ -91,7 +91,9 @@ def trace_rays(
     through the map, and the range [m] at which each of those enters its occupied cells (NaN
     for the others).
 
-    ``cos_sin``: the laser's heading; ``laser``: its position in continuous cells of the step
+    ``ranges``: the beams' lengths, ``np.hypot`` of the points (numpy's, the reference's:
+    CPython's ``math.hypot``, the plain-Python fallback's, rounds apart from the C library's
+    in a few end points in a thousand); ``cos_sin``: the laser's heading; ``laser``: its position in continuous cells of the step
     field (column, row: the map's cells plus its border of one); ``steps``: the step field,
     flat row-major, ``field = (width, height)`` cells; ``resolution`` [m]; ``trace = (margin
     [m], max_steps, depth [m])`` (`LocaliserConfig.impossible_margin_m`,
@@ -119,8 +121,7 @@ def trace_rays(
     for first in range(0, n, LANES):
         lanes = 0
         for i in range(first, min(first + LANES, n)):
-            sx, sy = points[i, 0], points[i, 1]
-            r = math.hypot(sx, sy)
+            sx, sy, r = points[i, 0], points[i, 1], ranges[i]
             if not r - margin > 0.0:
                 continue  # a beam shorter than the margin cannot pass through anything
             t[lanes], limit[lanes], ray[lanes], left[lanes] = 0.0, r - margin, i, max_steps
@@ -153,5 +154,5 @@ def _warm_up() -> None:
     field = np.full(4 * 4, np.inf)
     field[5] = np.nan
     points = np.array([[1.0, 0.0], [0.0, 1.0]])
-    args = ((1.0, 0.0), (1.5, 1.5), field, (4, 4), 0.05, (0.3, 30, 0.1))
-    trace_rays(points, *args)
+    ranges = np.hypot(points[:, 0], points[:, 1])
+    trace_rays(points, ranges, (1.0, 0.0), (1.5, 1.5), field, (4, 4), 0.05, (0.3, 30, 0.1))

@@ -30,7 +30,9 @@ INTEL = Path(__file__).resolve().parents[3].parent / "shared/data/laser_logs/int
 
 def _random_case(
     rng: np.random.Generator,
-) -> tuple[np.ndarray, tuple[float, float], tuple[float, float], np.ndarray, tuple[int, int]]:
+) -> tuple[
+    np.ndarray, np.ndarray, tuple[float, float], tuple[float, float], np.ndarray, tuple[int, int]
+]:
     """A random step field (NaN cells in blobs and alone, inf border), laser and beams: lasers
     on, at the edge of and off the field, beams of any length (some within the margin)."""
     width, height = int(rng.integers(3, 60)), int(rng.integers(3, 60))
@@ -44,7 +46,9 @@ def _random_case(
     angles = rng.uniform(-math.pi, math.pi, n)
     points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
     heading = float(rng.uniform(-4.0, 4.0))
-    return points, (math.cos(heading), math.sin(heading)), laser, steps.reshape(-1), (width, height)
+    cos_sin = (math.cos(heading), math.sin(heading))
+    ranges = np.hypot(points[:, 0], points[:, 1])
+    return points, ranges, cos_sin, laser, steps.reshape(-1), (width, height)
 
 
 def test_compiled_trace_equals_its_plain_python_function() -> None:
@@ -53,10 +57,10 @@ def test_compiled_trace_equals_its_plain_python_function() -> None:
     rng = np.random.default_rng(21)
     through_seen = possible_seen = 0
     for _ in range(300):
-        points, cos_sin, laser, steps, field = _random_case(rng)
+        points, ranges, cos_sin, laser, steps, field = _random_case(rng)
         resolution = float(rng.choice([0.05, 0.1]))
         trace = (0.3, int(rng.integers(0, 40)), float(rng.choice([0.0, 0.1, 0.25])))
-        args = (points, cos_sin, laser, steps, field, resolution, trace)
+        args = (points, ranges, cos_sin, laser, steps, field, resolution, trace)
         got = sphere_trace.trace_rays(*args)
         with pytest.MonkeyPatch.context() as patch:
             for name in ("_step_at", "_advance"):
@@ -71,6 +75,7 @@ def test_compiled_trace_equals_its_plain_python_function() -> None:
 
 def trace_one_ray_at_a_time(
     points: np.ndarray,
+    ranges: np.ndarray,
     cos_sin: tuple[float, float],
     laser: tuple[float, float],
     steps: np.ndarray,
@@ -83,8 +88,7 @@ def trace_one_ray_at_a_time(
     margin, max_steps, depth = trace
     inv = 1.0 / resolution
     crossing = np.full(points.shape[0], np.nan)
-    for i, (sx, sy) in enumerate(points.tolist()):
-        r = math.hypot(sx, sy)
+    for i, ((sx, sy), r) in enumerate(zip(points.tolist(), ranges.tolist(), strict=True)):
         if not r - margin > 0.0:
             continue
         direction = ((c * sx - s * sy) / r * inv, (s * sx + c * sy) / r * inv)
@@ -107,8 +111,9 @@ def test_rays_in_lanes_trace_as_one_ray_at_a_time() -> None:
     end exactly where each traced alone ends."""
     rng = np.random.default_rng(25)
     for _ in range(300):
-        points, cos_sin, laser, steps, field = _random_case(rng)
-        args = (points, cos_sin, laser, steps, field, 0.05, (0.3, int(rng.integers(0, 40)), 0.1))
+        points, ranges, cos_sin, laser, steps, field = _random_case(rng)
+        trace = (0.3, int(rng.integers(0, 40)), 0.1)
+        args = (points, ranges, cos_sin, laser, steps, field, 0.05, trace)
         got = sphere_trace.trace_rays(*args)
         want = trace_one_ray_at_a_time(*args)
         assert np.array_equal(got[0], want[0])
