@@ -42,9 +42,9 @@ def _random_case(
     steps[:, [0, -1]] = np.inf
     laser = (float(rng.uniform(-5.0, width + 5.0)), float(rng.uniform(-5.0, height + 5.0)))
     n = int(rng.integers(0, 80))
-    ranges = rng.uniform(0.0, 8.0, n)
+    lengths = rng.uniform(0.0, 8.0, n)
     angles = rng.uniform(-math.pi, math.pi, n)
-    points = np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+    points = np.column_stack((lengths * np.cos(angles), lengths * np.sin(angles)))
     heading = float(rng.uniform(-4.0, 4.0))
     cos_sin = (math.cos(heading), math.sin(heading))
     ranges = np.hypot(points[:, 0], points[:, 1])
