@@ -89,17 +89,21 @@ from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from robot_daemon.localisation.dynamic_map import DynamicEvidenceGrid, DynamicMapConfig
+from robot_daemon.localisation.map_distance import end_points_on_map
 from robot_daemon.localisation.map_floor import MapFloor, MapFloorConfig
 from robot_daemon.localisation.map_offset import MapOffset, MapOffsetConfig
 from robot_daemon.localisation.matcher_swap import MatcherBuild
 from robot_daemon.localisation.odometry_scale import OdometryScale, OdometryScaleConfig
 from robot_daemon.localisation.odometry_yaw_bias import OdometryYawBias, OdometryYawBiasConfig
 from robot_daemon.localisation.scan_matcher import (
+    PAD,
     MatchResult,
     ScanMatcher,
     ScanMatcherConfig,
     subsample_points,
 )
+from robot_daemon.localisation.slide_profile import likelihood_at_poses
+from robot_daemon.localisation.sphere_trace import trace_rays
 from robot_daemon.localisation.wall_model import (
     WallModelConfig,
     WallModelLearner,
@@ -1021,12 +1025,27 @@ class Localiser:
         sx, sy = points[:, 0], points[:, 1]
         return pose.x + c * sx - s * sy, pose.y + s * sx + c * sy
 
+    def _end_points_on_map(
+        self, points: FloatArray, pose: Pose2D
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """`_to_map` of the sensor-frame ``points`` and `_distance_to_map` of the result, in
+        one compiled loop (`map_distance.end_points_on_map`, bit for bit the two)."""
+        g = self._grid
+        return end_points_on_map(
+            np.ascontiguousarray(points, dtype=np.float64),
+            (float(pose.x), float(pose.y)),
+            (math.cos(pose.yaw), math.sin(pose.yaw)),
+            self._dist_padded,
+            (float(g.origin_x), float(g.origin_y), float(g.resolution)),
+            (int(g.width), int(g.height)),
+        )
+
     def _hit_fraction(self, points: FloatArray, pose: Pose2D) -> float:
         if points.shape[0] == 0:
             return 0.0
-        xs, ys = self._to_map(points, pose)
-        hits = np.count_nonzero(self._distance_to_map(xs, ys) <= self.config.hit_tolerance_m)
-        return float(hits) / xs.size  # np.mean of the flags, without its wrapper
+        _, _, distance = self._end_points_on_map(points, pose)
+        hits = np.count_nonzero(distance <= self.config.hit_tolerance_m)
+        return float(hits) / distance.size  # np.mean of the flags, without its wrapper
 
     def impossible_fraction(
         self, points: FloatArray, pose: Pose2D, see_through: bool = False, crowded: bool = False
@@ -1041,27 +1060,22 @@ class Localiser:
         """
         cfg = self.config
         k = self.config.impossible_min_run
-        if k == 2 and not see_through and not self._reuse_trace:
-            traced = self._trace_in_halves(points, pose)
-            if traced is None:
-                return 0.0  # no two neighbouring beams can both be impossible
-            mask, crossing = traced
-        else:
-            mask, crossing = self._trace_impossible(points, pose)
+        # Every traced beam at once. Tracing the even ones first (a run of two holds one;
+        # `_trace_in_halves` until session 13) saves nothing once the trace is compiled
+        # (`sphere_trace`; lockstep A/B on four real logs, CPU per scan).
+        mask, crossing = self._trace_impossible(points, pose)
         if mask.size == 0:
             return 0.0
         if see_through and crowded and k > 1:
             mask = _long_runs(mask, k)  # a stray beam elsewhere is not a second opening
         if see_through and mask.any():
-            pts = subsample_points(points, cfg.impossible_max_beams)
-            xs, ys = self._to_map(pts[mask], pose)
-            landing = self._distance_to_map(xs, ys)
+            sel = subsample_points(points, cfg.impossible_max_beams)[mask]
+            _, _, landing = self._end_points_on_map(sel, pose)
             landed = landing <= cfg.see_through_landing_m
             # Where they cross the map's walls: one opening (a door, a pane) or several places.
-            sel = pts[mask]
             unit = sel / np.maximum(np.hypot(sel[:, 0], sel[:, 1]), 1e-9)[:, None]
-            cx, cy = self._to_map(unit * crossing[mask][:, None], pose)
-            extent = math.hypot(float(np.ptp(cx)), float(np.ptp(cy)))
+            cx, cy, _ = self._end_points_on_map(unit * crossing[mask][:, None], pose)
+            extent = math.hypot(float(cx.max() - cx.min()), float(cy.max() - cy.min()))  # ptp
             if extent <= cfg.see_through_opening_m:
                 if not crowded:
                     landed |= landing <= cfg.see_through_moved_m
@@ -1089,7 +1103,9 @@ class Localiser:
         on. With the probe, every scan's pose, state and reason are the same as without it on
         all eight logs, both methods, seeds 0-2 (`interbot bench --only reallogs` figures
         identical). Speed: 50 rays instead of 100-200 (the median scan's trace 0.21 -> 0.10 ms
-        CPU)."""
+        CPU). Since the trace is compiled (`sphere_trace`, session 13) it saves no measurable
+        CPU (lockstep A/B on four real logs: on_scan medians -3..+7 %); kept because without
+        it 2 of those 5,194 estimates differ (a reported impossible fraction)."""
         cfg = self.config
         stride = cfg.impossible_probe_stride
         if (
@@ -1101,38 +1117,6 @@ class Localiser:
         pts = subsample_points(points, cfg.impossible_max_beams)
         probed, _ = self._trace_rays(pts[::stride], pose, pts.shape[0])
         return not probed.any()
-
-    def _trace_in_halves(
-        self, points: FloatArray, pose: Pose2D
-    ) -> tuple[npt.NDArray[np.bool_], FloatArray] | None:
-        """`_trace_impossible` for `impossible_fraction` without ``see_through`` and with runs
-        of two (``impossible_min_run``), or None when that fraction is certainly 0: traced
-        beams are only counted next to another impossible one, and of two neighbours one has
-        an even index. So the even beams are traced first; if none is impossible, or none of
-        the odd beams next to an impossible one is, no run of two exists (most scans: the
-        median scan traces about half the rays, issue 12 speed). Otherwise the odd beams are
-        traced too and the two halves interleaved. Each ray's trace depends on that ray alone
-        (element for element arithmetic), so the result equals one trace of all the beams bit
-        for bit (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`) and is kept
-        for `_see_through` as `_trace_impossible` keeps its own."""
-        beams = self.config.impossible_max_beams
-        pts = subsample_points(points, beams)
-        n = pts.shape[0]
-        even, even_crossing = self._trace_rays(pts[::2], pose, n)
-        if not even.any():
-            return None
-        hits = 2 * np.flatnonzero(even)
-        near = np.union1d(hits - 1, hits + 1)
-        near = near[(near >= 0) & (near < n)]
-        if near.size == 0 or not self._trace_rays(pts[near], pose, n)[0].any():
-            return None
-        odd, odd_crossing = self._trace_rays(pts[1::2], pose, n)
-        mask = np.empty(n, dtype=bool)
-        mask[::2], mask[1::2] = even, odd
-        crossing = np.empty(n)
-        crossing[::2], crossing[1::2] = even_crossing, odd_crossing
-        self._last_trace = (points, pose, beams, mask.copy(), crossing.copy())
-        return mask, crossing
 
     def impossible_beams(self, points: FloatArray, pose: Pose2D) -> npt.NDArray[np.bool_]:
         """Which beams (sensor-frame end points, laser at ``pose``) pass through the map.
@@ -1155,15 +1139,12 @@ class Localiser:
         enters the map's occupied cells (nan for the others). ``max_beams``: traced beams
         (default ``impossible_max_beams``).
 
-        Speed (issue 12): a pass costs numpy calls, not arithmetic (a few dozen rays, up to 30
-        passes), so the rays' column and row coordinates move as one complex number and, with
-        the laser on the map, each ray's parameter is capped at `_exit_parameters` instead of
-        clipping both coordinates to the field: every sample beyond that reads the border's
-        inf either way. The arithmetic is element for element that of the plain loop, which
-        `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` keeps as reference.
-        The last ``_SCALAR_TAIL_RAYS`` rays are traced one by one (`_RayWalk`). Within
-        `_see_through` the trace `on_scan` has just made of the same points at the same pose is
-        returned again instead of being traced a second (and a third) time.
+        Speed: the rays are traced one at a time in a compiled loop (`sphere_trace`; until
+        session 13 up to 30 numpy passes over the rays and a plain-Python tail), with the
+        arithmetic of the plain loop that `tests/robot_daemon/localisation/
+        test_loc_speed_equivalence.py` keeps as reference, bit for bit. Within `_see_through`
+        the trace `on_scan` has just made of the same points at the same pose is returned
+        again instead of being traced a second (and a third) time.
         """
         cfg = self.config
         beams = max_beams or cfg.impossible_max_beams
@@ -1182,124 +1163,41 @@ class Localiser:
     def _trace_rays(
         self, points: FloatArray, pose: Pose2D, max_beams: int
     ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
-        """The sphere tracing of `_trace_impossible` (see there)."""
+        """The sphere tracing of `_trace_impossible` (`sphere_trace.trace_rays`, compiled)."""
+        pts = np.ascontiguousarray(subsample_points(points, max_beams), dtype=np.float64)
+        ranges = np.hypot(pts[:, 0], pts[:, 1])
+        return trace_rays(pts, ranges, *self._trace_arguments(pose))
+
+    def _trace_arguments(
+        self, pose: Pose2D
+    ) -> tuple[
+        tuple[float, float],
+        tuple[float, float],
+        FloatArray,
+        tuple[int, int],
+        float,
+        tuple[float, int, float],
+    ]:
+        """The trace kernel's arguments after the points and their ranges
+        (`sphere_trace.trace_rays`): the laser's heading, its position in continuous cells of
+        the step field (+1: the field's border of inf cells), the step field and its size, the
+        resolution and the trace's parameters; each of one type (one compiled
+        specialisation)."""
         cfg = self.config
-        pts = subsample_points(points, max_beams)
-        out = np.zeros(pts.shape[0], dtype=bool)
-        crossing = np.full(pts.shape[0], np.nan)
-        if pts.shape[0] == 0:
-            return out, crossing
-        sx, sy = pts[:, 0], pts[:, 1]
-        r = np.hypot(sx, sy)
-        limit = r - cfg.impossible_margin_m
-        idx = np.flatnonzero(limit > 0.0)
-        if idx.size == 0:
-            return out, crossing
         g = self._grid
         inv = 1.0 / g.resolution
-        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-        rs = r[idx]
-        # Ray directions in cells per metre and the laser in continuous cell coordinates of the
-        # inf-bordered field (+1), as complex numbers (column + i row): one numpy call moves
-        # both coordinates, and t * (c + i r) = t c + i t r exactly (the cross terms are 0 * x).
-        dcol = (c * sx[idx] - s * sy[idx]) / rs * inv
-        drow = (s * sx[idx] + c * sy[idx]) / rs * inv
-        direction = dcol + 1j * drow
-        col0 = (pose.x - g.origin_x) * inv + 1.0
-        row0 = (pose.y - g.origin_y) * inv + 1.0
-        origin = complex(col0, row0)
-        limit = limit[idx]
-        steps = self._wall_steps  # the step from each cell: NaN in occupied ones, inf off the map
-        wp = g.width + 2
-        cmax, rmax = g.width + 1, g.height + 1
-        # Each ray's last parameter inside the field (None: the laser is off the map, clip).
-        t_exit = _exit_parameters(col0, row0, dcol, drow, g.width + 2, g.height + 2)
-        min_step = g.resolution
-        depth = cfg.impossible_depth_m
-
-        def lookup(
-            tt: FloatArray, dirs: npt.NDArray[np.complex128], exits: FloatArray | None
-        ) -> FloatArray:
-            # Truncation (astype) equals floor for padded coordinates >= 0; negative ones
-            # truncate to <= 0, which the clipping (off the map) sends to the border, as floor.
-            pos = (tt if exits is None else np.minimum(tt, exits)) * dirs
-            pos += origin
-            col = pos.real.astype(np.intp)
-            row = pos.imag.astype(np.intp)
-            if exits is None:
-                np.minimum(col, cmax, out=col)
-                np.maximum(col, 0, out=col)
-                np.minimum(row, rmax, out=row)
-                np.maximum(row, 0, out=row)
-            row *= wp
-            row += col
-            out_d: FloatArray = steps.take(row)
-            return out_d
-
-        t = np.zeros(idx.shape)
-        first = 0
-        # Every ray's first sample (t = 0) is the laser's own cell: outside a wall, each ray's
-        # first step is that one cell's, one number instead of a pass (speed).
-        laser_col, laser_row = int(col0), int(row0)
-        if t_exit is None:
-            laser_col, laser_row = max(min(laser_col, cmax), 0), max(min(laser_row, rmax), 0)
-        first_step = steps.item(laser_row * wp + laser_col)
-        if first_step == first_step:  # not NaN: no ray starts in an occupied cell
-            t += first_step
-            first = 1
-            keep = t < limit
-            if np.count_nonzero(keep) < keep.size:
-                t, limit, direction, idx = t[keep], limit[keep], direction[keep], idx[keep]
-                if t_exit is not None:
-                    t_exit = t_exit[keep]
-        # Up to 30 passes over a few dozen rays; the rays that end in a pass (through the map:
-        # NaN, at their limit, or off the map: inf) are sorted out only in passes where some do.
-        for step in range(first, cfg.impossible_max_steps):
-            if t.size <= _SCALAR_TAIL_RAYS:
-                # The last few rays (nine traces in ten run all 30 passes, the last ones on a
-                # handful of grazing rays): one by one in plain Python, which costs less than
-                # a pass's numpy calls on so few.
-                walk = _RayWalk(steps, wp, (col0, row0), (cmax, rmax) if t_exit is None else None)
-                walk.trace(
-                    cfg.impossible_max_steps - step,
-                    (t, limit, direction, idx, t_exit),
-                    (min_step, depth),
-                    out,
-                    crossing,
-                )
-                break
-            d = lookup(t, direction, t_exit)
-            t_next = t + d  # NaN where the sample is in an occupied cell
-            keep = t_next < limit
-            if np.count_nonzero(keep) == keep.size:
-                t = t_next
-                continue
-            hit = np.isnan(d)
-            if np.count_nonzero(hit):
-                if depth > 0.0:
-                    # Only a ray that stays inside occupied cells for `depth` goes through the
-                    # map: a lone occupied cell is as likely a stray end point of the mapping
-                    # run. A shallow one steps on by one cell (its cell's step, max(0 - √2 res,
-                    # res)).
-                    deep = hit.copy()
-                    exits = None if t_exit is None else t_exit[hit]
-                    for frac in (0.5, 1.0):
-                        through = np.isnan(lookup(t[deep] + frac * depth, direction[deep], exits))
-                        deep[deep] = through
-                        if exits is not None:
-                            exits = exits[through]
-                    shallow = hit & ~deep
-                    t_next[shallow] = t[shallow] + min_step
-                    keep[shallow] = t_next[shallow] < limit[shallow]
-                    hit = deep
-                out[idx[hit]] = True
-                crossing[idx[hit]] = t[hit]
-            t, limit, direction, idx = t_next[keep], limit[keep], direction[keep], idx[keep]
-            if t_exit is not None:
-                t_exit = t_exit[keep]
-            if t.size == 0:
-                break
-        return out, crossing
+        return (
+            (math.cos(pose.yaw), math.sin(pose.yaw)),
+            ((pose.x - g.origin_x) * inv + 1.0, (pose.y - g.origin_y) * inv + 1.0),
+            self._wall_steps,
+            (int(g.width) + 2, int(g.height) + 2),
+            float(g.resolution),
+            (
+                float(cfg.impossible_margin_m),
+                int(cfg.impossible_max_steps),
+                float(cfg.impossible_depth_m),
+            ),
+        )
 
     def _match_from_starts(self, points: FloatArray, prior: Pose2D, cov: FloatArray) -> MatchResult:
         """The first match after a person set the pose: Gauss-Newton converges only within a
@@ -1440,19 +1338,28 @@ class Localiser:
         if turns is None:  # one per profile length (speed: np.tile costs as much as a pass)
             turns = np.concatenate(([0.0], np.tile([0.0, t, -t], 2 * k)))
             self._slide_turns[(k, t)] = turns
-        px = pose.x + along * direction[0]
-        py = pose.y + along * direction[1]
         yaw = pose.yaw + along * direction[2] + turns
-        c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-        sx, sy = pts[:, 0][None, :], pts[:, 1][None, :]
-        # The end points at every pose, x and y stacked (`LikelihoodLevel.value_xy`):
-        # x = px + c sx - s sy, y = py + s sx + c sy, evaluated left to right.
-        pxy = np.empty((2, along.size, pts.shape[0]))
-        np.add(px[:, None], c * sx, out=pxy[0])
-        np.subtract(pxy[0], s * sy, out=pxy[0])
-        np.add(py[:, None], s * sx, out=pxy[1])
-        np.add(pxy[1], c * sy, out=pxy[1])
-        m = level.value_xy(pxy)
+        h, w = level.field.shape
+        lattice = (
+            float(level.origin_x),
+            float(level.origin_y),
+            1.0 / level.resolution,
+            float(PAD - level.lattice_offset),
+            w - 1.001,  # `LikelihoodLevel._corners_at`'s clip bounds
+            h - 1.001,
+        )
+        # M of the end points at every pose, compiled (`slide_profile.likelihood_at_poses`:
+        # `LikelihoodLevel.value_xy`'s arithmetic); the headings' cosines and sines numpy's.
+        m = likelihood_at_poses(
+            np.ascontiguousarray(pts, dtype=np.float64),
+            (float(pose.x), float(pose.y)),
+            (float(direction[0]), float(direction[1])),
+            along,
+            (np.cos(yaw), np.sin(yaw)),
+            level.corners,
+            lattice,
+            int(w),
+        )
         scores = np.add.reduce(m, axis=1) / m.shape[1]  # m.mean(axis=1), without the wrapper
         base = float(scores[0])
         if base <= 0.0:
@@ -1732,8 +1639,8 @@ class Localiser:
     def _update_map(self, points: FloatArray, pose: Pose2D, now: float) -> None:
         cfg = self.config
         near = points[np.einsum("ij,ij->i", points, points) <= cfg.map_update_max_range_m**2]
-        xs, ys = self._to_map(near, pose)
-        unexplained = self._distance_to_map(xs, ys) > cfg.unexplained_m
+        xs, ys, distance = self._end_points_on_map(near, pose)
+        unexplained = distance > cfg.unexplained_m
         if not unexplained.any():
             return
         px, py = self.dynamic.update(xs[unexplained], ys[unexplained], now, self._travel_m)
@@ -1849,124 +1756,6 @@ def _max_eig_2x2(cov: FloatArray) -> float:
     """Largest eigenvalue of the position block of a 3x3 covariance."""
     a, b, d = float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])
     return 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
-
-
-_SCALAR_TAIL_RAYS = 48  # `_trace_impossible` traces this few rays left one by one
-
-
-class _RayWalk:
-    """`Localiser._trace_impossible`'s passes, one ray at a time in plain Python floats: the
-    same operations in the same order as the numpy passes (a float64 product or sum rounds
-    alike in both; ``int`` truncates as ``astype`` does), so each ray ends, and is judged,
-    exactly as there (`tests/robot_daemon/localisation/test_loc_speed_equivalence.py`).
-    ``steps``: the trace's step field (`_sphere_steps`); ``clip``: the field's last column and
-    row when the laser is off the map (samples clipped to the border), None when each ray's
-    parameter is capped at its exit instead."""
-
-    def __init__(
-        self,
-        steps: FloatArray,
-        width: int,
-        origin: tuple[float, float],
-        clip: tuple[int, int] | None,
-    ) -> None:
-        self.steps = steps
-        self.width = width
-        self.origin = origin
-        self.clip = clip
-
-    def lookup(self, t: float, dcol: float, drow: float, exit_t: float) -> float:
-        """The field at parameter ``t`` of a ray (the numpy pass's ``lookup``); ``exit_t``
-        is inf when the samples are clipped instead."""
-        tt = min(t, exit_t)
-        col = int(tt * dcol + self.origin[0])
-        row = int(tt * drow + self.origin[1])
-        if self.clip is not None:
-            col = max(min(col, self.clip[0]), 0)
-            row = max(min(row, self.clip[1]), 0)
-        value: float = self.steps.item(row * self.width + col)
-        return value
-
-    def trace(
-        self,
-        passes: int,
-        rays: tuple[
-            FloatArray,
-            FloatArray,
-            npt.NDArray[np.complex128],
-            npt.NDArray[np.intp],
-            FloatArray | None,
-        ],
-        steps: tuple[float, float],
-        out: npt.NDArray[np.bool_],
-        crossing: FloatArray,
-    ) -> None:
-        """Up to ``passes`` more steps of each ray ``(t, limit, direction, index, exit)``;
-        marks ``out`` and ``crossing`` at the index of each one that goes through the map.
-
-        Speed: the lookup is written out in the loop (a call per step costs as much as the
-        step), the step field is read through its memoryview (a subscript, not ``item``'s
-        method call: the same float), and ``min`` is a conditional expression that picks the
-        very operand the built-in picks (``min(a, b)`` is ``b if b < a else a``)."""
-        min_step, depth = steps
-        t, limit, direction, idx, t_exit = rays
-        exits = [math.inf] * t.size if t_exit is None else t_exit.tolist()
-        col0, row0 = self.origin
-        field, width, clip = self.steps.data, self.width, self.clip
-        for tk, lim, dc, dr, k, ex in zip(
-            t.tolist(),
-            limit.tolist(),
-            direction.real.tolist(),
-            direction.imag.tolist(),
-            idx.tolist(),
-            exits,
-            strict=True,
-        ):
-            for _ in range(passes):
-                tt = ex if ex < tk else tk  # min(tk, ex)
-                col = int(tt * dc + col0)
-                row = int(tt * dr + row0)
-                if clip is not None:
-                    col = max(min(col, clip[0]), 0)
-                    row = max(min(row, clip[1]), 0)
-                d: float = field[row * width + col]  # a float: the view of a float64 array
-                if d != d:  # NaN: an occupied cell
-                    if depth <= 0.0 or (
-                        _is_nan(self.lookup(tk + 0.5 * depth, dc, dr, ex))
-                        and _is_nan(self.lookup(tk + 1.0 * depth, dc, dr, ex))
-                    ):
-                        out[k] = True
-                        crossing[k] = tk
-                        break
-                    d = min_step  # not deep: one cell on
-                tk += d
-                if not tk < lim:
-                    break
-
-
-def _is_nan(value: float) -> bool:
-    return value != value
-
-
-def _exit_parameters(
-    col0: float, row0: float, dc: FloatArray, dr: FloatArray, width: int, height: int
-) -> FloatArray | None:
-    """Per ray ``(col0, row0) + t * (dc, dr)`` on a ``width x height`` field with a border of
-    one cell: the ``t`` at which it reaches the middle of the border it leaves by (the first of
-    ``col = 0.5`` or ``width - 0.5`` and the same for rows); None if the start is outside those
-    lines. Up to that ``t`` every sample truncates to a cell of the field; from there on each
-    one lies on or beyond the border, so a sample at that ``t`` reads what a clipped one would.
-    """
-    if not (0.5 < col0 < width - 0.5 and 0.5 < row0 < height - 0.5):
-        return None
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tc = np.where(dc > 0.0, (width - 0.5 - col0) / dc, (0.5 - col0) / dc)
-        tr = np.where(dr > 0.0, (height - 0.5 - row0) / dr, (0.5 - row0) / dr)
-    # A ray parallel to an axis never leaves by that axis (x / 0 is -inf there: no bound).
-    tc[dc == 0.0] = np.inf
-    tr[dr == 0.0] = np.inf
-    out: FloatArray = np.minimum(tc, tr)
-    return out
 
 
 def _long_runs(mask: npt.NDArray[np.bool_], k: int) -> npt.NDArray[np.bool_]:

@@ -72,7 +72,7 @@ def test_clean_scans_are_probed_and_a_probe_that_finds_a_beam_through_a_wall_run
     n = subsample_points(loc._scan_points(scans[0]), loc.config.impossible_max_beams).shape[0]
     quarter = -(-n // 4)  # every fourth traced beam
     assert probed_rays[3:6] == [quarter] * 3  # probed once three scans were clean
-    assert min(full_rays[3:6]) >= n // 2  # the full test: the even beams, at least
+    assert min(full_rays[3:6]) == n  # the full test: every beam
     assert probed_rays[6] == full_rays[6] + quarter  # the probe, then the full test
     assert probed_rays[7:11] == full_rays[7:11]  # full until three clean scans again
     assert probed_rays[11:] == [quarter] * 2

@@ -17,7 +17,9 @@ import pytest
 
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map
+from robot_daemon import jit
 from robot_daemon.localisation import localiser as localiser_module
+from robot_daemon.localisation import sphere_trace
 from robot_daemon.localisation.localiser import Localiser, LocaliserConfig
 from robot_daemon.localisation.relocaliser import Relocaliser, RelocaliserConfig
 from robot_daemon.localisation.scan_matcher import (
@@ -188,13 +190,16 @@ def test_fast_impossible_trace_equals_the_plain_loop_on_the_isr_map() -> None:
         assert np.array_equal(crossing, ref_crossing, equal_nan=True)
 
 
-@pytest.mark.parametrize("scalar_rays", [0, 10_000])
-def test_impossible_trace_one_ray_at_a_time_equals_the_plain_loop(
-    scalar_rays: int, monkeypatch: pytest.MonkeyPatch
+@pytest.mark.parametrize("compiled", [True, False])
+def test_impossible_trace_compiled_or_plain_python_equals_the_plain_loop(
+    compiled: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Every pass in numpy (0) or every ray in plain Python from the first pass (10 000), on
-    and off the map, with and without the depth test: the plain loop's flags and ranges."""
-    monkeypatch.setattr(localiser_module, "_SCALAR_TAIL_RAYS", scalar_rays)
+    """The trace's kernel (`sphere_trace.trace_rays`) compiled and as its plain-Python function,
+    on and off the map, with and without the depth test: the plain loop's flags and ranges."""
+    if not compiled:
+        monkeypatch.setattr(
+            localiser_module, "trace_rays", jit.python_function(sphere_trace.trace_rays)
+        )
     rng = np.random.default_rng(10)
     for depth in (0.1, 0.0):
         loc = Localiser(_holed_office(), LocaliserConfig(impossible_depth_m=depth))
@@ -390,7 +395,7 @@ def test_background_check_skips_the_search_only_when_no_place_can_fit_better() -
 
 
 class FreshTraces(Localiser):
-    """A localiser that traces every beam every time it is asked (no reuse, no halves),
+    """A localiser that traces every beam every time it is asked (no reuse),
     counting the rays traced."""
 
     traces = 0
@@ -401,9 +406,6 @@ class FreshTraces(Localiser):
         beams = max_beams or self.config.impossible_max_beams
         self.traces += subsample_points(points, beams).shape[0]
         return self._trace_rays(points, pose, beams)
-
-    def _trace_in_halves(self, points: np.ndarray, pose: Pose2D) -> tuple | None:
-        return self._trace_impossible(points, pose)
 
 
 class CountedTraces(Localiser):
@@ -446,8 +448,8 @@ def test_see_through_reuses_the_trace_of_the_scan_and_estimates_alike() -> None:
         estimates.append((run, loc.traces))
     (reused, traced_once), (fresh, traced_fresh) = estimates
     assert reused == fresh
-    # One trace of the scan's beams per scan (in halves: the odd beams next to an impossible
-    # even one are traced once more), not two or three.
+    # One trace of the scan's beams per scan (and a quarter of them more where the probe
+    # found one through a wall), not two or three.
     assert traced_once <= 15 * 1.25 * LocaliserConfig().impossible_max_beams
     assert traced_fresh > 20  # the see-through test asked again on most scans
 
@@ -881,12 +883,12 @@ def test_match_equals_its_plain_numpy_version_on_a_real_log() -> None:
             assert _same_match(loc.matcher.match(points, record.pose, start_level), expected)
 
 
-# -- the impossible fraction traced in halves ---------------------------------------------------
+# -- the impossible fraction ---------------------------------------------------------------------
 
 
 def impossible_fraction_reference(loc: Localiser, points: np.ndarray, pose: Pose2D) -> float:
-    """`Localiser.impossible_fraction` without ``see_through``: one trace of every beam, the
-    runs of at least ``impossible_min_run`` counted."""
+    """`Localiser.impossible_fraction` without ``see_through``: one plain trace of every beam,
+    the runs of at least ``impossible_min_run`` counted."""
     mask, _ = trace_impossible_reference(loc, points, pose)
     if mask.size == 0:
         return 0.0
@@ -897,52 +899,23 @@ def impossible_fraction_reference(loc: Localiser, points: np.ndarray, pose: Pose
 
 
 @pytest.mark.parametrize("depth", [0.1, 0.0])
-def test_impossible_fraction_traced_in_halves_equals_one_trace(depth: float) -> None:
-    """The even beams first, the odd ones next to an impossible one, the rest only when a run
-    of two is found (`Localiser._trace_in_halves`): the fraction equals one trace of every
-    beam, and the trace kept for `_see_through` equals it bit for bit. Scans at the truth
-    (most fractions 0, decided on the even half) and 0.05-1 m off (runs through walls)."""
+def test_impossible_fraction_equals_the_plain_loop(depth: float) -> None:
+    """Scans at the truth (most fractions 0) and 0.05-1 m off (runs through walls): the
+    fraction of the plain loop, and the trace kept for `_see_through` is its trace."""
     rng = np.random.default_rng(5)
-    screened = traced = 0
+    zero = counted = 0
     for grid in (office_grid(), _holed_office()):
         loc = Localiser(grid, LocaliserConfig(impossible_depth_m=depth))
         for pose in _poses(rng, 25):
             points = loc._scan_points(utm_scan(OFFICE_BOXES, pose, 0.0, rng))
             for sigma in (0.0, 0.05, 0.3, 1.0):
                 at = Pose2D(pose.x + rng.normal(0, sigma), pose.y + rng.normal(0, sigma), pose.yaw)
-                loc._last_trace = None
                 fraction = loc.impossible_fraction(points, at)
                 assert fraction == impossible_fraction_reference(loc, points, at)
-                if loc._last_trace is None:
-                    screened += 1
-                    assert fraction == 0.0
-                    continue
-                traced += 1
                 ref_mask, ref_crossing = trace_impossible_reference(loc, points, at)
+                assert loc._last_trace is not None
                 assert np.array_equal(loc._last_trace[3], ref_mask)
                 assert np.array_equal(loc._last_trace[4], ref_crossing, equal_nan=True)
-    assert screened > 20 and traced > 20  # both ways were taken
-
-
-def test_a_run_of_two_across_the_halves_is_found() -> None:
-    """Every pair of neighbouring beams, one of them even: a run of exactly two impossible
-    beams is counted whichever of the two is the even one."""
-    loc = Localiser(office_grid())
-    n = 40
-    for first in (10, 11):
-        mask = np.zeros(n, dtype=bool)
-        mask[first : first + 2] = True
-
-        def fake(points: np.ndarray, pose: Pose2D, max_beams: int, m: np.ndarray = mask):
-            # The rays are told apart by their x coordinate (their index in the full scan).
-            flags = m[points[:, 0].astype(int)]
-            return flags, np.where(flags, 1.0, np.nan)
-
-        loc._trace_rays = fake  # type: ignore[method-assign]
-        points = np.column_stack([np.arange(n, dtype=float), np.ones(n)])
-        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 2 / n
-        assert np.array_equal(loc._last_trace[3], mask)
-        lone = np.zeros(n, dtype=bool)
-        lone[[first, first + 3]] = True  # two lone beams: no run
-        loc._trace_rays = lambda p, q, b, m=lone: fake(p, q, b, m)  # type: ignore[method-assign]
-        assert loc.impossible_fraction(points, Pose2D(0.0, 0.0, 0.0)) == 0.0
+                zero += int(fraction == 0.0)
+                counted += int(fraction > 0.0)
+    assert zero > 20 and counted > 20  # both kinds of scan
