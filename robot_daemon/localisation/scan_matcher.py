@@ -39,10 +39,9 @@ Departures from Hector (documented choices):
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, ClassVar, TypeVar
 
@@ -54,6 +53,7 @@ from scipy import ndimage
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.localisation import match_kernels
 
 logger = logging.getLogger(__name__)
 
@@ -155,12 +155,7 @@ class _Finished:
 
     def result(self) -> MatchResult:
         normal_info, n_inliers = normal_information(
-            self.m,
-            self.gx,
-            self.gy,
-            self.rx,
-            self.ry,
-            functools.partial(self.level.tensor_rows, self.mxy),
+            self.m, self.gx, self.gy, self.rx, self.ry, self.mxy, self.level
         )
         return MatchResult(
             self.pose,
@@ -212,10 +207,15 @@ class LikelihoodLevel:
         field[p:-p, p:-p] = inner
         self.field = field
         self._rebuild_corners(0, h + 2 * p, 0, w + 2 * p)
+        # What the compiled loops need of this level (`match_kernels`: origin, 1 / res, the
+        # padded-lattice offset and the clip bounds of (u, v)).
+        u_max, v_max = w + 2 * p - 1.001, h + 2 * p - 1.001
+        self.geometry = np.array(
+            (self.origin_x, self.origin_y, 1.0 / resolution, PAD - lattice_offset, u_max, v_max)
+        )
         # Per padded lattice node: the surface orientation (txx, txy, tyy) of `surface_tensor`,
         # NaN where no surface is near (set by `ScanMatcher` on the finest level only).
         self.tensor: npt.NDArray[np.float32] | None = None
-        self._column_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
 
     def set_surface_tensor(self, tensor: npt.NDArray[np.float32]) -> None:
         """Attach `surface_tensor`'s (h, w, 3) field (unpadded lattice) to this level."""
@@ -224,12 +224,6 @@ class LikelihoodLevel:
         padded = np.full((h, w, 3), np.nan, dtype=np.float32)
         padded[p:-p, p:-p] = tensor
         self.tensor = padded.reshape(-1, 3)
-
-    @property
-    def _node_bounds(self) -> npt.NDArray[np.intp]:
-        """The last lattice column and row, as a column (2, 1) that broadcasts over (2, N)."""
-        h, w = self.field.shape
-        return np.array([[w - 1], [h - 1]], dtype=np.intp)
 
     def tensor_at(self, px: FloatArray, py: FloatArray) -> npt.NDArray[np.float32]:
         """(txx, txy, tyy) at the lattice node nearest each map-frame point (NaN rows: none)."""
@@ -243,29 +237,6 @@ class LikelihoodLevel:
         _clip_into(v, 0, h - 1)
         out: npt.NDArray[np.float32] = self.tensor[v * w + u]
         return out
-
-    def tensor_rows(self, pxy: FloatArray, index: npt.NDArray[np.intp]) -> FloatArray | None:
-        """`tensor_at` of the points ``pxy[:, index]`` (stacked x and y, shape (2, N)) as rows
-        (txx, txy, tyy) of shape (3, len(index)) in float64; None without a tensor.
-
-        Speed (issue 12): `normal_information` needs the tensor at the inliers only, and x and
-        y go through each numpy call together; each element is `tensor_at`'s, with the same
-        operations (`test_loc_speed_equivalence.py`)."""
-        if self.tensor is None:
-            return None
-        w = self.field.shape[1]
-        origin, _ = self._columns(2)
-        uv = pxy.take(index, axis=1)
-        uv -= origin
-        uv *= 1.0 / self.resolution
-        uv += PAD - self.lattice_offset
-        ij = np.rint(uv, out=uv).astype(np.intp)
-        np.minimum(ij, self._node_bounds, out=ij)  # `tensor_at`'s clip, on integers
-        np.maximum(ij, 0, out=ij)
-        k = ij[1] * w
-        k += ij[0]
-        rows: FloatArray = self.tensor.take(k, axis=0).T.astype(np.float64, order="C")
-        return rows
 
     @property
     def corners(self) -> FloatArray:
@@ -332,61 +303,19 @@ class LikelihoodLevel:
             np.maximum(self.field[r0:r1, c0:c1], patch, out=self.field[r0:r1, c0:c1])
             self._rebuild_corners(r0 - 1, r1, c0 - 1, c1)
 
-    def _corners_at(self, pxy: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Fractions ``(fx, fy)`` within the lattice cell of each map-frame point and its
-        corner values ``(m00, m01, m10, m11)``; points off the field clip to its zero border.
-
-        ``pxy`` holds the points' x and y stacked, shape (2, ...); the fractions come back
-        stacked alike and the corners as (4, ...). Speed (issue 12): x and y go through each
-        numpy call together, half the calls of one coordinate at a time (a match's step costs
-        numpy calls, not arithmetic), each element computed with the same operations."""
-        inv = 1.0 / self.resolution
-        w = self.field.shape[1]
-        origin, high = self._columns(pxy.ndim)
-        # Continuous padded-lattice coordinates with lattice nodes at integers.
-        uv = pxy - origin
-        uv *= inv
-        uv += PAD - self.lattice_offset
-        _clip_into(uv, 0.0, high)
-        ji = uv.astype(np.intp)
-        frac: FloatArray = uv - ji
-        k = ji[1] * w
-        k += ji[0]
-        rows = self._table.take(k, axis=0)  # one gather, four corners per point
-        corners: FloatArray = rows.transpose((k.ndim, *range(k.ndim)))
-        return frac, corners
-
-    def _columns(self, ndim: int) -> tuple[FloatArray, FloatArray]:
-        """The origin (x, y) and the clip bounds of (u, v) as arrays of shape (2, 1, ...)
-        that broadcast over ``ndim``-dimensional stacked points (made once per shape)."""
-        cached = self._column_cache.get(ndim)
-        if cached is None:
-            h, w = self.field.shape
-            column = (2,) + (1,) * (ndim - 1)
-            cached = (
-                np.array((self.origin_x, self.origin_y)).reshape(column),
-                np.array((w - 1.001, h - 1.001)).reshape(column),
-            )
-            self._column_cache[ndim] = cached
-        return cached
-
     def value(self, px: FloatArray, py: FloatArray) -> FloatArray:
         """Bilinear M alone at map-frame points (`value_xy` of the points stacked)."""
         return self.value_xy(np.stack((px, py)))
 
     def value_xy(self, pxy: FloatArray) -> FloatArray:
         """Bilinear M alone at map-frame points stacked as (2, ...) x and y: `interpolate`'s
-        first output, the same arithmetic without the gradient (the localiser's slide profile
-        scores ~2000 points)."""
-        frac, corners = self._corners_at(pxy)
-        low, high = corners[0::2], corners[1::2]  # (m00, m10) and (m01, m11)
-        ab = high - low
-        ab *= frac[0]
-        ab += low  # a = m00 + fx (m01 - m00), b = m10 + fx (m11 - m10)
-        m: FloatArray = ab[1] - ab[0]
-        m *= frac[1]
-        m += ab[0]  # a + fy (b - a)
-        return m
+        first output (the localiser's slide profile scores ~2000 points)."""
+        flat = _stacked_points(pxy)
+        m = np.empty(flat.shape[1])
+        match_kernels.bilinear(
+            self._table, self.field.shape[1], self.geometry, flat, m, np.empty(flat.shape)
+        )
+        return m.reshape(pxy.shape[1:])
 
     def interpolate(
         self, px: FloatArray, py: FloatArray
@@ -398,25 +327,47 @@ class LikelihoodLevel:
 
     def interpolate_xy(self, pxy: FloatArray, grad: FloatArray) -> FloatArray:
         """`interpolate` of points stacked as (2, ...) x and y: returns M and writes ∂M/∂x,
-        ∂M/∂y into ``grad`` (2, ...) (the matcher's Jacobian rows, filled in place)."""
-        inv = 1.0 / self.resolution
-        frac, corners = self._corners_at(pxy)
-        fx, fy = frac[0], frac[1]
-        low = corners[0::2]  # (m00, m10)
-        d = corners[1::2] - low  # (d0, d1) = (m01 - m00, m11 - m10)
-        ab = fx * d
-        ab += low  # (a, b) = (m00 + fx d0, m10 + fx d1)
-        a = ab[0]
-        ba = ab[1] - a
-        m: FloatArray = fy * ba
-        m += a  # a + fy (b - a)
-        d0 = d[0]
-        dmx = d[1] - d0
-        dmx *= fy
-        dmx += d0
-        np.multiply(dmx, inv, out=grad[0])  # (d0 + fy (d1 - d0)) / res
-        np.multiply(ba, inv, out=grad[1])  # (b - a) / res
-        return m
+        ∂M/∂y into ``grad`` (2, ...) (compiled: `match_kernels.bilinear`)."""
+        flat = _stacked_points(pxy)
+        m = np.empty(flat.shape[1])
+        out = np.empty(flat.shape)
+        match_kernels.bilinear(self._table, self.field.shape[1], self.geometry, flat, m, out)
+        grad[...] = out.reshape(grad.shape)
+        return m.reshape(pxy.shape[1:])
+
+    def gauss_newton_terms(
+        self,
+        sx: FloatArray,
+        sy: FloatArray,
+        poses: FloatArray,
+        out: _Terms,
+    ) -> None:
+        """Per-point terms of a Gauss-Newton iteration for a stack of B starts
+        (`match_kernels.gauss_newton_terms`): end points ``sx``, ``sy`` (n,) in the sensor
+        frame, ``poses`` (B, 4) rows (p_x, p_y, cos ψ, sin ψ); writes ``out``
+        (`_terms_buffers`)."""
+        m, jac, jr, rxy, mxy = out
+        match_kernels.gauss_newton_terms(
+            self._table, self.field.shape[1], self.geometry, sx, sy, poses, m, jac, jr, rxy, mxy
+        )
+
+
+_Terms = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+
+def _terms_buffers(b: int, n: int) -> _Terms:
+    """Empty outputs of `LikelihoodLevel.gauss_newton_terms` for ``b`` starts of ``n`` points,
+    C-contiguous float64: M (b, n), J (b, 3, n), J r (b, 3, n), R(ψ) s (b, 2, n) and the end
+    points in the map frame S (b, 2, n)."""
+    m, jac, jr, rxy, mxy = (b, n), (b, 3, n), (b, 3, n), (b, 2, n), (b, 2, n)
+    return np.empty(m), np.empty(jac), np.empty(jr), np.empty(rxy), np.empty(mxy)
+
+
+def _stacked_points(pxy: FloatArray) -> FloatArray:
+    """Points stacked as (2, ...) as one C-contiguous float64 (2, N) array (a view when they
+    are one already): the one layout the compiled loops take."""
+    flat: FloatArray = np.ascontiguousarray(pxy, dtype=np.float64).reshape(2, -1)
+    return flat
 
 
 def obstacle_surface(occupied: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
@@ -643,40 +594,34 @@ class ScanMatcher:
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
             sx = np.ascontiguousarray(pts[:, 0])
             sy = np.ascontiguousarray(pts[:, 1])
-            # The end points in the map frame, x and y stacked (`LikelihoodLevel.interpolate_xy`),
-            # and the Jacobian J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component,
-            # filled in place each iteration (`_hessian`'s layout: H = J Jᵀ).
-            mxy = np.empty((2, sx.size))
-            jac = np.empty((3, sx.size))
-            gx, gy, jt = jac
+            # The pose (p_x, p_y, cos ψ, sin ψ) and what `LikelihoodLevel.gauss_newton_terms`
+            # writes each iteration for it: M, the Jacobian J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ)
+            # one row per component (`_hessian`'s layout: H = J Jᵀ), J r and R(ψ) s_i.
+            pose = np.empty((1, 4))
+            out = _terms_buffers(1, sx.size)
+            m, jac, jr, rxy, mxy = (a[0] for a in out)
             n_iter = cfg.iterations[n_levels - 1 - li]
             # The finest level goes on past its iterations while the steps are not converged
             # (a few degrees of yaw take more than 4 steps at 5 cm), up to fine_max_iterations.
             n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
             converged = False
             for it in range(n_max + (1 if li == 0 else 0)):
-                c, s = math.cos(yaw), math.sin(yaw)
-                rx = c * sx - s * sy  # R(ψ) s_i
-                ry = s * sx + c * sy
-                np.add(rx, px, out=mxy[0])
-                np.add(ry, py, out=mxy[1])
-                m = level.interpolate_xy(mxy, jac[:2])
-                np.subtract(gy * rx, gx * ry, out=jt)  # ∇M · ∂S/∂ψ
+                pose[0] = (px, py, math.cos(yaw), math.sin(yaw))
+                level.gauss_newton_terms(sx, sy, pose, out)
                 if li == 0 and (it == n_max or (it >= n_iter and converged)):
                     # Final evaluation only: H and score at the solution.
                     hessian = jac @ jac.T
                     score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # m.mean()
                     normal_info, n_inliers = normal_information(
-                        m, gx, gy, rx, ry, functools.partial(level.tensor_rows, mxy)
+                        m, jac[0], jac[1], rxy[0], rxy[1], mxy, level
                     )
                     break
-                r = 1.0 - m
                 # H and g as Python floats (the same values: numpy's float64 arithmetic on
                 # scalars is IEEE double arithmetic as Python's), without numpy's per-element
                 # indexing and scalar overhead. g's three sums are one reduction over the rows
                 # of J r (each row reduces as a lone array does).
                 (h00, h01, h02), (_, h11, h12), (_, _, h22) = (jac @ jac.T).tolist()
-                g = np.add.reduce(jac * r, axis=1).tolist()
+                g = np.add.reduce(jr, axis=1).tolist()
                 lam = cfg.damping * (h00 + h11 + h22) / 3.0 + 1e-9
                 dx, dy, dth = _solve3(h00 + lam, h01, h02, h11 + lam, h12, h22 + lam, g)
                 dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
@@ -837,25 +782,22 @@ class ScanMatcher:
         for li in range(first, stop_level - 1, -1):
             level = self.levels[li]
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sx = np.ascontiguousarray(pts[:, 0])[None, :]
-            sy = np.ascontiguousarray(pts[:, 1])[None, :]
+            sx = np.ascontiguousarray(pts[:, 0])
+            sy = np.ascontiguousarray(pts[:, 1])
             n_iter = cfg.iterations[n_levels - 1 - li]
             n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
             active = np.arange(px.size)  # the starts still iterating on this level
             converged = np.zeros(px.size, dtype=bool)
             for it in range(n_max + (1 if li == 0 else 0)):
+                pose = np.empty((active.size, 4))  # per start (p_x, p_y, cos ψ, sin ψ)
+                pose[:, 0] = px
+                pose[:, 1] = py
                 # math.cos, as `match` (numpy's may differ in the last bit).
-                c = np.array([math.cos(v) for v in yaw.tolist()])[:, None]
-                s = np.array([math.sin(v) for v in yaw.tolist()])[:, None]
-                rx = c * sx - s * sy
-                ry = s * sx + c * sy
-                mxy = np.empty((2, *rx.shape))  # x and y stacked (`interpolate_xy`)
-                np.add(rx, px[:, None], out=mxy[0])
-                np.add(ry, py[:, None], out=mxy[1])
-                jac = np.empty((active.size, 3, rx.shape[1]))  # per start, `match`'s J
-                m = level.interpolate_xy(mxy, jac.transpose(1, 0, 2)[:2])
-                gx, gy, jt = jac[:, 0], jac[:, 1], jac[:, 2]
-                np.subtract(gy * rx, gx * ry, out=jt)
+                pose[:, 2] = [math.cos(v) for v in yaw.tolist()]
+                pose[:, 3] = [math.sin(v) for v in yaw.tolist()]
+                out = _terms_buffers(active.size, sx.size)  # per start, `match`'s terms
+                level.gauss_newton_terms(sx, sy, pose, out)
+                m, jac, jr, rxy, mxy = out
                 done = (
                     np.zeros(active.size, dtype=bool)
                     if li > 0
@@ -871,24 +813,23 @@ class ScanMatcher:
                         float(np.add.reduce(row_m)) / row_m.size,
                         int(fine.shape[0]),
                         row_m,
-                        gx[k],
-                        gy[k],
-                        jt[k],
-                        rx[k],
-                        ry[k],
-                        mxy[:, k],
+                        jac[k, 0],
+                        jac[k, 1],
+                        jac[k, 2],
+                        rxy[k, 0],
+                        rxy[k, 1],
+                        mxy[k],
                         level,
                     )
                 if done.any():
                     keep = ~done
                     active, px, py, yaw = active[keep], px[keep], py[keep], yaw[keep]
-                    m, jac = m[keep], jac[keep]
+                    jac, jr = jac[keep], jr[keep]
                     if active.size == 0:
                         return px, py, yaw
-                r = 1.0 - m
                 h = jac @ jac.transpose(0, 2, 1)
                 # Per start and row of J, the sum of J r (each row reduces as a lone one does).
-                g0, g1, g2 = np.add.reduce(jac * r[:, None, :], axis=2).T
+                g0, g1, g2 = np.add.reduce(jr, axis=2).T
                 lam = cfg.damping * (h[:, 0, 0] + h[:, 1, 1] + h[:, 2, 2]) / 3.0 + 1e-9
                 h[:, 0, 0] += lam
                 h[:, 1, 1] += lam
@@ -923,9 +864,8 @@ def normal_information(
     gy: FloatArray,
     rx: FloatArray,
     ry: FloatArray,
-    tensor: npt.NDArray[np.float32]
-    | Callable[[npt.NDArray[np.intp]], FloatArray | None]
-    | None = None,
+    mxy: FloatArray,
+    level: LikelihoodLevel,
 ) -> tuple[FloatArray, int]:
     """Point-to-surface information ``Σ Aᵢᵀ Tᵢ Aᵢ`` of the inliers, and their number.
 
@@ -941,39 +881,26 @@ def normal_information(
     into open space or onto people add nothing. Along a featureless corridor every ``Tᵢ`` is
     across it, so the information along it is (near) zero.
 
-    ``tensor``: (N, 3) rows, or a function of the inliers' indices that returns their rows
-    transposed, (3, n) (`LikelihoodLevel.tensor_rows`: looked up at the inliers only, speed).
+    ``m``, ``gx``, ``gy``: M and ∇M at the end points; ``rx``, ``ry``: ``R(ψ) sᵢ``; ``mxy``:
+    the end points in the map frame, x and y stacked, where ``Tᵢ`` is looked up in ``level``'s
+    tensor (its nearest lattice node; none without a tensor). The summands are computed in a
+    compiled loop (`match_kernels.inlier_terms`), their sums by numpy (its pairwise order).
     """
-    g = np.hypot(gx, gy)
-    sel = (m > INLIER_M) & (g > 1e-9)
-    index = np.flatnonzero(sel)  # one selection, taken from each array (the same elements)
-    n = int(index.size)
+    c = np.ascontiguousarray
+    out = np.empty((6, m.size))
+    tensor, (h, w) = (_NO_TENSOR, (1, 1)) if level.tensor is None else (level.tensor, level.shape)
+    n = match_kernels.inlier_terms(
+        c(m), c(gx), c(gy), c(rx), c(ry), c(mxy), tensor, w, h, level.geometry, INLIER_M, out
+    )
     if n == 0:
         return np.zeros((3, 3)), 0
-    rows: FloatArray | None = None
-    if callable(tensor):
-        rows = tensor(index)
-    elif tensor is not None:
-        rows = tensor.take(index, axis=0).T.astype(np.float64, order="C")
-    have = np.zeros(0, dtype=bool) if rows is None else ~np.isnan(rows[0])
-    if rows is not None and np.count_nonzero(have) == n:
-        txx, txy, tyy = rows[0], rows[1], rows[2]  # a surface's tensor at every inlier
-    else:
-        inv = 1.0 / g.take(index)
-        nx, ny = gx.take(index) * inv, gy.take(index) * inv
-        txx, txy, tyy = nx * nx, nx * ny, ny * ny
-        if rows is not None:
-            txx = np.where(have, rows[0], txx)
-            txy = np.where(have, rows[1], txy)
-            tyy = np.where(have, rows[2], tyy)
-    jx, jy = -ry.take(index), rx.take(index)  # ∂S/∂ψ = R'(ψ) sᵢ
-    ax = txx * jx + txy * jy  # T (∂S/∂ψ)
-    ay = txy * jx + tyy * jy
-    add = np.add.reduce  # ndarray.sum without its wrapper: the same sums
-    a, b, d = float(add(txx)), float(add(txy)), float(add(tyy))
-    e, f = float(add(ax)), float(add(ay))
-    c = float(add(jx * ax + jy * ay))
-    return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
+    # Σ T_xx, Σ T_xy, Σ T_yy, Σ a_x, Σ a_y, Σ jᵀ a: each row reduces as a lone array does.
+    a, b, d, e, f, q = np.add.reduce(out[:, :n], axis=1).tolist()
+    return np.array([[a, b, e], [b, d, f], [e, f, q]]), n
+
+
+# A tensor with no surface anywhere: every inlier's T is n nᵀ (`normal_information`).
+_NO_TENSOR = np.full((1, 3), np.nan, dtype=np.float32)
 
 
 def _hessian(gx: FloatArray, gy: FloatArray, jt: FloatArray) -> FloatArray:
