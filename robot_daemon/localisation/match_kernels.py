@@ -95,48 +95,48 @@ def bilinear(
         grad[1, k] = ba * inv
 
 
+#: Rows of `gauss_newton_terms`'s output per start: M, J (3 rows), J r (3), R(ψ) s (2), S (2).
+TERM_ROWS = 11
+
+
 @jit.kernel
 def gauss_newton_terms(
     table: FloatArray,
     w: int,
     geometry: FloatArray,
-    sx: FloatArray,
-    sy: FloatArray,
+    points: FloatArray,
     poses: FloatArray,
-    m: FloatArray,
-    jac: FloatArray,
-    jr: FloatArray,
-    rxy: FloatArray,
-    mxy: FloatArray,
+    terms: FloatArray,
 ) -> None:
     """One Gauss-Newton iteration's per-point terms for each start ``b`` of a stack.
 
-    ``poses[b] = (p_x, p_y, cos ψ, sin ψ)``; end points ``(sx, sy)`` (n,) in the sensor frame.
-    Writes ``rxy[b] = R(ψ) s``, ``mxy[b] = S = R(ψ) s + p``, ``m[b] = M(S)``,
-    ``jac[b] = (∂M/∂x, ∂M/∂y, ∇M · ∂S/∂ψ)`` with ``∂S/∂ψ = (-ry, rx)`` (eq. 14), and
-    ``jr[b] = jac[b] (1 - m[b])``."""
+    ``points`` (2, n): the end points ``s`` in the sensor frame, x and y stacked;
+    ``poses[b] = (p_x, p_y, cos ψ, sin ψ)``. Writes ``terms[b]`` (`TERM_ROWS`, n): row 0
+    ``M(S)``, rows 1-3 ``J = (∂M/∂x, ∂M/∂y, ∇M · ∂S/∂ψ)`` with ``∂S/∂ψ = (-ry, rx)`` (eq. 14),
+    rows 4-6 ``J (1 - M)``, rows 7-8 ``(rx, ry) = R(ψ) s``, rows 9-10 ``S = R(ψ) s + p``."""
     for b in range(poses.shape[0]):
         px = poses[b, 0]
         py = poses[b, 1]
         c = poses[b, 2]
         s = poses[b, 3]
-        for i in range(sx.size):
-            rx = c * sx[i] - s * sy[i]
-            ry = s * sx[i] + c * sy[i]
-            rxy[b, 0, i] = rx
-            rxy[b, 1, i] = ry
-            mxy[b, 0, i] = rx + px
-            mxy[b, 1, i] = ry + py
-        bilinear(table, w, geometry, mxy[b], m[b], jac[b])  # jac's rows 0 and 1
-        for i in range(sx.size):
-            gx = jac[b, 0, i]
-            gy = jac[b, 1, i]
-            jt = gy * rxy[b, 0, i] - gx * rxy[b, 1, i]
-            r = 1.0 - m[b, i]
-            jac[b, 2, i] = jt
-            jr[b, 0, i] = gx * r
-            jr[b, 1, i] = gy * r
-            jr[b, 2, i] = jt * r
+        t = terms[b]
+        for i in range(points.shape[1]):
+            rx = c * points[0, i] - s * points[1, i]
+            ry = s * points[0, i] + c * points[1, i]
+            t[7, i] = rx
+            t[8, i] = ry
+            t[9, i] = rx + px
+            t[10, i] = ry + py
+        bilinear(table, w, geometry, t[9:11], t[0], t[1:3])  # M and ∇M at S
+        for i in range(points.shape[1]):
+            gx = t[1, i]
+            gy = t[2, i]
+            jt = gy * t[7, i] - gx * t[8, i]
+            r = 1.0 - t[0, i]
+            t[3, i] = jt
+            t[4, i] = gx * r
+            t[5, i] = gy * r
+            t[6, i] = jt * r
 
 
 @jit.kernel
@@ -205,18 +205,6 @@ def _warm_up() -> None:
     m = np.empty(3)
     bilinear(table, 4, geometry, points, m, np.empty((2, 3)))
     poses = np.array([[0.0, 0.0, math.cos(0.1), math.sin(0.1)]])
-    gauss_newton_terms(
-        table,
-        4,
-        geometry,
-        np.zeros(3),
-        np.zeros(3),
-        poses,
-        np.empty((1, 3)),
-        np.empty((1, 3, 3)),
-        np.empty((1, 3, 3)),
-        np.empty((1, 2, 3)),
-        np.empty((1, 2, 3)),
-    )
+    gauss_newton_terms(table, 4, geometry, points, poses, np.empty((1, TERM_ROWS, 3)))
     tensor = np.full((16, 3), np.nan, dtype=np.float32)
     inlier_terms(m, m, m, m, m, points, tensor, 4, 4, geometry, 0.1, np.empty((6, 3)))

@@ -335,32 +335,21 @@ class LikelihoodLevel:
         grad[...] = out.reshape(grad.shape)
         return m.reshape(pxy.shape[1:])
 
-    def gauss_newton_terms(
-        self,
-        sx: FloatArray,
-        sy: FloatArray,
-        poses: FloatArray,
-        out: _Terms,
-    ) -> None:
+    def gauss_newton_terms(self, points: FloatArray, poses: FloatArray, terms: FloatArray) -> None:
         """Per-point terms of a Gauss-Newton iteration for a stack of B starts
-        (`match_kernels.gauss_newton_terms`): end points ``sx``, ``sy`` (n,) in the sensor
-        frame, ``poses`` (B, 4) rows (p_x, p_y, cos ψ, sin ψ); writes ``out``
-        (`_terms_buffers`)."""
-        m, jac, jr, rxy, mxy = out
+        (`match_kernels.gauss_newton_terms`): end points ``points`` (2, n) in the sensor
+        frame, x and y stacked, ``poses`` (B, 4) rows (p_x, p_y, cos ψ, sin ψ); writes
+        ``terms`` (B, `TERM_ROWS`, n): M, J, J r, R(ψ) s and S (`_M`, `_J`, `_JR`, `_R`, `_S`)."""
         match_kernels.gauss_newton_terms(
-            self._table, self.field.shape[1], self.geometry, sx, sy, poses, m, jac, jr, rxy, mxy
+            self._table, self.field.shape[1], self.geometry, points, poses, terms
         )
 
 
-_Terms = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
-
-
-def _terms_buffers(b: int, n: int) -> _Terms:
-    """Empty outputs of `LikelihoodLevel.gauss_newton_terms` for ``b`` starts of ``n`` points,
-    C-contiguous float64: M (b, n), J (b, 3, n), J r (b, 3, n), R(ψ) s (b, 2, n) and the end
-    points in the map frame S (b, 2, n)."""
-    m, jac, jr, rxy, mxy = (b, n), (b, 3, n), (b, 3, n), (b, 2, n), (b, 2, n)
-    return np.empty(m), np.empty(jac), np.empty(jr), np.empty(rxy), np.empty(mxy)
+# The rows of `LikelihoodLevel.gauss_newton_terms`'s terms: M, J (the Jacobian
+# J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component: `_hessian`'s layout, H = J Jᵀ),
+# J r, R(ψ) s_i and the end points in the map frame S_i.
+TERM_ROWS = match_kernels.TERM_ROWS
+_M, _J, _JR, _R, _S = 0, slice(1, 4), slice(4, 7), slice(7, 9), slice(9, 11)
 
 
 def _stacked_points(pxy: FloatArray) -> FloatArray:
@@ -592,14 +581,12 @@ class ScanMatcher:
         for li in range(first, -1, -1):
             level = self.levels[li]
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sx = np.ascontiguousarray(pts[:, 0])
-            sy = np.ascontiguousarray(pts[:, 1])
+            sxy = np.ascontiguousarray(pts.T)  # the end points s_i, x and y stacked
             # The pose (p_x, p_y, cos ψ, sin ψ) and what `LikelihoodLevel.gauss_newton_terms`
-            # writes each iteration for it: M, the Jacobian J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ)
-            # one row per component (`_hessian`'s layout: H = J Jᵀ), J r and R(ψ) s_i.
+            # writes each iteration for it (`TERM_ROWS`).
             pose = np.empty((1, 4))
-            out = _terms_buffers(1, sx.size)
-            m, jac, jr, rxy, mxy = (a[0] for a in out)
+            terms = np.empty((1, TERM_ROWS, sxy.shape[1]))
+            m, jac, jr, rxy, mxy = (terms[0, rows] for rows in (_M, _J, _JR, _R, _S))
             n_iter = cfg.iterations[n_levels - 1 - li]
             # The finest level goes on past its iterations while the steps are not converged
             # (a few degrees of yaw take more than 4 steps at 5 cm), up to fine_max_iterations.
@@ -607,7 +594,7 @@ class ScanMatcher:
             converged = False
             for it in range(n_max + (1 if li == 0 else 0)):
                 pose[0] = (px, py, math.cos(yaw), math.sin(yaw))
-                level.gauss_newton_terms(sx, sy, pose, out)
+                level.gauss_newton_terms(sxy, pose, terms)
                 if li == 0 and (it == n_max or (it >= n_iter and converged)):
                     # Final evaluation only: H and score at the solution.
                     hessian = jac @ jac.T
@@ -782,8 +769,7 @@ class ScanMatcher:
         for li in range(first, stop_level - 1, -1):
             level = self.levels[li]
             pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sx = np.ascontiguousarray(pts[:, 0])
-            sy = np.ascontiguousarray(pts[:, 1])
+            sxy = np.ascontiguousarray(pts.T)
             n_iter = cfg.iterations[n_levels - 1 - li]
             n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
             active = np.arange(px.size)  # the starts still iterating on this level
@@ -795,9 +781,8 @@ class ScanMatcher:
                 # math.cos, as `match` (numpy's may differ in the last bit).
                 pose[:, 2] = [math.cos(v) for v in yaw.tolist()]
                 pose[:, 3] = [math.sin(v) for v in yaw.tolist()]
-                out = _terms_buffers(active.size, sx.size)  # per start, `match`'s terms
-                level.gauss_newton_terms(sx, sy, pose, out)
-                m, jac, jr, rxy, mxy = out
+                terms = np.empty((active.size, TERM_ROWS, sxy.shape[1]))  # per start, `match`'s
+                level.gauss_newton_terms(sxy, pose, terms)
                 done = (
                     np.zeros(active.size, dtype=bool)
                     if li > 0
@@ -807,20 +792,21 @@ class ScanMatcher:
                     # Final evaluation only: the score at the solution (as `match`), and what
                     # H and the information are computed from.
                     assert results is not None  # done only on the finest level
-                    row_m = m[k]
+                    row_m, (gx, gy, jt), (rx, ry), mxy = (terms[k, r] for r in (_M, _J, _R, _S))
                     results[int(active[k])] = _Finished(
                         Pose2D(float(px[k]), float(py[k]), float(yaw[k])),
                         float(np.add.reduce(row_m)) / row_m.size,
                         int(fine.shape[0]),
                         row_m,
-                        jac[k, 0],
-                        jac[k, 1],
-                        jac[k, 2],
-                        rxy[k, 0],
-                        rxy[k, 1],
-                        mxy[k],
+                        gx,
+                        gy,
+                        jt,
+                        rx,
+                        ry,
+                        mxy,
                         level,
                     )
+                jac, jr = terms[:, _J], terms[:, _JR]
                 if done.any():
                     keep = ~done
                     active, px, py, yaw = active[keep], px[keep], py[keep], yaw[keep]

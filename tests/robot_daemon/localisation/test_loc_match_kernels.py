@@ -421,7 +421,7 @@ def test_compiled_kernels_equal_their_python_functions() -> None:
     loc = Localiser(office_grid())
     truth = Pose2D(5.0, 4.0, 0.3)
     pts = subsample_points(loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng)), 400)
-    sx, sy = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
+    sxy = np.ascontiguousarray(pts.T)
     yaws = truth.yaw + rng.normal(0.0, 0.2, 3)
     poses = np.stack(
         (
@@ -431,42 +431,25 @@ def test_compiled_kernels_equal_their_python_functions() -> None:
             np.sin(yaws),
         )
     ).T.copy()
-    n = sx.size
+    n = sxy.shape[1]
     terms = []
     for kernel in (
         match_kernels.gauss_newton_terms,
         jit.python_function(match_kernels.gauss_newton_terms),
     ):
-        out = (
-            np.empty((3, n)),
-            np.empty((3, 3, n)),
-            np.empty((3, 3, n)),
-            np.empty((3, 2, n)),
-            np.empty((3, 2, n)),
-        )
-        kernel(table, w, geometry, sx, sy, poses, *out)
+        out = np.empty((3, match_kernels.TERM_ROWS, n))
+        kernel(table, w, geometry, sxy, poses, out)
         terms.append(out)
-    assert all(np.array_equal(a, b) for a, b in zip(*terms, strict=True))
+    assert np.array_equal(terms[0], terms[1])
 
-    m, jac, _, rxy, mxy = terms[0]
+    t = terms[0][1]  # M, J, J r, R(ψ) s, S of the second start
     assert level.tensor is not None
     h = level.field.shape[0]
     counts = []
     for kernel in (match_kernels.inlier_terms, jit.python_function(match_kernels.inlier_terms)):
         out = np.zeros((6, n))
         k = kernel(
-            m[0],
-            jac[0, 0],
-            jac[0, 1],
-            rxy[0, 0],
-            rxy[0, 1],
-            mxy[0],
-            level.tensor,
-            w,
-            h,
-            geometry,
-            INLIER_M,
-            out,
+            t[0], t[1], t[2], t[7], t[8], t[9:11], level.tensor, w, h, geometry, INLIER_M, out
         )
         counts.append((k, out))
     assert counts[0][0] == counts[1][0] > 0
