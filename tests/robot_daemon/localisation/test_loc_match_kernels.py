@@ -28,7 +28,6 @@ from robot_daemon.localisation.scan_matcher import (
     MatchResult,
     ScanMatcher,
     ScanMatcherConfig,
-    _solve3,
     normal_information,
     subsample_points,
 )
@@ -37,10 +36,10 @@ from tests.robot_daemon.localisation.log_replay import localise_interleaved, log
 from tests.robot_daemon.localisation.synthetic_office import OFFICE_BOXES, office_grid, utm_scan
 
 LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "data" / "laser_logs"
-KERNELS = {
-    name: getattr(match_kernels, name)
-    for name in ("bilinear", "gauss_newton_terms", "inlier_terms")
-}
+# The kernels the matcher calls, and those only other kernels call (compiled into them).
+ENTRIES = ("bilinear", "gauss_newton_terms", "inlier_terms", "gauss_newton_level")
+INNER = ("solve3", "_pairwise_block", "_pairwise_sum") if jit.ENABLED else ("solve3",)
+KERNELS = {name: getattr(match_kernels, name) for name in (*ENTRIES, *INNER)}
 
 # -- session 12's numpy code (the reference) --------------------------------------------------
 
@@ -158,6 +157,23 @@ def normal_information_numpy(
     return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
 
 
+def solve3_numpy(
+    a: float, b: float, c: float, d: float, e: float, f: float, g: list[float]
+) -> tuple[float, float, float]:
+    """Session 12's `scan_matcher._solve3`."""
+    g0, g1, g2 = g
+    co0 = d * f - e * e
+    co1 = c * e - b * f
+    co2 = b * e - c * d
+    det = a * co0 + b * co1 + c * co2
+    if not abs(det) > 1e-300:
+        return 0.0, 0.0, 0.0
+    x0 = (g0 * co0 + g1 * co1 + g2 * co2) / det
+    x1 = (g0 * co1 + g1 * (a * f - c * c) + g2 * (b * c - a * e)) / det
+    x2 = (g0 * co2 + g1 * (b * c - a * e) + g2 * (a * d - b * b)) / det
+    return x0, x1, x2
+
+
 def match_numpy(
     matcher: ScanMatcher, points: np.ndarray, initial: Pose2D, start_level: int | None = None
 ) -> MatchResult:
@@ -198,7 +214,7 @@ def match_numpy(
             (h00, h01, h02), (_, h11, h12), (_, _, h22) = (jac @ jac.T).tolist()
             g = np.add.reduce(jac * r, axis=1).tolist()
             lam = cfg.damping * (h00 + h11 + h22) / 3.0 + 1e-9
-            dx, dy, dth = _solve3(h00 + lam, h01, h02, h11 + lam, h12, h22 + lam, g)
+            dx, dy, dth = solve3_numpy(h00 + lam, h01, h02, h11 + lam, h12, h22 + lam, g)
             dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
             converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
             px += dx
@@ -461,11 +477,11 @@ def _signatures() -> dict[str, int]:
 
 
 def test_kernels_are_compiled_with_numba_or_plain_python_without() -> None:
-    """With numba the kernels are compiled (one signature each after `jit.warm_up`); with
-    ``INTERBOT_NO_JIT`` they are the plain functions."""
+    """With numba the kernels the matcher calls are compiled (a signature each after
+    `jit.warm_up`); with ``INTERBOT_NO_JIT`` they are the plain functions."""
     jit.warm_up()
     if jit.ENABLED:
-        assert all(count >= 1 for count in _signatures().values())
+        assert all(_signatures()[name] >= 1 for name in ENTRIES)
     else:
         assert all(jit.python_function(k) is k for k in KERNELS.values())
 
@@ -497,3 +513,88 @@ def test_a_real_log_replay_after_warm_up_compiles_nothing() -> None:
     stats = localise_interleaved(LOGS / "intel-corrected.log.gz", 2, records=records)
     assert stats["scans"] >= 250
     assert _signatures() == before
+
+
+# -- numpy's sums in compiled code (`match_kernels.row_sums_into`, `gram_into`) ----------------
+
+
+@jit.kernel
+def _row_sums(a: np.ndarray, out: np.ndarray) -> None:
+    match_kernels.row_sums_into(a, out)
+
+
+@jit.kernel
+def _gram(a: np.ndarray, out: np.ndarray) -> None:
+    match_kernels.gram_into(a, out)
+
+
+def _awkward(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """Values over 16 orders of magnitude, of both signs, some -0.0 and some 0.0."""
+    a = rng.normal(0.0, 1.0, shape) * 10.0 ** rng.uniform(-8.0, 8.0, shape)
+    a[rng.random(shape) < 0.05] = -0.0
+    a[rng.random(shape) < 0.05] = 0.0
+    return a
+
+
+def test_compiled_row_sums_are_numpys_pairwise_sums() -> None:
+    """Compiled `row_sums_into` (numpy's pairwise summation rewritten) gives
+    ``np.add.reduce(a, axis=1)`` bit for bit, the sign of a zero too, for rows of every length
+    up to beyond three halvings (0..1100, and 5000: ``max_points``' top), of a (3, n) array
+    and of the J r rows of a stack of terms (plain Python: numpy itself)."""
+    rng = np.random.default_rng(38)
+    lengths = [*range(0, 300), *rng.integers(300, 1100, 200).tolist(), 5000]
+    for n in lengths:
+        terms = _awkward(rng, (2, match_kernels.TERM_ROWS, n))
+        stacked = np.add.reduce(terms[:, 4:7], axis=2)[1]
+        for a in (terms[1, 4:7], np.ascontiguousarray(terms[1, 4:7])):
+            out = np.empty(3)
+            _row_sums(a, out)
+            want = np.add.reduce(a, axis=1)
+            assert np.array_equal(out, want)
+            assert np.array_equal(np.signbit(out), np.signbit(want))
+            assert np.array_equal(out, stacked)
+
+
+def test_compiled_gram_is_numpys_product() -> None:
+    """Compiled `gram_into` (numpy's BLAS ``syrk``, or numpy through a callback) gives
+    ``a @ a.T`` bit for bit, the empty product too; so does the callback called directly."""
+    rng = np.random.default_rng(39)
+    for n in [*range(0, 200), *rng.integers(200, 3000, 100).tolist()]:
+        terms = _awkward(rng, (1, match_kernels.TERM_ROWS, n))
+        jac = terms[0, 1:4]
+        out = np.full((3, 3), np.nan)
+        _gram(jac, out)
+        assert np.array_equal(out, jac @ jac.T)
+        if n > 0:
+            c = np.full((3, 3), np.nan)
+            args = (3, n, 1.0, jac.ctypes.data, n, 0.0, c.ctypes.data, 3)
+            match_kernels._syrk_by_numpy(101, 121, 111, *args)
+            assert np.array_equal(c, jac @ jac.T)
+
+
+def test_compiled_gauss_newton_level_equals_its_python_function() -> None:
+    """One level's iterations compiled and as plain Python (numpy's sums): the same state and
+    terms, on every level of the office, coarse (no final evaluation) and finest."""
+    rng = np.random.default_rng(40)
+    matcher = office_matcher("cell_face", True)
+    loc = Localiser(office_grid())
+    truth = Pose2D(6.0, 3.0, -0.4)
+    fine = subsample_points(loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng)), 400)
+    plain = jit.python_function(match_kernels.gauss_newton_level)
+    start = (truth.x + 0.1, truth.y - 0.08, truth.yaw + 0.07)
+    for li, level in enumerate(matcher.levels):
+        pts = fine if li == 0 else subsample_points(fine, max(400 >> li, 30))
+        sxy = np.ascontiguousarray(pts.T)
+        runs = []
+        for kernel in (match_kernels.gauss_newton_level, plain):
+            state = np.array(start)
+            terms = np.empty((1, match_kernels.TERM_ROWS, sxy.shape[1]))
+            table, w = level.corners.T, level.field.shape[1]
+            steps, iterations = matcher._steps, matcher._iterations[li]
+            stopped = kernel(table, w, level.geometry, sxy, state, steps, iterations, terms)
+            runs.append((stopped, state, terms))
+        (s0, x0, t0), (s1, x1, t1) = runs
+        assert s0 == s1 == (li == 0)
+        assert np.array_equal(x0, x1)
+        assert np.array_equal(t0, t1)
+        assert not np.array_equal(x0, start)
