@@ -518,12 +518,23 @@ def test_a_real_log_replay_after_warm_up_compiles_nothing() -> None:
 # -- numpy's sums in compiled code (`match_kernels.row_sums_into`, `gram_into`) ----------------
 
 
-@jit.kernel
+def _compiled(function: Callable[..., None]) -> Callable[..., None]:
+    """``function`` compiled when kernels are, without numba's cache (a cached test function
+    would not see a change of `match_kernels`: the cache checks its own file only)."""
+    if not jit.ENABLED:
+        return function
+    import numba
+
+    compiled: Callable[..., None] = numba.njit(error_model="numpy")(function)
+    return compiled
+
+
+@_compiled
 def _row_sums(a: np.ndarray, out: np.ndarray) -> None:
     match_kernels.row_sums_into(a, out)
 
 
-@jit.kernel
+@_compiled
 def _gram(a: np.ndarray, out: np.ndarray) -> None:
     match_kernels.gram_into(a, out)
 
