@@ -73,6 +73,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from robot_daemon import jit
+
 _spec = importlib.util.spec_from_file_location("interbot_bench_common", Path(__file__).with_name("_common.py"))  # fmt: skip
 common = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
 _spec.loader.exec_module(common)  # type: ignore[union-attr]
@@ -217,6 +219,7 @@ def run(quick: bool = False, logs: Sequence[str] | None = None, seed: int = 0) -
         return {}
     out: dict[str, float] = {}
     silent = 0.0
+    jit.warm_up()  # the kernels compiled or loaded before the clock, as the daemon does
     with common.quiet_logs():
         for key, (stem, *_) in CASES.items():
             if (quick and key not in QUICK_LOGS) or (logs and key not in logs):

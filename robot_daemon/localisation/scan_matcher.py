@@ -39,10 +39,9 @@ Departures from Hector (documented choices):
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, ClassVar, TypeVar
 
@@ -54,6 +53,7 @@ from scipy import ndimage
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.localisation import match_kernels
 
 logger = logging.getLogger(__name__)
 
@@ -137,39 +137,23 @@ class CoarseStarts:
 
 @dataclass(frozen=True)
 class _Finished:
-    """A start of `ScanMatcher._descend` stopped on the finest level: its pose and score, and
-    what its `MatchResult`'s Hessian and point-to-surface information are computed from
-    (`result`, `match`'s operations in its order: the same values whenever computed)."""
+    """A start matched to the finest level: its pose and score, and what its `MatchResult`'s
+    Hessian and point-to-surface information are computed from (`result`: the same values
+    whenever computed)."""
 
     pose: Pose2D
     score: float
     n_points: int
-    m: FloatArray  # M at the end points
-    gx: FloatArray
-    gy: FloatArray
-    jt: FloatArray
-    rx: FloatArray
-    ry: FloatArray
-    mxy: FloatArray  # the end points in the map frame, x and y stacked
+    terms: FloatArray  # the final evaluation's terms (`TERM_ROWS`, n)
     level: LikelihoodLevel
 
     def result(self) -> MatchResult:
+        m, jac, rxy, mxy = (self.terms[rows] for rows in (_M, _J, _R, _S))
         normal_info, n_inliers = normal_information(
-            self.m,
-            self.gx,
-            self.gy,
-            self.rx,
-            self.ry,
-            functools.partial(self.level.tensor_rows, self.mxy),
+            m, jac[0], jac[1], rxy[0], rxy[1], mxy, self.level
         )
-        return MatchResult(
-            self.pose,
-            _hessian(self.gx, self.gy, self.jt),
-            self.score,
-            self.n_points,
-            normal_info,
-            n_inliers,
-        )
+        hessian: FloatArray = jac @ jac.T  # H = Σ JᵀJ
+        return MatchResult(self.pose, hessian, self.score, self.n_points, normal_info, n_inliers)
 
 
 class LikelihoodLevel:
@@ -212,10 +196,15 @@ class LikelihoodLevel:
         field[p:-p, p:-p] = inner
         self.field = field
         self._rebuild_corners(0, h + 2 * p, 0, w + 2 * p)
+        # What the compiled loops need of this level (`match_kernels`: origin, 1 / res, the
+        # padded-lattice offset and the clip bounds of (u, v)).
+        u_max, v_max = w + 2 * p - 1.001, h + 2 * p - 1.001
+        self.geometry = np.array(
+            (self.origin_x, self.origin_y, 1.0 / resolution, PAD - lattice_offset, u_max, v_max)
+        )
         # Per padded lattice node: the surface orientation (txx, txy, tyy) of `surface_tensor`,
         # NaN where no surface is near (set by `ScanMatcher` on the finest level only).
         self.tensor: npt.NDArray[np.float32] | None = None
-        self._column_cache: dict[int, tuple[FloatArray, FloatArray]] = {}
 
     def set_surface_tensor(self, tensor: npt.NDArray[np.float32]) -> None:
         """Attach `surface_tensor`'s (h, w, 3) field (unpadded lattice) to this level."""
@@ -224,12 +213,6 @@ class LikelihoodLevel:
         padded = np.full((h, w, 3), np.nan, dtype=np.float32)
         padded[p:-p, p:-p] = tensor
         self.tensor = padded.reshape(-1, 3)
-
-    @property
-    def _node_bounds(self) -> npt.NDArray[np.intp]:
-        """The last lattice column and row, as a column (2, 1) that broadcasts over (2, N)."""
-        h, w = self.field.shape
-        return np.array([[w - 1], [h - 1]], dtype=np.intp)
 
     def tensor_at(self, px: FloatArray, py: FloatArray) -> npt.NDArray[np.float32]:
         """(txx, txy, tyy) at the lattice node nearest each map-frame point (NaN rows: none)."""
@@ -243,29 +226,6 @@ class LikelihoodLevel:
         _clip_into(v, 0, h - 1)
         out: npt.NDArray[np.float32] = self.tensor[v * w + u]
         return out
-
-    def tensor_rows(self, pxy: FloatArray, index: npt.NDArray[np.intp]) -> FloatArray | None:
-        """`tensor_at` of the points ``pxy[:, index]`` (stacked x and y, shape (2, N)) as rows
-        (txx, txy, tyy) of shape (3, len(index)) in float64; None without a tensor.
-
-        Speed (issue 12): `normal_information` needs the tensor at the inliers only, and x and
-        y go through each numpy call together; each element is `tensor_at`'s, with the same
-        operations (`test_loc_speed_equivalence.py`)."""
-        if self.tensor is None:
-            return None
-        w = self.field.shape[1]
-        origin, _ = self._columns(2)
-        uv = pxy.take(index, axis=1)
-        uv -= origin
-        uv *= 1.0 / self.resolution
-        uv += PAD - self.lattice_offset
-        ij = np.rint(uv, out=uv).astype(np.intp)
-        np.minimum(ij, self._node_bounds, out=ij)  # `tensor_at`'s clip, on integers
-        np.maximum(ij, 0, out=ij)
-        k = ij[1] * w
-        k += ij[0]
-        rows: FloatArray = self.tensor.take(k, axis=0).T.astype(np.float64, order="C")
-        return rows
 
     @property
     def corners(self) -> FloatArray:
@@ -332,61 +292,19 @@ class LikelihoodLevel:
             np.maximum(self.field[r0:r1, c0:c1], patch, out=self.field[r0:r1, c0:c1])
             self._rebuild_corners(r0 - 1, r1, c0 - 1, c1)
 
-    def _corners_at(self, pxy: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Fractions ``(fx, fy)`` within the lattice cell of each map-frame point and its
-        corner values ``(m00, m01, m10, m11)``; points off the field clip to its zero border.
-
-        ``pxy`` holds the points' x and y stacked, shape (2, ...); the fractions come back
-        stacked alike and the corners as (4, ...). Speed (issue 12): x and y go through each
-        numpy call together, half the calls of one coordinate at a time (a match's step costs
-        numpy calls, not arithmetic), each element computed with the same operations."""
-        inv = 1.0 / self.resolution
-        w = self.field.shape[1]
-        origin, high = self._columns(pxy.ndim)
-        # Continuous padded-lattice coordinates with lattice nodes at integers.
-        uv = pxy - origin
-        uv *= inv
-        uv += PAD - self.lattice_offset
-        _clip_into(uv, 0.0, high)
-        ji = uv.astype(np.intp)
-        frac: FloatArray = uv - ji
-        k = ji[1] * w
-        k += ji[0]
-        rows = self._table.take(k, axis=0)  # one gather, four corners per point
-        corners: FloatArray = rows.transpose((k.ndim, *range(k.ndim)))
-        return frac, corners
-
-    def _columns(self, ndim: int) -> tuple[FloatArray, FloatArray]:
-        """The origin (x, y) and the clip bounds of (u, v) as arrays of shape (2, 1, ...)
-        that broadcast over ``ndim``-dimensional stacked points (made once per shape)."""
-        cached = self._column_cache.get(ndim)
-        if cached is None:
-            h, w = self.field.shape
-            column = (2,) + (1,) * (ndim - 1)
-            cached = (
-                np.array((self.origin_x, self.origin_y)).reshape(column),
-                np.array((w - 1.001, h - 1.001)).reshape(column),
-            )
-            self._column_cache[ndim] = cached
-        return cached
-
     def value(self, px: FloatArray, py: FloatArray) -> FloatArray:
         """Bilinear M alone at map-frame points (`value_xy` of the points stacked)."""
         return self.value_xy(np.stack((px, py)))
 
     def value_xy(self, pxy: FloatArray) -> FloatArray:
         """Bilinear M alone at map-frame points stacked as (2, ...) x and y: `interpolate`'s
-        first output, the same arithmetic without the gradient (the localiser's slide profile
-        scores ~2000 points)."""
-        frac, corners = self._corners_at(pxy)
-        low, high = corners[0::2], corners[1::2]  # (m00, m10) and (m01, m11)
-        ab = high - low
-        ab *= frac[0]
-        ab += low  # a = m00 + fx (m01 - m00), b = m10 + fx (m11 - m10)
-        m: FloatArray = ab[1] - ab[0]
-        m *= frac[1]
-        m += ab[0]  # a + fy (b - a)
-        return m
+        first output (the localiser's slide profile scores ~2000 points)."""
+        flat = _stacked_points(pxy)
+        m = np.empty(flat.shape[1])
+        match_kernels.bilinear(
+            self._table, self.field.shape[1], self.geometry, flat, m, np.empty(flat.shape)
+        )
+        return m.reshape(pxy.shape[1:])
 
     def interpolate(
         self, px: FloatArray, py: FloatArray
@@ -398,25 +316,44 @@ class LikelihoodLevel:
 
     def interpolate_xy(self, pxy: FloatArray, grad: FloatArray) -> FloatArray:
         """`interpolate` of points stacked as (2, ...) x and y: returns M and writes ∂M/∂x,
-        ∂M/∂y into ``grad`` (2, ...) (the matcher's Jacobian rows, filled in place)."""
-        inv = 1.0 / self.resolution
-        frac, corners = self._corners_at(pxy)
-        fx, fy = frac[0], frac[1]
-        low = corners[0::2]  # (m00, m10)
-        d = corners[1::2] - low  # (d0, d1) = (m01 - m00, m11 - m10)
-        ab = fx * d
-        ab += low  # (a, b) = (m00 + fx d0, m10 + fx d1)
-        a = ab[0]
-        ba = ab[1] - a
-        m: FloatArray = fy * ba
-        m += a  # a + fy (b - a)
-        d0 = d[0]
-        dmx = d[1] - d0
-        dmx *= fy
-        dmx += d0
-        np.multiply(dmx, inv, out=grad[0])  # (d0 + fy (d1 - d0)) / res
-        np.multiply(ba, inv, out=grad[1])  # (b - a) / res
-        return m
+        ∂M/∂y into ``grad`` (2, ...) (compiled: `match_kernels.bilinear`)."""
+        flat = _stacked_points(pxy)
+        m = np.empty(flat.shape[1])
+        out = np.empty(flat.shape)
+        match_kernels.bilinear(self._table, self.field.shape[1], self.geometry, flat, m, out)
+        grad[...] = out.reshape(grad.shape)
+        return m.reshape(pxy.shape[1:])
+
+    def gauss_newton(
+        self,
+        points: FloatArray,
+        state: FloatArray,
+        steps: FloatArray,
+        iterations: npt.NDArray[np.int64],
+        terms: FloatArray,
+    ) -> bool:
+        """Gauss-Newton iterations of one start on this level
+        (`match_kernels.gauss_newton_level`): end points ``points`` (2, n) in the sensor frame,
+        ``state`` (p_x, p_y, ψ) updated in place; True when it ended with the final evaluation
+        (``terms`` (1, `TERM_ROWS`, n) then hold the terms at the solution)."""
+        stopped: bool = match_kernels.gauss_newton_level(
+            self._table, self.field.shape[1], self.geometry, points, state, steps, iterations, terms
+        )
+        return stopped
+
+
+# The rows of `LikelihoodLevel.gauss_newton_terms`'s terms: M, J (the Jacobian
+# J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component: `_hessian`'s layout, H = J Jᵀ),
+# J r, R(ψ) s_i and the end points in the map frame S_i.
+TERM_ROWS = match_kernels.TERM_ROWS
+_M, _J, _R, _S = 0, slice(1, 4), slice(7, 9), slice(9, 11)
+
+
+def _stacked_points(pxy: FloatArray) -> FloatArray:
+    """Points stacked as (2, ...) as one C-contiguous float64 (2, N) array (a view when they
+    are one already): the one layout the compiled loops take."""
+    flat: FloatArray = np.ascontiguousarray(pxy, dtype=np.float64).reshape(2, -1)
+    return flat
 
 
 def obstacle_surface(occupied: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
@@ -529,43 +466,6 @@ def downsample_occupied(occ: npt.NDArray[np.bool_], factor: int) -> npt.NDArray[
     return out
 
 
-def _solve3(
-    a: float, b: float, c: float, d: float, e: float, f: float, g: tuple[float, float, float]
-) -> tuple[float, float, float]:
-    """Solve the 3x3 symmetric system H Δ = g by Cramer's rule (cheaper than LAPACK here);
-    ``H = [[a, b, c], [b, d, e], [c, e, f]]``."""
-    g0, g1, g2 = g
-    co0 = d * f - e * e
-    co1 = c * e - b * f
-    co2 = b * e - c * d
-    det = a * co0 + b * co1 + c * co2
-    if not abs(det) > 1e-300:
-        return 0.0, 0.0, 0.0
-    x0 = (g0 * co0 + g1 * co1 + g2 * co2) / det
-    x1 = (g0 * co1 + g1 * (a * f - c * c) + g2 * (b * c - a * e)) / det
-    x2 = (g0 * co2 + g1 * (b * c - a * e) + g2 * (a * d - b * b)) / det
-    return x0, x1, x2
-
-
-def _solve3_many(
-    h: FloatArray, g0: FloatArray, g1: FloatArray, g2: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """`_solve3` for a stack of systems (h: (B, 3, 3), g: three (B,)): the same operations in
-    the same order, element by element (so the same values), 0 where the system is singular."""
-    a, b, c = h[:, 0, 0], h[:, 0, 1], h[:, 0, 2]
-    d, e, f = h[:, 1, 1], h[:, 1, 2], h[:, 2, 2]
-    co0 = d * f - e * e
-    co1 = c * e - b * f
-    co2 = b * e - c * d
-    det = a * co0 + b * co1 + c * co2
-    ok = np.abs(det) > 1e-300
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x0 = (g0 * co0 + g1 * co1 + g2 * co2) / det
-        x1 = (g0 * co1 + g1 * (a * f - c * c) + g2 * (b * c - a * e)) / det
-        x2 = (g0 * co2 + g1 * (b * c - a * e) + g2 * (a * d - b * b)) / det
-    return np.where(ok, x0, 0.0), np.where(ok, x1, 0.0), np.where(ok, x2, 0.0)
-
-
 def subsample_points(points: FloatArray, max_points: int) -> FloatArray:
     """At most ``max_points`` rows of ``points`` taken with a fixed stride (deterministic)."""
     n = points.shape[0]
@@ -604,6 +504,19 @@ class ScanMatcher:
         logger.debug(
             "scan matcher: %d levels %s m", len(self.levels), [lv.resolution for lv in self.levels]
         )
+        cfg = self.config
+        # `match_kernels.gauss_newton_level`'s settings, and its iterations on each level: the
+        # finest goes on past its iterations while the steps are not converged (a few degrees
+        # of yaw take more than 4 steps at 5 cm), up to fine_max_iterations, then evaluates
+        # the solution.
+        self._steps = np.array(
+            (cfg.damping, cfg.max_angular_step, cfg.converged_m, cfg.converged_rad)
+        )
+        self._iterations = []
+        for li in range(len(self.levels)):
+            n_iter = cfg.iterations[len(self.levels) - 1 - li]
+            n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
+            self._iterations.append(np.array((n_iter, n_max, li == 0), dtype=np.int64))
 
     def add_obstacles(self, xs: FloatArray, ys: FloatArray) -> None:
         """Add new static obstacle points [m] to every level."""
@@ -629,83 +542,18 @@ class ScanMatcher:
         Levels are matched coarse to fine from ``start_level`` (default: the coarsest); level
         ``l`` uses ``max_points >> l`` points. Returns the finest level's pose, H and mean M.
         """
-        cfg = self.config
-        fine = subsample_points(points, cfg.max_points)
-        px, py, yaw = initial.x, initial.y, initial.yaw
-        hessian = np.zeros((3, 3))
-        normal_info = np.zeros((3, 3))
-        n_inliers = 0
-        score = 0.0
-        n_levels = len(self.levels)
-        first = n_levels - 1 if start_level is None else min(max(start_level, 0), n_levels - 1)
-        for li in range(first, -1, -1):
-            level = self.levels[li]
-            pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sx = np.ascontiguousarray(pts[:, 0])
-            sy = np.ascontiguousarray(pts[:, 1])
-            # The end points in the map frame, x and y stacked (`LikelihoodLevel.interpolate_xy`),
-            # and the Jacobian J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component,
-            # filled in place each iteration (`_hessian`'s layout: H = J Jᵀ).
-            mxy = np.empty((2, sx.size))
-            jac = np.empty((3, sx.size))
-            gx, gy, jt = jac
-            n_iter = cfg.iterations[n_levels - 1 - li]
-            # The finest level goes on past its iterations while the steps are not converged
-            # (a few degrees of yaw take more than 4 steps at 5 cm), up to fine_max_iterations.
-            n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
-            converged = False
-            for it in range(n_max + (1 if li == 0 else 0)):
-                c, s = math.cos(yaw), math.sin(yaw)
-                rx = c * sx - s * sy  # R(ψ) s_i
-                ry = s * sx + c * sy
-                np.add(rx, px, out=mxy[0])
-                np.add(ry, py, out=mxy[1])
-                m = level.interpolate_xy(mxy, jac[:2])
-                np.subtract(gy * rx, gx * ry, out=jt)  # ∇M · ∂S/∂ψ
-                if li == 0 and (it == n_max or (it >= n_iter and converged)):
-                    # Final evaluation only: H and score at the solution.
-                    hessian = jac @ jac.T
-                    score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # m.mean()
-                    normal_info, n_inliers = normal_information(
-                        m, gx, gy, rx, ry, functools.partial(level.tensor_rows, mxy)
-                    )
-                    break
-                r = 1.0 - m
-                # H and g as Python floats (the same values: numpy's float64 arithmetic on
-                # scalars is IEEE double arithmetic as Python's), without numpy's per-element
-                # indexing and scalar overhead. g's three sums are one reduction over the rows
-                # of J r (each row reduces as a lone array does).
-                (h00, h01, h02), (_, h11, h12), (_, _, h22) = (jac @ jac.T).tolist()
-                g = np.add.reduce(jac * r, axis=1).tolist()
-                lam = cfg.damping * (h00 + h11 + h22) / 3.0 + 1e-9
-                dx, dy, dth = _solve3(h00 + lam, h01, h02, h11 + lam, h12, h22 + lam, g)
-                dth = max(-cfg.max_angular_step, min(cfg.max_angular_step, dth))
-                converged = abs(dx) + abs(dy) < cfg.converged_m and abs(dth) < cfg.converged_rad
-                px += dx
-                py += dy
-                yaw += dth
-        return MatchResult(
-            Pose2D(px, py, yaw), hessian, score, int(fine.shape[0]), normal_info, n_inliers
-        )
+        fine = subsample_points(points, self.config.max_points)
+        return self._descend(fine, initial, start_level).result()
 
     def match_many(
         self, points: FloatArray, initials: Sequence[Pose2D], start_level: int | None = None
     ) -> list[MatchResult]:
-        """`match` from each of ``initials``, result for result the same (bit for bit), with
-        the starts' Gauss-Newton iterations stacked: one numpy call per step for all of them.
+        """`match` from each of ``initials``.
 
-        Speed (issue 12): the localiser's first match after a person set the pose runs from 25
-        starts (`Localiser._match_from_starts`); one by one that took about 12 ms, the real
-        logs' slowest scans. Each start keeps its own iteration count and convergence: a start
-        leaves the stack when `match` would stop. Every element is computed with `match`'s
-        operations in its order (rows of a stacked sum reduce as a lone row does; each start's
-        ``H`` is one BLAS product as in `_hessian`; `_solve3` on arrays);
-        `tests/robot_daemon/localisation/test_loc_speed_equivalence.py` compares the two.
-        """
+        (Session 12 iterated the starts stacked, one numpy call per step for all of them; with
+        each level's iterations one compiled call, start by start is faster.)"""
         fine = subsample_points(points, self.config.max_points)
-        if fine.shape[0] == 0 or len(initials) < 2:
-            return [self.match(points, p, start_level) for p in initials]
-        return [f.result() for f in self._finished_many(fine, initials, start_level)]
+        return [self._descend(fine, p, start_level).result() for p in initials]
 
     def match_best(
         self,
@@ -718,7 +566,7 @@ class ScanMatcher:
         the rest (the first of equals), bit for bit; the others' Hessians and information,
         which a caller keeping only the best never reads, are not computed.
 
-        Speed (issue 12): that final evaluation (`normal_information`, `_hessian`) was a sixth
+        Speed (issue 12): that final evaluation (`normal_information`, the Hessian) was a sixth
         of the 25-start first match after a set pose (`Localiser._match_from_starts`, the
         Freiburg campus, CSAIL and Örebro whole-log runs' 14 such matches: 5.5 -> 4.6 ms of
         CPU; their 28 wide-heading matches, `Localiser._wide_heading_match`: 2.0 -> 1.8 ms;
@@ -726,27 +574,8 @@ class ScanMatcher:
         if not 0 <= keep < len(initials):
             raise ValueError(f"match_best: keep must be 0..{len(initials) - 1}, got {keep}")
         fine = subsample_points(points, self.config.max_points)
-        if fine.shape[0] == 0 or len(initials) < 2:
-            results = [self.match(points, p, start_level) for p in initials]
-            return [*results[:keep], _best(results[keep:])]
-        finished = self._finished_many(fine, initials, start_level)
+        finished = [self._descend(fine, p, start_level) for p in initials]
         return [f.result() for f in finished[:keep]] + [_best(finished[keep:]).result()]
-
-    def _finished_many(
-        self, fine: FloatArray, initials: Sequence[Pose2D], start_level: int | None
-    ) -> list[_Finished]:
-        """Every start of ``initials`` iterated, stacked, to the finest level (`_descend`)."""
-        finished: list[_Finished | None] = [None] * len(initials)
-        poses = (
-            np.array([p.x for p in initials]),
-            np.array([p.y for p in initials]),
-            np.array([p.yaw for p in initials]),
-        )
-        self._descend(fine, poses, start_level, 0, finished)
-        out = [f for f in finished if f is not None]
-        if len(out) != len(initials):  # every start ends on the finest level
-            raise RuntimeError("match_many: a start did not finish")
-        return out
 
     def coarse_many(
         self,
@@ -770,11 +599,12 @@ class ScanMatcher:
                 f"coarse_many: start_level {start_level} is finer than stop_level {stop_level}"
             )
         fine = subsample_points(points, self.config.max_points)
-        px = np.array([p.x for p in initials])
-        py = np.array([p.y for p in initials])
-        yaw = np.array([p.yaw for p in initials])
-        if fine.shape[0] > 0 and initials:
-            px, py, yaw = self._descend(fine, (px, py, yaw), start_level, stop_level, None)
+        states = np.array([(p.x, p.y, p.yaw) for p in initials]).reshape(-1, 3)
+        if fine.shape[0] > 0:
+            first = max(self._first_level(start_level), stop_level)
+            for state in states:  # each row iterated in place
+                self._iterate(fine, state, first, stop_level)
+        px, py, yaw = (np.ascontiguousarray(states[:, k]) for k in range(3))
         scores = [
             self._level_score(fine, x, y, t, stop_level)
             for x, y, t in zip(px.tolist(), py.tolist(), yaw.tolist(), strict=True)
@@ -784,19 +614,57 @@ class ScanMatcher:
     def finish(
         self, points: FloatArray, starts: CoarseStarts, ks: Sequence[int]
     ) -> list[MatchResult]:
-        """Starts ``ks`` of `coarse_many` matched on down to the finest level, stacked:
-        `match_many`'s results for them (the poses carried on unwrapped, as there)."""
+        """Starts ``ks`` of `coarse_many` matched on down to the finest level: `match_many`'s
+        results for them (the poses carried on unwrapped, as there)."""
         fine = subsample_points(points, self.config.max_points)
         if fine.shape[0] == 0:
             return [self.match(points, starts.pose(k), 0) for k in ks]
-        index = np.array(ks, dtype=np.intp)
-        finished: list[_Finished | None] = [None] * index.size
-        poses = (starts.x[index], starts.y[index], starts.yaw[index])
-        self._descend(fine, poses, starts.level - 1, 0, finished)
-        out = [f.result() for f in finished if f is not None]
-        if len(out) != index.size:  # every start ends on the finest level
-            raise RuntimeError("finish: a start did not finish")
+        out = []
+        for k in ks:
+            state = np.array((starts.x[k], starts.y[k], starts.yaw[k]))
+            out.append(self._finish(fine, state, starts.level - 1).result())
         return out
+
+    def _first_level(self, start_level: int | None) -> int:
+        """The level a match starts on: ``start_level`` clipped to the levels, else the
+        coarsest."""
+        coarsest = len(self.levels) - 1
+        return coarsest if start_level is None else min(max(start_level, 0), coarsest)
+
+    def _descend(self, fine: FloatArray, initial: Pose2D, start_level: int | None) -> _Finished:
+        """One start matched from ``start_level`` (`_first_level`) to the finest level."""
+        state = np.array((initial.x, initial.y, initial.yaw))  # ξ, iterated in place
+        return self._finish(fine, state, self._first_level(start_level))
+
+    def _finish(self, fine: FloatArray, state: FloatArray, first: int) -> _Finished:
+        """``state`` (p_x, p_y, ψ) iterated from level ``first`` down to the finest level, and
+        what its result is computed from (the terms of the final evaluation)."""
+        terms = self._iterate(fine, state, first, 0)
+        if terms is None:  # the finest level always ends with its final evaluation
+            raise RuntimeError("scan matcher: the finest level did not finish")
+        m = terms[_M]
+        score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # m.mean()
+        px, py, yaw = state.tolist()
+        return _Finished(Pose2D(px, py, yaw), score, int(fine.shape[0]), terms, self.levels[0])
+
+    def _iterate(
+        self, fine: FloatArray, state: FloatArray, first: int, last: int
+    ) -> FloatArray | None:
+        """Levels ``first`` down to ``last`` (coarse to fine; level ``l`` uses
+        ``max_points >> l`` of the points ``fine``, at least 30) iterated from ``state``
+        (updated in place), one compiled call a level (`LikelihoodLevel.gauss_newton`).
+        Returns the finest level's terms at the solution (`TERM_ROWS`, n) when ``last`` is 0,
+        else None."""
+        cfg = self.config
+        for li in range(first, last - 1, -1):
+            level = self.levels[li]
+            pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
+            sxy = np.ascontiguousarray(pts.T)  # the end points s_i, x and y stacked
+            terms = np.empty((1, TERM_ROWS, sxy.shape[1]))
+            if level.gauss_newton(sxy, state, self._steps, self._iterations[li], terms):
+                solution: FloatArray = terms[0]
+                return solution
+        return None
 
     def level_score(self, points: FloatArray, pose: Pose2D, level: int) -> float:
         """Mean M of the end points at ``pose`` on ``level``, over the points `match` uses
@@ -815,94 +683,6 @@ class ScanMatcher:
         np.add(s * pts[:, 0] + c * pts[:, 1], y, out=pxy[1])
         m = self.levels[level].value_xy(pxy)
         return float(np.add.reduce(m)) / m.size
-
-    def _descend(
-        self,
-        fine: FloatArray,
-        poses: tuple[FloatArray, FloatArray, FloatArray],
-        start_level: int | None,
-        stop_level: int,
-        results: list[_Finished | None] | None,
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """`match_many`'s stacked iterations from ``start_level`` down to ``stop_level``; on
-        the finest level (``stop_level`` 0) each start goes into ``results`` when it stops
-        (`_Finished`: its result, its Hessian and information computed when asked). Returns the poses (x, y, yaw arrays) of the starts still iterating at the end
-        (every start after a coarse ``stop_level``). ``poses``: the starts' x, y and yaw."""
-        cfg = self.config
-        px, py, yaw = poses
-        n_levels = len(self.levels)
-        first = n_levels - 1 if start_level is None else min(max(start_level, 0), n_levels - 1)
-        first = max(first, stop_level)
-        amax = cfg.max_angular_step
-        for li in range(first, stop_level - 1, -1):
-            level = self.levels[li]
-            pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sx = np.ascontiguousarray(pts[:, 0])[None, :]
-            sy = np.ascontiguousarray(pts[:, 1])[None, :]
-            n_iter = cfg.iterations[n_levels - 1 - li]
-            n_max = max(n_iter, cfg.fine_max_iterations) if li == 0 else n_iter
-            active = np.arange(px.size)  # the starts still iterating on this level
-            converged = np.zeros(px.size, dtype=bool)
-            for it in range(n_max + (1 if li == 0 else 0)):
-                # math.cos, as `match` (numpy's may differ in the last bit).
-                c = np.array([math.cos(v) for v in yaw.tolist()])[:, None]
-                s = np.array([math.sin(v) for v in yaw.tolist()])[:, None]
-                rx = c * sx - s * sy
-                ry = s * sx + c * sy
-                mxy = np.empty((2, *rx.shape))  # x and y stacked (`interpolate_xy`)
-                np.add(rx, px[:, None], out=mxy[0])
-                np.add(ry, py[:, None], out=mxy[1])
-                jac = np.empty((active.size, 3, rx.shape[1]))  # per start, `match`'s J
-                m = level.interpolate_xy(mxy, jac.transpose(1, 0, 2)[:2])
-                gx, gy, jt = jac[:, 0], jac[:, 1], jac[:, 2]
-                np.subtract(gy * rx, gx * ry, out=jt)
-                done = (
-                    np.zeros(active.size, dtype=bool)
-                    if li > 0
-                    else (np.full(active.size, it == n_max) | (converged & (it >= n_iter)))
-                )
-                for k in np.flatnonzero(done).tolist():
-                    # Final evaluation only: the score at the solution (as `match`), and what
-                    # H and the information are computed from.
-                    assert results is not None  # done only on the finest level
-                    row_m = m[k]
-                    results[int(active[k])] = _Finished(
-                        Pose2D(float(px[k]), float(py[k]), float(yaw[k])),
-                        float(np.add.reduce(row_m)) / row_m.size,
-                        int(fine.shape[0]),
-                        row_m,
-                        gx[k],
-                        gy[k],
-                        jt[k],
-                        rx[k],
-                        ry[k],
-                        mxy[:, k],
-                        level,
-                    )
-                if done.any():
-                    keep = ~done
-                    active, px, py, yaw = active[keep], px[keep], py[keep], yaw[keep]
-                    m, jac = m[keep], jac[keep]
-                    if active.size == 0:
-                        return px, py, yaw
-                r = 1.0 - m
-                h = jac @ jac.transpose(0, 2, 1)
-                # Per start and row of J, the sum of J r (each row reduces as a lone one does).
-                g0, g1, g2 = np.add.reduce(jac * r[:, None, :], axis=2).T
-                lam = cfg.damping * (h[:, 0, 0] + h[:, 1, 1] + h[:, 2, 2]) / 3.0 + 1e-9
-                h[:, 0, 0] += lam
-                h[:, 1, 1] += lam
-                h[:, 2, 2] += lam
-                dx, dy, dth = _solve3_many(h, g0, g1, g2)
-                dth = np.where(dth < amax, dth, amax)  # min(amax, dth), as Python's min
-                dth = np.where(dth > -amax, dth, -amax)  # max(-amax, dth)
-                converged = (np.abs(dx) + np.abs(dy) < cfg.converged_m) & (
-                    np.abs(dth) < cfg.converged_rad
-                )
-                px = px + dx
-                py = py + dy
-                yaw = yaw + dth
-        return px, py, yaw
 
 
 _T = TypeVar("_T", MatchResult, _Finished)
@@ -923,9 +703,8 @@ def normal_information(
     gy: FloatArray,
     rx: FloatArray,
     ry: FloatArray,
-    tensor: npt.NDArray[np.float32]
-    | Callable[[npt.NDArray[np.intp]], FloatArray | None]
-    | None = None,
+    mxy: FloatArray,
+    level: LikelihoodLevel,
 ) -> tuple[FloatArray, int]:
     """Point-to-surface information ``Σ Aᵢᵀ Tᵢ Aᵢ`` of the inliers, and their number.
 
@@ -941,49 +720,26 @@ def normal_information(
     into open space or onto people add nothing. Along a featureless corridor every ``Tᵢ`` is
     across it, so the information along it is (near) zero.
 
-    ``tensor``: (N, 3) rows, or a function of the inliers' indices that returns their rows
-    transposed, (3, n) (`LikelihoodLevel.tensor_rows`: looked up at the inliers only, speed).
+    ``m``, ``gx``, ``gy``: M and ∇M at the end points; ``rx``, ``ry``: ``R(ψ) sᵢ``; ``mxy``:
+    the end points in the map frame, x and y stacked, where ``Tᵢ`` is looked up in ``level``'s
+    tensor (its nearest lattice node; none without a tensor). The summands are computed in a
+    compiled loop (`match_kernels.inlier_terms`), their sums by numpy (its pairwise order).
     """
-    g = np.hypot(gx, gy)
-    sel = (m > INLIER_M) & (g > 1e-9)
-    index = np.flatnonzero(sel)  # one selection, taken from each array (the same elements)
-    n = int(index.size)
+    c = np.ascontiguousarray
+    out = np.empty((6, m.size))
+    tensor, (h, w) = (_NO_TENSOR, (1, 1)) if level.tensor is None else (level.tensor, level.shape)
+    n = match_kernels.inlier_terms(
+        c(m), c(gx), c(gy), c(rx), c(ry), c(mxy), tensor, w, h, level.geometry, INLIER_M, out
+    )
     if n == 0:
         return np.zeros((3, 3)), 0
-    rows: FloatArray | None = None
-    if callable(tensor):
-        rows = tensor(index)
-    elif tensor is not None:
-        rows = tensor.take(index, axis=0).T.astype(np.float64, order="C")
-    have = np.zeros(0, dtype=bool) if rows is None else ~np.isnan(rows[0])
-    if rows is not None and np.count_nonzero(have) == n:
-        txx, txy, tyy = rows[0], rows[1], rows[2]  # a surface's tensor at every inlier
-    else:
-        inv = 1.0 / g.take(index)
-        nx, ny = gx.take(index) * inv, gy.take(index) * inv
-        txx, txy, tyy = nx * nx, nx * ny, ny * ny
-        if rows is not None:
-            txx = np.where(have, rows[0], txx)
-            txy = np.where(have, rows[1], txy)
-            tyy = np.where(have, rows[2], tyy)
-    jx, jy = -ry.take(index), rx.take(index)  # ∂S/∂ψ = R'(ψ) sᵢ
-    ax = txx * jx + txy * jy  # T (∂S/∂ψ)
-    ay = txy * jx + tyy * jy
-    add = np.add.reduce  # ndarray.sum without its wrapper: the same sums
-    a, b, d = float(add(txx)), float(add(txy)), float(add(tyy))
-    e, f = float(add(ax)), float(add(ay))
-    c = float(add(jx * ax + jy * ay))
-    return np.array([[a, b, e], [b, d, f], [e, f, c]]), n
+    # Σ T_xx, Σ T_xy, Σ T_yy, Σ a_x, Σ a_y, Σ jᵀ a: each row reduces as a lone array does.
+    a, b, d, e, f, q = np.add.reduce(out[:, :n], axis=1).tolist()
+    return np.array([[a, b, e], [b, d, f], [e, f, q]]), n
 
 
-def _hessian(gx: FloatArray, gy: FloatArray, jt: FloatArray) -> FloatArray:
-    """H = Σ JᵀJ with J_i = (∂M/∂x, ∂M/∂y, ∇M·∂S_i/∂ψ)."""
-    jac = np.empty((3, gx.size))  # filled row by row: np.stack costs more than the product
-    jac[0] = gx
-    jac[1] = gy
-    jac[2] = jt
-    out: FloatArray = jac @ jac.T
-    return out
+# A tensor with no surface anywhere: every inlier's T is n nᵀ (`normal_information`).
+_NO_TENSOR = np.full((1, 3), np.nan, dtype=np.float32)
 
 
 def _clip_into(
