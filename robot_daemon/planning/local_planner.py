@@ -43,6 +43,7 @@ import numpy as np
 import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D, wrap_angle
+from robot_daemon import jit
 from robot_daemon.planning.config import PlannerConfig
 
 FloatArray = npt.NDArray[np.float64]
@@ -103,7 +104,7 @@ class ObstacleField:
         # instead of masking the points outside (one gather).
         bordered = np.full((self.n + 2, self.n + 2), np.inf)
         bordered[1:-1, 1:-1] = self.distance
-        self._bordered = bordered.ravel()
+        self.bordered: FloatArray = bordered.ravel()
 
     def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Distance at robot-frame points; outside the grid counts as far from everything."""
@@ -118,7 +119,7 @@ class ObstacleField:
         row *= self.n + 2
         row += col
         row += self.n + 3  # (row + 1) * (n + 2) + col + 1
-        result: npt.NDArray[np.float64] = self._bordered.take(row)
+        result: npt.NDArray[np.float64] = self.bordered.take(row)
         return result
 
     def _cells(self, coordinate: npt.ArrayLike) -> npt.NDArray[np.int64]:
@@ -169,6 +170,61 @@ def _rollout_with_trig(
     sin_ratio = np.where(small, 1.0, sin_t / safe)
     cos_ratio = np.where(small, 0.5 * theta, (1.0 - cos_t) / safe)
     return dist * sin_ratio, dist * cos_ratio, theta
+
+
+@jit.kernel
+def rollout_clearance(
+    v: FloatArray,
+    w: FloatArray,
+    times: FloatArray,
+    cos_t: FloatArray,
+    sin_t: FloatArray,
+    offsets: FloatArray,
+    bordered: FloatArray,
+    n: int,
+    half_size: float,
+    resolution: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Each arc's end point and the obstacle distance along it: `rollout` (``cos_t``,
+    ``sin_t`` the caller's ``cos``/``sin`` of ``w * times``) and the footprint's circles at
+    every step looked up in an `ObstacleField` (its ``_bordered`` grid), one trajectory at a
+    time instead of (circles x trajectories x steps) numpy arrays.
+
+    Returns (x_end, y_end, d_min, d_end): the end point, the least distance over every circle
+    and step, and over the circles at the last step. The arithmetic is `_rollout_with_trig`'s
+    and `ObstacleField.lookup`'s, operation for operation.
+    """
+    trajectories, steps = cos_t.shape
+    x_end = np.empty(trajectories)
+    y_end = np.empty(trajectories)
+    d_min = np.empty(trajectories)
+    d_end = np.empty(trajectories)
+    stride = n + 2
+    for i in range(trajectories):
+        least = math.inf
+        last = math.inf
+        x = y = 0.0
+        for k in range(steps):
+            theta = w[i] * times[k]
+            dist = v[i] * times[k]
+            c, s = cos_t[i, k], sin_t[i, k]
+            if abs(theta) < 1e-9:  # the limits of the ratios on a straight line
+                x = dist * 1.0
+                y = dist * (0.5 * theta)
+            else:
+                x = dist * (s / theta)
+                y = dist * ((1.0 - c) / theta)
+            last = math.inf
+            for j in range(offsets.size):
+                col = math.floor((x + c * offsets[j] + half_size) / resolution)
+                row = math.floor((y + s * offsets[j] + half_size) / resolution)
+                col = max(min(col, n), -1)  # outside the grid: onto its border of inf
+                row = max(min(row, n), -1)
+                d = bordered[row * stride + col + stride + 1]
+                least = min(least, d)
+                last = min(last, d)
+        x_end[i], y_end[i], d_min[i], d_end[i] = x, y, least, last
+    return x_end, y_end, d_min, d_end
 
 
 def limit_step(target: float, current: float, max_step: float, low: float, high: float) -> float:
@@ -233,7 +289,7 @@ class DWAPlanner:
         c = self.config
         v0, w0 = velocity
         dv, dw = c.linear_acceleration * dt, c.angular_acceleration * dt
-        offsets, radius, times = self._shape()
+        _, radius, times = self._shape()
         margin = 0.5 * c.local_grid_resolution
         clearance = self.footprint_clearance(field, 0.0, 0.0, 0.0)
 
@@ -260,12 +316,8 @@ class DWAPlanner:
             )
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
             w = limit_step(w_target, w0, dw, -c.max_angular_speed, c.max_angular_speed)
-            x, y, th = rollout(np.array([v]), np.array([w]), times)
-            d = field.lookup(
-                x[..., None] + np.cos(th)[..., None] * offsets,
-                y[..., None] + np.sin(th)[..., None] * offsets,
-            )
-            if float(d.min()) - radius > margin:
+            _, _, turn_distance, _ = self._rollouts(np.array([v]), np.array([w]), field)
+            if float(turn_distance[0]) - radius > margin:
                 return LocalPlan(v, w, True, "rotate_to_heading", clearance, 1)
 
         # The dynamic window.
@@ -276,17 +328,10 @@ class DWAPlanner:
         # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
         v_s = np.linspace(v_lo, v_hi, c.v_samples).repeat(c.w_samples)
         w_s = np.tile(np.linspace(w_lo, w_hi, c.w_samples), c.v_samples)
-        th = w_s[:, None] * times[None, :]
-        cos_t, sin_t = np.cos(th), np.sin(th)
-        x, y, th = _rollout_with_trig(v_s, times, th, sin_t, cos_t)
-        # Circle centres as (circle, trajectory, step): the long axes innermost, for numpy.
-        off = offsets[:, None, None]
-        d = field.lookup(x[None] + cos_t[None] * off, y[None] + sin_t[None] * off)
-        # Over the circles, then the steps: the same minimum, without numpy's slow reduction
-        # over two axes at once (twice the cost of this whole line).
-        traj_clearance = d.min(axis=0).min(axis=1) - radius
+        xe, ye, distance, end_distance = self._rollouts(v_s, w_s, field)
+        te = w_s * times[-1]
+        traj_clearance = distance - radius
         admissible = traj_clearance > margin
-        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
         mode = "dwa"
         if not admissible.any() and 0.0 < clearance <= margin:
             # Already inside the margin (a map or a pose a few cm off, a person stepping
@@ -294,12 +339,12 @@ class DWAPlanner:
             # lead out, and the robot would brake beside a wall for ever. Admit the ones that
             # stay clear of contact, end farther from the obstacles than the robot is now and
             # nearer the carrot (out along the path, not a crawl along a wall across it).
-            end_clearance = d[:, :, -1].min(axis=0) - radius
+            end_clearance = end_distance - radius
             nearer = np.hypot(carrot[0] - xe, carrot[1] - ye) < math.hypot(*carrot)
             admissible = (traj_clearance > 0.0) & (end_clearance > clearance) & nearer
             mode = "escape"
         if wants_turn and mode == "dwa":
-            room = self._room_to_turn(field, x[:, -1], y[:, -1], admissible, margin)
+            room = self._room_to_turn(field, xe, ye, admissible, margin)
             if room is not None:
                 return LocalPlan(float(v_s[room]), float(w_s[room]), True, "make_room", clearance)
         count = int(admissible.sum())
@@ -332,6 +377,27 @@ class DWAPlanner:
         score = np.where(admissible, score, np.inf)
         best = int(score.argmin())
         return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
+
+    def _rollouts(
+        self, v: FloatArray, w: FloatArray, field: ObstacleField
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """`rollout_clearance` of the arcs (v[i], w[i]) over this configuration's horizon:
+        their end points (x, y), the least obstacle distance [m] of the footprint's circles
+        along each and at its end."""
+        offsets, _, times = self._shape()
+        theta = w[:, None] * times[None, :]
+        return rollout_clearance(
+            v,
+            w,
+            times,
+            np.cos(theta),
+            np.sin(theta),
+            offsets,
+            field.bordered,
+            field.n,
+            field.half_size,
+            field.resolution,
+        )
 
     def _room_to_turn(
         self,
@@ -445,3 +511,15 @@ def obstacle_points_near(
     x = origin_x + (cols + col0 + 0.5) * resolution
     y = origin_y + (rows + row0 + 0.5) * resolution
     return _to_robot_frame(np.column_stack((x, y)), pose)
+
+
+@jit.on_warm_up("planning.local_planner")
+def _warm_up() -> None:
+    field = ObstacleField(np.array([[0.5, 0.0]]), 1.0, 0.1)
+    planner = DWAPlanner(PlannerConfig())
+    planner.compute(
+        Pose2D(0.0, 0.0, 0.0), (0.1, 0.0), np.array([[0.0, 0.0], [2.0, 0.0]]), field, 0.1
+    )
+    planner.compute(
+        Pose2D(0.0, 0.0, 3.0), (0.0, 0.0), np.array([[0.0, 0.0], [2.0, 0.0]]), field, 0.1
+    )

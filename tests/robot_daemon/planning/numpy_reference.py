@@ -1,0 +1,261 @@
+"""The numpy code the planner's compiled kernels replaced (session 13), kept as the tests'
+reference: each kernel must give what this code gave, bit for bit (`test_plan_kernels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from interbot_core.geometry import Pose2D
+from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.local_planner import (
+    CLEARANCE_REF,
+    W_CLEARANCE,
+    W_HEADING,
+    W_PATH,
+    W_PROGRESS,
+    W_SPEED,
+    DWAPlanner,
+    LocalPlan,
+    ObstacleField,
+    _carrot,
+    _rollout_with_trig,
+    _to_robot_frame,
+    _wrap,
+    limit_step,
+    rollout,
+)
+from robot_daemon.planning.navigator import Navigator
+
+_WINDOW_MARGIN = 1e-6  # [rad] beyond a cell's exact angular extent, far above rounding
+
+
+def clearing_samples(
+    x: float, y: float, angles: np.ndarray, reach: np.ndarray, step: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Map-frame points [m] every ``step`` along each beam from (x, y), short of its ``reach``:
+    the samples ``t_k = k * step < reach[b]`` of beam ``b``, in beam order."""
+    t = np.arange(0.0, float(reach.max()), step)
+    counts = np.searchsorted(t, reach, side="left")  # samples with t_k < reach
+    beam = np.repeat(np.arange(reach.size), counts)
+    starts = np.cumsum(counts) - counts
+    k = np.arange(beam.size) - np.repeat(starts, counts)
+    tk = t[k]
+    xs = x + np.cos(angles)[beam] * tk
+    ys = y + np.sin(angles)[beam] * tk
+    return xs, ys
+
+
+class NumpyClearingCostmap(Costmap):
+    """`Costmap` clearing as session 12 did: the samples that may land in a live mark, found
+    with numpy (``_live_clearing_samples``), then every cell holding one forgotten."""
+
+    def _clear_beams(
+        self, now: float, x: float, y: float, angles: np.ndarray, reach: np.ndarray
+    ) -> None:
+        if angles.size > 1 and angles[1] > angles[0]:
+            self._clear_cells(*self._live_clearing_samples(now, x, y, angles, reach))
+        else:
+            self._clear_cells(*clearing_samples(x, y, angles, reach, self.resolution))
+
+    def _live_clearing_samples(
+        self, now: float, x: float, y: float, angles: np.ndarray, reach: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The clearing samples that may land in a live mark (``angles`` increasing): a sample
+        ``t_k`` along beam ``b`` lies in the cell of centre ``c`` only if ``|t_k - |c - o|| <=
+        h`` and the beam passes within ``h`` of ``c`` (``h`` half the cell's diagonal)."""
+        res = self.resolution
+        g = self.grid
+        reach_max = float(reach.max())
+        t = np.arange(0.0, reach_max, res)
+        empty = np.zeros(0)
+        boxes = [b for b in self._mark_boxes if b[0] > now]
+        if not boxes:
+            return empty, empty
+        row_o, col_o = math.floor((y - g.origin_y) / res), math.floor((x - g.origin_x) / res)
+        k = math.ceil(reach_max / res) + 2
+        r0 = max(row_o - k, min(b[1] for b in boxes), 0)
+        r1 = min(row_o + k + 1, max(b[2] for b in boxes), g.height)
+        c0 = max(col_o - k, min(b[3] for b in boxes), 0)
+        c1 = min(col_o + k + 1, max(b[4] for b in boxes), g.width)
+        if r0 >= r1 or c0 >= c1:
+            return empty, empty
+        live = (self._marked_until[r0:r1, c0:c1] > now).ravel().nonzero()[0]
+        if live.size == 0:
+            return empty, empty
+        rows, cols = np.divmod(live, c1 - c0)
+        dx = g.origin_x + (cols + c0 + 0.5) * res - x
+        dy = g.origin_y + (rows + r0 + 0.5) * res - y
+        rho = np.hypot(dx, dy)
+        h = res * math.sqrt(0.5)
+        half = np.arcsin(np.minimum(h / np.maximum(rho, 2.0 * h), 0.5)) + _WINDOW_MARGIN
+        half[rho <= 2.0 * h] = 2.0 * math.pi
+        first = float(angles[0]) - half
+        centre = first + np.mod(np.arctan2(dy, dx) - first, 2.0 * math.pi)
+        k_lo = np.maximum(np.floor((rho - h) / res).astype(np.int64) - 1, 0)
+        k_hi = np.minimum(np.ceil((rho + h) / res).astype(np.int64) + 2, t.size)
+        wrap = (centre + 2.0 * math.pi - half <= angles[-1]).nonzero()[0]
+        if wrap.size:
+            centre = np.concatenate((centre, centre[wrap] + 2.0 * math.pi))
+            half = np.concatenate((half, half[wrap]))
+            k_lo = np.concatenate((k_lo, k_lo[wrap]))
+            k_hi = np.concatenate((k_hi, k_hi[wrap]))
+        lo = angles.searchsorted(centre - half)
+        n_beams = np.maximum(angles.searchsorted(centre + half, side="right") - lo, 0)
+        cell = np.arange(lo.size).repeat(n_beams)
+        beam = np.arange(cell.size) + (lo - (n_beams.cumsum() - n_beams)).repeat(n_beams)
+        kk = k_lo[cell][:, None] + np.arange(max(int((k_hi - k_lo).max()), 0))[None, :]
+        counts = t.searchsorted(reach, side="left")
+        real = kk < np.minimum(k_hi[cell], counts[beam])[:, None]
+        beam = beam.repeat(np.count_nonzero(real, axis=1))
+        tk = t[kk[real]]
+        xs = x + np.cos(angles)[beam] * tk
+        ys = y + np.sin(angles)[beam] * tk
+        return xs, ys
+
+    def _clear_cells(self, xs: np.ndarray, ys: np.ndarray) -> None:
+        """Forget the live marks of the cells holding map-frame points (xs, ys) [m]."""
+        g = self.grid
+        cols = np.floor((xs - g.origin_x) / g.resolution).astype(np.int64)
+        rows = np.floor((ys - g.origin_y) / g.resolution).astype(np.int64)
+        ok = (rows >= 0) & (rows < g.height) & (cols >= 0) & (cols < g.width)
+        self._marked_until[rows[ok], cols[ok]] = -np.inf
+
+
+class NumpyDWAPlanner(DWAPlanner):
+    """`DWAPlanner` with session 12's numpy rollouts: (circles x trajectories x steps) arrays
+    of circle centres looked up in the field at once."""
+
+    def compute(
+        self,
+        pose: Pose2D,
+        velocity: tuple[float, float],
+        path: npt.ArrayLike,
+        field: ObstacleField,
+        dt: float,
+        goal_distance: float | None = None,
+    ) -> LocalPlan:
+        """The command for the next ``dt`` seconds.
+
+        ``velocity`` is the current (v [m/s], w [rad/s]); ``path`` the global path (N, 2) in the
+        map frame; ``field`` the robot-frame obstacle field; ``goal_distance`` [m] is given on
+        the final leg (it limits the approach speed).
+        """
+        c = self.config
+        v0, w0 = velocity
+        dv, dw = c.linear_acceleration * dt, c.angular_acceleration * dt
+        offsets, radius, times = self._shape()
+        margin = 0.5 * c.local_grid_resolution
+        clearance = self.footprint_clearance(field, 0.0, 0.0, 0.0)
+
+        # Speed limits: near obstacles and on the final approach.
+        fraction = min(max(clearance / c.slowdown_clearance, c.slowdown_min_fraction), 1.0)
+        v_cap = c.max_linear_speed * fraction
+        if goal_distance is not None:
+            v_cap = min(
+                v_cap,
+                max(0.05, c.max_linear_speed * goal_distance / c.approach_slowdown_distance),
+            )
+
+        pts = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+        local = _to_robot_frame(pts, pose)
+        carrot, local_path = _carrot(local, c.lookahead)
+        carrot_angle = math.atan2(carrot[1], carrot[0])
+
+        # Turn towards the path first if it lies far off the heading.
+        wants_turn = abs(carrot_angle) > c.rotate_to_heading_angle and np.hypot(*carrot) > 1e-3
+        if wants_turn:
+            w_target = math.copysign(
+                max(min(abs(c.yaw_gain * carrot_angle), c.max_angular_speed), c.min_rotation_speed),
+                carrot_angle,
+            )
+            v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
+            w = limit_step(w_target, w0, dw, -c.max_angular_speed, c.max_angular_speed)
+            x, y, th = rollout(np.array([v]), np.array([w]), times)
+            d = field.lookup(
+                x[..., None] + np.cos(th)[..., None] * offsets,
+                y[..., None] + np.sin(th)[..., None] * offsets,
+            )
+            if float(d.min()) - radius > margin:
+                return LocalPlan(v, w, True, "rotate_to_heading", clearance, 1)
+
+        # The dynamic window.
+        v_lo = max(c.min_linear_speed, v0 - dv)
+        v_hi = max(v_lo, min(v_cap, v0 + dv))
+        w_lo = max(-c.max_angular_speed, w0 - dw)
+        w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
+        # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
+        v_s = np.linspace(v_lo, v_hi, c.v_samples).repeat(c.w_samples)
+        w_s = np.tile(np.linspace(w_lo, w_hi, c.w_samples), c.v_samples)
+        th = w_s[:, None] * times[None, :]
+        cos_t, sin_t = np.cos(th), np.sin(th)
+        x, y, th = _rollout_with_trig(v_s, times, th, sin_t, cos_t)
+        # Circle centres as (circle, trajectory, step): the long axes innermost, for numpy.
+        off = offsets[:, None, None]
+        d = field.lookup(x[None] + cos_t[None] * off, y[None] + sin_t[None] * off)
+        # Over the circles, then the steps: the same minimum, without numpy's slow reduction
+        # over two axes at once (twice the cost of this whole line).
+        traj_clearance = d.min(axis=0).min(axis=1) - radius
+        admissible = traj_clearance > margin
+        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
+        mode = "dwa"
+        if not admissible.any() and 0.0 < clearance <= margin:
+            # Already inside the margin (a map or a pose a few cm off, a person stepping
+            # close): every rollout starts there, so none keeps the margin, not even those that
+            # lead out, and the robot would brake beside a wall for ever. Admit the ones that
+            # stay clear of contact, end farther from the obstacles than the robot is now and
+            # nearer the carrot (out along the path, not a crawl along a wall across it).
+            end_clearance = d[:, :, -1].min(axis=0) - radius
+            nearer = np.hypot(carrot[0] - xe, carrot[1] - ye) < math.hypot(*carrot)
+            admissible = (traj_clearance > 0.0) & (end_clearance > clearance) & nearer
+            mode = "escape"
+        if wants_turn and mode == "dwa":
+            room = self._room_to_turn(field, x[:, -1], y[:, -1], admissible, margin)
+            if room is not None:
+                return LocalPlan(float(v_s[room]), float(w_s[room]), True, "make_room", clearance)
+        count = int(admissible.sum())
+        if count == 0:
+            v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
+            w = limit_step(0.0, w0, dw, -c.max_angular_speed, c.max_angular_speed)
+            return LocalPlan(v, w, False, "brake", clearance, 0)
+
+        progress = np.hypot(carrot[0] - xe, carrot[1] - ye) / (
+            c.lookahead + c.max_linear_speed * c.sim_time
+        )
+        heading = np.abs(_wrap(np.arctan2(carrot[1] - ye, carrot[0] - xe) - te)) / math.pi
+        if local_path.shape[0]:
+            gaps = np.hypot(
+                xe[:, None] - local_path[None, :, 0], ye[:, None] - local_path[None, :, 1]
+            )
+            path_term = np.minimum(gaps.min(axis=1) / 0.5, 1.0)
+        else:
+            path_term = np.zeros_like(xe)
+        # np.clip(x, 0, 1) without its wrapper (the same values, NaN and inf included).
+        clear_term = np.minimum(np.maximum(1.0 - traj_clearance / CLEARANCE_REF, 0.0), 1.0)
+        speed_term = (c.max_linear_speed - v_s) / c.max_linear_speed
+        score = (
+            W_PROGRESS * progress
+            + W_HEADING * heading
+            + W_PATH * path_term
+            + W_CLEARANCE * clear_term
+            + W_SPEED * speed_term
+        )
+        score = np.where(admissible, score, np.inf)
+        best = int(score.argmin())
+        return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
+
+
+class NumpyNavigator(Navigator):
+    """`Navigator` on the numpy code the kernels replaced."""
+
+    def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
+        super().__init__(grid, config)
+        self.costmap = NumpyClearingCostmap(grid, self.config)
+
+    def _make_planners(self) -> None:
+        super()._make_planners()
+        self.local_planner = NumpyDWAPlanner(self.config)

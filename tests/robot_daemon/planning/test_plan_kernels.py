@@ -1,0 +1,163 @@
+"""The planner's compiled kernels (`robot_daemon.jit`) equal the numpy code they replaced
+(`numpy_reference`), bit for bit, on random inputs and on a simulated robot's own; compiled
+and plain Python agree; and a run after `jit.warm_up` compiles nothing more."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
+from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
+from robot_daemon import jit
+from robot_daemon.planning import costmap as costmap_module
+from robot_daemon.planning import local_planner
+from robot_daemon.planning.config import PlannerConfig
+from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.local_planner import DWAPlanner, ObstacleField
+from robot_daemon.planning.navigator import Navigator
+from tests.robot_daemon.planning.numpy_reference import (
+    NumpyClearingCostmap,
+    NumpyDWAPlanner,
+    NumpyNavigator,
+)
+from tests.robot_daemon.planning.recorded_navigation import RecordedNavigation, record_tour
+
+
+def _room_grid() -> OccupancyGrid:
+    cells = np.full((120, 160), FREE, dtype=np.int8)
+    cells[:2, :] = cells[-2:, :] = cells[:, :2] = cells[:, -2:] = OCCUPIED
+    cells[40:80, 70:74] = OCCUPIED
+    return OccupancyGrid(cells, 0.05, -1.0, -2.0)
+
+
+def _scan(rng: np.random.Generator, increment: float = math.radians(0.25)) -> LaserScan:
+    ranges = rng.uniform(0.05, 8.0, 1081).astype(np.float32)
+    ranges[rng.random(1081) < 0.05] = np.inf
+    ranges[rng.random(1081) < 0.01] = np.nan
+    angle_min = -2.356194490192345 if increment > 0 else 2.356194490192345
+    return LaserScan(0.0, angle_min, increment, 0.02, 30.0, ranges)
+
+
+def test_clearing_kernel_leaves_the_live_marks_numpy_clearing_left() -> None:
+    rng = np.random.default_rng(21)
+    grid = _room_grid()
+    fast, ref = Costmap(grid), NumpyClearingCostmap(grid)
+    now = 0.0
+    pose = Pose2D(3.0, 1.0, 0.0)
+    for k in range(120):
+        now += float(rng.uniform(0.05, 0.3))
+        if k % 10 == 0:  # a jump (off the grid too); otherwise a short drive
+            pose = Pose2D(*rng.uniform((-2.0, -3.0, -3.0), (8.0, 5.0, 3.0)))
+        else:
+            pose = Pose2D(pose.x + 0.05, pose.y + 0.02, pose.yaw + 0.03)
+        scan = _scan(rng, math.radians(0.25) if k % 7 else -math.radians(0.25))
+        if k % 4 == 0:  # a person close to the laser
+            ranges = scan.ranges.copy()
+            ranges[500:560] = rng.uniform(0.05, 0.3, 60)
+            scan = dataclasses.replace(scan, ranges=ranges)
+        for costmap in (fast, ref):
+            costmap.update(now, pose, scan, Pose2D(0.2, 0.0, 0.0))
+        for when in (now, now + 0.5, now + 1.9):
+            assert np.array_equal(fast.live_obstacles(when), ref.live_obstacles(when))
+        assert np.array_equal(fast.costs(now), ref.costs(now))
+        # Where they differ at all, it is in marks dead before `now` (forgotten or not).
+        differ = fast._marked_until != ref._marked_until
+        assert not np.any(differ & ((fast._marked_until > now) | (ref._marked_until > now)))
+
+
+def test_clearing_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(22)
+    for _ in range(20):
+        marked = np.where(rng.random((60, 80)) < 0.3, rng.uniform(-1.0, 3.0, (60, 80)), -np.inf)
+        angles = np.sort(rng.uniform(-math.pi, math.pi, 300))
+        reach = rng.uniform(-0.5, 5.0, 300)
+        t = np.arange(0.0, float(reach.max()), 0.05)
+        x, y = (float(v) for v in rng.uniform(-1.0, 4.0, 2))
+        args = (-0.5, -0.7, 0.05, x, y, np.cos(angles), np.sin(angles), t, reach, 1.0)
+        compiled, plain = marked.copy(), marked.copy()
+        costmap_module.clear_live_cells(compiled, *args)
+        jit.python_function(costmap_module.clear_live_cells)(plain, *args)
+        assert np.array_equal(compiled, plain)
+        assert not np.array_equal(compiled, marked)  # something was cleared
+
+
+def _random_local_problem(
+    rng: np.random.Generator,
+) -> tuple[Pose2D, tuple[float, float], np.ndarray, np.ndarray, float, float | None]:
+    """A pose, a velocity, a path, obstacle points (robot frame), dt and goal distance."""
+    pose = Pose2D(*rng.uniform((-2.0, -2.0, -math.pi), (2.0, 2.0, math.pi)))
+    velocity = (float(rng.uniform(-0.05, 0.3)), float(rng.uniform(-1.0, 1.0)))
+    if rng.random() < 0.2:
+        velocity = (0.0, 0.0)
+    heading = float(rng.uniform(-math.pi, math.pi))
+    s = np.linspace(0.0, float(rng.uniform(0.0, 4.0)), int(rng.integers(1, 60)))
+    bend = float(rng.uniform(-0.5, 0.5))
+    path = np.column_stack(
+        (
+            pose.x + s * math.cos(heading) - bend * s**2 * math.sin(heading),
+            pose.y + s * math.sin(heading) + bend * s**2 * math.cos(heading),
+        )
+    )
+    count = int(rng.choice([0, 5, 40, 300]))
+    points = rng.uniform(-1.6, 1.6, (count, 2))
+    points = points[np.hypot(points[:, 0], points[:, 1]) > rng.uniform(0.3, 0.8)]
+    if rng.random() < 0.2:  # a wall beside the robot, within the local planner's margin
+        side = float(rng.choice([-1.0, 1.0])) * float(rng.uniform(0.39, 0.43))
+        wall = np.column_stack((np.linspace(-1.5, 1.5, 60), np.full(60, side)))
+        points = np.vstack((points, wall))
+    goal = None if rng.random() < 0.5 else float(rng.uniform(0.0, 2.0))
+    return pose, velocity, path, points, float(rng.uniform(0.05, 0.2)), goal
+
+
+def test_dwa_with_the_rollout_kernel_plans_what_the_numpy_rollouts_planned() -> None:
+    rng = np.random.default_rng(23)
+    modes: dict[str, int] = {}
+    for _ in range(400):
+        pose, velocity, path, points, dt, goal = _random_local_problem(rng)
+        fast, ref = DWAPlanner(PlannerConfig()), NumpyDWAPlanner(PlannerConfig())
+        field = fast.make_field(points)
+        plan = fast.compute(pose, velocity, path, field, dt, goal)
+        assert plan == ref.compute(pose, velocity, path, field, dt, goal)
+        modes[plan.mode] = modes.get(plan.mode, 0) + 1
+    assert set(modes) == {"dwa", "rotate_to_heading", "make_room", "escape", "brake"}, modes
+
+
+def test_rollout_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(24)
+    field = ObstacleField(rng.uniform(-1.5, 1.5, (80, 2)), 1.4, 0.05)
+    v = rng.uniform(-0.1, 0.3, 231)
+    w = rng.uniform(-1.0, 1.0, 231)
+    w[:5] = 0.0
+    times = 0.1 * np.arange(1, 16, dtype=np.float64)
+    theta = w[:, None] * times[None, :]
+    args = (v, w, times, np.cos(theta), np.sin(theta), np.array([-0.2, 0.0, 0.2]))
+    grid = (field.bordered, field.n, field.half_size, field.resolution)
+    compiled = local_planner.rollout_clearance(*args, *grid)
+    plain = jit.python_function(local_planner.rollout_clearance)(*args, *grid)
+    for a, b in zip(compiled, plain, strict=True):
+        assert np.array_equal(a, b)
+
+
+@pytest.fixture(scope="module")
+def recorded() -> RecordedNavigation:
+    """1200 loop steps (60 s) of the realistic tour with 12 people: 500 navigation cycles."""
+    return record_tour(1200, seed=1, people=12)[1]
+
+
+def test_a_robots_navigation_replays_the_same_through_the_numpy_navigator(
+    recorded: RecordedNavigation,
+) -> None:
+    fast = Navigator(recorded.grid, recorded.config)
+    ref = NumpyNavigator(recorded.grid, recorded.config)
+    assert recorded.replay(fast) == recorded.commands  # deterministic: the robot's own
+    assert recorded.replay(ref) == recorded.commands
+    assert fast.path == ref.path
+    assert np.array_equal(fast._last_obstacle_points, ref._last_obstacle_points)
+    now = recorded.calls[-1][1][0]
+    assert np.array_equal(fast.costmap.live_obstacles(now), ref.costmap.live_obstacles(now))
+    assert np.count_nonzero(fast.costmap.live_obstacles(now)) > 100  # clutter, people
