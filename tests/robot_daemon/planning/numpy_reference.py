@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
@@ -126,9 +127,27 @@ class NumpyClearingCostmap(Costmap):
         self._marked_until[rows[ok], cols[ok]] = -np.inf
 
 
+class NumpyObstacleField(ObstacleField):
+    """`ObstacleField` with session 12's distance (OpenCV's transform, numpy)."""
+
+    def __init__(self, points: npt.ArrayLike, half_size: float, resolution: float) -> None:
+        self.half_size = half_size
+        self.resolution = resolution
+        self.n = math.ceil(2.0 * half_size / resolution)
+        self.distance = obstacle_field_distance(np.asarray(points), half_size, resolution)
+        bordered = np.full((self.n + 2, self.n + 2), np.inf)
+        bordered[1:-1, 1:-1] = self.distance
+        self.bordered = bordered.ravel()
+
+
 class NumpyDWAPlanner(DWAPlanner):
     """`DWAPlanner` with session 12's numpy rollouts: (circles x trajectories x steps) arrays
-    of circle centres looked up in the field at once."""
+    of circle centres looked up in the field at once; its field with OpenCV's transform."""
+
+    def make_field(self, obstacles_robot: npt.ArrayLike) -> ObstacleField:
+        return NumpyObstacleField(
+            obstacles_robot, self.field_half_size(), self.config.local_grid_resolution
+        )
 
     def compute(
         self,
@@ -259,3 +278,27 @@ class NumpyNavigator(Navigator):
     def _make_planners(self) -> None:
         super()._make_planners()
         self.local_planner = NumpyDWAPlanner(self.config)
+
+
+def exact_distance_transform(free: np.ndarray, resolution: float) -> np.ndarray:
+    """Euclidean distance [m] from each cell centre to the nearest zero cell's centre:
+    OpenCV's exact transform (``DIST_MASK_PRECISE``) is float32; squaring and rounding
+    recovers the integer squared distance in cells."""
+    cells = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    squared = np.rint(np.square(cells, dtype=np.float64))
+    distance: np.ndarray = np.sqrt(squared) * resolution
+    return distance
+
+
+def obstacle_field_distance(points: np.ndarray, half_size: float, resolution: float) -> np.ndarray:
+    """`ObstacleField.distance` as session 12 computed it (with OpenCV)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    n = math.ceil(2.0 * half_size / resolution)
+    idx = np.floor((pts + half_size) / resolution).astype(np.int64)
+    ok = (idx >= 0) & (idx < n)
+    idx = idx[ok[:, 0] & ok[:, 1]]
+    if idx.size == 0:
+        return np.full((n, n), np.inf)
+    free = np.ones((n, n), dtype=np.uint8)
+    free[idx[:, 1], idx[:, 0]] = 0  # [row = y, col = x]
+    return exact_distance_transform(free, resolution)

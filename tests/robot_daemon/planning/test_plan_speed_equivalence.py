@@ -30,7 +30,6 @@ from robot_daemon.planning.global_planner import (
 from robot_daemon.planning.local_planner import (
     ObstacleField,
     _rollout_with_trig,
-    exact_distance_transform,
     rollout,
 )
 from tests.robot_daemon.planning.numpy_reference import NumpyClearingCostmap, clearing_samples
@@ -291,13 +290,16 @@ def test_clearing_only_near_live_marks_leaves_the_same_live_obstacles() -> None:
         assert np.array_equal(fast.costs(now), ref.costs(now))
 
 
-def test_exact_distance_transform_equals_scipy_to_the_last_places() -> None:
+def test_obstacle_field_distance_equals_scipy_to_the_last_places() -> None:
     rng = np.random.default_rng(7)
     for _ in range(40):
-        free = (rng.random((56, 56)) > rng.uniform(0.002, 0.3)).astype(np.uint8)
-        free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = 0
-        ref = ndimage.distance_transform_edt(free.astype(bool), sampling=0.05)
-        np.testing.assert_allclose(exact_distance_transform(free, 0.05), ref, rtol=4e-16, atol=0)
+        free = rng.random((56, 56)) > rng.uniform(0.002, 0.3)
+        free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = False
+        rows, cols = np.nonzero(~free)
+        centres = np.column_stack((cols + 0.5, rows + 0.5)) * 0.05 - 1.4  # cell centres [m]
+        field = ObstacleField(centres, 1.4, 0.05)
+        ref = ndimage.distance_transform_edt(free, sampling=0.05)
+        np.testing.assert_allclose(field.distance, ref, rtol=4e-16, atol=0)
 
 
 def test_local_plans_follow_a_new_configuration_of_the_same_planner() -> None:
