@@ -22,6 +22,7 @@ cost scaling factor. A robot centre in a cell of cost >= 253 certainly collides.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -102,23 +103,49 @@ def clear_live_cells(
                 marked_until[row, col] = -math.inf
 
 
-@jit.on_warm_up("planning.costmap")
-def _warm_up() -> None:
-    angles = np.linspace(-2.0, 2.0, 5)
-    marked = np.full((4, 4), 1.0)
-    clear_live_cells(
-        marked,
-        0.0,
-        0.0,
-        0.5,
-        1.0,
-        1.0,
-        np.cos(angles),
-        np.sin(angles),
-        np.arange(0.0, 1.0, 0.5),
-        np.full(5, 0.9),
-        0.0,
-    )
+@jit.kernel
+def mark_endpoints(
+    marked_until: FloatArray,
+    valid: npt.NDArray[np.bool_],
+    ranges: FloatArray,
+    cos: FloatArray,
+    sin: FloatArray,
+    max_range: float,
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+    until: float,
+) -> tuple[int, int, int, int]:
+    """Mark the cells where the valid beams within ``max_range`` end as live until ``until``
+    (or later, where a cell is marked longer); returns the (row, row, col, col) extremes of the
+    marked cells, all -1 when none.
+
+    Beam ``b`` of a sensor at (x, y) with heading (c, s) = (cos, sin) ends at ``(x + c * p_x -
+    s * p_y, y + s * p_x + c * p_y)``, ``p = ranges[b] * (cos[b], sin[b])``, in the cell of
+    `OccupancyGrid.world_to_cell`; ends off the grid mark nothing.
+    """
+    height, width = marked_until.shape
+    row0 = row1 = col0 = col1 = -1
+    for b in range(ranges.size):
+        if not (valid[b] and ranges[b] <= max_range):
+            continue
+        px, py = ranges[b] * cos[b], ranges[b] * sin[b]
+        col = math.floor((x + c * px - s * py - origin_x) / resolution)
+        row = math.floor((y + s * px + c * py - origin_y) / resolution)
+        if not (0 <= row < height and 0 <= col < width):
+            continue
+        marked_until[row, col] = max(marked_until[row, col], until)
+        if row0 < 0:
+            row0 = row1 = row
+            col0 = col1 = col
+        else:
+            row0, row1 = min(row0, row), max(row1, row)
+            col0, col1 = min(col0, col), max(col1, col)
+    return row0, row1, col0, col1
 
 
 class Costmap:
@@ -220,13 +247,28 @@ class Costmap:
         if reach.size and float(reach.max()) > 0.0:
             self._clear_beams(now, origin.x, origin.y, beam_angles, reach)
         # Marking: endpoints within obstacle_max_range.
-        mark = valid & (ranges <= cfg.obstacle_max_range)
         cos, sin = scan.trig()
-        px, py = ranges[mark] * cos[mark], ranges[mark] * sin[mark]
-        wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
-        rows, cols = self.grid.world_to_cell(wx, wy)
-        ok = self.grid.in_bounds(rows, cols)
-        self._mark(rows[ok], cols[ok], now, now + cfg.obstacle_persistence)
+        g = self.grid
+        until = now + cfg.obstacle_persistence
+        box = mark_endpoints(
+            self._marked_until,
+            valid,
+            ranges,
+            cos,
+            sin,
+            cfg.obstacle_max_range,
+            origin.x,
+            origin.y,
+            c,
+            s,
+            g.origin_x,
+            g.origin_y,
+            g.resolution,
+            until,
+        )
+        if box[0] >= 0:
+            self._add_box((until, int(box[0]), int(box[1]) + 1, int(box[2]), int(box[3]) + 1), now)
+        self._touch()
 
     def _clear_beams(
         self, now: float, x: float, y: float, angles: FloatArray, reach: FloatArray
@@ -253,24 +295,11 @@ class Costmap:
             now,
         )
 
-    def _mark(
-        self, rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], now: float, until: float
-    ) -> None:
-        """Mark cells (rows, cols), all inside the grid, as live obstacles until ``until`` (or
-        later, where a mark is remembered longer: `remember_near`)."""
-        self._marked_until[rows, cols] = np.maximum(self._marked_until[rows, cols], until)
-        if rows.size:
-            box = (
-                until,
-                int(rows.min()),
-                int(rows.max()) + 1,
-                int(cols.min()),
-                int(cols.max()) + 1,
-            )
-            self._mark_boxes.append(box)
-            if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
-                self._live_box(now)
-        self._touch()
+    def _add_box(self, box: tuple[float, int, int, int, int], now: float) -> None:
+        """Remember (expiry, row0, row1, col0, col1) of a batch of marks (`_live_box`)."""
+        self._mark_boxes.append(box)
+        if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
+            self._live_box(now)
 
     def _live_box(self, now: float) -> tuple[int, int, int, int] | None:
         """(row0, row1, col0, col1) holding every cell live at ``now``, or None to look at the
@@ -391,3 +420,14 @@ class Costmap:
     def static_costs(self) -> npt.NDArray[np.uint8]:
         """The inflated a-priori map alone."""
         return self._static_costs
+
+
+@jit.on_warm_up("planning.costmap")
+def _warm_up() -> None:
+    """A scan marked, then one clearing through the marks: every kernel with its types."""
+    grid = OccupancyGrid(np.zeros((40, 40), dtype=np.int8), 0.05, -1.0, -1.0)
+    costmap = Costmap(grid)
+    ranges = np.full(9, 0.5, dtype=np.float32)
+    scan = LaserScan(0.0, -1.0, 0.25, 0.02, 30.0, ranges)
+    costmap.update(0.0, Pose2D(0.0, 0.0, 0.0), scan)
+    costmap.update(0.1, Pose2D(0.0, 0.0, 0.0), dataclasses.replace(scan, ranges=ranges * 2))

@@ -10,9 +10,10 @@ import numpy as np
 import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D
+from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.planning.config import PlannerConfig
-from robot_daemon.planning.costmap import Costmap
+from robot_daemon.planning.costmap import CLEARING_BEAM_SPACING, Costmap
 from robot_daemon.planning.local_planner import (
     CLEARANCE_REF,
     W_CLEARANCE,
@@ -52,8 +53,48 @@ def clearing_samples(
 
 
 class NumpyClearingCostmap(Costmap):
-    """`Costmap` clearing as session 12 did: the samples that may land in a live mark, found
-    with numpy (``_live_clearing_samples``), then every cell holding one forgotten."""
+    """`Costmap` marking and clearing as session 12 did: the samples that may land in a live
+    mark found with numpy (``_live_clearing_samples``), every cell holding one forgotten, then
+    the beams' end cells marked with numpy."""
+
+    def update(
+        self, now: float, pose: Pose2D, scan: LaserScan, sensor: Pose2D | None = None
+    ) -> None:
+        cfg = self.config
+        origin = pose.compose(sensor) if sensor is not None else pose
+        c, s = math.cos(origin.yaw), math.sin(origin.yaw)
+        valid = scan.valid()
+        ranges = scan.ranges.astype(np.float64)
+        angles = scan.angles
+        stride = max(1, int(CLEARING_BEAM_SPACING / abs(scan.angle_increment) + 1e-9))
+        clear = np.zeros_like(valid)
+        clear[::stride] = valid[::stride]
+        reach = np.minimum(ranges[clear], cfg.raytrace_max_range) - self.resolution
+        beam_angles = angles[clear] + origin.yaw
+        if reach.size and float(reach.max()) > 0.0:
+            self._clear_beams(now, origin.x, origin.y, beam_angles, reach)
+        mark = valid & (ranges <= cfg.obstacle_max_range)
+        cos, sin = scan.trig()
+        px, py = ranges[mark] * cos[mark], ranges[mark] * sin[mark]
+        wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
+        rows, cols = self.grid.world_to_cell(wx, wy)
+        ok = self.grid.in_bounds(rows, cols)
+        self._mark(rows[ok], cols[ok], now, now + cfg.obstacle_persistence)
+
+    def _mark(self, rows: np.ndarray, cols: np.ndarray, now: float, until: float) -> None:
+        self._marked_until[rows, cols] = np.maximum(self._marked_until[rows, cols], until)
+        if rows.size:
+            box = (
+                until,
+                int(rows.min()),
+                int(rows.max()) + 1,
+                int(cols.min()),
+                int(cols.max()) + 1,
+            )
+            self._mark_boxes.append(box)
+            if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
+                self._live_box(now)
+        self._touch()
 
     def _clear_beams(
         self, now: float, x: float, y: float, angles: np.ndarray, reach: np.ndarray

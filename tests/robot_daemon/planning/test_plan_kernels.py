@@ -182,3 +182,31 @@ def test_obstacle_field_equals_the_opencv_field_it_replaced() -> None:
         plain = jit.python_function(local_planner.obstacle_distance)
         if trial % 10 == 0:  # plain Python is slow: a sample
             assert np.array_equal(plain(points, half, res, field.n), field.bordered)
+
+
+def test_marking_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(26)
+    for _ in range(20):
+        marked = np.where(rng.random((200, 200)) < 0.3, rng.uniform(-1, 3, (200, 200)), -np.inf)
+        scan = _scan(rng)
+        cos, sin = scan.trig()
+        yaw = float(rng.uniform(-math.pi, math.pi))
+        args = (
+            scan.valid(),
+            scan.ranges.astype(np.float64),
+            cos,
+            sin,
+            4.0,
+            *(float(v) for v in rng.uniform(-1.0, 4.0, 2)),
+            math.cos(yaw),
+            math.sin(yaw),
+            -5.0,
+            -5.5,
+            0.05,
+            2.0,
+        )
+        compiled, plain = marked.copy(), marked.copy()
+        box = costmap_module.mark_endpoints(compiled, *args)
+        assert box == jit.python_function(costmap_module.mark_endpoints)(plain, *args)
+        assert np.array_equal(compiled, plain)
+        assert box[0] >= 0 and np.count_nonzero(compiled == 2.0) > 10
