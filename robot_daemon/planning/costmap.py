@@ -250,21 +250,21 @@ class Costmap:
         cos, sin = scan.trig()
         g = self.grid
         until = now + cfg.obstacle_persistence
-        box = mark_endpoints(
+        box = mark_endpoints(  # scalars as floats: one compiled signature (`jit`)
             self._marked_until,
             valid,
             ranges,
             cos,
             sin,
-            cfg.obstacle_max_range,
+            float(cfg.obstacle_max_range),
             origin.x,
             origin.y,
             c,
             s,
-            g.origin_x,
-            g.origin_y,
-            g.resolution,
-            until,
+            float(g.origin_x),
+            float(g.origin_y),
+            float(g.resolution),
+            float(until),
         )
         if box[0] >= 0:
             self._add_box((until, int(box[0]), int(box[1]) + 1, int(box[2]), int(box[3]) + 1), now)
@@ -281,18 +281,18 @@ class Costmap:
             return  # nothing live to clear
         g = self.grid
         t = np.arange(0.0, float(reach.max()), self.resolution)
-        clear_live_cells(
+        clear_live_cells(  # scalars as floats: one compiled signature (`jit`)
             self._marked_until,
-            g.origin_x,
-            g.origin_y,
-            g.resolution,
-            x,
-            y,
+            float(g.origin_x),
+            float(g.origin_y),
+            float(g.resolution),
+            float(x),
+            float(y),
             np.cos(angles),
             np.sin(angles),
             t,
             reach,
-            now,
+            float(now),
         )
 
     def _add_box(self, box: tuple[float, int, int, int, int], now: float) -> None:

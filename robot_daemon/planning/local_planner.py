@@ -92,7 +92,9 @@ class ObstacleField:
         self.n = math.ceil(2.0 * half_size / resolution)
         # The distance with a border of inf cells, flat: `lookup` clips indices to the border
         # instead of masking the points outside (one gather).
-        self.bordered: FloatArray = obstacle_distance(pts, half_size, resolution, self.n)
+        self.bordered: FloatArray = obstacle_distance(
+            pts, float(half_size), float(resolution), self.n
+        )
         self.distance: FloatArray = self.bordered.reshape(self.n + 2, self.n + 2)[1:-1, 1:-1]
 
     def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -442,8 +444,8 @@ class DWAPlanner:
             offsets,
             field.bordered,
             field.n,
-            field.half_size,
-            field.resolution,
+            float(field.half_size),
+            float(field.resolution),
         )
 
     def _room_to_turn(

@@ -5,7 +5,12 @@ and plain Python agree; and a run after `jit.warm_up` compiles nothing more."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -210,3 +215,44 @@ def test_marking_kernel_compiled_equals_plain_python() -> None:
         assert box == jit.python_function(costmap_module.mark_endpoints)(plain, *args)
         assert np.array_equal(compiled, plain)
         assert box[0] >= 0 and np.count_nonzero(compiled == 2.0) > 10
+
+
+WARM_RUN = """
+import importlib, json, pkgutil
+import robot_daemon.planning, robot_daemon.safety
+from robot_daemon import jit
+modules = [
+    importlib.import_module(f"{package.__name__}.{info.name}")
+    for package in (robot_daemon.planning, robot_daemon.safety)
+    for info in pkgutil.iter_modules(package.__path__)
+]
+kernels = {
+    f"{module.__name__}.{name}": value
+    for module in modules
+    for name, value in vars(module).items()
+    if hasattr(value, "signatures") and hasattr(value, "py_func")
+}
+jit.warm_up()
+before = {name: [str(s) for s in kernel.signatures] for name, kernel in kernels.items()}
+from tests.robot_daemon.planning.recorded_navigation import record_tour
+record_tour(400, seed=2, people=12)
+after = {name: [str(s) for s in kernel.signatures] for name, kernel in kernels.items()}
+print(json.dumps({"enabled": jit.ENABLED, "before": before, "after": after}))
+"""
+
+
+def test_a_run_after_the_warm_up_compiles_no_planning_or_safety_kernel_again() -> None:
+    """400 loop steps of the realistic tour after `jit.warm_up`: no kernel of
+    `robot_daemon.planning` or `robot_daemon.safety` gets a new signature (no compiling in the
+    control loop); in a fresh process, so that no other test's calls count."""
+    root = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    out = subprocess.run(
+        [sys.executable, "-c", WARM_RUN], cwd=root, env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    assert result["before"] == result["after"]
+    if result["enabled"]:
+        assert len(result["before"]) >= 4
+        assert all(len(signatures) == 1 for signatures in result["before"].values()), result
