@@ -38,6 +38,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon import jit
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import INSCRIBED, LETHAL, MAX_NON_LETHAL
 
@@ -121,7 +122,7 @@ def _reduced_cost_graph(
 
     Returns (reduced costs, neighbour node ids, indptr, node cells as flat indices of the
     padded grid, padded cell -> node id, h of each node, padded width). Edges are listed node
-    by node in ``_OFFSETS`` order.
+    by node in ``_OFFSETS`` order (`reduced_cost_edges`).
     """
     h, w = costs.shape
     # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
@@ -129,28 +130,81 @@ def _reduced_cost_graph(
     padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
     padded[1:-1, 1:-1] = costs
     flat_cost = padded.ravel()
-    free_flat = flat_cost < INSCRIBED
-    nodes = np.flatnonzero(free_flat)
-    compact = np.full(flat_cost.size, -1, dtype=np.int64)
-    compact[nodes] = np.arange(nodes.size)
-    h_flat = octile_grid((h + 2, wp), (goal[0] + 1, goal[1] + 1)).ravel()
-    heuristic = h_flat[nodes]
-    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
-    neighbours = nodes[:, None] + offsets[None, :]
-    traversable = free_flat[neighbours]
-    # Dense (nodes x 8) arithmetic first, one masked extraction at the end.
-    neighbour_h = h_flat[neighbours]
-    cost_f = flat_cost.astype(np.float64)
-    weight = _STEP[None, :] * (
-        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    nodes = np.flatnonzero(flat_cost < INSCRIBED)
+    reduced, neighbour_compact, indptr, compact, heuristic = reduced_cost_edges(
+        flat_cost, nodes, wp, goal[0] + 1, goal[1] + 1, _OFFSETS, _STEP, float(cost_weight)
     )
-    reduced_dense = weight - heuristic[:, None] + neighbour_h
-    reduced = reduced_dense[traversable]
-    neighbour_compact = compact[neighbours[traversable]]
-    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
-    np.maximum(reduced, 1e-12, out=reduced)
-    indptr = np.concatenate(([0], np.cumsum(np.count_nonzero(traversable, axis=1))))
     return reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp
+
+
+@jit.kernel
+def reduced_cost_edges(
+    flat_cost: npt.NDArray[np.uint8],
+    nodes: npt.NDArray[np.int64],
+    wp: int,
+    goal_row: int,
+    goal_col: int,
+    offsets: npt.NDArray[np.int64],
+    step: npt.NDArray[np.float64],
+    cost_weight: float,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+]:
+    """The edges of the padded grid's traversable ``nodes`` (flat indices, row width ``wp``)
+    to their traversable neighbours, node by node in ``offsets`` order, with the reduced cost
+
+        w'(u, v) = step * (1 + (c_u + c_v) * (0.5 / cost_weight)) - h(u) + h(v)
+
+    (at least 1e-12: consistency makes it >= 0 but rounding may leave -1e-16, and csgraph
+    needs > 0), ``h`` the octile distance to the goal cell (`octile_grid`'s arithmetic).
+    Returns (reduced costs, neighbour node ids, indptr, padded cell -> node id or -1, h of
+    each node).
+    """
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    for i in range(nodes.size):
+        compact[nodes[i]] = i
+    heuristic = np.empty(nodes.size)
+    for i in range(nodes.size):
+        heuristic[i] = _octile(nodes[i] // wp, nodes[i] % wp, goal_row, goal_col)
+    flat_offsets = offsets[:, 0] * wp + offsets[:, 1]
+    indptr = np.empty(nodes.size + 1, dtype=np.int64)
+    indptr[0] = 0
+    for i in range(nodes.size):
+        count = 0
+        for k in range(flat_offsets.size):
+            if compact[nodes[i] + flat_offsets[k]] >= 0:
+                count += 1
+        indptr[i + 1] = indptr[i] + count
+    reduced = np.empty(indptr[-1])
+    neighbour = np.empty(indptr[-1], dtype=np.int64)
+    half_over_weight = 0.5 / cost_weight
+    e = 0
+    for i in range(nodes.size):
+        u = nodes[i]
+        for k in range(flat_offsets.size):
+            v = u + flat_offsets[k]
+            if compact[v] < 0:
+                continue
+            weight = step[k] * (
+                1.0 + (float(flat_cost[u]) + float(flat_cost[v])) * half_over_weight
+            )
+            h_v = _octile(v // wp, v % wp, goal_row, goal_col)
+            reduced[e] = max(weight - heuristic[i] + h_v, 1e-12)
+            neighbour[e] = compact[v]
+            e += 1
+    return reduced, neighbour, indptr, compact, heuristic
+
+
+@jit.kernel
+def _octile(row: int, col: int, goal_row: int, goal_col: int) -> float:
+    """Octile distance [cells], as `octile_grid` computes it."""
+    dr = float(abs(row - goal_row))
+    dc = float(abs(col - goal_col))
+    return max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)
 
 
 def astar_cells(
@@ -438,3 +492,10 @@ def resample(points: npt.NDArray[np.float64], spacing: float) -> npt.NDArray[np.
     ys = np.interp(targets, s, points[:, 1])
     result: npt.NDArray[np.float64] = np.column_stack((xs, ys))
     return result
+
+
+@jit.on_warm_up("planning.global_planner")
+def _warm_up() -> None:
+    costs = np.zeros((5, 6), dtype=np.uint8)
+    costs[1:4, 2] = LETHAL
+    astar_cells(costs, (2, 0), (2, 5))

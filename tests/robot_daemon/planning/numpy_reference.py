@@ -13,7 +13,8 @@ from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.planning.config import PlannerConfig
-from robot_daemon.planning.costmap import CLEARING_BEAM_SPACING, Costmap
+from robot_daemon.planning.costmap import CLEARING_BEAM_SPACING, INSCRIBED, LETHAL, Costmap
+from robot_daemon.planning.global_planner import _OFFSETS, _STEP, octile_grid
 from robot_daemon.planning.local_planner import (
     CLEARANCE_REF,
     W_CLEARANCE,
@@ -343,3 +344,50 @@ def obstacle_field_distance(points: np.ndarray, half_size: float, resolution: fl
     free = np.ones((n, n), dtype=np.uint8)
     free[idx[:, 1], idx[:, 0]] = 0  # [row = y, col = x]
     return exact_distance_transform(free, resolution)
+
+
+def numpy_reduced_cost_graph(
+    costs: npt.NDArray[np.uint8], goal: tuple[int, int], cost_weight: float
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+    int,
+]:
+    """Session 12's `_reduced_cost_graph`: the CSR arrays of A*'s graph on reduced costs.
+
+    Returns (reduced costs, neighbour node ids, indptr, node cells as flat indices of the
+    padded grid, padded cell -> node id, h of each node, padded width). Edges are listed node
+    by node in ``_OFFSETS`` order.
+    """
+    h, w = costs.shape
+    # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
+    wp = w + 2
+    padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
+    padded[1:-1, 1:-1] = costs
+    flat_cost = padded.ravel()
+    free_flat = flat_cost < INSCRIBED
+    nodes = np.flatnonzero(free_flat)
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    compact[nodes] = np.arange(nodes.size)
+    h_flat = octile_grid((h + 2, wp), (goal[0] + 1, goal[1] + 1)).ravel()
+    heuristic = h_flat[nodes]
+    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
+    neighbours = nodes[:, None] + offsets[None, :]
+    traversable = free_flat[neighbours]
+    # Dense (nodes x 8) arithmetic first, one masked extraction at the end.
+    neighbour_h = h_flat[neighbours]
+    cost_f = flat_cost.astype(np.float64)
+    weight = _STEP[None, :] * (
+        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    )
+    reduced_dense = weight - heuristic[:, None] + neighbour_h
+    reduced = reduced_dense[traversable]
+    neighbour_compact = compact[neighbours[traversable]]
+    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
+    np.maximum(reduced, 1e-12, out=reduced)
+    indptr = np.concatenate(([0], np.cumsum(np.count_nonzero(traversable, axis=1))))
+    return reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp

@@ -20,7 +20,7 @@ from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon import jit
 from robot_daemon.planning import costmap as costmap_module
-from robot_daemon.planning import local_planner
+from robot_daemon.planning import global_planner, local_planner
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import Costmap
 from robot_daemon.planning.local_planner import DWAPlanner, ObstacleField
@@ -29,6 +29,7 @@ from tests.robot_daemon.planning.numpy_reference import (
     NumpyClearingCostmap,
     NumpyDWAPlanner,
     NumpyNavigator,
+    numpy_reduced_cost_graph,
     obstacle_field_distance,
 )
 from tests.robot_daemon.planning.recorded_navigation import RecordedNavigation, record_tour
@@ -256,3 +257,37 @@ def test_a_run_after_the_warm_up_compiles_no_planning_or_safety_kernel_again() -
     if result["enabled"]:
         assert len(result["before"]) >= 4
         assert all(len(signatures) == 1 for signatures in result["before"].values()), result
+
+
+def test_reduced_cost_graph_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(27)
+    levels = np.array([0, 0, 0, 30, 120, 252, 253, 254], dtype=np.uint8)
+    for _ in range(10):
+        costs = rng.choice(levels, (30, 45))
+        padded = np.full((32, 47), 254, dtype=np.uint8)
+        padded[1:-1, 1:-1] = costs
+        flat = padded.ravel()
+        nodes = np.flatnonzero(flat < 253)
+        goal = (int(rng.integers(1, 31)), int(rng.integers(1, 46)))
+        args = (flat, nodes, 47, *goal, global_planner._OFFSETS, global_planner._STEP, 100.0)
+        compiled = global_planner.reduced_cost_edges(*args)
+        plain = jit.python_function(global_planner.reduced_cost_edges)(*args)
+        for a, b in zip(compiled, plain, strict=True):
+            assert np.array_equal(a, b)
+
+
+def test_reduced_cost_graph_equals_numpys_on_the_isr_floor(recorded: RecordedNavigation) -> None:
+    rng = np.random.default_rng(28)
+    costs = Costmap(recorded.grid).static_costs
+    free = np.argwhere(costs < 253)
+    for _ in range(30):
+        row, col = free[rng.integers(0, free.shape[0])]
+        r0, c0 = max(int(row) - 80, 0), max(int(col) - 120, 0)
+        window = costs[r0 : r0 + 160, c0 : c0 + 240]
+        goal = (int(rng.integers(0, window.shape[0])), int(rng.integers(0, window.shape[1])))
+        weight = float(rng.choice([100.0, 50.0, 3.0]))
+        fast = global_planner._reduced_cost_graph(window, goal, weight)
+        ref = numpy_reduced_cost_graph(window, goal, weight)
+        assert fast[6] == ref[6]
+        for a, b in zip(fast[:6], ref[:6], strict=True):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
