@@ -422,60 +422,105 @@ class GlobalPlanner:
         )
 
 
-def segment_costs(
-    a: npt.NDArray[np.float64],
-    b: npt.NDArray[np.float64],
-    costs: npt.NDArray[np.uint8],
-    grid: OccupancyGrid,
-) -> npt.NDArray[np.uint8]:
-    """Max cost along each segment a[i] -> b[i] (sampled every half cell); (N,) uint8."""
-    lengths = np.hypot(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1])
-    n = max(2, math.ceil(float(lengths.max(initial=0.0)) / (0.5 * grid.resolution)) + 1)
-    t = np.linspace(0.0, 1.0, n)
-    xs = a[:, 0, None] + (b[:, 0] - a[:, 0])[:, None] * t[None, :]
-    ys = a[:, 1, None] + (b[:, 1] - a[:, 1])[:, None] * t[None, :]
-    rows, cols = grid.world_to_cell(xs, ys)
-    inside = grid.in_bounds(rows, cols)
-    sampled = np.full(xs.shape, LETHAL, dtype=np.uint8)
-    sampled[inside] = costs[rows[inside], cols[inside]]
-    result: npt.NDArray[np.uint8] = sampled.max(axis=1)
-    return result
-
-
 def shortcut(
     points: npt.NDArray[np.float64],
     costs: npt.NDArray[np.uint8],
     grid: OccupancyGrid,
     window: int = 120,
 ) -> npt.NDArray[np.float64]:
-    """Greedy line-of-sight shortcutting that respects the costmap (see module docstring)."""
-    n = len(points)
-    if n <= 2:
+    """Greedy line-of-sight shortcutting that respects the costmap (see module docstring;
+    `shortcut_kept`)."""
+    if len(points) <= 2:
         return points
-    vertex_rows, vertex_cols = grid.world_to_cell(points[:, 0], points[:, 1])
-    inside = grid.in_bounds(vertex_rows, vertex_cols)
-    vertex_cost = np.full(n, LETHAL, dtype=np.int64)
-    vertex_cost[inside] = costs[vertex_rows[inside], vertex_cols[inside]]
-    # Cost met by the A* path on each leg i -> i+1.
-    leg_cost = segment_costs(points[:-1], points[1:], costs, grid).astype(np.int64)
+    read_only = costs.view()  # as the costmap's grids are: one compiled signature (`jit`)
+    read_only.setflags(write=False)
+    kept = shortcut_kept(
+        np.ascontiguousarray(points, dtype=np.float64),
+        read_only,
+        float(grid.origin_x),
+        float(grid.origin_y),
+        float(grid.resolution),
+        int(window),
+    )
+    result: npt.NDArray[np.float64] = points[kept]
+    return result
+
+
+@jit.kernel
+def shortcut_kept(
+    points: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+    window: int,
+) -> npt.NDArray[np.int64]:
+    """Indices of the path vertices the shortcutting keeps: from each kept vertex ``i`` the
+    farthest of the next ``window`` vertices ``j`` whose segment's highest cost
+    (`segment_max_costs`) is below inscribed and no higher than the highest the path met
+    from ``i`` to ``j`` (its legs and vertices; ``j = i + 1`` always qualifies)."""
+    n = points.shape[0]
+    height, width = costs.shape
+    vertex_cost = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        col = math.floor((points[i, 0] - origin_x) / resolution)
+        row = math.floor((points[i, 1] - origin_y) / resolution)
+        inside = 0 <= row < height and 0 <= col < width
+        vertex_cost[i] = costs[row, col] if inside else LETHAL
+    legs = (np.ascontiguousarray(points[:-1]), np.ascontiguousarray(points[1:]))
+    leg_cost = segment_max_costs(*legs, costs, origin_x, origin_y, resolution)
     kept = [0]
     i = 0
     while i < n - 1:
         j_max = min(n - 1, i + window)
-        candidates = np.arange(i + 1, j_max + 1)
-        allowed = np.maximum.accumulate(
-            np.maximum(leg_cost[i:j_max], vertex_cost[i + 1 : j_max + 1])
-        )
-        allowed = np.maximum(allowed, vertex_cost[i])
-        seg = segment_costs(
-            np.repeat(points[i : i + 1], candidates.size, axis=0), points[candidates], costs, grid
-        ).astype(np.int64)
-        ok = (seg <= allowed) & (seg < INSCRIBED)
-        ok[0] = True  # the A* leg itself is always acceptable
-        j = int(candidates[np.flatnonzero(ok)[-1]])
-        kept.append(j)
-        i = j
-    result: npt.NDArray[np.float64] = points[kept]
+        ends = np.ascontiguousarray(points[i + 1 : j_max + 1])
+        starts = np.empty_like(ends)
+        starts[:, 0] = points[i, 0]
+        starts[:, 1] = points[i, 1]
+        seg = segment_max_costs(starts, ends, costs, origin_x, origin_y, resolution)
+        allowed = vertex_cost[i]
+        best = i + 1  # the path's own leg is always acceptable
+        for q in range(j_max - i):
+            allowed = max(allowed, leg_cost[i + q], vertex_cost[i + 1 + q])
+            if seg[q] <= allowed and seg[q] < INSCRIBED:
+                best = i + 1 + q
+        kept.append(best)
+        i = best
+    return np.array(kept, dtype=np.int64)
+
+
+@jit.kernel
+def segment_max_costs(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+) -> npt.NDArray[np.int64]:
+    """Highest cost along each segment a[i] -> b[i] (N, 2) [m], LETHAL off the grid.
+
+    Every segment is sampled at the same ``m`` fractions ``t = numpy.linspace(0, 1, m)``
+    (``k * (1 / (m - 1))``, the last exactly 1), ``m`` giving the longest segment a sample
+    every half cell: ``m = max(2, ceil(longest / (res / 2)) + 1)``.
+    """
+    longest = 0.0
+    for s in range(a.shape[0]):
+        longest = max(longest, math.hypot(b[s, 0] - a[s, 0], b[s, 1] - a[s, 1]))
+    m = max(2, math.ceil(longest / (0.5 * resolution)) + 1)
+    step = 1.0 / (m - 1)
+    height, width = costs.shape
+    result = np.empty(a.shape[0], dtype=np.int64)
+    for s in range(a.shape[0]):
+        dx, dy = b[s, 0] - a[s, 0], b[s, 1] - a[s, 1]
+        highest = 0
+        for k in range(m):
+            t = 1.0 if k == m - 1 else k * step
+            col = math.floor((a[s, 0] + dx * t - origin_x) / resolution)
+            row = math.floor((a[s, 1] + dy * t - origin_y) / resolution)
+            inside = 0 <= row < height and 0 <= col < width
+            highest = max(highest, int(costs[row, col]) if inside else LETHAL)
+        result[s] = highest
     return result
 
 
@@ -499,3 +544,5 @@ def _warm_up() -> None:
     costs = np.zeros((5, 6), dtype=np.uint8)
     costs[1:4, 2] = LETHAL
     astar_cells(costs, (2, 0), (2, 5))
+    grid = OccupancyGrid(np.zeros((5, 6), dtype=np.int8), 0.1, 0.0, 0.0)
+    shortcut(np.array([[0.05, 0.05], [0.25, 0.15], [0.55, 0.45]]), costs, grid)

@@ -3,18 +3,35 @@ reference: each kernel must give what this code gave, bit for bit (`test_plan_ke
 
 from __future__ import annotations
 
+import logging
 import math
 
 import cv2
 import numpy as np
 import numpy.typing as npt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import CLEARING_BEAM_SPACING, INSCRIBED, LETHAL, Costmap
-from robot_daemon.planning.global_planner import _OFFSETS, _STEP, octile_grid
+from robot_daemon.planning.global_planner import (
+    _OFFSETS,
+    _STEP,
+    MAX_TRAVERSABLE,
+    SQRT2,
+    GlobalPlanner,
+    GoalBlockedError,
+    NoPathError,
+    PlanningError,
+    StartBlockedError,
+    _search_box,
+    coarsen_costs,
+    octile_grid,
+    resample,
+)
 from robot_daemon.planning.local_planner import (
     CLEARANCE_REF,
     W_CLEARANCE,
@@ -34,6 +51,7 @@ from robot_daemon.planning.local_planner import (
 )
 from robot_daemon.planning.navigator import Navigator
 
+logger = logging.getLogger(__name__)
 _WINDOW_MARGIN = 1e-6  # [rad] beyond a cell's exact angular extent, far above rounding
 
 
@@ -319,6 +337,7 @@ class NumpyNavigator(Navigator):
 
     def _make_planners(self) -> None:
         super()._make_planners()
+        self.global_planner = NumpyGlobalPlanner(self.grid, self.config)
         self.local_planner = NumpyDWAPlanner(self.config)
 
 
@@ -391,3 +410,189 @@ def numpy_reduced_cost_graph(
     np.maximum(reduced, 1e-12, out=reduced)
     indptr = np.concatenate(([0], np.cumsum(np.count_nonzero(traversable, axis=1))))
     return reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp
+
+
+def segment_costs(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    grid: OccupancyGrid,
+) -> npt.NDArray[np.uint8]:
+    """Max cost along each segment a[i] -> b[i] (sampled every half cell); (N,) uint8."""
+    lengths = np.hypot(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1])
+    n = max(2, math.ceil(float(lengths.max(initial=0.0)) / (0.5 * grid.resolution)) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    xs = a[:, 0, None] + (b[:, 0] - a[:, 0])[:, None] * t[None, :]
+    ys = a[:, 1, None] + (b[:, 1] - a[:, 1])[:, None] * t[None, :]
+    rows, cols = grid.world_to_cell(xs, ys)
+    inside = grid.in_bounds(rows, cols)
+    sampled = np.full(xs.shape, LETHAL, dtype=np.uint8)
+    sampled[inside] = costs[rows[inside], cols[inside]]
+    result: npt.NDArray[np.uint8] = sampled.max(axis=1)
+    return result
+
+
+def numpy_shortcut(
+    points: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    grid: OccupancyGrid,
+    window: int = 120,
+) -> npt.NDArray[np.float64]:
+    """Session 12's `shortcut`: per kept vertex, every candidate segment sampled at once."""
+    n = len(points)
+    if n <= 2:
+        return points
+    vertex_rows, vertex_cols = grid.world_to_cell(points[:, 0], points[:, 1])
+    inside = grid.in_bounds(vertex_rows, vertex_cols)
+    vertex_cost = np.full(n, LETHAL, dtype=np.int64)
+    vertex_cost[inside] = costs[vertex_rows[inside], vertex_cols[inside]]
+    # Cost met by the A* path on each leg i -> i+1.
+    leg_cost = segment_costs(points[:-1], points[1:], costs, grid).astype(np.int64)
+    kept = [0]
+    i = 0
+    while i < n - 1:
+        j_max = min(n - 1, i + window)
+        candidates = np.arange(i + 1, j_max + 1)
+        allowed = np.maximum.accumulate(
+            np.maximum(leg_cost[i:j_max], vertex_cost[i + 1 : j_max + 1])
+        )
+        allowed = np.maximum(allowed, vertex_cost[i])
+        seg = segment_costs(
+            np.repeat(points[i : i + 1], candidates.size, axis=0), points[candidates], costs, grid
+        ).astype(np.int64)
+        ok = (seg <= allowed) & (seg < INSCRIBED)
+        ok[0] = True  # the A* leg itself is always acceptable
+        j = int(candidates[np.flatnonzero(ok)[-1]])
+        kept.append(j)
+        i = j
+    result: npt.NDArray[np.float64] = points[kept]
+    return result
+
+
+def numpy_astar_cells(
+    costs: npt.NDArray[np.uint8],
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    cost_weight: float = 100.0,
+) -> tuple[list[tuple[int, int]], float]:
+    """Optimal 8-connected path of (row, col) cells on a cost grid, and its cost [cells].
+
+    Cells of cost >= 253 are not traversable. Raises :class:`NoPathError` when the goal cannot
+    be reached; start and goal must be traversable.
+
+    Each search with an f-bound ``limit`` builds the graph only on the box that can hold a node
+    within the bound (`_search_box`); the nodes keep their order, so the search, ties included,
+    is the one on the whole grid.
+    """
+    h, w = costs.shape
+    for name, (r, c) in (("start", start), ("goal", goal)):
+        if not (0 <= r < h and 0 <= c < w) or costs[r, c] >= INSCRIBED:
+            raise PlanningError(f"{name} cell {(r, c)} is outside the grid or not traversable")
+    if start == goal:
+        return [start], 0.0
+    dr = float(abs(start[0] - goal[0]))
+    dc = float(abs(start[1] - goal[1]))
+    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # octile_grid's arithmetic
+    # Reduced distance to the goal = path cost - h(start): the detour beyond the straight line.
+    limit = max(0.5 * h_start, 20.0)
+    reached, previous_limit = -1, 0.0
+    # No edge is dearer than this (the exhaustion test below only needs an upper bound).
+    max_edge = SQRT2 * (1.0 + MAX_TRAVERSABLE / cost_weight) + SQRT2
+    box: tuple[int, int, int, int] | None = None
+    while True:
+        wanted = _search_box(costs.shape, start, goal, h_start + limit)
+        if wanted != box:
+            box = wanted
+            r0, r1, c0, c1 = box
+            sub = costs[r0:r1, c0:c1]
+            graph_parts = numpy_reduced_cost_graph(sub, (goal[0] - r0, goal[1] - c0), cost_weight)
+            reduced, neighbour_compact, indptr, nodes, compact, _, wp = graph_parts
+            graph = csr_matrix((reduced, neighbour_compact, indptr), shape=(nodes.size,) * 2)
+            s = int(compact[(start[0] - r0 + 1) * wp + start[1] - c0 + 1])
+            g = int(compact[(goal[0] - r0 + 1) * wp + goal[1] - c0 + 1])
+        dist, pred = dijkstra(graph, indices=s, return_predecessors=True, limit=limit)
+        if math.isfinite(dist[g]) or limit == math.inf:
+            break
+        now_reached = int(np.count_nonzero(np.isfinite(dist)))
+        if now_reached == reached and limit - previous_limit > max_edge:
+            break  # nothing new within a band wider than any edge: the region is exhausted
+        reached, previous_limit = now_reached, limit
+        limit = limit * 4.0 if limit < 4.0 * h_start + 100.0 else math.inf
+    if not math.isfinite(dist[g]):
+        raise NoPathError(f"no traversable path from cell {start} to cell {goal}")
+    chain = [g]
+    while chain[-1] != s:
+        chain.append(int(pred[chain[-1]]))
+    chain.reverse()
+    cells_flat = nodes[np.asarray(chain)]
+    rows, cols = np.divmod(cells_flat, wp)
+    cells = [(int(r) - 1 + r0, int(c) - 1 + c0) for r, c in zip(rows, cols, strict=True)]
+    total = float(dist[g]) + h_start  # undo the potential: cost = reduced + h(s) - h(g), h(g)=0
+    return cells, total
+
+
+class NumpyGlobalPlanner(GlobalPlanner):
+    """`GlobalPlanner` with session 12's numpy graph and shortcutting."""
+
+    def plan(
+        self,
+        costs: npt.NDArray[np.uint8],
+        start: tuple[float, float],
+        goal: tuple[float, float],
+    ) -> list[tuple[float, float]]:
+        """A path of map-frame points [m] from ``start`` to ``goal`` on the fine cost grid.
+
+        The first point is the start (or, if it lay in inscribed space, the nearest free
+        point), the last the goal; points are about ``sample_spacing`` apart.
+        """
+        grid = self.grid
+        if costs.shape != grid.cells.shape:
+            raise ValueError(f"cost grid shape {costs.shape} != map shape {grid.cells.shape}")
+        start_cost = self._fine_cost(costs, start)
+        goal_cost = self._fine_cost(costs, goal)
+        if start_cost == LETHAL:
+            raise StartBlockedError(
+                f"start ({start[0]:.2f}, {start[1]:.2f}) is in an obstacle or outside"
+                f" {grid.source}; move the robot or relocalise"
+            )
+        if goal_cost == LETHAL:
+            raise GoalBlockedError(
+                f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is in an obstacle, unknown space or outside"
+                f" {grid.source}; pick a goal in free space"
+            )
+        windows = [self._window(start, goal, costs.shape), None]
+        for window in windows:
+            r0, r1, c0, c1 = window or (0, costs.shape[0], 0, costs.shape[1])
+            coarse = coarsen_costs(costs[r0:r1, c0:c1], self.factor)
+            offset = (r0 // self.factor, c0 // self.factor)
+            start_cell = self._snap(coarse, start, "start", offset)
+            goal_cell = self._snap(coarse, goal, "goal", offset)
+            try:
+                cells, _ = numpy_astar_cells(coarse, start_cell, goal_cell, self.config.cost_weight)
+                break
+            except NoPathError as exc:
+                if window is None:
+                    raise NoPathError(
+                        f"no path from ({start[0]:.2f}, {start[1]:.2f}) to "
+                        f"({goal[0]:.2f}, {goal[1]:.2f}) in {grid.source}: "
+                        "they are separated by obstacles"
+                    ) from exc
+                logger.debug("no path inside the search window; searching the whole map")
+        rows = np.array([c[0] for c in cells], dtype=np.float64) + offset[0]
+        cols = np.array([c[1] for c in cells], dtype=np.float64) + offset[1]
+        points = np.column_stack(
+            (
+                grid.origin_x + (cols + 0.5) * self.coarse_resolution,
+                grid.origin_y + (rows + 0.5) * self.coarse_resolution,
+            )
+        )
+        # Replace the end cells' centres by the true start/goal where those are traversable.
+        if start_cost < INSCRIBED:
+            points[0] = start
+        if goal_cost < INSCRIBED:
+            points[-1] = goal
+        if len(points) == 1:
+            points = np.vstack((points, points))
+        points = numpy_shortcut(points, costs, grid)
+        resampled = resample(points, self.config.path_spacing)
+        return [(float(x), float(y)) for x, y in resampled]
