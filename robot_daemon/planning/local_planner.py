@@ -554,16 +554,74 @@ def obstacle_points_near(
     origin_x: float,
     origin_y: float,
     pose: Pose2D,
+    scan_points: npt.NDArray[np.float64] | None = None,
+    laser_x: float = 0.0,
 ) -> npt.NDArray[np.float64]:
-    """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0)."""
-    rows, cols = obstacles.nonzero()  # the method: np.nonzero's wrapper costs as much
-    x = origin_x + (cols + col0 + 0.5) * resolution
-    y = origin_y + (rows + row0 + 0.5) * resolution
-    return _to_robot_frame(np.column_stack((x, y)), pose)
+    """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0),
+    then the laser's ``scan_points`` (M, 2) (its frame, ``laser_x`` [m] ahead of the centre)
+    (`robot_frame_points`)."""
+    extra = np.zeros((0, 2)) if scan_points is None else scan_points
+    return robot_frame_points(
+        np.ascontiguousarray(obstacles, dtype=np.bool_),
+        int(row0),
+        int(col0),
+        float(resolution),
+        float(origin_x),
+        float(origin_y),
+        pose.x,
+        pose.y,
+        math.cos(pose.yaw),
+        math.sin(pose.yaw),
+        np.ascontiguousarray(extra, dtype=np.float64),
+        float(laser_x),
+    )
+
+
+@jit.kernel
+def robot_frame_points(
+    obstacles: npt.NDArray[np.bool_],
+    row0: int,
+    col0: int,
+    resolution: float,
+    origin_x: float,
+    origin_y: float,
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    laser_points: FloatArray,
+    laser_x: float,
+) -> FloatArray:
+    """The centres of the True cells of a map window (row-major; cell (r, c) of the window is
+    map cell (row0 + r, col0 + c)) in the frame of a robot at (x, y) with heading (c, s) =
+    (cos, sin), ``(c * dx + s * dy, -s * dx + c * dy)``, then ``laser_points`` moved
+    ``laser_x`` [m] forward: (N + M, 2) [m]."""
+    rows, cols = obstacles.shape
+    count = 0
+    for r in range(rows):
+        for k in range(cols):
+            if obstacles[r, k]:
+                count += 1
+    out = np.empty((count + laser_points.shape[0], 2))
+    i = 0
+    for r in range(rows):
+        for k in range(cols):
+            if obstacles[r, k]:
+                dx = origin_x + (k + col0 + 0.5) * resolution - x
+                dy = origin_y + (r + row0 + 0.5) * resolution - y
+                out[i, 0] = c * dx + s * dy
+                out[i, 1] = -s * dx + c * dy
+                i += 1
+    for p in range(laser_points.shape[0]):
+        out[i + p, 0] = laser_points[p, 0] + laser_x
+        out[i + p, 1] = laser_points[p, 1] + 0.0
+    return out
 
 
 @jit.on_warm_up("planning.local_planner")
 def _warm_up() -> None:
+    window = np.eye(3, dtype=np.bool_)
+    obstacle_points_near(window, 0, 0, 0.05, 0.0, 0.0, Pose2D(0.0, 0.0, 0.0), np.ones((2, 2)))
     field = ObstacleField(np.array([[0.5, 0.0]]), 1.0, 0.1)
     planner = DWAPlanner(PlannerConfig())
     planner.compute(

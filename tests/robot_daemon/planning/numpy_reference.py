@@ -328,8 +328,41 @@ class NumpyDWAPlanner(DWAPlanner):
         return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
 
 
+def numpy_obstacle_points_near(
+    obstacles: np.ndarray,
+    row0: int,
+    col0: int,
+    resolution: float,
+    origin_x: float,
+    origin_y: float,
+    pose: Pose2D,
+) -> np.ndarray:
+    """Session 12's `obstacle_points_near`: robot-frame centres of a window's True cells."""
+    rows, cols = obstacles.nonzero()
+    x = origin_x + (cols + col0 + 0.5) * resolution
+    y = origin_y + (rows + row0 + 0.5) * resolution
+    return _to_robot_frame(np.column_stack((x, y)), pose)
+
+
 class NumpyNavigator(Navigator):
     """`Navigator` on the numpy code the kernels replaced."""
+
+    def _obstacle_field(self, now: float, pose: Pose2D, scan: LaserScan | None) -> ObstacleField:
+        half = self.local_planner.field_half_size()
+        res = self.grid.resolution
+        k = math.ceil(half * math.sqrt(2.0) / res) + 1
+        row, col = self.grid.world_to_cell(pose.x, pose.y)
+        r0, c0 = int(row) - k, int(col) - k
+        window = self.costmap.obstacles_window(now, r0, int(row) + k + 1, c0, int(col) + k + 1)
+        pts = numpy_obstacle_points_near(
+            window, max(r0, 0), max(c0, 0), res, self.grid.origin_x, self.grid.origin_y, pose
+        )
+        if scan is not None:
+            scan_pts = scan.points(max_range=2.0 * half)
+            scan_pts = scan_pts + np.array([self.config.laser_x_offset, 0.0])
+            pts = np.vstack((pts, scan_pts))
+        self._last_obstacle_points = pts
+        return self.local_planner.make_field(pts)
 
     def __init__(self, grid: OccupancyGrid, config: PlannerConfig | None = None) -> None:
         super().__init__(grid, config)

@@ -24,7 +24,7 @@ from robot_daemon.planning import global_planner, local_planner
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import Costmap
 from robot_daemon.planning.global_planner import GlobalPlanner, PlanningError, coarsen_costs
-from robot_daemon.planning.local_planner import DWAPlanner, ObstacleField
+from robot_daemon.planning.local_planner import DWAPlanner, ObstacleField, obstacle_points_near
 from robot_daemon.planning.navigator import Navigator
 from tests.robot_daemon.planning.numpy_reference import (
     NumpyClearingCostmap,
@@ -32,6 +32,7 @@ from tests.robot_daemon.planning.numpy_reference import (
     NumpyGlobalPlanner,
     NumpyNavigator,
     numpy_astar_cells,
+    numpy_obstacle_points_near,
     numpy_reduced_cost_graph,
     numpy_shortcut,
     obstacle_field_distance,
@@ -365,3 +366,21 @@ def test_global_plans_equal_numpys_on_the_isr_floor(recorded: RecordedNavigation
                 fast.plan(costs, start, goal)
             continue
         assert fast.plan(costs, start, goal) == expected
+
+
+def test_obstacle_points_equal_numpys() -> None:
+    rng = np.random.default_rng(31)
+    for trial in range(200):
+        shape = (int(rng.integers(0, 90)), int(rng.integers(0, 90)))
+        window = rng.random(shape) < float(rng.choice([0.0, 0.01, 0.2, 1.0]))
+        row0, col0 = (int(v) for v in rng.integers(0, 2000, 2))
+        res, ox, oy = float(rng.choice([0.05, 0.02])), *(float(v) for v in rng.uniform(-40, 0, 2))
+        pose = Pose2D(*rng.uniform((-30.0, -30.0, -math.pi), (30.0, 30.0, math.pi)))
+        scan = _scan(rng) if trial % 2 else None
+        laser_x = float(rng.uniform(0.0, 0.3))
+        scan_points = None if scan is None else scan.points(max_range=2.9)
+        ours = obstacle_points_near(window, row0, col0, res, ox, oy, pose, scan_points, laser_x)
+        ref = numpy_obstacle_points_near(window, row0, col0, res, ox, oy, pose)
+        if scan_points is not None:
+            ref = np.vstack((ref, scan_points + np.array([laser_x, 0.0])))
+        assert ours.shape == ref.shape and np.array_equal(ours, ref)
