@@ -629,3 +629,29 @@ class NumpyGlobalPlanner(GlobalPlanner):
         points = numpy_shortcut(points, costs, grid)
         resampled = resample(points, self.config.path_spacing)
         return [(float(x), float(y)) for x, y in resampled]
+
+
+def numpy_shadow_mask(
+    ranges: np.ndarray,
+    angle_increment: float,
+    min_angle: float = math.radians(10.0),
+    window: int = 1,
+) -> np.ndarray:
+    """Session 12's `shadow_mask`: the veiling points of ``ranges``, with numpy."""
+    r = np.asarray(ranges, dtype=np.float64)
+    finite = np.isfinite(r) & (r > 0)
+    bad = np.zeros(r.shape, dtype=bool)
+    lo, hi = min_angle, math.pi - min_angle
+    for k in range(1, window + 1):
+        d_phi = k * angle_increment
+        for a, b in ((slice(None, -k), slice(k, None)), (slice(k, None), slice(None, -k))):
+            ri, rj = r[a], r[b]
+            both = finite[a] & finite[b]
+            with np.errstate(invalid="ignore"):
+                alpha = np.arctan2(rj * math.sin(d_phi), ri - rj * math.cos(d_phi))
+            shadow = both & ((alpha < lo) | (alpha > hi))
+            # As laser_filters does: of a shadow pair, drop the farther point (the veil), keep
+            # the nearer one (the obstacle's true edge).
+            bad[a] |= shadow & (ri > rj)
+            bad[b] |= shadow & (rj > ri)
+    return bad

@@ -20,12 +20,13 @@ from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
 from robot_daemon import jit
 from robot_daemon.planning import costmap as costmap_module
-from robot_daemon.planning import global_planner, local_planner
+from robot_daemon.planning import global_planner, local_planner, scan_filter
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import Costmap
 from robot_daemon.planning.global_planner import GlobalPlanner, PlanningError, coarsen_costs
 from robot_daemon.planning.local_planner import DWAPlanner, ObstacleField, obstacle_points_near
 from robot_daemon.planning.navigator import Navigator
+from robot_daemon.planning.scan_filter import shadow_mask
 from tests.robot_daemon.planning.numpy_reference import (
     NumpyClearingCostmap,
     NumpyDWAPlanner,
@@ -34,6 +35,7 @@ from tests.robot_daemon.planning.numpy_reference import (
     numpy_astar_cells,
     numpy_obstacle_points_near,
     numpy_reduced_cost_graph,
+    numpy_shadow_mask,
     numpy_shortcut,
     obstacle_field_distance,
 )
@@ -384,3 +386,49 @@ def test_obstacle_points_equal_numpys() -> None:
         if scan_points is not None:
             ref = np.vstack((ref, scan_points + np.array([laser_x, 0.0])))
         assert ours.shape == ref.shape and np.array_equal(ours, ref)
+
+
+def _veiled_ranges(rng: np.random.Generator) -> np.ndarray:
+    """Ranges with edges, veils (points between a near and a far surface) and no-returns."""
+    n = 1081
+    ranges = np.repeat(rng.uniform(0.3, 8.0, n // 20 + 1), 20)[:n]
+    ranges += rng.normal(0.0, 0.01, n)
+    veils = rng.integers(1, n - 1, 40)
+    ranges[veils] = 0.5 * (ranges[veils - 1] + ranges[veils + 1]) + rng.normal(0.0, 0.3, 40)
+    ranges[rng.random(n) < 0.03] = np.inf
+    ranges[rng.random(n) < 0.01] = np.nan
+    ranges[rng.random(n) < 0.01] = 0.0
+    ranges[rng.integers(0, n - 1, 30)] = ranges[rng.integers(0, n - 1, 30)]  # equal pairs
+    return ranges.astype(np.float32 if rng.random() < 0.5 else np.float64)
+
+
+def test_shadow_mask_equals_numpys(recorded: RecordedNavigation) -> None:
+    rng = np.random.default_rng(32)
+    flagged = 0
+    for _ in range(300):
+        ranges = _veiled_ranges(rng)
+        increment = float(rng.choice([math.radians(0.25), -math.radians(0.25), 0.01]))
+        window = int(rng.choice([1, 1, 2, 3]))
+        mask = shadow_mask(ranges, increment, math.radians(10.0), window)
+        assert np.array_equal(
+            mask, numpy_shadow_mask(ranges, increment, math.radians(10.0), window)
+        )
+        flagged += int(mask.sum())
+    assert flagged > 3000
+    scans = [
+        args[2] for name, args, _ in recorded.calls if name == "update" and args[2] is not None
+    ]
+    assert len(scans) > 400
+    for scan in scans:  # a simulated UTM-30LX's: people, glass, clutter
+        ours = shadow_mask(scan.ranges, scan.angle_increment)
+        assert np.array_equal(ours, numpy_shadow_mask(scan.ranges, scan.angle_increment))
+
+
+def test_veil_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(33)
+    r = _veiled_ranges(rng).astype(np.float64)
+    forward, backward = rng.uniform(-0.1, math.pi + 0.1, (2, r.size - 1))
+    compiled, plain = np.zeros(r.size, dtype=bool), np.zeros(r.size, dtype=bool)
+    scan_filter.mark_veils(r, 1, forward, backward, 0.2, compiled)
+    jit.python_function(scan_filter.mark_veils)(r, 1, forward, backward, 0.2, plain)
+    assert np.array_equal(compiled, plain) and compiled.any()
