@@ -274,6 +274,63 @@ def rollout_clearance(
     return x_end, y_end, d_min, d_end
 
 
+@jit.kernel
+def best_trajectory(
+    v: FloatArray,
+    w: FloatArray,
+    horizon: float,
+    x_end: FloatArray,
+    y_end: FloatArray,
+    bearing: FloatArray,
+    clearance: FloatArray,
+    admissible: npt.NDArray[np.bool_],
+    carrot_x: float,
+    carrot_y: float,
+    path: FloatArray,
+    reach: float,
+    max_speed: float,
+) -> int:
+    """The admissible arc (v[i], w[j]) (index ``i * w.size + j``) of least objective (the
+    module docstring's ``G``; the first of equals), -1 if none is admissible:
+
+        progress = |p_end - carrot| / reach,  heading = |wrap(bearing - w * horizon)| / pi,
+        path = min(d(p_end, path) / 0.5, 1),  clear = clip(1 - clearance / CLEARANCE_REF, 0, 1),
+        speed = (max_speed - v) / max_speed,
+
+    ``bearing`` being numpy's ``arctan2`` of the carrot from each end point (a compiled
+    ``atan2`` may differ in the last bits; ``hypot`` is the C library's in both, and ``%`` is
+    Python's floored remainder, numpy's too).
+    """
+    best = -1
+    best_score = math.inf
+    for i in range(v.size):
+        speed_term = (max_speed - v[i]) / max_speed
+        for j in range(w.size):
+            k = i * w.size + j
+            if not admissible[k]:
+                continue
+            progress = math.hypot(carrot_x - x_end[k], carrot_y - y_end[k]) / reach
+            heading = abs((bearing[k] - w[j] * horizon + math.pi) % (2.0 * math.pi) - math.pi)
+            heading = heading / math.pi
+            path_term = 0.0
+            if path.shape[0]:
+                gap = math.inf
+                for p in range(path.shape[0]):
+                    gap = min(gap, math.hypot(x_end[k] - path[p, 0], y_end[k] - path[p, 1]))
+                path_term = min(gap / 0.5, 1.0)
+            clear_term = min(max(1.0 - clearance[k] / CLEARANCE_REF, 0.0), 1.0)
+            score = (
+                W_PROGRESS * progress
+                + W_HEADING * heading
+                + W_PATH * path_term
+                + W_CLEARANCE * clear_term
+                + W_SPEED * speed_term
+            )
+            if score < best_score:
+                best, best_score = k, score
+    return best
+
+
 def limit_step(target: float, current: float, max_step: float, low: float, high: float) -> float:
     """``target`` clipped to ``[low, high]`` and to within ``max_step`` of ``current``."""
     return float(min(max(min(max(target, low), high), current - max_step), current + max_step))
@@ -372,13 +429,10 @@ class DWAPlanner:
         v_hi = max(v_lo, min(v_cap, v0 + dv))
         w_lo = max(-c.max_angular_speed, w0 - dw)
         w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
-        # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
+        # Every (v, w) pair, v-major (pair k is (v_grid[k // w_samples], w_grid[k % w_samples])).
         v_grid = np.linspace(v_lo, v_hi, c.v_samples)
         w_grid = np.linspace(w_lo, w_hi, c.w_samples)
-        v_s = v_grid.repeat(c.w_samples)
-        w_s = np.tile(w_grid, c.v_samples)
         xe, ye, distance, end_distance = self._rollouts(v_grid, w_grid, field)
-        te = w_s * times[-1]
         traj_clearance = distance - radius
         admissible = traj_clearance > margin
         mode = "dwa"
@@ -395,37 +449,30 @@ class DWAPlanner:
         if wants_turn and mode == "dwa":
             room = self._room_to_turn(field, xe, ye, admissible, margin)
             if room is not None:
-                return LocalPlan(float(v_s[room]), float(w_s[room]), True, "make_room", clearance)
+                v, w = v_grid[room // c.w_samples], w_grid[room % c.w_samples]
+                return LocalPlan(float(v), float(w), True, "make_room", clearance)
         count = int(admissible.sum())
         if count == 0:
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
             w = limit_step(0.0, w0, dw, -c.max_angular_speed, c.max_angular_speed)
             return LocalPlan(v, w, False, "brake", clearance, 0)
-
-        progress = np.hypot(carrot[0] - xe, carrot[1] - ye) / (
-            c.lookahead + c.max_linear_speed * c.sim_time
+        best = best_trajectory(
+            v_grid,
+            w_grid,
+            float(times[-1]),
+            xe,
+            ye,
+            np.arctan2(carrot[1] - ye, carrot[0] - xe),  # numpy's, as before (see the kernel)
+            traj_clearance,
+            admissible,
+            float(carrot[0]),
+            float(carrot[1]),
+            np.ascontiguousarray(local_path),
+            float(c.lookahead + c.max_linear_speed * c.sim_time),
+            float(c.max_linear_speed),
         )
-        heading = np.abs(_wrap(np.arctan2(carrot[1] - ye, carrot[0] - xe) - te)) / math.pi
-        if local_path.shape[0]:
-            gaps = np.hypot(
-                xe[:, None] - local_path[None, :, 0], ye[:, None] - local_path[None, :, 1]
-            )
-            path_term = np.minimum(gaps.min(axis=1) / 0.5, 1.0)
-        else:
-            path_term = np.zeros_like(xe)
-        # np.clip(x, 0, 1) without its wrapper (the same values, NaN and inf included).
-        clear_term = np.minimum(np.maximum(1.0 - traj_clearance / CLEARANCE_REF, 0.0), 1.0)
-        speed_term = (c.max_linear_speed - v_s) / c.max_linear_speed
-        score = (
-            W_PROGRESS * progress
-            + W_HEADING * heading
-            + W_PATH * path_term
-            + W_CLEARANCE * clear_term
-            + W_SPEED * speed_term
-        )
-        score = np.where(admissible, score, np.inf)
-        best = int(score.argmin())
-        return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
+        v, w = v_grid[best // c.w_samples], w_grid[best % c.w_samples]
+        return LocalPlan(float(v), float(w), True, mode, clearance, count)
 
     def _rollouts(
         self, v: FloatArray, w: FloatArray, field: ObstacleField
@@ -620,13 +667,12 @@ def robot_frame_points(
 
 @jit.on_warm_up("planning.local_planner")
 def _warm_up() -> None:
+    """Plans on a straight path (the trajectory choice), one behind the robot (the turn to
+    it) and the obstacle points round a robot: every kernel with its types."""
     window = np.eye(3, dtype=np.bool_)
     obstacle_points_near(window, 0, 0, 0.05, 0.0, 0.0, Pose2D(0.0, 0.0, 0.0), np.ones((2, 2)))
-    field = ObstacleField(np.array([[0.5, 0.0]]), 1.0, 0.1)
     planner = DWAPlanner(PlannerConfig())
-    planner.compute(
-        Pose2D(0.0, 0.0, 0.0), (0.1, 0.0), np.array([[0.0, 0.0], [2.0, 0.0]]), field, 0.1
-    )
-    planner.compute(
-        Pose2D(0.0, 0.0, 3.0), (0.0, 0.0), np.array([[0.0, 0.0], [2.0, 0.0]]), field, 0.1
-    )
+    field = planner.make_field(np.array([[2.0, 2.0]]))
+    path = np.array([[0.0, 0.0], [2.0, 0.0]])
+    planner.compute(Pose2D(0.0, 0.0, 0.0), (0.1, 0.0), path, field, 0.1)  # "dwa"
+    planner.compute(Pose2D(0.0, 0.0, 3.0), (0.0, 0.0), path, field, 0.1)  # "rotate_to_heading"

@@ -432,3 +432,33 @@ def test_veil_kernel_compiled_equals_plain_python() -> None:
     scan_filter.mark_veils(r, 1, forward, backward, 0.2, compiled)
     jit.python_function(scan_filter.mark_veils)(r, 1, forward, backward, 0.2, plain)
     assert np.array_equal(compiled, plain) and compiled.any()
+
+
+def test_trajectory_choice_kernel_compiled_equals_plain_python() -> None:
+    rng = np.random.default_rng(34)
+    for _ in range(30):
+        v, w = np.linspace(0.0, 0.25, 11), np.linspace(-1.0, 1.0, 21)
+        x_end, y_end = rng.uniform(-0.4, 0.4, (2, 231))
+        bearing = np.arctan2(rng.uniform(-1, 1, 231), rng.uniform(-1, 1, 231))
+        clearance = rng.uniform(-0.1, 0.5, 231)
+        clearance[rng.random(231) < 0.1] = np.inf
+        admissible = rng.random(231) < float(rng.choice([0.0, 0.05, 0.9]))
+        path = rng.uniform(-2.0, 2.0, (int(rng.choice([0, 1, 40])), 2))
+        args = (
+            v,
+            w,
+            1.5,
+            x_end,
+            y_end,
+            bearing,
+            clearance,
+            admissible,
+            0.8,
+            0.1,
+            path,
+            1.375,
+            0.25,
+        )
+        best = local_planner.best_trajectory(*args)
+        assert best == jit.python_function(local_planner.best_trajectory)(*args)
+        assert (best >= 0) == bool(admissible.any()) and (best < 0 or admissible[best])
