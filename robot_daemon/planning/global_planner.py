@@ -14,7 +14,8 @@ Raphael 1968; Johnson 1977): the compiled ``scipy.sparse.csgraph.dijkstra`` then
 A*'s order, and its ``limit`` argument stops the search at an f-value bound that grows fourfold
 until the goal is reached, so only A*'s ellipse around the straight line is explored; the graph
 itself is built only on the box that holds that ellipse (`_search_box`), with the nodes in the
-same order, so the search and its ties are those on the whole grid.
+same order, so the search and its ties are those on the whole grid; its edges come from a
+compiled loop (`reduced_cost_edges`, `robot_daemon.jit`).
 
 Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
 takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
@@ -23,8 +24,8 @@ all its fine cells are). A 0.9 m door still leaves a band of free coarse cells a
 Smoothing. Greedy line-of-sight shortcutting on the fine cost grid: from each anchor the path jumps
 to the farthest later vertex whose straight segment stays out of inscribed space and never meets a
 cost higher than the highest cost the A* path itself met between the two vertices (so a shortcut
-never hugs a wall more closely than the optimal path did). The result is resampled every
-``sample_spacing`` metres.
+never hugs a wall more closely than the optimal path did), in one compiled loop
+(`shortcut_kept`). The result is resampled every ``sample_spacing`` metres.
 """
 
 from __future__ import annotations

@@ -15,8 +15,11 @@ moves on a circular arc ``x = v/w sin(w t)``, ``y = v/w (1 - cos(w t))``, ``thet
 Admissibility. The rectangular footprint (``robot_length x robot_width``) is covered by ``n``
 circles on its long axis (radius ``sqrt((L / 2n)^2 + (W / 2)^2)``); a pose collides when the
 Euclidean distance transform of a robot-centred obstacle grid (live scan points and the
-costmap's lethal cells) at a circle centre is below its radius. All trajectories x all steps x
-all circles are checked in one vectorised lookup. A trajectory keeps half a grid cell of margin;
+costmap's lethal cells) at a circle centre is below its radius. The grid's distance is exact
+(`obstacle_distance`, Felzenszwalb and Huttenlocher's transform); each trajectory is rolled out
+and looked up step by step, circle by circle, in a compiled loop (`rollout_clearance`,
+`robot_daemon.jit`), and so is the objective's minimum (`best_trajectory`). A trajectory keeps
+half a grid cell of margin;
 when the robot already stands inside that margin (none can keep it) but clear of contact, the
 *escape* trajectories are admissible instead: clear of contact throughout, ending farther from
 the obstacles and nearer the carrot than the robot is now.

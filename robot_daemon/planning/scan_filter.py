@@ -13,6 +13,7 @@ is near 0 or 180 degrees only when P_j lies almost along the beam through P_i: a
 edge-on, which is what a veiling point looks like. Points with ``alpha < min_angle`` or
 ``alpha > 180 deg - min_angle`` for a neighbour form a shadow pair, and the farther point of the
 pair is dropped (set to +inf, REP-117 "no return"); the nearer one is the obstacle's real edge.
+The angles come from numpy, the pairs are judged in a compiled loop (`mark_veils`).
 """
 
 from __future__ import annotations

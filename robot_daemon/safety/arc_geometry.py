@@ -11,9 +11,11 @@ line (kappa = 0) needs no special case. A turn on the spot (v = 0) is the pose (
 
 Rather than moving the footprint, each obstacle point ``p`` is expressed in the robot's frame at
 every sampled pose, ``R(-theta) (p - (x, y))``, and tested against the footprint polygon with the
-crossing-number rule; everything is numpy broadcasting over (arcs, steps, points), no Python
-loop over points. This is how Nav2's Collision Monitor computes the time to collision of its
-``approach`` polygons (``Polygon::getCollisionTime``), done for many arcs at once.
+crossing-number rule. This is how Nav2's Collision Monitor computes the time to collision of
+its ``approach`` polygons (``Polygon::getCollisionTime``), done for many arcs at once: the poses
+with numpy (their trig), the points pose by pose in a compiled loop that stops at the first
+contact (`first_contacts`, `robot_daemon.jit`; `point_in_polygon` and `point_to_polygon` are
+`inside_polygon` and `distance_to_polygon` for one point, with their arithmetic).
 """
 
 from __future__ import annotations

@@ -24,7 +24,9 @@ is capped at ``blind_reverse_speed`` (reported as a ``limit``). Hysteresis: a ``
 active stays active until fewer than ``min_points`` returns lie within ``hysteresis`` metres of
 it, so a return on the edge of a zone does not make the command chatter. Without a scan newer
 than ``source_timeout`` the monitor stops the robot and says so (zone ``no_data``), as Nav2
-does. The monitor reads no clock: scans and commands come with ``now``.
+does. The monitor reads no clock: scans and commands come with ``now``. Each scan's returns are
+tested against the zones point by point in compiled loops (`zone_members`, `nearest_distance`,
+`robot_daemon.jit`).
 
 NOT A CERTIFIED SAFETY SYSTEM (see `robot_daemon.safety`).
 """
