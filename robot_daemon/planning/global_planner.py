@@ -95,19 +95,6 @@ def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.u
     return pooled
 
 
-def octile_grid(shape: tuple[int, int], goal: tuple[int, int]) -> npt.NDArray[np.float64]:
-    """Octile distance [cells] from every cell of a grid of ``shape`` to ``goal`` = (row, col).
-
-    Computed from one row and one column of distances (broadcast), element for element the
-    same arithmetic as the formula on each cell (the tests' reference): gathering from this grid is cheaper than evaluating
-    the formula on every (node, neighbour) pair.
-    """
-    dr = np.abs(np.arange(shape[0], dtype=np.int64) - goal[0]).astype(np.float64)[:, None]
-    dc = np.abs(np.arange(shape[1], dtype=np.int64) - goal[1]).astype(np.float64)[None, :]
-    result: npt.NDArray[np.float64] = np.maximum(dr, dc) + (SQRT2 - 1.0) * np.minimum(dr, dc)
-    return result
-
-
 def _reduced_cost_graph(
     costs: npt.NDArray[np.uint8], goal: tuple[int, int], cost_weight: float
 ) -> tuple[
@@ -161,7 +148,7 @@ def reduced_cost_edges(
         w'(u, v) = step * (1 + (c_u + c_v) * (0.5 / cost_weight)) - h(u) + h(v)
 
     (at least 1e-12: consistency makes it >= 0 but rounding may leave -1e-16, and csgraph
-    needs > 0), ``h`` the octile distance to the goal cell (`octile_grid`'s arithmetic).
+    needs > 0), ``h`` the octile distance to the goal cell (`_octile`).
     Returns (reduced costs, neighbour node ids, indptr, padded cell -> node id or -1, h of
     each node).
     """
@@ -202,7 +189,7 @@ def reduced_cost_edges(
 
 @jit.kernel
 def _octile(row: int, col: int, goal_row: int, goal_col: int) -> float:
-    """Octile distance [cells], as `octile_grid` computes it."""
+    """Octile distance [cells] between two cells: ``max(dr, dc) + (sqrt(2) - 1) min(dr, dc)``."""
     dr = float(abs(row - goal_row))
     dc = float(abs(col - goal_col))
     return max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)
@@ -231,7 +218,7 @@ def astar_cells(
         return [start], 0.0
     dr = float(abs(start[0] - goal[0]))
     dc = float(abs(start[1] - goal[1]))
-    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # octile_grid's arithmetic
+    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # `_octile`'s arithmetic
     # Reduced distance to the goal = path cost - h(start): the detour beyond the straight line.
     limit = max(0.5 * h_start, 20.0)
     reached, previous_limit = -1, 0.0

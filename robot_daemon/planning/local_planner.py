@@ -563,11 +563,6 @@ def _times(config: PlannerConfig) -> npt.NDArray[np.float64]:
     return times
 
 
-def _wrap(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    wrapped: npt.NDArray[np.float64] = (angle + np.pi) % (2.0 * np.pi) - np.pi
-    return wrapped
-
-
 def _to_robot_frame(points: npt.NDArray[np.float64], pose: Pose2D) -> npt.NDArray[np.float64]:
     c, s = math.cos(pose.yaw), math.sin(pose.yaw)
     dx, dy = points[:, 0] - pose.x, points[:, 1] - pose.y
