@@ -361,8 +361,9 @@ class RobotStack:
         odom = self.backend.read_odometry(now)
         if odom is not None:
             self.last_odometry = odom
-            self.localiser.on_odometry(odom.pose.compose(self._mount), now)
-            self.relocalisation.on_odometry(odom.pose.compose(self._mount))
+            laser_odometry = odom.pose.compose(self._mount)
+            self.localiser.on_odometry(laser_odometry, now)
+            self.relocalisation.on_odometry(laser_odometry)
         scan = self.backend.read_scan(now)
         if scan is not None:
             self.last_scan = scan

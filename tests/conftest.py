@@ -31,6 +31,18 @@ def repo_root() -> Path:
     return REPO_ROOT
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _compiled_kernels() -> None:
+    """Every compiled kernel compiled (a first run, or after its source changed) or loaded from
+    numba's cache once, before any test (`robot_daemon.jit`). A daemon a test starts as a
+    subprocess warms its kernels up before it serves; compiling them all there took 13-17 s on
+    the 2-core machine, longer than such tests wait for a daemon to come up."""
+    import robot_daemon.scenarios.runner  # noqa: F401  (imports every module with kernels)
+    from robot_daemon import jit
+
+    jit.warm_up()
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """../shared/data (real maps and laser logs); tests skip with a reason where it is absent."""

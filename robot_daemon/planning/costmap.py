@@ -5,8 +5,8 @@ map (occupied *and* unknown cells are lethal; with ``allow_unknown``, as Nav2's 
 default, unknown cells are traversable at the highest non-lethal cost) and obstacles the laser sees within
 ``obstacle_max_range`` are inflated "to mark all the areas where the robot's position is not
 valid". Live obstacles are marked for ``obstacle_persistence`` seconds and cleared earlier when a
-later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does;
-only the beam samples that can fall in a live mark are computed (`_live_clearing_samples`).
+later beam passes through their cell (ray tracing free space), as Nav2's obstacle layer does:
+every cell-sized step along the beams, one compiled loop (`clear_live_cells`, `robot_daemon.jit`).
 
 Inflation follows Nav2's ``InflationLayer`` (navigation2/nav2_costmap_2d/inflation_layer.hpp)::
 
@@ -22,6 +22,7 @@ cost scaling factor. A robot centre in a cell of cost >= 253 certainly collides.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -31,6 +32,7 @@ from scipy import ndimage
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon import jit
 from robot_daemon.planning.config import PlannerConfig
 
 CLEARING_BEAM_SPACING = math.radians(0.5)  # [rad] clearing uses beams at least this far apart
@@ -66,28 +68,84 @@ def inflation_cost(
     return cost.astype(np.uint8)
 
 
-def _clearing_samples(
+@jit.kernel
+def clear_live_cells(
+    marked_until: FloatArray,
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
     x: float,
     y: float,
-    angles: npt.NDArray[np.float64],
-    reach: npt.NDArray[np.float64],
-    step: float,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Map-frame points [m] every ``step`` along each beam from (x, y), short of its ``reach``.
+    cos_b: FloatArray,
+    sin_b: FloatArray,
+    t: FloatArray,
+    reach: FloatArray,
+    now: float,
+) -> None:
+    """Ray tracing of free space: along beam ``b`` from (x, y) at the samples
+    ``p_k = (x + cos_b * t_k, y + sin_b * t_k)`` with ``t_k < reach[b]`` (``t`` ascending, the
+    same ``t`` for every beam), a cell holding a sample loses its live mark (expiry > ``now``).
 
-    Beam ``b`` gets the samples ``t_k = k * step < reach[b]``, as a dense (beams x samples)
-    grid masked by ``t_k < reach`` would; only those are computed, in beam order (a scan's
-    clearing beams reach on average under half the longest one).
+    The cell of a sample is ``(floor((p_y - origin_y) / resolution), floor((p_x - origin_x) /
+    resolution))``, as `OccupancyGrid.world_to_cell` computes it; samples off the grid clear
+    nothing. A scan's ~25 000 samples as one loop, where numpy needed a dozen array passes.
     """
-    t = np.arange(0.0, float(reach.max()), step)
-    counts = np.searchsorted(t, reach, side="left")  # samples with t_k < reach
-    beam = np.repeat(np.arange(reach.size), counts)
-    starts = np.cumsum(counts) - counts
-    k = np.arange(beam.size) - np.repeat(starts, counts)
-    tk = t[k]
-    xs = x + np.cos(angles)[beam] * tk
-    ys = y + np.sin(angles)[beam] * tk
-    return xs, ys
+    height, width = marked_until.shape
+    for b in range(reach.size):
+        c, s, r = cos_b[b], sin_b[b], reach[b]
+        for k in range(t.size):
+            tk = t[k]
+            if not tk < r:
+                break
+            col = math.floor((x + c * tk - origin_x) / resolution)
+            row = math.floor((y + s * tk - origin_y) / resolution)
+            if 0 <= row < height and 0 <= col < width and marked_until[row, col] > now:
+                marked_until[row, col] = -math.inf
+
+
+@jit.kernel
+def mark_endpoints(
+    marked_until: FloatArray,
+    valid: npt.NDArray[np.bool_],
+    ranges: FloatArray,
+    cos: FloatArray,
+    sin: FloatArray,
+    max_range: float,
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+    until: float,
+) -> tuple[int, int, int, int]:
+    """Mark the cells where the valid beams within ``max_range`` end as live until ``until``
+    (or later, where a cell is marked longer); returns the (row, row, col, col) extremes of the
+    marked cells, all -1 when none.
+
+    Beam ``b`` of a sensor at (x, y) with heading (c, s) = (cos, sin) ends at ``(x + c * p_x -
+    s * p_y, y + s * p_x + c * p_y)``, ``p = ranges[b] * (cos[b], sin[b])``, in the cell of
+    `OccupancyGrid.world_to_cell`; ends off the grid mark nothing.
+    """
+    height, width = marked_until.shape
+    row0 = row1 = col0 = col1 = -1
+    for b in range(ranges.size):
+        if not (valid[b] and ranges[b] <= max_range):
+            continue
+        px, py = ranges[b] * cos[b], ranges[b] * sin[b]
+        col = math.floor((x + c * px - s * py - origin_x) / resolution)
+        row = math.floor((y + s * px + c * py - origin_y) / resolution)
+        if not (0 <= row < height and 0 <= col < width):
+            continue
+        marked_until[row, col] = max(marked_until[row, col], until)
+        if row0 < 0:
+            row0 = row1 = row
+            col0 = col1 = col
+        else:
+            row0, row1 = min(row0, row), max(row1, row)
+            col0, col1 = min(col0, col), max(col1, col)
+    return row0, row1, col0, col1
 
 
 class Costmap:
@@ -187,121 +245,61 @@ class Costmap:
         reach = np.minimum(ranges[clear], cfg.raytrace_max_range) - self.resolution
         beam_angles = angles[clear] + origin.yaw
         if reach.size and float(reach.max()) > 0.0:
-            if scan.angle_increment > 0:
-                self._clear_cells(
-                    *self._live_clearing_samples(now, origin.x, origin.y, beam_angles, reach)
-                )
-            else:
-                self._clear_cells(
-                    *_clearing_samples(origin.x, origin.y, beam_angles, reach, self.resolution)
-                )
+            self._clear_beams(now, origin.x, origin.y, beam_angles, reach)
         # Marking: endpoints within obstacle_max_range.
-        mark = valid & (ranges <= cfg.obstacle_max_range)
         cos, sin = scan.trig()
-        px, py = ranges[mark] * cos[mark], ranges[mark] * sin[mark]
-        wx, wy = origin.x + c * px - s * py, origin.y + s * px + c * py
-        rows, cols = self.grid.world_to_cell(wx, wy)
-        ok = self.grid.in_bounds(rows, cols)
-        self._mark(rows[ok], cols[ok], now, now + cfg.obstacle_persistence)
-
-    def _live_clearing_samples(
-        self, now: float, x: float, y: float, angles: npt.NDArray[np.float64], reach: FloatArray
-    ) -> tuple[FloatArray, FloatArray]:
-        """The clearing samples (`_clearing_samples`) that may land in a live mark.
-
-        Clearing a cell without a live mark changes nothing at ``now`` or later (a dead mark
-        stays dead; time does not go back in the stack), and a scan's ~25 000 samples meet a
-        few hundred live cells. A sample ``t_k`` along beam ``b`` lies in the cell of centre
-        ``c`` only if ``|t_k - |c - o|| <= h`` and the beam passes within ``h`` of ``c``
-        (``h`` = half the cell's diagonal), i.e. its angle is within ``asin(h / |c - o|)`` of the
-        bearing of ``c``. Those (beam, k) pairs, with a margin, are computed with the very
-        arithmetic of `_clearing_samples`; ``angles`` must increase.
-        """
-        res = self.resolution
         g = self.grid
-        reach_max = float(reach.max())
-        t = np.arange(0.0, reach_max, res)
-        empty = np.zeros(0)
-        # Live cells within reach of the origin, inside the boxes of the unexpired marks.
-        boxes = [b for b in self._mark_boxes if b[0] > now]
-        if not boxes:
-            return empty, empty
-        row_o, col_o = math.floor((y - g.origin_y) / res), math.floor((x - g.origin_x) / res)
-        k = math.ceil(reach_max / res) + 2
-        r0 = max(row_o - k, min(b[1] for b in boxes), 0)
-        r1 = min(row_o + k + 1, max(b[2] for b in boxes), g.height)
-        c0 = max(col_o - k, min(b[3] for b in boxes), 0)
-        c1 = min(col_o + k + 1, max(b[4] for b in boxes), g.width)
-        if r0 >= r1 or c0 >= c1:
-            return empty, empty
-        # Array methods, not numpy's functions: their Python wrappers cost as much as the work.
-        live = (self._marked_until[r0:r1, c0:c1] > now).ravel().nonzero()[0]
-        if live.size == 0:
-            return empty, empty
-        rows, cols = np.divmod(live, c1 - c0)
-        dx = g.origin_x + (cols + c0 + 0.5) * res - x
-        dy = g.origin_y + (rows + r0 + 0.5) * res - y
-        rho = np.hypot(dx, dy)
-        h = res * math.sqrt(0.5)
-        # The beams' angular window around each cell; cells about the origin take every beam.
-        half = np.arcsin(np.minimum(h / np.maximum(rho, 2.0 * h), 0.5)) + _WINDOW_MARGIN
-        half[rho <= 2.0 * h] = 2.0 * math.pi
-        first = float(angles[0]) - half
-        centre = first + np.mod(np.arctan2(dy, dx) - first, 2.0 * math.pi)
-        k_lo = np.maximum(np.floor((rho - h) / res).astype(np.int64) - 1, 0)
-        k_hi = np.minimum(np.ceil((rho + h) / res).astype(np.int64) + 2, t.size)  # exclusive
-        # A window may also wrap past the end of the scan into the next turn.
-        wrap = (centre + 2.0 * math.pi - half <= angles[-1]).nonzero()[0]
-        if wrap.size:
-            centre = np.concatenate((centre, centre[wrap] + 2.0 * math.pi))
-            half = np.concatenate((half, half[wrap]))
-            k_lo = np.concatenate((k_lo, k_lo[wrap]))
-            k_hi = np.concatenate((k_hi, k_hi[wrap]))
-        lo = angles.searchsorted(centre - half)  # methods: without np.searchsorted's wrapper
-        n_beams = np.maximum(angles.searchsorted(centre + half, side="right") - lo, 0)
-        # (beam, k) candidates: each window's beams, each with the window's k range.
-        cell = np.arange(lo.size).repeat(n_beams)
-        beam = np.arange(cell.size) + (lo - (n_beams.cumsum() - n_beams)).repeat(n_beams)
-        kk = k_lo[cell][:, None] + np.arange(max(int((k_hi - k_lo).max()), 0))[None, :]
-        counts = t.searchsorted(reach, side="left")  # samples with t_k < reach
-        real = kk < np.minimum(k_hi[cell], counts[beam])[:, None]
-        # Each candidate's beam, row by row (what masking the broadcast beams gives, faster).
-        beam = beam.repeat(np.count_nonzero(real, axis=1))
-        tk = t[kk[real]]
-        xs = x + np.cos(angles)[beam] * tk
-        ys = y + np.sin(angles)[beam] * tk
-        return xs, ys
-
-    def _clear_cells(self, xs: npt.NDArray[np.float64], ys: npt.NDArray[np.float64]) -> None:
-        """Forget the live marks of the cells holding map-frame points (xs, ys) [m]."""
-        g = self.grid
-        cols = np.floor((xs - g.origin_x) / g.resolution).astype(np.int64)
-        rows = np.floor((ys - g.origin_y) / g.resolution).astype(np.int64)
-        ok = (rows >= 0) & (rows < g.height) & (cols >= 0) & (cols < g.width)
-        if not ok.all():
-            rows, cols = rows[ok], cols[ok]
-        rows *= g.width
-        rows += cols
-        self._marked_until.ravel()[rows] = -np.inf
-
-    def _mark(
-        self, rows: npt.NDArray[np.int64], cols: npt.NDArray[np.int64], now: float, until: float
-    ) -> None:
-        """Mark cells (rows, cols), all inside the grid, as live obstacles until ``until`` (or
-        later, where a mark is remembered longer: `remember_near`)."""
-        self._marked_until[rows, cols] = np.maximum(self._marked_until[rows, cols], until)
-        if rows.size:
-            box = (
-                until,
-                int(rows.min()),
-                int(rows.max()) + 1,
-                int(cols.min()),
-                int(cols.max()) + 1,
-            )
-            self._mark_boxes.append(box)
-            if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
-                self._live_box(now)
+        until = now + cfg.obstacle_persistence
+        box = mark_endpoints(  # scalars as floats: one compiled signature (`jit`)
+            self._marked_until,
+            valid,
+            ranges,
+            cos,
+            sin,
+            float(cfg.obstacle_max_range),
+            origin.x,
+            origin.y,
+            c,
+            s,
+            float(g.origin_x),
+            float(g.origin_y),
+            float(g.resolution),
+            float(until),
+        )
+        if box[0] >= 0:
+            self._add_box((until, int(box[0]), int(box[1]) + 1, int(box[2]), int(box[3]) + 1), now)
         self._touch()
+
+    def _clear_beams(
+        self, now: float, x: float, y: float, angles: FloatArray, reach: FloatArray
+    ) -> None:
+        """Forget the live marks of the cells that the beams from (x, y) pass through, short of
+        their ``reach`` [m], sampled every cell (`clear_live_cells`). Marks not live at ``now``
+        are left as they are: clearing them would change nothing at ``now`` or later (a dead
+        mark stays dead; time does not go back in the stack)."""
+        if not any(box[0] > now for box in self._mark_boxes):
+            return  # nothing live to clear
+        g = self.grid
+        t = np.arange(0.0, float(reach.max()), self.resolution)
+        clear_live_cells(  # scalars as floats: one compiled signature (`jit`)
+            self._marked_until,
+            float(g.origin_x),
+            float(g.origin_y),
+            float(g.resolution),
+            float(x),
+            float(y),
+            np.cos(angles),
+            np.sin(angles),
+            t,
+            reach,
+            float(now),
+        )
+
+    def _add_box(self, box: tuple[float, int, int, int, int], now: float) -> None:
+        """Remember (expiry, row0, row1, col0, col1) of a batch of marks (`_live_box`)."""
+        self._mark_boxes.append(box)
+        if len(self._mark_boxes) > 256:  # nobody asked for costs for a while
+            self._live_box(now)
 
     def _live_box(self, now: float) -> tuple[int, int, int, int] | None:
         """(row0, row1, col0, col1) holding every cell live at ``now``, or None to look at the
@@ -422,3 +420,14 @@ class Costmap:
     def static_costs(self) -> npt.NDArray[np.uint8]:
         """The inflated a-priori map alone."""
         return self._static_costs
+
+
+@jit.on_warm_up("planning.costmap")
+def _warm_up() -> None:
+    """A scan marked, then one clearing through the marks: every kernel with its types."""
+    grid = OccupancyGrid(np.zeros((40, 40), dtype=np.int8), 0.05, -1.0, -1.0)
+    costmap = Costmap(grid)
+    ranges = np.full(9, 0.5, dtype=np.float32)
+    scan = LaserScan(0.0, -1.0, 0.25, 0.02, 30.0, ranges)
+    costmap.update(0.0, Pose2D(0.0, 0.0, 0.0), scan)
+    costmap.update(0.1, Pose2D(0.0, 0.0, 0.0), dataclasses.replace(scan, ranges=ranges * 2))

@@ -14,7 +14,8 @@ Raphael 1968; Johnson 1977): the compiled ``scipy.sparse.csgraph.dijkstra`` then
 A*'s order, and its ``limit`` argument stops the search at an f-value bound that grows fourfold
 until the goal is reached, so only A*'s ellipse around the straight line is explored; the graph
 itself is built only on the box that holds that ellipse (`_search_box`), with the nodes in the
-same order, so the search and its ties are those on the whole grid.
+same order, so the search and its ties are those on the whole grid; its edges come from a
+compiled loop (`reduced_cost_edges`, `robot_daemon.jit`).
 
 Coarsening. With ``planning_resolution`` a multiple ``f`` of the map resolution, each coarse cell
 takes the *maximum* cost of its ``f x f`` fine cells (conservative: a coarse cell is free only if
@@ -23,8 +24,8 @@ all its fine cells are). A 0.9 m door still leaves a band of free coarse cells a
 Smoothing. Greedy line-of-sight shortcutting on the fine cost grid: from each anchor the path jumps
 to the farthest later vertex whose straight segment stays out of inscribed space and never meets a
 cost higher than the highest cost the A* path itself met between the two vertices (so a shortcut
-never hugs a wall more closely than the optimal path did). The result is resampled every
-``sample_spacing`` metres.
+never hugs a wall more closely than the optimal path did), in one compiled loop
+(`shortcut_kept`). The result is resampled every ``sample_spacing`` metres.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from interbot_core.occupancy_grid import OccupancyGrid
+from robot_daemon import jit
 from robot_daemon.planning.config import PlannerConfig
 from robot_daemon.planning.costmap import INSCRIBED, LETHAL, MAX_NON_LETHAL
 
@@ -93,19 +95,6 @@ def coarsen_costs(costs: npt.NDArray[np.uint8], factor: int) -> npt.NDArray[np.u
     return pooled
 
 
-def octile_grid(shape: tuple[int, int], goal: tuple[int, int]) -> npt.NDArray[np.float64]:
-    """Octile distance [cells] from every cell of a grid of ``shape`` to ``goal`` = (row, col).
-
-    Computed from one row and one column of distances (broadcast), element for element the
-    same arithmetic as the formula on each cell (the tests' reference): gathering from this grid is cheaper than evaluating
-    the formula on every (node, neighbour) pair.
-    """
-    dr = np.abs(np.arange(shape[0], dtype=np.int64) - goal[0]).astype(np.float64)[:, None]
-    dc = np.abs(np.arange(shape[1], dtype=np.int64) - goal[1]).astype(np.float64)[None, :]
-    result: npt.NDArray[np.float64] = np.maximum(dr, dc) + (SQRT2 - 1.0) * np.minimum(dr, dc)
-    return result
-
-
 def _reduced_cost_graph(
     costs: npt.NDArray[np.uint8], goal: tuple[int, int], cost_weight: float
 ) -> tuple[
@@ -121,7 +110,7 @@ def _reduced_cost_graph(
 
     Returns (reduced costs, neighbour node ids, indptr, node cells as flat indices of the
     padded grid, padded cell -> node id, h of each node, padded width). Edges are listed node
-    by node in ``_OFFSETS`` order.
+    by node in ``_OFFSETS`` order (`reduced_cost_edges`).
     """
     h, w = costs.shape
     # Pad by one lethal cell so that flat neighbour indices never wrap around a row.
@@ -129,28 +118,81 @@ def _reduced_cost_graph(
     padded = np.full((h + 2, wp), LETHAL, dtype=np.uint8)
     padded[1:-1, 1:-1] = costs
     flat_cost = padded.ravel()
-    free_flat = flat_cost < INSCRIBED
-    nodes = np.flatnonzero(free_flat)
-    compact = np.full(flat_cost.size, -1, dtype=np.int64)
-    compact[nodes] = np.arange(nodes.size)
-    h_flat = octile_grid((h + 2, wp), (goal[0] + 1, goal[1] + 1)).ravel()
-    heuristic = h_flat[nodes]
-    offsets = _OFFSETS[:, 0] * wp + _OFFSETS[:, 1]
-    neighbours = nodes[:, None] + offsets[None, :]
-    traversable = free_flat[neighbours]
-    # Dense (nodes x 8) arithmetic first, one masked extraction at the end.
-    neighbour_h = h_flat[neighbours]
-    cost_f = flat_cost.astype(np.float64)
-    weight = _STEP[None, :] * (
-        1.0 + (cost_f[nodes][:, None] + cost_f[neighbours]) * (0.5 / cost_weight)
+    nodes = np.flatnonzero(flat_cost < INSCRIBED)
+    reduced, neighbour_compact, indptr, compact, heuristic = reduced_cost_edges(
+        flat_cost, nodes, wp, goal[0] + 1, goal[1] + 1, _OFFSETS, _STEP, float(cost_weight)
     )
-    reduced_dense = weight - heuristic[:, None] + neighbour_h
-    reduced = reduced_dense[traversable]
-    neighbour_compact = compact[neighbours[traversable]]
-    # Consistency makes reduced >= 0; rounding may leave -1e-16, and csgraph needs > 0.
-    np.maximum(reduced, 1e-12, out=reduced)
-    indptr = np.concatenate(([0], np.cumsum(np.count_nonzero(traversable, axis=1))))
     return reduced, neighbour_compact, indptr, nodes, compact, heuristic, wp
+
+
+@jit.kernel
+def reduced_cost_edges(
+    flat_cost: npt.NDArray[np.uint8],
+    nodes: npt.NDArray[np.int64],
+    wp: int,
+    goal_row: int,
+    goal_col: int,
+    offsets: npt.NDArray[np.int64],
+    step: npt.NDArray[np.float64],
+    cost_weight: float,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+]:
+    """The edges of the padded grid's traversable ``nodes`` (flat indices, row width ``wp``)
+    to their traversable neighbours, node by node in ``offsets`` order, with the reduced cost
+
+        w'(u, v) = step * (1 + (c_u + c_v) * (0.5 / cost_weight)) - h(u) + h(v)
+
+    (at least 1e-12: consistency makes it >= 0 but rounding may leave -1e-16, and csgraph
+    needs > 0), ``h`` the octile distance to the goal cell (`_octile`).
+    Returns (reduced costs, neighbour node ids, indptr, padded cell -> node id or -1, h of
+    each node).
+    """
+    compact = np.full(flat_cost.size, -1, dtype=np.int64)
+    for i in range(nodes.size):
+        compact[nodes[i]] = i
+    heuristic = np.empty(nodes.size)
+    for i in range(nodes.size):
+        heuristic[i] = _octile(nodes[i] // wp, nodes[i] % wp, goal_row, goal_col)
+    flat_offsets = offsets[:, 0] * wp + offsets[:, 1]
+    indptr = np.empty(nodes.size + 1, dtype=np.int64)
+    indptr[0] = 0
+    for i in range(nodes.size):
+        count = 0
+        for k in range(flat_offsets.size):
+            if compact[nodes[i] + flat_offsets[k]] >= 0:
+                count += 1
+        indptr[i + 1] = indptr[i] + count
+    reduced = np.empty(indptr[-1])
+    neighbour = np.empty(indptr[-1], dtype=np.int64)
+    half_over_weight = 0.5 / cost_weight
+    e = 0
+    for i in range(nodes.size):
+        u = nodes[i]
+        for k in range(flat_offsets.size):
+            v = u + flat_offsets[k]
+            if compact[v] < 0:
+                continue
+            weight = step[k] * (
+                1.0 + (float(flat_cost[u]) + float(flat_cost[v])) * half_over_weight
+            )
+            h_v = _octile(v // wp, v % wp, goal_row, goal_col)
+            reduced[e] = max(weight - heuristic[i] + h_v, 1e-12)
+            neighbour[e] = compact[v]
+            e += 1
+    return reduced, neighbour, indptr, compact, heuristic
+
+
+@jit.kernel
+def _octile(row: int, col: int, goal_row: int, goal_col: int) -> float:
+    """Octile distance [cells] between two cells: ``max(dr, dc) + (sqrt(2) - 1) min(dr, dc)``."""
+    dr = float(abs(row - goal_row))
+    dc = float(abs(col - goal_col))
+    return max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)
 
 
 def astar_cells(
@@ -176,7 +218,7 @@ def astar_cells(
         return [start], 0.0
     dr = float(abs(start[0] - goal[0]))
     dc = float(abs(start[1] - goal[1]))
-    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # octile_grid's arithmetic
+    h_start = max(dr, dc) + (SQRT2 - 1.0) * min(dr, dc)  # `_octile`'s arithmetic
     # Reduced distance to the goal = path cost - h(start): the detour beyond the straight line.
     limit = max(0.5 * h_start, 20.0)
     reached, previous_limit = -1, 0.0
@@ -368,60 +410,105 @@ class GlobalPlanner:
         )
 
 
-def segment_costs(
-    a: npt.NDArray[np.float64],
-    b: npt.NDArray[np.float64],
-    costs: npt.NDArray[np.uint8],
-    grid: OccupancyGrid,
-) -> npt.NDArray[np.uint8]:
-    """Max cost along each segment a[i] -> b[i] (sampled every half cell); (N,) uint8."""
-    lengths = np.hypot(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1])
-    n = max(2, math.ceil(float(lengths.max(initial=0.0)) / (0.5 * grid.resolution)) + 1)
-    t = np.linspace(0.0, 1.0, n)
-    xs = a[:, 0, None] + (b[:, 0] - a[:, 0])[:, None] * t[None, :]
-    ys = a[:, 1, None] + (b[:, 1] - a[:, 1])[:, None] * t[None, :]
-    rows, cols = grid.world_to_cell(xs, ys)
-    inside = grid.in_bounds(rows, cols)
-    sampled = np.full(xs.shape, LETHAL, dtype=np.uint8)
-    sampled[inside] = costs[rows[inside], cols[inside]]
-    result: npt.NDArray[np.uint8] = sampled.max(axis=1)
-    return result
-
-
 def shortcut(
     points: npt.NDArray[np.float64],
     costs: npt.NDArray[np.uint8],
     grid: OccupancyGrid,
     window: int = 120,
 ) -> npt.NDArray[np.float64]:
-    """Greedy line-of-sight shortcutting that respects the costmap (see module docstring)."""
-    n = len(points)
-    if n <= 2:
+    """Greedy line-of-sight shortcutting that respects the costmap (see module docstring;
+    `shortcut_kept`)."""
+    if len(points) <= 2:
         return points
-    vertex_rows, vertex_cols = grid.world_to_cell(points[:, 0], points[:, 1])
-    inside = grid.in_bounds(vertex_rows, vertex_cols)
-    vertex_cost = np.full(n, LETHAL, dtype=np.int64)
-    vertex_cost[inside] = costs[vertex_rows[inside], vertex_cols[inside]]
-    # Cost met by the A* path on each leg i -> i+1.
-    leg_cost = segment_costs(points[:-1], points[1:], costs, grid).astype(np.int64)
+    read_only = costs.view()  # as the costmap's grids are: one compiled signature (`jit`)
+    read_only.setflags(write=False)
+    kept = shortcut_kept(
+        np.ascontiguousarray(points, dtype=np.float64),
+        read_only,
+        float(grid.origin_x),
+        float(grid.origin_y),
+        float(grid.resolution),
+        int(window),
+    )
+    result: npt.NDArray[np.float64] = points[kept]
+    return result
+
+
+@jit.kernel
+def shortcut_kept(
+    points: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+    window: int,
+) -> npt.NDArray[np.int64]:
+    """Indices of the path vertices the shortcutting keeps: from each kept vertex ``i`` the
+    farthest of the next ``window`` vertices ``j`` whose segment's highest cost
+    (`segment_max_costs`) is below inscribed and no higher than the highest the path met
+    from ``i`` to ``j`` (its legs and vertices; ``j = i + 1`` always qualifies)."""
+    n = points.shape[0]
+    height, width = costs.shape
+    vertex_cost = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        col = math.floor((points[i, 0] - origin_x) / resolution)
+        row = math.floor((points[i, 1] - origin_y) / resolution)
+        inside = 0 <= row < height and 0 <= col < width
+        vertex_cost[i] = costs[row, col] if inside else LETHAL
+    legs = (np.ascontiguousarray(points[:-1]), np.ascontiguousarray(points[1:]))
+    leg_cost = segment_max_costs(*legs, costs, origin_x, origin_y, resolution)
     kept = [0]
     i = 0
     while i < n - 1:
         j_max = min(n - 1, i + window)
-        candidates = np.arange(i + 1, j_max + 1)
-        allowed = np.maximum.accumulate(
-            np.maximum(leg_cost[i:j_max], vertex_cost[i + 1 : j_max + 1])
-        )
-        allowed = np.maximum(allowed, vertex_cost[i])
-        seg = segment_costs(
-            np.repeat(points[i : i + 1], candidates.size, axis=0), points[candidates], costs, grid
-        ).astype(np.int64)
-        ok = (seg <= allowed) & (seg < INSCRIBED)
-        ok[0] = True  # the A* leg itself is always acceptable
-        j = int(candidates[np.flatnonzero(ok)[-1]])
-        kept.append(j)
-        i = j
-    result: npt.NDArray[np.float64] = points[kept]
+        ends = np.ascontiguousarray(points[i + 1 : j_max + 1])
+        starts = np.empty_like(ends)
+        starts[:, 0] = points[i, 0]
+        starts[:, 1] = points[i, 1]
+        seg = segment_max_costs(starts, ends, costs, origin_x, origin_y, resolution)
+        allowed = vertex_cost[i]
+        best = i + 1  # the path's own leg is always acceptable
+        for q in range(j_max - i):
+            allowed = max(allowed, leg_cost[i + q], vertex_cost[i + 1 + q])
+            if seg[q] <= allowed and seg[q] < INSCRIBED:
+                best = i + 1 + q
+        kept.append(best)
+        i = best
+    return np.array(kept, dtype=np.int64)
+
+
+@jit.kernel
+def segment_max_costs(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    costs: npt.NDArray[np.uint8],
+    origin_x: float,
+    origin_y: float,
+    resolution: float,
+) -> npt.NDArray[np.int64]:
+    """Highest cost along each segment a[i] -> b[i] (N, 2) [m], LETHAL off the grid.
+
+    Every segment is sampled at the same ``m`` fractions ``t = numpy.linspace(0, 1, m)``
+    (``k * (1 / (m - 1))``, the last exactly 1), ``m`` giving the longest segment a sample
+    every half cell: ``m = max(2, ceil(longest / (res / 2)) + 1)``.
+    """
+    longest = 0.0
+    for s in range(a.shape[0]):
+        longest = max(longest, math.hypot(b[s, 0] - a[s, 0], b[s, 1] - a[s, 1]))
+    m = max(2, math.ceil(longest / (0.5 * resolution)) + 1)
+    step = 1.0 / (m - 1)
+    height, width = costs.shape
+    result = np.empty(a.shape[0], dtype=np.int64)
+    for s in range(a.shape[0]):
+        dx, dy = b[s, 0] - a[s, 0], b[s, 1] - a[s, 1]
+        highest = 0
+        for k in range(m):
+            t = 1.0 if k == m - 1 else k * step
+            col = math.floor((a[s, 0] + dx * t - origin_x) / resolution)
+            row = math.floor((a[s, 1] + dy * t - origin_y) / resolution)
+            inside = 0 <= row < height and 0 <= col < width
+            highest = max(highest, int(costs[row, col]) if inside else LETHAL)
+        result[s] = highest
     return result
 
 
@@ -438,3 +525,12 @@ def resample(points: npt.NDArray[np.float64], spacing: float) -> npt.NDArray[np.
     ys = np.interp(targets, s, points[:, 1])
     result: npt.NDArray[np.float64] = np.column_stack((xs, ys))
     return result
+
+
+@jit.on_warm_up("planning.global_planner")
+def _warm_up() -> None:
+    costs = np.zeros((5, 6), dtype=np.uint8)
+    costs[1:4, 2] = LETHAL
+    astar_cells(costs, (2, 0), (2, 5))
+    grid = OccupancyGrid(np.zeros((5, 6), dtype=np.int8), 0.1, 0.0, 0.0)
+    shortcut(np.array([[0.05, 0.05], [0.25, 0.15], [0.55, 0.45]]), costs, grid)

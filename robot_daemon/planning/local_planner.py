@@ -15,8 +15,11 @@ moves on a circular arc ``x = v/w sin(w t)``, ``y = v/w (1 - cos(w t))``, ``thet
 Admissibility. The rectangular footprint (``robot_length x robot_width``) is covered by ``n``
 circles on its long axis (radius ``sqrt((L / 2n)^2 + (W / 2)^2)``); a pose collides when the
 Euclidean distance transform of a robot-centred obstacle grid (live scan points and the
-costmap's lethal cells) at a circle centre is below its radius. All trajectories x all steps x
-all circles are checked in one vectorised lookup. A trajectory keeps half a grid cell of margin;
+costmap's lethal cells) at a circle centre is below its radius. The grid's distance is exact
+(`obstacle_distance`, Felzenszwalb and Huttenlocher's transform); each trajectory is rolled out
+and looked up step by step, circle by circle, in a compiled loop (`rollout_clearance`,
+`robot_daemon.jit`), and so is the objective's minimum (`best_trajectory`). A trajectory keeps
+half a grid cell of margin;
 when the robot already stands inside that margin (none can keep it) but clear of contact, the
 *escape* trajectories are admissible instead: clear of contact throughout, ending farther from
 the obstacles and nearer the carrot than the robot is now.
@@ -38,11 +41,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 
 from interbot_core.geometry import Pose2D, wrap_angle
+from robot_daemon import jit
 from robot_daemon.planning.config import PlannerConfig
 
 FloatArray = npt.NDArray[np.float64]
@@ -82,28 +85,20 @@ def footprint_circles(length: float, width: float) -> tuple[npt.NDArray[np.float
 
 
 class ObstacleField:
-    """Distance [m] to the nearest obstacle point, on a square robot-centred grid."""
+    """Distance [m] to the nearest obstacle point, on a square robot-centred grid
+    (`obstacle_distance`)."""
 
     def __init__(self, points: npt.ArrayLike, half_size: float, resolution: float) -> None:
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         self.half_size = half_size
         self.resolution = resolution
         self.n = math.ceil(2.0 * half_size / resolution)
-        idx = np.floor((pts + half_size) / resolution).astype(np.int64)
-        ok = (idx >= 0) & (idx < self.n)
-        inside = ok[:, 0] & ok[:, 1]  # np.all(ok, axis=1), without a reduction over pairs
-        idx = idx[inside]
-        if idx.size == 0:
-            self.distance: npt.NDArray[np.float64] = np.full((self.n, self.n), np.inf)
-        else:
-            free = np.ones((self.n, self.n), dtype=np.uint8)
-            free[idx[:, 1], idx[:, 0]] = 0  # [row = y, col = x]
-            self.distance = exact_distance_transform(free, resolution)
         # The distance with a border of inf cells, flat: `lookup` clips indices to the border
         # instead of masking the points outside (one gather).
-        bordered = np.full((self.n + 2, self.n + 2), np.inf)
-        bordered[1:-1, 1:-1] = self.distance
-        self._bordered = bordered.ravel()
+        self.bordered: FloatArray = obstacle_distance(
+            pts, float(half_size), float(resolution), self.n
+        )
+        self.distance: FloatArray = self.bordered.reshape(self.n + 2, self.n + 2)[1:-1, 1:-1]
 
     def lookup(self, x: npt.ArrayLike, y: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Distance at robot-frame points; outside the grid counts as far from everything."""
@@ -118,7 +113,7 @@ class ObstacleField:
         row *= self.n + 2
         row += col
         row += self.n + 3  # (row + 1) * (n + 2) + col + 1
-        result: npt.NDArray[np.float64] = self._bordered.take(row)
+        result: npt.NDArray[np.float64] = self.bordered.take(row)
         return result
 
     def _cells(self, coordinate: npt.ArrayLike) -> npt.NDArray[np.int64]:
@@ -130,19 +125,74 @@ class ObstacleField:
         return cells
 
 
-def exact_distance_transform(free: npt.NDArray[np.uint8], resolution: float) -> FloatArray:
-    """Euclidean distance [m] from each cell centre to the nearest zero cell's centre.
+@jit.kernel
+def obstacle_distance(
+    points: FloatArray, half_size: float, resolution: float, n: int
+) -> FloatArray:
+    """Euclidean distance [m] from each cell centre of an ``n x n`` grid of side
+    ``2 * half_size`` [m] centred on the robot to the nearest cell holding one of the robot-
+    frame ``points`` (N, 2) (``inf`` with none), with a border of ``inf`` cells round it,
+    flattened: ``(n + 2) ** 2`` values, row = y.
 
-    OpenCV's exact transform (``DIST_MASK_PRECISE``, Felzenszwalb & Huttenlocher 2012) is about
-    three times faster than ``scipy.ndimage.distance_transform_edt`` on a local planner's grid,
-    but float32: squaring and rounding recovers the integer squared distance in cells exactly
-    (well under 2**24), and ``sqrt(k) * resolution`` in float64 equals scipy's result to a
-    unit or two in the last place (scipy sums the squared metric offsets instead).
+    A point is in cell ``floor((p + half_size) / resolution)``. The squared distance in cells
+    is exact in integers (Felzenszwalb and Huttenlocher, "Distance transforms of sampled
+    functions", Theory of Computing 8, 2012): per column the squared distance to the nearest
+    obstacle of that column, ``g``, then per row the lower envelope of the parabolas
+    ``g(q) + (c - q)**2``; the distance is ``sqrt(k) * resolution``, as OpenCV's exact
+    transform squared and rounded gave it (session 12), and scipy's ``distance_transform_edt``
+    to a unit or two in the last place.
     """
-    cells = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    squared = np.rint(np.square(cells, dtype=np.float64))
-    distance: FloatArray = np.sqrt(squared) * resolution
-    return distance
+    bordered = np.full((n + 2) * (n + 2), math.inf)
+    occupied = np.zeros((n, n), dtype=np.bool_)
+    anything = False
+    for p in range(points.shape[0]):
+        col = math.floor((points[p, 0] + half_size) / resolution)
+        row = math.floor((points[p, 1] + half_size) / resolution)
+        if 0 <= col < n and 0 <= row < n:
+            occupied[row, col] = True
+            anything = True
+    if not anything:
+        return bordered
+    none = 4 * n * n + 1  # more than any squared distance within the grid
+    g = np.empty((n, n), dtype=np.int64)
+    for c in range(n):  # down and up each column: the nearest obstacle cell in it
+        gap = -1
+        for r in range(n):
+            gap = 0 if occupied[r, c] else (gap + 1 if gap >= 0 else -1)
+            g[r, c] = gap * gap if gap >= 0 else none
+        gap = -1
+        for r in range(n - 1, -1, -1):
+            gap = 0 if occupied[r, c] else (gap + 1 if gap >= 0 else -1)
+            if gap >= 0 and gap * gap < g[r, c]:
+                g[r, c] = gap * gap
+    apex = np.empty(n, dtype=np.int64)  # the parabolas of the lower envelope
+    start = np.empty(n + 1)  # where each begins to be the lowest
+    for r in range(n):
+        k = -1
+        for q in range(n):
+            if g[r, q] == none:
+                continue
+            s = -math.inf
+            while k >= 0:
+                a = apex[k]
+                s = ((g[r, q] + q * q) - (g[r, a] + a * a)) / (2.0 * (q - a))
+                if s > start[k]:
+                    break
+                k -= 1
+            k += 1
+            apex[k] = q
+            start[k] = s if k > 0 else -math.inf
+        if k < 0:
+            continue  # no obstacle reaches this row (nor any: every column was empty)
+        start[k + 1] = math.inf
+        j = 0
+        for c in range(n):
+            while start[j + 1] < c:
+                j += 1
+            a = apex[j]
+            squared = (c - a) * (c - a) + g[r, a]
+            bordered[(r + 1) * (n + 2) + c + 1] = math.sqrt(float(squared)) * resolution
+    return bordered
 
 
 def rollout(
@@ -169,6 +219,119 @@ def _rollout_with_trig(
     sin_ratio = np.where(small, 1.0, sin_t / safe)
     cos_ratio = np.where(small, 0.5 * theta, (1.0 - cos_t) / safe)
     return dist * sin_ratio, dist * cos_ratio, theta
+
+
+@jit.kernel
+def rollout_clearance(
+    v: FloatArray,
+    w: FloatArray,
+    times: FloatArray,
+    cos_t: FloatArray,
+    sin_t: FloatArray,
+    offsets: FloatArray,
+    bordered: FloatArray,
+    n: int,
+    half_size: float,
+    resolution: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Every arc (v[i], w[j]), v-major, rolled out (`rollout`; ``cos_t``, ``sin_t`` are the
+    caller's ``cos`` and ``sin`` of ``w[:, None] * times``) with the footprint's circles at
+    each step looked up in an `ObstacleField` (its ``bordered`` grid): one trajectory at a
+    time, where numpy needed (circles x trajectories x steps) arrays.
+
+    Returns (x_end, y_end, d_min, d_end) of each arc: its end point, the least distance [m]
+    over every circle and step, and over the circles at the last step. The arithmetic is
+    `_rollout_with_trig`'s and `ObstacleField.lookup`'s, operation for operation.
+    """
+    steps = times.size
+    x_end = np.empty(v.size * w.size)
+    y_end = np.empty(v.size * w.size)
+    d_min = np.empty(v.size * w.size)
+    d_end = np.empty(v.size * w.size)
+    stride = n + 2
+    for i in range(v.size):
+        for j in range(w.size):
+            least = last = math.inf
+            x = y = 0.0
+            for k in range(steps):
+                theta = w[j] * times[k]
+                dist = v[i] * times[k]
+                c, s = cos_t[j, k], sin_t[j, k]
+                if abs(theta) < 1e-9:  # the limits of the ratios on a straight line
+                    x = dist * 1.0
+                    y = dist * (0.5 * theta)
+                else:
+                    x = dist * (s / theta)
+                    y = dist * ((1.0 - c) / theta)
+                last = math.inf
+                for offset in offsets:
+                    col = math.floor((x + c * offset + half_size) / resolution)
+                    row = math.floor((y + s * offset + half_size) / resolution)
+                    col = max(min(col, n), -1)  # outside the grid: onto its border of inf
+                    row = max(min(row, n), -1)
+                    d = bordered[row * stride + col + stride + 1]
+                    least = min(least, d)
+                    last = min(last, d)
+            arc = i * w.size + j
+            x_end[arc], y_end[arc], d_min[arc], d_end[arc] = x, y, least, last
+    return x_end, y_end, d_min, d_end
+
+
+@jit.kernel
+def best_trajectory(
+    v: FloatArray,
+    w: FloatArray,
+    horizon: float,
+    x_end: FloatArray,
+    y_end: FloatArray,
+    bearing: FloatArray,
+    clearance: FloatArray,
+    admissible: npt.NDArray[np.bool_],
+    carrot_x: float,
+    carrot_y: float,
+    path: FloatArray,
+    reach: float,
+    max_speed: float,
+) -> int:
+    """The admissible arc (v[i], w[j]) (index ``i * w.size + j``) of least objective (the
+    module docstring's ``G``; the first of equals), -1 if none is admissible:
+
+        progress = |p_end - carrot| / reach,  heading = |wrap(bearing - w * horizon)| / pi,
+        path = min(d(p_end, path) / 0.5, 1),  clear = clip(1 - clearance / CLEARANCE_REF, 0, 1),
+        speed = (max_speed - v) / max_speed,
+
+    ``bearing`` being numpy's ``arctan2`` of the carrot from each end point (a compiled
+    ``atan2`` may differ in the last bits; ``hypot`` is the C library's in both, and ``%`` is
+    Python's floored remainder, numpy's too).
+    """
+    best = -1
+    best_score = math.inf
+    for i in range(v.size):
+        speed_term = (max_speed - v[i]) / max_speed
+        for j in range(w.size):
+            k = i * w.size + j
+            if not admissible[k]:
+                continue
+            progress = math.hypot(carrot_x - x_end[k], carrot_y - y_end[k]) / reach
+            heading = abs((bearing[k] - w[j] * horizon + math.pi) % (2.0 * math.pi) - math.pi)
+            heading = heading / math.pi
+            path_term = 0.0
+            if path.shape[0]:
+                gap = math.inf
+                for p in range(path.shape[0]):
+                    gap = min(gap, math.hypot(x_end[k] - path[p, 0], y_end[k] - path[p, 1]))
+                path_term = min(gap / 0.5, 1.0)
+            clear_term = min(max(1.0 - clearance[k] / CLEARANCE_REF, 0.0), 1.0)
+            score = (
+                W_PROGRESS * progress
+                + W_HEADING * heading
+                + W_PATH * path_term
+                + W_CLEARANCE * clear_term
+                + W_SPEED * speed_term
+            )
+            if score < best_score:
+                best, best_score = k, score
+    return best
 
 
 def limit_step(target: float, current: float, max_step: float, low: float, high: float) -> float:
@@ -233,7 +396,7 @@ class DWAPlanner:
         c = self.config
         v0, w0 = velocity
         dv, dw = c.linear_acceleration * dt, c.angular_acceleration * dt
-        offsets, radius, times = self._shape()
+        _, radius, times = self._shape()
         margin = 0.5 * c.local_grid_resolution
         clearance = self.footprint_clearance(field, 0.0, 0.0, 0.0)
 
@@ -260,12 +423,8 @@ class DWAPlanner:
             )
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
             w = limit_step(w_target, w0, dw, -c.max_angular_speed, c.max_angular_speed)
-            x, y, th = rollout(np.array([v]), np.array([w]), times)
-            d = field.lookup(
-                x[..., None] + np.cos(th)[..., None] * offsets,
-                y[..., None] + np.sin(th)[..., None] * offsets,
-            )
-            if float(d.min()) - radius > margin:
+            _, _, turn_distance, _ = self._rollouts(np.array([v]), np.array([w]), field)
+            if float(turn_distance[0]) - radius > margin:
                 return LocalPlan(v, w, True, "rotate_to_heading", clearance, 1)
 
         # The dynamic window.
@@ -273,20 +432,12 @@ class DWAPlanner:
         v_hi = max(v_lo, min(v_cap, v0 + dv))
         w_lo = max(-c.max_angular_speed, w0 - dw)
         w_hi = max(w_lo, min(c.max_angular_speed, w0 + dw))
-        # Every (v, w) pair, v-major: np.meshgrid(..., indexing="ij") raveled, without its cost.
-        v_s = np.linspace(v_lo, v_hi, c.v_samples).repeat(c.w_samples)
-        w_s = np.tile(np.linspace(w_lo, w_hi, c.w_samples), c.v_samples)
-        th = w_s[:, None] * times[None, :]
-        cos_t, sin_t = np.cos(th), np.sin(th)
-        x, y, th = _rollout_with_trig(v_s, times, th, sin_t, cos_t)
-        # Circle centres as (circle, trajectory, step): the long axes innermost, for numpy.
-        off = offsets[:, None, None]
-        d = field.lookup(x[None] + cos_t[None] * off, y[None] + sin_t[None] * off)
-        # Over the circles, then the steps: the same minimum, without numpy's slow reduction
-        # over two axes at once (twice the cost of this whole line).
-        traj_clearance = d.min(axis=0).min(axis=1) - radius
+        # Every (v, w) pair, v-major (pair k is (v_grid[k // w_samples], w_grid[k % w_samples])).
+        v_grid = np.linspace(v_lo, v_hi, c.v_samples)
+        w_grid = np.linspace(w_lo, w_hi, c.w_samples)
+        xe, ye, distance, end_distance = self._rollouts(v_grid, w_grid, field)
+        traj_clearance = distance - radius
         admissible = traj_clearance > margin
-        xe, ye, te = x[:, -1], y[:, -1], th[:, -1]
         mode = "dwa"
         if not admissible.any() and 0.0 < clearance <= margin:
             # Already inside the margin (a map or a pose a few cm off, a person stepping
@@ -294,44 +445,58 @@ class DWAPlanner:
             # lead out, and the robot would brake beside a wall for ever. Admit the ones that
             # stay clear of contact, end farther from the obstacles than the robot is now and
             # nearer the carrot (out along the path, not a crawl along a wall across it).
-            end_clearance = d[:, :, -1].min(axis=0) - radius
+            end_clearance = end_distance - radius
             nearer = np.hypot(carrot[0] - xe, carrot[1] - ye) < math.hypot(*carrot)
             admissible = (traj_clearance > 0.0) & (end_clearance > clearance) & nearer
             mode = "escape"
         if wants_turn and mode == "dwa":
-            room = self._room_to_turn(field, x[:, -1], y[:, -1], admissible, margin)
+            room = self._room_to_turn(field, xe, ye, admissible, margin)
             if room is not None:
-                return LocalPlan(float(v_s[room]), float(w_s[room]), True, "make_room", clearance)
+                v, w = v_grid[room // c.w_samples], w_grid[room % c.w_samples]
+                return LocalPlan(float(v), float(w), True, "make_room", clearance)
         count = int(admissible.sum())
         if count == 0:
             v = limit_step(0.0, v0, dv, min(c.min_linear_speed, 0.0), c.max_linear_speed)
             w = limit_step(0.0, w0, dw, -c.max_angular_speed, c.max_angular_speed)
             return LocalPlan(v, w, False, "brake", clearance, 0)
+        best = best_trajectory(
+            v_grid,
+            w_grid,
+            float(times[-1]),
+            xe,
+            ye,
+            np.arctan2(carrot[1] - ye, carrot[0] - xe),  # numpy's, as before (see the kernel)
+            traj_clearance,
+            admissible,
+            float(carrot[0]),
+            float(carrot[1]),
+            np.ascontiguousarray(local_path),
+            float(c.lookahead + c.max_linear_speed * c.sim_time),
+            float(c.max_linear_speed),
+        )
+        v, w = v_grid[best // c.w_samples], w_grid[best % c.w_samples]
+        return LocalPlan(float(v), float(w), True, mode, clearance, count)
 
-        progress = np.hypot(carrot[0] - xe, carrot[1] - ye) / (
-            c.lookahead + c.max_linear_speed * c.sim_time
+    def _rollouts(
+        self, v: FloatArray, w: FloatArray, field: ObstacleField
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """`rollout_clearance` of the arcs (v[i], w[j]), v-major, over this configuration's
+        horizon: their end points (x, y), the least obstacle distance [m] of the footprint's
+        circles along each and at its end."""
+        offsets, _, times = self._shape()
+        theta = w[:, None] * times[None, :]
+        return rollout_clearance(
+            v,
+            w,
+            times,
+            np.cos(theta),
+            np.sin(theta),
+            offsets,
+            field.bordered,
+            field.n,
+            float(field.half_size),
+            float(field.resolution),
         )
-        heading = np.abs(_wrap(np.arctan2(carrot[1] - ye, carrot[0] - xe) - te)) / math.pi
-        if local_path.shape[0]:
-            gaps = np.hypot(
-                xe[:, None] - local_path[None, :, 0], ye[:, None] - local_path[None, :, 1]
-            )
-            path_term = np.minimum(gaps.min(axis=1) / 0.5, 1.0)
-        else:
-            path_term = np.zeros_like(xe)
-        # np.clip(x, 0, 1) without its wrapper (the same values, NaN and inf included).
-        clear_term = np.minimum(np.maximum(1.0 - traj_clearance / CLEARANCE_REF, 0.0), 1.0)
-        speed_term = (c.max_linear_speed - v_s) / c.max_linear_speed
-        score = (
-            W_PROGRESS * progress
-            + W_HEADING * heading
-            + W_PATH * path_term
-            + W_CLEARANCE * clear_term
-            + W_SPEED * speed_term
-        )
-        score = np.where(admissible, score, np.inf)
-        best = int(score.argmin())
-        return LocalPlan(float(v_s[best]), float(w_s[best]), True, mode, clearance, count)
 
     def _room_to_turn(
         self,
@@ -398,11 +563,6 @@ def _times(config: PlannerConfig) -> npt.NDArray[np.float64]:
     return times
 
 
-def _wrap(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    wrapped: npt.NDArray[np.float64] = (angle + np.pi) % (2.0 * np.pi) - np.pi
-    return wrapped
-
-
 def _to_robot_frame(points: npt.NDArray[np.float64], pose: Pose2D) -> npt.NDArray[np.float64]:
     c, s = math.cos(pose.yaw), math.sin(pose.yaw)
     dx, dy = points[:, 0] - pose.x, points[:, 1] - pose.y
@@ -439,9 +599,78 @@ def obstacle_points_near(
     origin_x: float,
     origin_y: float,
     pose: Pose2D,
+    scan_points: npt.NDArray[np.float64] | None = None,
+    laser_x: float = 0.0,
 ) -> npt.NDArray[np.float64]:
-    """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0)."""
-    rows, cols = obstacles.nonzero()  # the method: np.nonzero's wrapper costs as much
-    x = origin_x + (cols + col0 + 0.5) * resolution
-    y = origin_y + (rows + row0 + 0.5) * resolution
-    return _to_robot_frame(np.column_stack((x, y)), pose)
+    """Robot-frame centres (N, 2) [m] of the True cells of a map window starting at (row0, col0),
+    then the laser's ``scan_points`` (M, 2) (its frame, ``laser_x`` [m] ahead of the centre)
+    (`robot_frame_points`)."""
+    extra = np.zeros((0, 2)) if scan_points is None else scan_points
+    return robot_frame_points(
+        np.ascontiguousarray(obstacles, dtype=np.bool_),
+        int(row0),
+        int(col0),
+        float(resolution),
+        float(origin_x),
+        float(origin_y),
+        pose.x,
+        pose.y,
+        math.cos(pose.yaw),
+        math.sin(pose.yaw),
+        np.ascontiguousarray(extra, dtype=np.float64),
+        float(laser_x),
+    )
+
+
+@jit.kernel
+def robot_frame_points(
+    obstacles: npt.NDArray[np.bool_],
+    row0: int,
+    col0: int,
+    resolution: float,
+    origin_x: float,
+    origin_y: float,
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    laser_points: FloatArray,
+    laser_x: float,
+) -> FloatArray:
+    """The centres of the True cells of a map window (row-major; cell (r, c) of the window is
+    map cell (row0 + r, col0 + c)) in the frame of a robot at (x, y) with heading (c, s) =
+    (cos, sin), ``(c * dx + s * dy, -s * dx + c * dy)``, then ``laser_points`` moved
+    ``laser_x`` [m] forward: (N + M, 2) [m]."""
+    rows, cols = obstacles.shape
+    count = 0
+    for r in range(rows):
+        for k in range(cols):
+            if obstacles[r, k]:
+                count += 1
+    out = np.empty((count + laser_points.shape[0], 2))
+    i = 0
+    for r in range(rows):
+        for k in range(cols):
+            if obstacles[r, k]:
+                dx = origin_x + (k + col0 + 0.5) * resolution - x
+                dy = origin_y + (r + row0 + 0.5) * resolution - y
+                out[i, 0] = c * dx + s * dy
+                out[i, 1] = -s * dx + c * dy
+                i += 1
+    for p in range(laser_points.shape[0]):
+        out[i + p, 0] = laser_points[p, 0] + laser_x
+        out[i + p, 1] = laser_points[p, 1] + 0.0
+    return out
+
+
+@jit.on_warm_up("planning.local_planner")
+def _warm_up() -> None:
+    """Plans on a straight path (the trajectory choice), one behind the robot (the turn to
+    it) and the obstacle points round a robot: every kernel with its types."""
+    window = np.eye(3, dtype=np.bool_)
+    obstacle_points_near(window, 0, 0, 0.05, 0.0, 0.0, Pose2D(0.0, 0.0, 0.0), np.ones((2, 2)))
+    planner = DWAPlanner(PlannerConfig())
+    field = planner.make_field(np.array([[2.0, 2.0]]))
+    path = np.array([[0.0, 0.0], [2.0, 0.0]])
+    planner.compute(Pose2D(0.0, 0.0, 0.0), (0.1, 0.0), path, field, 0.1)  # "dwa"
+    planner.compute(Pose2D(0.0, 0.0, 3.0), (0.0, 0.0), path, field, 0.1)  # "rotate_to_heading"

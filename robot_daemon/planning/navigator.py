@@ -437,12 +437,16 @@ class Navigator:
         r0, c0 = int(row) - k, int(col) - k
         window = self.costmap.obstacles_window(now, r0, int(row) + k + 1, c0, int(col) + k + 1)
         pts = obstacle_points_near(
-            window, max(r0, 0), max(c0, 0), res, self.grid.origin_x, self.grid.origin_y, pose
+            window,
+            max(r0, 0),
+            max(c0, 0),
+            res,
+            self.grid.origin_x,
+            self.grid.origin_y,
+            pose,
+            None if scan is None else scan.points(max_range=2.0 * half),
+            self.config.laser_x_offset,
         )
-        if scan is not None:
-            scan_pts = scan.points(max_range=2.0 * half)
-            scan_pts = scan_pts + np.array([self.config.laser_x_offset, 0.0])
-            pts = np.vstack((pts, scan_pts))
         self._last_obstacle_points = pts
         return self.local_planner.make_field(pts)
 

@@ -13,6 +13,7 @@ is near 0 or 180 degrees only when P_j lies almost along the beam through P_i: a
 edge-on, which is what a veiling point looks like. Points with ``alpha < min_angle`` or
 ``alpha > 180 deg - min_angle`` for a neighbour form a shadow pair, and the farther point of the
 pair is dropped (set to +inf, REP-117 "no return"); the nearer one is the obstacle's real edge.
+The angles come from numpy, the pairs are judged in a compiled loop (`mark_veils`).
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from interbot_core.laser_scan import LaserScan
+from robot_daemon import jit
 
 SHADOW_MIN_ANGLE = math.radians(10.0)  # [rad] laser_filters' default min_angle
 SHADOW_WINDOW = 1  # neighbours on each side
@@ -34,24 +37,46 @@ def shadow_mask(
     min_angle: float = SHADOW_MIN_ANGLE,
     window: int = SHADOW_WINDOW,
 ) -> np.ndarray:
-    """True for the veiling points of ``ranges`` (finite ranges only; see the module docstring)."""
-    r = np.asarray(ranges, dtype=np.float64)
-    finite = np.isfinite(r) & (r > 0)
+    """True for the veiling points of ``ranges`` (finite ranges only; see the module docstring).
+
+    The angles ``alpha`` of every pair come from numpy's ``arctan2`` (whose last bits a
+    compiled ``atan2`` need not share); which points they veil, from `mark_veils`.
+    """
+    r = np.ascontiguousarray(ranges, dtype=np.float64)
     bad = np.zeros(r.shape, dtype=bool)
-    lo, hi = min_angle, math.pi - min_angle
     for k in range(1, window + 1):
         d_phi = k * angle_increment
-        for a, b in ((slice(None, -k), slice(k, None)), (slice(k, None), slice(None, -k))):
-            ri, rj = r[a], r[b]
-            both = finite[a] & finite[b]
-            with np.errstate(invalid="ignore"):
-                alpha = np.arctan2(rj * math.sin(d_phi), ri - rj * math.cos(d_phi))
-            shadow = both & ((alpha < lo) | (alpha > hi))
-            # As laser_filters does: of a shadow pair, drop the farther point (the veil), keep
-            # the nearer one (the obstacle's true edge).
-            bad[a] |= shadow & (ri > rj)
-            bad[b] |= shadow & (rj > ri)
+        near, far = r[:-k], r[k:]
+        with np.errstate(invalid="ignore"):
+            # alpha at point i with neighbour i + k, and at point i + k with neighbour i
+            forward = np.arctan2(far * math.sin(d_phi), near - far * math.cos(d_phi))
+            backward = np.arctan2(near * math.sin(d_phi), far - near * math.cos(d_phi))
+        mark_veils(r, k, forward, backward, float(min_angle), bad)
     return bad
+
+
+@jit.kernel
+def mark_veils(
+    r: npt.NDArray[np.float64],
+    k: int,
+    forward: npt.NDArray[np.float64],
+    backward: npt.NDArray[np.float64],
+    min_angle: float,
+    bad: npt.NDArray[np.bool_],
+) -> None:
+    """Set ``bad`` at the farther point of each shadow pair (i, i + k): both ranges finite and
+    positive, and the angle at either point (``forward[i]`` at i, ``backward[i]`` at i + k)
+    below ``min_angle`` or above ``pi - min_angle``. A pair of equal ranges veils neither."""
+    lo, hi = min_angle, math.pi - min_angle
+    for i in range(r.size - k):
+        ri, rj = r[i], r[i + k]
+        if not (math.isfinite(ri) and ri > 0 and math.isfinite(rj) and rj > 0):
+            continue
+        if forward[i] < lo or forward[i] > hi or backward[i] < lo or backward[i] > hi:
+            if ri > rj:
+                bad[i] = True
+            elif rj > ri:
+                bad[i + k] = True
 
 
 def remove_shadows(scan: LaserScan, min_angle: float = SHADOW_MIN_ANGLE) -> LaserScan:
@@ -62,3 +87,8 @@ def remove_shadows(scan: LaserScan, min_angle: float = SHADOW_MIN_ANGLE) -> Lase
     ranges = scan.ranges.copy()
     ranges[mask] = np.inf
     return dataclasses.replace(scan, ranges=ranges)
+
+
+@jit.on_warm_up("planning.scan_filter")
+def _warm_up() -> None:
+    shadow_mask(np.array([1.0, 1.0, 3.0, 3.0, np.inf]), 0.01)

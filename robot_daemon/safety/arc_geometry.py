@@ -11,9 +11,11 @@ line (kappa = 0) needs no special case. A turn on the spot (v = 0) is the pose (
 
 Rather than moving the footprint, each obstacle point ``p`` is expressed in the robot's frame at
 every sampled pose, ``R(-theta) (p - (x, y))``, and tested against the footprint polygon with the
-crossing-number rule; everything is numpy broadcasting over (arcs, steps, points), no Python
-loop over points. This is how Nav2's Collision Monitor computes the time to collision of its
-``approach`` polygons (``Polygon::getCollisionTime``), done for many arcs at once.
+crossing-number rule. This is how Nav2's Collision Monitor computes the time to collision of
+its ``approach`` polygons (``Polygon::getCollisionTime``), done for many arcs at once: the poses
+with numpy (their trig), the points pose by pose in a compiled loop that stops at the first
+contact (`first_contacts`, `robot_daemon.jit`; `point_in_polygon` and `point_to_polygon` are
+`inside_polygon` and `distance_to_polygon` for one point, with their arithmetic).
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+
+from robot_daemon import jit
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -148,15 +152,100 @@ def first_contact(
     min_points: int = 1,
 ) -> npt.NDArray[np.intp]:
     """Index of the first pose (per row of the (C, K) pose arrays) at which at least
-    ``min_points`` of the (N,) points lie inside ``poly``; K where none does."""
-    dx = px[None, None, :] - x[..., None]
-    dy = py[None, None, :] - y[..., None]
-    c, s = cos_t[..., None], sin_t[..., None]
-    lx = c * dx + s * dy
-    ly = c * dy - s * dx
-    hits = np.count_nonzero(inside_polygon(lx, ly, poly), axis=-1) >= min_points  # (C, K)
-    k = hits.shape[-1]
-    first: npt.NDArray[np.intp] = np.where(hits.any(axis=-1), hits.argmax(axis=-1), k)
+    ``min_points`` of the (N,) points lie inside ``poly``; K where none does (`first_contacts`)."""
+    poses = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (x, y, cos_t, sin_t)))
+    shape = poses[0].shape
+    x2, y2, c2, s2 = (np.ascontiguousarray(a.reshape(-1, shape[-1])) for a in poses)
+    first = first_contacts(
+        np.ascontiguousarray(px, dtype=np.float64).ravel(),
+        np.ascontiguousarray(py, dtype=np.float64).ravel(),
+        x2,
+        y2,
+        c2,
+        s2,
+        np.ascontiguousarray(poly, dtype=np.float64),
+        polygon_box(poly),
+        int(min_points),
+    )
+    result: npt.NDArray[np.intp] = first.reshape(shape[:-1])
+    return result
+
+
+def polygon_box(poly: FloatArray) -> FloatArray:
+    """``axis_aligned_box(poly)`` as an array for the kernels: (centre x, centre y, half length,
+    half width), or all -1 for a polygon that is not such a box."""
+    box = axis_aligned_box(poly)
+    return np.array(box if box is not None else (-1.0, -1.0, -1.0, -1.0))
+
+
+@jit.kernel
+def point_in_polygon(x: float, y: float, poly: FloatArray, box: FloatArray) -> bool:
+    """`inside_polygon` of one point (``box`` from `polygon_box`): the closed form of a box,
+    else the crossing number, with `inside_polygon`'s arithmetic."""
+    if box[2] >= 0.0:
+        return bool(abs(x - box[0]) <= box[2] and abs(y - box[1]) <= box[3])
+    inside = False
+    n = poly.shape[0]
+    for i in range(n):
+        ax, ay = poly[i, 0], poly[i, 1]
+        bx, by = poly[(i + 1) % n, 0], poly[(i + 1) % n, 1]
+        if ay == by:
+            continue
+        if (ay > y) != (by > y) and x < ax + (y - ay) * ((bx - ax) / (by - ay)):
+            inside = not inside
+    return inside
+
+
+@jit.kernel
+def point_to_polygon(x: float, y: float, poly: FloatArray, box: FloatArray) -> float:
+    """`distance_to_polygon` of one point [m] (0 inside), with its arithmetic (numpy's
+    ``minimum``: a NaN, from a zero-length edge, wins)."""
+    if box[2] >= 0.0:
+        ex = max(abs(x - box[0]) - box[2], 0.0)
+        ey = max(abs(y - box[1]) - box[3], 0.0)
+        return math.hypot(ex, ey)
+    best = math.inf
+    n = poly.shape[0]
+    for i in range(n):
+        ax, ay = poly[i, 0], poly[i, 1]
+        ex, ey = poly[(i + 1) % n, 0] - ax, poly[(i + 1) % n, 1] - ay
+        t = ((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey)
+        t = min(max(t, 0.0), 1.0) if t == t else t
+        d = math.hypot(x - ax - t * ex, y - ay - t * ey)
+        if best == best and not best <= d:
+            best = d
+    return 0.0 if point_in_polygon(x, y, poly, box) else best
+
+
+@jit.kernel
+def first_contacts(
+    px: FloatArray,
+    py: FloatArray,
+    x: FloatArray,
+    y: FloatArray,
+    cos_t: FloatArray,
+    sin_t: FloatArray,
+    poly: FloatArray,
+    box: FloatArray,
+    min_points: int,
+) -> npt.NDArray[np.intp]:
+    """For each row of poses (x, y, cos, sin) (C, K), the first pose k at which ``min_points``
+    of the points, in that pose's frame ``(c dx + s dy, c dy - s dx)``, lie inside ``poly``;
+    K where none does. Pose by pose, stopping at the first contact, where numpy tested every
+    point at every pose of every row at once."""
+    rows, steps = x.shape
+    first = np.full(rows, steps, dtype=np.intp)
+    for r in range(rows):
+        for k in range(steps):
+            c, s = cos_t[r, k], sin_t[r, k]
+            count = 0
+            for p in range(px.size):
+                dx, dy = px[p] - x[r, k], py[p] - y[r, k]
+                if point_in_polygon(c * dx + s * dy, c * dy - s * dx, poly, box):
+                    count += 1
+            if count >= min_points:
+                first[r] = k
+                break
     return first
 
 
@@ -220,16 +309,39 @@ def near_arcs(
     """Points that a footprint of circumscribed ``radius`` [m] could touch while base_link moves
     up to ``|length|`` along any of the arcs: within ``radius`` of the arc's circle (of the
     x axis for a straight line) and of the origin plus ``|length|``. A cheap superset that keeps
-    the per-step tests small (walls beside a straight run drop out)."""
-    keep = np.zeros(np.shape(px), dtype=bool)
-    for kappa in np.asarray(curvatures, dtype=np.float64).ravel():
-        if abs(kappa) < 1e-6:
-            keep |= np.abs(py) <= radius
-        else:
-            rho = 1.0 / kappa
-            keep |= np.abs(np.hypot(px, py - rho) - abs(rho)) <= radius
-    within: npt.NDArray[np.bool_] = keep & (np.hypot(px, py) <= radius + abs(length))
-    return within
+    the per-step tests small (walls beside a straight run drop out) (`near_arc_points`)."""
+    keep: npt.NDArray[np.bool_] = near_arc_points(
+        np.ascontiguousarray(px, dtype=np.float64).ravel(),
+        np.ascontiguousarray(py, dtype=np.float64).ravel(),
+        np.ascontiguousarray(curvatures, dtype=np.float64).ravel(),
+        float(radius),
+        float(length),
+    )
+    return keep.reshape(np.shape(px))
+
+
+@jit.kernel
+def near_arc_points(
+    px: FloatArray, py: FloatArray, curvatures: FloatArray, radius: float, length: float
+) -> npt.NDArray[np.bool_]:
+    """`near_arcs` point by point: ``|py| <= radius`` for a straight line (``|kappa| <
+    1e-6``), else ``| |p - (0, 1/kappa)| - |1/kappa| | <= radius``; and ``|p| <= radius +
+    |length|``."""
+    keep = np.zeros(px.size, dtype=np.bool_)
+    reach = radius + abs(length)
+    for p in range(px.size):
+        if not math.hypot(px[p], py[p]) <= reach:
+            continue
+        for kappa in curvatures:
+            if abs(kappa) < 1e-6:
+                near = abs(py[p]) <= radius
+            else:
+                rho = 1.0 / kappa
+                near = abs(math.hypot(px[p], py[p] - rho) - abs(rho)) <= radius
+            if near:
+                keep[p] = True
+                break
+    return keep
 
 
 def two_arc_poses(

@@ -24,7 +24,9 @@ is capped at ``blind_reverse_speed`` (reported as a ``limit``). Hysteresis: a ``
 active stays active until fewer than ``min_points`` returns lie within ``hysteresis`` metres of
 it, so a return on the edge of a zone does not make the command chatter. Without a scan newer
 than ``source_timeout`` the monitor stops the robot and says so (zone ``no_data``), as Nav2
-does. The monitor reads no clock: scans and commands come with ``now``.
+does. The monitor reads no clock: scans and commands come with ``now``. Each scan's returns are
+tested against the zones point by point in compiled loops (`zone_members`, `nearest_distance`,
+`robot_daemon.jit`).
 
 NOT A CERTIFIED SAFETY SYSTEM (see `robot_daemon.safety`).
 """
@@ -37,6 +39,7 @@ from dataclasses import dataclass, field
 from typing import Annotated, Any, ClassVar, TypeVar
 
 import numpy as np
+import numpy.typing as npt
 import yaml
 from msgspec import Meta
 
@@ -44,6 +47,7 @@ from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.schema import within
+from robot_daemon import jit
 from robot_daemon.config import ConfigError
 from robot_daemon.safety.arc_geometry import (
     FloatArray,
@@ -55,6 +59,9 @@ from robot_daemon.safety.arc_geometry import (
     free_rotation,
     inside_polygon,
     near_arcs,
+    point_in_polygon,
+    point_to_polygon,
+    polygon_box,
     polygon_radius,
 )
 
@@ -240,6 +247,45 @@ class _Zone:
     reach: float  # [m] farthest vertex from base_link
     active: bool = False
     members: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    box: FloatArray = field(init=False)  # `polygon_box`, for the kernels
+
+    def __post_init__(self) -> None:
+        self.box = polygon_box(self.polygon)
+
+
+@jit.kernel
+def nearest_distance(
+    px: FloatArray, py: FloatArray, reach: float, polygon: FloatArray, box: FloatArray
+) -> float:
+    """Least distance [m] from ``polygon`` (`point_to_polygon`) to the points within
+    ``reach`` [m] of base_link; inf with none (a NaN wins, as in numpy's ``min``)."""
+    best = math.inf
+    for p in range(px.size):
+        if math.hypot(px[p], py[p]) <= reach:
+            d = point_to_polygon(px[p], py[p], polygon, box)
+            if best == best and not best <= d:
+                best = d
+    return best
+
+
+@jit.kernel
+def zone_members(
+    px: FloatArray,
+    py: FloatArray,
+    reach: float,
+    polygon: FloatArray,
+    box: FloatArray,
+    margin: float,
+) -> npt.NDArray[np.bool_]:
+    """The points within ``reach`` [m] of base_link that lie inside ``polygon`` or, with
+    ``margin`` >= 0, within ``margin`` [m] of it."""
+    member = np.zeros(px.size, dtype=np.bool_)
+    for p in range(px.size):
+        if math.hypot(px[p], py[p]) <= reach:
+            member[p] = point_in_polygon(px[p], py[p], polygon, box) or (
+                margin >= 0.0 and point_to_polygon(px[p], py[p], polygon, box) <= margin
+            )
+    return member
 
 
 class CollisionMonitor:
@@ -249,6 +295,8 @@ class CollisionMonitor:
         self.config = config
         self._mount = laser_mount
         self._footprint = np.asarray(config.footprint, dtype=np.float64)
+        self._footprint_reach = polygon_radius(self._footprint)
+        self._footprint_box = polygon_box(self._footprint)
         self._zones = [
             _Zone(z, np.asarray(z.points, dtype=np.float64), polygon_radius(np.asarray(z.points)))
             for z in config.zones
@@ -287,28 +335,19 @@ class CollisionMonitor:
 
     def _update_zones(self) -> None:
         px, py = self._px, self._py
-        near = np.hypot(px, py)
         h = self.config.hysteresis
-        fp_reach = polygon_radius(self._footprint)
-        close = near <= fp_reach + 1.0
-        self._distance = (
-            float(distance_to_polygon(px[close], py[close], self._footprint).min())
-            if np.any(close)
-            else math.inf
+        self._distance = nearest_distance(
+            px, py, self._footprint_reach + 1.0, self._footprint, self._footprint_box
         )
         for zone in self._zones:
             if zone.config.action_type == "approach":
                 continue
-            cand = near <= zone.reach + h
-            zx, zy = px[cand], py[cand]
-            inside = inside_polygon(zx, zy, zone.polygon)
-            if zone.active and h > 0:
-                member = inside | (distance_to_polygon(zx, zy, zone.polygon) <= h)
-            else:
-                member = inside
+            # A zone that is active holds the returns within ``h`` of it too (hysteresis).
+            margin = h if zone.active and h > 0 else -1.0
+            member = zone_members(px, py, zone.reach + h, zone.polygon, zone.box, margin)
             zone.active = int(np.count_nonzero(member)) >= zone.config.min_points
             zone.members = (
-                np.column_stack((zx[member], zy[member])) if zone.active else np.zeros((0, 2))
+                np.column_stack((px[member], py[member])) if zone.active else np.zeros((0, 2))
             )
 
     # -- the filter ----------------------------------------------------------------------------

@@ -24,10 +24,13 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from interbot_core import schema
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.velocity_mux import MuxOutput
+from robot_daemon import jit
 from robot_daemon.safety.assisted_teleop import (
     TELEOP_INPUTS,
     AssistConfig,
@@ -150,3 +153,19 @@ class MotionGuard:
             tuple(name for name, on in self._assisted.items() if on),
             self.last_assist.mode if self.last_assist is not None else "idle",
         )
+
+
+@jit.on_warm_up("safety")
+def _warm_up() -> None:
+    """The default guard on a scan with a wall ahead, under commands that take every path of
+    the monitor and the assistance (approach along an arc, a turn on the spot, a stop zone,
+    an assisted tablet drive and turn): every kernel with its types."""
+    guard = MotionGuard(default_guard_config(), Pose2D(0.2, 0.0, 0.0))
+    ranges = np.full(181, 0.5, dtype=np.float32)
+    scan = LaserScan(0.0, -math.pi / 2, math.pi / 180, 0.02, 30.0, ranges)
+    for linear, angular in ((0.2, 0.0), (0.2, 0.3), (0.0, 0.5), (-0.1, 0.0)):
+        guard.on_scan(scan, 0.0)
+        guard.limit(MuxOutput(linear, angular, "planner_vel", "", ()), 0.0)
+        guard.on_teleop("tablet_vel", linear, angular, 0.0)
+    guard.on_scan(dataclasses.replace(scan, ranges=np.full(181, 0.2, dtype=np.float32)), 0.1)
+    guard.limit(MuxOutput(0.1, 0.2, "planner_vel", "", ()), 0.1)

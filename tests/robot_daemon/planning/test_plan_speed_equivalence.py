@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import dijkstra
 from interbot_core.geometry import Pose2D
 from interbot_core.laser_scan import LaserScan
 from interbot_core.occupancy_grid import FREE, OCCUPIED, OccupancyGrid
-from robot_daemon.planning.costmap import Costmap, _clearing_samples
+from robot_daemon.planning.costmap import Costmap
 from robot_daemon.planning.global_planner import (
     _OFFSETS,
     _STEP,
@@ -30,9 +30,9 @@ from robot_daemon.planning.global_planner import (
 from robot_daemon.planning.local_planner import (
     ObstacleField,
     _rollout_with_trig,
-    exact_distance_transform,
     rollout,
 )
+from tests.robot_daemon.planning.numpy_reference import NumpyClearingCostmap, clearing_samples
 
 
 def clearing_reference(
@@ -121,7 +121,7 @@ def test_clearing_samples_equal_the_masked_dense_grid() -> None:
         reach = rng.uniform(-0.5, 5.0, 541)
         reach[0] = 4.95  # at least one beam reaches
         x, y = rng.uniform(-3, 3, 2)
-        fast = _clearing_samples(float(x), float(y), angles, reach, 0.05)
+        fast = clearing_samples(float(x), float(y), angles, reach, 0.05)
         ref = clearing_reference(float(x), float(y), angles, reach, 0.05)
         assert np.array_equal(fast[0], ref[0]) and np.array_equal(fast[1], ref[1])
 
@@ -258,13 +258,13 @@ def test_astar_on_the_search_box_equals_the_whole_grid_search() -> None:
     assert min(outcomes.values()) > 3, outcomes
 
 
-class _ForwardClearing(Costmap):
-    """`Costmap` clearing with every sample of every clearing beam (`_clearing_samples`)."""
+class _ForwardClearing(NumpyClearingCostmap):
+    """`Costmap` clearing with every sample of every clearing beam (`clearing_samples`)."""
 
-    def _live_clearing_samples(
+    def _clear_beams(
         self, now: float, x: float, y: float, angles: np.ndarray, reach: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return _clearing_samples(x, y, angles, reach, self.resolution)
+    ) -> None:
+        self._clear_cells(*clearing_samples(x, y, angles, reach, self.resolution))
 
 
 def test_clearing_only_near_live_marks_leaves_the_same_live_obstacles() -> None:
@@ -290,13 +290,16 @@ def test_clearing_only_near_live_marks_leaves_the_same_live_obstacles() -> None:
         assert np.array_equal(fast.costs(now), ref.costs(now))
 
 
-def test_exact_distance_transform_equals_scipy_to_the_last_places() -> None:
+def test_obstacle_field_distance_equals_scipy_to_the_last_places() -> None:
     rng = np.random.default_rng(7)
     for _ in range(40):
-        free = (rng.random((56, 56)) > rng.uniform(0.002, 0.3)).astype(np.uint8)
-        free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = 0
-        ref = ndimage.distance_transform_edt(free.astype(bool), sampling=0.05)
-        np.testing.assert_allclose(exact_distance_transform(free, 0.05), ref, rtol=4e-16, atol=0)
+        free = rng.random((56, 56)) > rng.uniform(0.002, 0.3)
+        free[int(rng.integers(0, 56)), int(rng.integers(0, 56))] = False
+        rows, cols = np.nonzero(~free)
+        centres = np.column_stack((cols + 0.5, rows + 0.5)) * 0.05 - 1.4  # cell centres [m]
+        field = ObstacleField(centres, 1.4, 0.05)
+        ref = ndimage.distance_transform_edt(free, sampling=0.05)
+        np.testing.assert_allclose(field.distance, ref, rtol=4e-16, atol=0)
 
 
 def test_local_plans_follow_a_new_configuration_of_the_same_planner() -> None:
