@@ -18,8 +18,10 @@ SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 
 @pytest.fixture(scope="session", autouse=True)
 def _compiled_kernels() -> None:
-    """Compile the robot's kernels once, before any test (and into the cache the daemons the
-    tests start load from): no test's timing pays for a first compilation."""
+    """Every compiled kernel compiled (a first run, or after its source changed) or loaded from
+    numba's cache once, before any test (`robot_daemon.jit`). A daemon a test starts as a
+    subprocess warms its kernels up before it serves; compiling them all there took 13-17 s on
+    the 2-core machine, longer than such tests wait for a daemon to come up."""
     from robot_daemon import jit
 
     jit.load_all()
@@ -29,18 +31,6 @@ def _compiled_kernels() -> None:
 @pytest.fixture(scope="session")
 def repo_root() -> Path:
     return REPO_ROOT
-
-
-@pytest.fixture(scope="session", autouse=True)
-def _compiled_kernels() -> None:
-    """Every compiled kernel compiled (a first run, or after its source changed) or loaded from
-    numba's cache once, before any test (`robot_daemon.jit`). A daemon a test starts as a
-    subprocess warms its kernels up before it serves; compiling them all there took 13-17 s on
-    the 2-core machine, longer than such tests wait for a daemon to come up."""
-    import robot_daemon.scenarios.runner  # noqa: F401  (imports every module with kernels)
-    from robot_daemon import jit
-
-    jit.warm_up()
 
 
 @pytest.fixture(scope="session")
