@@ -94,6 +94,10 @@ def run(args: argparse.Namespace) -> int:
     paths = discover(args.only)
     if not paths:
         raise BenchError(f"no bench_*.py modules in {BENCH_DIR}")
+    from robot_daemon import jit
+
+    jit.load_all()  # every kernel compiled or loaded before any clock runs, as the daemon does
+    jit.warm_up()
     for path in paths:
         started = time.perf_counter()
         result = call_run(
