@@ -19,6 +19,10 @@ What a kernel may rely on, and what its tests check:
   with its real argument types (`on_warm_up`); `warm_up` runs them all, and the daemon and the
   scenario runner call it before their loop starts (the first run on a machine compiles, in a few
   seconds; later ones load the cache, in milliseconds).
+- A known limit of numba's cache: a cached kernel is checked against its own file only. A
+  constant or a kernel it takes from another module (``RAY_FINE_STEP``, ``LETHAL``) is frozen
+  into the compiled code, so after changing one of those, delete the caches
+  (``find robot_daemon -name '*.nb[ci]' -delete``; a fresh clone has none).
 - Optional. ``INTERBOT_NO_JIT=1`` in the environment, or numba not installed, leaves every kernel
   plain Python: the same results, only slower (a robot without a compiler toolchain still works).
 """
