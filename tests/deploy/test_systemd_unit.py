@@ -80,6 +80,8 @@ def test_unit_runs_the_daemon_as_a_notify_service(unit: dict[str, dict[str, list
     assert one("ProtectHome") == "yes"
     writable = one("ReadWritePaths").split()
     assert writable and all(p.startswith("/var/") for p in writable)
+    # The compiled kernels' cache (robot_daemon/jit.py: $CACHE_DIRECTORY), /opt being read-only.
+    assert one("CacheDirectory") == "interbot"
     # Issue 14: the command threads may use SCHED_FIFO at COMMAND_PRIORITY, and no higher.
     from interbot_link.command_priority import COMMAND_PRIORITY
 
