@@ -545,7 +545,7 @@ class StationController(QObject):
             return
         with self.tablet_teleop.lock:
             self.robot_link.estop_latched = False
-            self.arbiter.stop_told = False
+            self.arbiter.told = None  # a refused speed is explained again
         for mirror in self.fleet.all():
             self.robot_link.assert_stop_intent(mirror)
         self.log("info", "emergency stop released")

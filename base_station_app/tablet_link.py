@@ -129,8 +129,6 @@ class TabletLink(QObject):
         msg = self.policy.effective(self._link.robot_online, self._link.estop_latched)
         if msg != self.permissions_sent and self.server.send(msg):
             self.permissions_sent = msg
-            with self.teleop.lock:
-                self.teleop.arbiter.stop_told = False  # a refused speed is explained again
 
     def communicate(self, now: float) -> None:
         """The clock's communication section: tell the tablet about the commanded robot."""

@@ -105,9 +105,8 @@ class TabletTeleop(QObject):
         with self.lock:
             link = self._link
             why = self._policy.refusal("teleop", link.robot_online, link.estop_latched)
-            if why is not None:  # said to the tablet once per stream
-                tell = not self.arbiter.stop_told
-                self.arbiter.stop_told = True
+            if why is not None:  # said to the tablet once per stream (and reason)
+                tell = self.arbiter.tell(why)
             else:
                 verdict = self.arbiter.on_tablet_speed(msg, now, link.estop_latched)
                 if isinstance(verdict, Forward):

@@ -59,7 +59,7 @@ class TeleopArbiter:
         self.tablet_speed: p.Speed | None = None
         self.tablet_forwarding = False
         self.tablet_discarded = 0
-        self.stop_told = False  # the tablet was told why its speed is refused
+        self.told: str | None = None  # why its speed is refused, as the tablet was told
         self._keys_were_active = False
 
     def set_limits(self, latency_ceiling: float, linear_max: float, angular_max: float) -> None:
@@ -71,17 +71,26 @@ class TeleopArbiter:
     def tablet_connected(self) -> None:
         self.watchdog.reset()
         self.freshness.reset()
-        self.stop_told = False
+        self.told = None
+
+    def tell(self, reason: str) -> bool:
+        """Whether the tablet must be told ``reason`` for a refused speed: once per stream of
+        refused speeds, again when the reason changes or after driving resumed. Decided with
+        the refusal, under the speed path's lock: a refusal that raced a change of what gates
+        the tablet (a permission withdrawn while its new permissions are sent) is not told
+        twice."""
+        if self.told == reason:
+            return False
+        self.told = reason
+        return True
 
     def on_tablet_speed(self, msg: p.Speed, now: float, stopped: bool) -> SpeedVerdict:
         """One tablet speed command arriving at ``now``; ``stopped``: the e-stop is latched."""
         self.watchdog.feed(now)
         self.tablet_periods.add_arrival(now)
         if stopped:
-            if self.stop_told:
-                return None
-            self.stop_told = True
-            return Refuse("emergency stop engaged: speed ignored")
+            reason = "emergency stop engaged: speed ignored"
+            return Refuse(reason) if self.tell(reason) else None
         verdict = self.freshness.check(msg.seq, msg.t, now)
         if not verdict.fresh:
             self.tablet_discarded += 1
@@ -89,6 +98,7 @@ class TeleopArbiter:
             return None
         self.tablet_speed = msg
         self.tablet_forwarding = True
+        self.told = None  # driving again: the next refusal starts a new stream
         return Forward(Twist(msg.linear, msg.angular, stamp=now))
 
     def stop_tablet(self) -> bool:
