@@ -107,6 +107,17 @@ def test_arbiter_forwards_fresh_tablet_commands_once_and_zeroes_once() -> None:
     assert arb.on_tablet_speed(p.Speed(0.2, 0.1, seq=3), 10.3, stopped=True) is None  # told
 
 
+def test_arbiter_tells_a_refusal_once_per_stream_and_reason() -> None:
+    arb = TeleopArbiter(0.5, 0.5, 1.0)
+    assert arb.tell("the operator does not allow teleop from the tablet")
+    assert not arb.tell("the operator does not allow teleop from the tablet")  # same stream
+    assert arb.tell("the robot is offline: teleop cannot work")  # a new reason is told
+    assert isinstance(arb.on_tablet_speed(p.Speed(0.1, 0.0, seq=1), 1.0, False), Forward)
+    assert arb.tell("the robot is offline: teleop cannot work")  # driving resumed in between
+    arb.tablet_connected()
+    assert arb.tell("the robot is offline: teleop cannot work")  # a new connection
+
+
 def test_arbiter_keys_send_while_held_and_one_zero_on_release() -> None:
     arb = TeleopArbiter(0.5, 0.4, 1.0)
     arb.keys.press(Direction.FORWARD)
