@@ -128,6 +128,27 @@ def summary(figures: Mapping[str, float]) -> str:
     )
 
 
+def consistency(figures: Mapping[str, float]) -> str:
+    """The line on the logged poses themselves: each against its own scan fitted to the two
+    scans logged before it (``reallog_<log>_reference_consistency_*``, `bench/bench_reallogs.py`);
+    empty when the output has none."""
+    cells = []
+    for log, name in LOGS.items():
+        metres = figures.get(f"reallog_{log}_reference_consistency_rms_m")
+        degrees = figures.get(f"reallog_{log}_reference_consistency_rms_deg")
+        scans = figures.get(f"reallog_{log}_reference_consistency_scans")
+        if metres is not None and degrees is not None and scans is not None:
+            cells.append(f"{name} {metres * 100:.2f} cm / {degrees:.2f}° ({scans:.0f} scans)")
+    if not cells:
+        return ""
+    return (
+        "The logged poses against their own scans (each scan fitted by point-to-line ICP to the "
+        "two logged just before it, both within 0.5 m; exact poses: 0.3 cm / 0.05°): "
+        + ", ".join(cells)
+        + "."
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("json_file", nargs="?", help="the bench's output (default: standard input)")
@@ -144,6 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(rows(figures)))
     print()
     print(summary(figures))
+    line = consistency(figures)
+    if line:
+        print()
+        print(line)
     return 0
 
 
