@@ -61,7 +61,10 @@ log, ``_scans`` of them; absent where none qualifies: logs with a scan every met
 poses it is 0.3 cm and 0.05 degrees (a synthetic log); on Freiburg 079 it is 2.8 cm and 0.6
 degrees between scans 0.1 m apart: the logged poses jitter against their own scans by as much
 as the 3 cm target, and the replay's odometry, made from their increments, carries that jitter
-too (session 14). ``quick`` (the smoke test) runs
+too (session 14). ``reallog_<log>_reference_pass_consistency_*`` is the same between passes,
+the revisit method's floor (`log_replay.reference_pass_consistency`): each scan of the second
+half fitted to the two first-half scans nearest it (within 0.5 m, facing within 45 degrees),
+whose logged poses built the revisit's map. ``quick`` (the smoke test) runs
 only Intel and Freiburg 079 with coarser strides and seeds 0 and 1. Skipped, returning {}, when
 ../shared/data/laser_logs is absent.
 
@@ -168,12 +171,13 @@ def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
 
 
 def _consistency(prefix: str, stats: dict[str, float]) -> dict[str, float]:
-    """`log_replay.reference_consistency`'s figures (heading in degrees); only the count where
-    no scan could be checked (the figures are finite numbers, `tools/reallog_table.py`)."""
-    out = {f"{prefix}_reference_consistency_scans": stats["consistency_scans"]}
+    """`log_replay.reference_consistency`'s figures as ``prefix_rms_m``, ``_rms_deg`` and
+    ``_scans``; only the count where no scan could be checked (the figures are finite numbers,
+    `tools/reallog_table.py`)."""
+    out = {f"{prefix}_scans": stats["consistency_scans"]}
     if stats["consistency_scans"] > 0:
-        out[f"{prefix}_reference_consistency_rms_m"] = stats["consistency_rms_m"]
-        out[f"{prefix}_reference_consistency_rms_deg"] = math.degrees(stats["consistency_rms_rad"])
+        out[f"{prefix}_rms_m"] = stats["consistency_rms_m"]
+        out[f"{prefix}_rms_deg"] = math.degrees(stats["consistency_rms_rad"])
     return out
 
 
@@ -255,7 +259,14 @@ def run(quick: bool = False, logs: Sequence[str] | None = None, seed: int = 0) -
                     continue
                 out |= _figures(f"reallog_{key}_{method}", stats)
                 silent += stats["silent_failures_seeds"]
-            out |= _consistency(f"reallog_{key}", log_replay.reference_consistency(_records(stem)))
+            records = _records(stem)
+            out |= _consistency(
+                f"reallog_{key}_reference_consistency", log_replay.reference_consistency(records)
+            )
+            out |= _consistency(
+                f"reallog_{key}_reference_pass_consistency",
+                log_replay.reference_pass_consistency(records, int(SPLIT * len(records))),
+            )
     out["reallog_all_silent_failures"] = silent
     out["reallog_seeds"] = 1.0 + len(MORE_SEEDS_QUICK if quick else MORE_SEEDS)
     return out

@@ -220,13 +220,44 @@ def reference_consistency(records: Sequence[LaserRecord], samples: int = 300) ->
     whose two predecessors are within `CONSISTENCY_GAP_M`): ``consistency_rms_m`` and
     ``consistency_rms_rad`` (RMS position and heading) and ``consistency_scans`` (how many);
     nan where no scan qualifies (logs with a scan every metre rarely have one)."""
-    offsets = []
+    pairs = []
     for i in range(2, len(records), max(1, len(records) // samples)):
-        cur, before = records[i], records[i - 2 : i]
-        if any(cur.pose.distance_to(r.pose) > CONSISTENCY_GAP_M for r in before):
-            continue
+        before = records[i - 2 : i]
+        if all(records[i].pose.distance_to(r.pose) <= CONSISTENCY_GAP_M for r in before):
+            pairs.append((records[i], before))
+    return _consistency(pairs)
+
+
+def reference_pass_consistency(
+    records: Sequence[LaserRecord], split: int, samples: int = 300
+) -> dict[str, float]:
+    """`reference_consistency` between passes, the revisit method's floor: each scan after
+    ``split`` (about ``samples`` of them) fitted to the two scans before ``split`` nearest its
+    logged pose, where both lie within `CONSISTENCY_GAP_M` and face within 45 degrees of it
+    (they see the same walls). The revisit's map is built from those scans at those poses: where
+    the two passes' logged poses disagree, no localiser can be nearer the later ones."""
+    earlier = records[:split]
+    if not earlier:
+        return _consistency([])
+    xyt = np.array([(r.pose.x, r.pose.y, r.pose.yaw) for r in earlier])
+    pairs = []
+    for i in range(split, len(records), max(1, (len(records) - split) // samples)):
+        p = records[i].pose
+        turn = np.abs(np.remainder(xyt[:, 2] - p.yaw + math.pi, math.tau) - math.pi)
+        d = np.where(turn < math.radians(45.0), np.hypot(xyt[:, 0] - p.x, xyt[:, 1] - p.y), np.inf)
+        near = np.argsort(d)[:2]
+        if near.size == 2 and d[near[-1]] <= CONSISTENCY_GAP_M:
+            pairs.append((records[i], [earlier[k] for k in near]))
+    return _consistency(pairs)
+
+
+def _consistency(pairs: Sequence[tuple[LaserRecord, Sequence[LaserRecord]]]) -> dict[str, float]:
+    """Each scan of ``pairs`` fitted from its logged pose to its reference scans at theirs
+    (`point_to_line_icp`): the RMS offsets from the logged poses and their number."""
+    offsets = []
+    for cur, others in pairs:
         reference = np.vstack(
-            [scan_points_in_map(r.scan, r.pose, CONSISTENCY_RANGE_M) for r in before]
+            [scan_points_in_map(r.scan, r.pose, CONSISTENCY_RANGE_M) for r in others]
         )
         fit = point_to_line_icp(reference, cur.scan.points(CONSISTENCY_RANGE_M), cur.pose)
         if fit is not None:

@@ -20,6 +20,7 @@ from tests.robot_daemon.localisation.carmen_log import LaserRecord
 from tests.robot_daemon.localisation.log_replay import (
     point_to_line_icp,
     reference_consistency,
+    reference_pass_consistency,
     scan_points_in_map,
 )
 from tests.robot_daemon.localisation.synthetic_office import OFFICE_BOXES, cast_ranges
@@ -37,10 +38,15 @@ def _path(step: float = 0.1) -> list[Pose2D]:
     return poses
 
 
-def _log(jitter_m: float, jitter_rad: float, seed: int = 0) -> list[LaserRecord]:
-    """Scans cast at the true poses; the poses logged with Gaussian jitter per axis."""
+def _log(
+    jitter_m: float, jitter_rad: float, seed: int = 0, noise_seed: int | None = None
+) -> list[LaserRecord]:
+    """Scans cast at the true poses; the poses logged with Gaussian jitter per axis. ``seed``
+    draws the world (boxes off the lattice), ``noise_seed`` (default: the same) the noise."""
     rng = np.random.default_rng(seed)
     boxes = OFFICE_BOXES + rng.uniform(-0.025, 0.025, OFFICE_BOXES.shape)
+    if noise_seed is not None:
+        rng = np.random.default_rng(noise_seed)
     increment = math.pi / (BEAMS - 1)
     angles = -math.pi / 2 + increment * np.arange(BEAMS)
     out = []
@@ -71,6 +77,26 @@ def test_jittered_poses_measure_their_jitter() -> None:
     stats = reference_consistency(_log(0.015, math.radians(0.4)))
     assert 0.018 < stats["consistency_rms_m"] < 0.04
     assert math.radians(0.25) < stats["consistency_rms_rad"] < math.radians(0.7)
+
+
+def test_a_second_pass_with_shifted_poses_measures_the_shift() -> None:
+    """The same path driven twice; the second pass logged 3 cm off along x (a SLAM estimate's
+    loop closure left a step): the second pass's scans against the first pass's measure it,
+    with exact first-pass poses; with exact poses throughout, nothing."""
+    first = _log(0.0, 0.0, seed=0)
+    second = _log(0.0, 0.0, seed=0, noise_seed=1)  # the same world, other range noise
+    exact = reference_pass_consistency(first + second, len(first))
+    assert exact["consistency_scans"] > 100
+    assert exact["consistency_rms_m"] < 0.008
+    shifted = [
+        LaserRecord(
+            r.scan, Pose2D(r.pose.x + 0.03, r.pose.y, r.pose.yaw), r.odom_pose, r.timestamp, 0
+        )
+        for r in second
+    ]
+    stats = reference_pass_consistency(first + shifted, len(first))
+    assert stats["consistency_rms_m"] == pytest.approx(0.03, abs=0.008)
+    assert stats["consistency_rms_rad"] < math.radians(0.15)
 
 
 def test_scans_far_from_their_predecessors_are_not_checked() -> None:
