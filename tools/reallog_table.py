@@ -128,6 +128,36 @@ def summary(figures: Mapping[str, float]) -> str:
     )
 
 
+def consistency(figures: Mapping[str, float]) -> str:
+    """The lines on the logged poses themselves (``reallog_<log>_reference_consistency_*`` and
+    ``_reference_pass_consistency_*``, `bench/bench_reallogs.py`): each against its own scan
+    fitted to the two scans logged before it, and to the two nearest of the first half (the
+    revisit's map); empty when the output has neither."""
+    lines = []
+    for figure, what in (
+        (
+            "reference_consistency",
+            "The logged poses against their own scans (each scan fitted by point-to-line ICP "
+            "to the two logged just before it, both within 0.5 m; exact poses: 0.3 cm / 0.05°)",
+        ),
+        (
+            "reference_pass_consistency",
+            "Between passes (each scan of the second half fitted to the two first-half scans "
+            "nearest it, within 0.5 m and 45°, whose logged poses built the revisit's map)",
+        ),
+    ):
+        cells = []
+        for log, name in LOGS.items():
+            metres = figures.get(f"reallog_{log}_{figure}_rms_m")
+            degrees = figures.get(f"reallog_{log}_{figure}_rms_deg")
+            scans = figures.get(f"reallog_{log}_{figure}_scans")
+            if metres is not None and degrees is not None and scans is not None:
+                cells.append(f"{name} {metres * 100:.2f} cm / {degrees:.2f}° ({scans:.0f} scans)")
+        if cells:
+            lines.append(f"{what}: " + ", ".join(cells) + ".")
+    return "\n\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("json_file", nargs="?", help="the bench's output (default: standard input)")
@@ -144,6 +174,10 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(rows(figures)))
     print()
     print(summary(figures))
+    line = consistency(figures)
+    if line:
+        print()
+        print(line)
     return 0
 
 

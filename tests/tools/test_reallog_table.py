@@ -85,6 +85,27 @@ def test_the_summary_counts_silent_failures_over_the_seeds() -> None:
     )
 
 
+def test_the_reference_consistency_line_names_the_logs_checked() -> None:
+    figures = _figures() | {
+        "reallog_freiburg079_reference_consistency_rms_m": 0.0283,
+        "reallog_freiburg079_reference_consistency_rms_deg": 0.604,
+        "reallog_freiburg079_reference_consistency_scans": 320.0,
+        "reallog_seattle_reference_consistency_scans": 0.0,  # none could be checked
+    }
+    figures |= {
+        "reallog_freiburg079_reference_pass_consistency_rms_m": 0.0435,
+        "reallog_freiburg079_reference_pass_consistency_rms_deg": 0.48,
+        "reallog_freiburg079_reference_pass_consistency_scans": 61.0,
+    }
+    own, passes = table.consistency(figures).split("\n\n")
+    assert own.startswith("The logged poses against their own scans")
+    assert "Freiburg 079 2.83 cm / 0.60° (320 scans)" in own
+    assert "Seattle" not in own
+    assert passes.startswith("Between passes")
+    assert "Freiburg 079 4.35 cm / 0.48° (61 scans)" in passes
+    assert table.consistency(_figures()) == ""
+
+
 def test_main_reads_the_last_line_of_the_bench_output(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
 from interbot_core.geometry import Pose2D, wrap_angle
 from interbot_core.laser_scan import LaserScan
@@ -156,6 +157,123 @@ def reference_check(
     better = map_fit(loc, points, estimate) >= map_fit(loc, points, record.pose)
     turn = abs(wrap_angle(optimum.yaw - record.pose.yaw))
     return optimum.distance_to(record.pose), turn, better
+
+
+# ------------------------------------------------------------------ the reference's own noise
+# How well do the logged poses agree with their own scans, without the map and without the
+# localiser's matcher? Each scan is matched to the two scans logged just before it, at their
+# logged poses, by point-to-line ICP (Censi, "An ICP variant using a point-to-line metric",
+# ICRA 2008): end points against the segments between neighbouring end points, so neither the
+# map's 5 cm cells nor the likelihood field enters. With exact poses the match lands on the
+# logged pose (the synthetic office with a 180-degree, 1 cm-noise laser: 0.3 cm, 0.06 degrees,
+# `test_loc_reference_consistency.py`); how far it lands from it on a log is how much the
+# logged poses of neighbouring scans disagree with what those scans see: noise that the map
+# (built from the same poses) is blurred by and that the replay's odometry (made from the logged
+# increments) carries too.
+
+CONSISTENCY_GAP_M = 0.5  # [m] a scan is checked only when both scans before it are this close
+CONSISTENCY_RANGE_M = 10.0  # [m] beams beyond are left out (sparse far walls, long baselines)
+CONSISTENCY_PAIR_M = 0.1  # [m] an end point farther than this from the other scans is an outlier
+
+
+def point_to_line_icp(
+    reference: npt.NDArray[np.float64],
+    points: npt.NDArray[np.float64],
+    start: Pose2D,
+    iterations: int = 30,
+) -> Pose2D | None:
+    """The pose that puts sensor-frame ``points`` (N, 2) [m] on the map-frame ``reference``
+    points' local lines, from ``start`` (Gauss-Newton on the point-to-line distances: for each
+    transformed point, its two nearest reference points within `CONSISTENCY_PAIR_M` give the
+    line; the residual is the distance along that line's normal ``n``, its Jacobian
+    ``(n_x, n_y, n · ∂S/∂ψ)``). None when fewer than 20 points pair up."""
+    tree = cKDTree(reference)
+    x, y, yaw = start.x, start.y, start.yaw
+    for _ in range(iterations):
+        c, s = math.cos(yaw), math.sin(yaw)
+        rx = c * points[:, 0] - s * points[:, 1]
+        ry = s * points[:, 0] + c * points[:, 1]
+        moved = np.column_stack((rx + x, ry + y))
+        dist, idx = tree.query(moved, k=2)
+        paired = dist[:, 1] < CONSISTENCY_PAIR_M
+        a, b = reference[idx[paired, 0]], reference[idx[paired, 1]]
+        along = b - a
+        length = np.hypot(along[:, 0], along[:, 1])
+        line = length > 1e-6
+        if np.count_nonzero(line) < 20:
+            return None
+        n = np.column_stack((-along[line, 1], along[line, 0])) / length[line, None]
+        r = np.sum((moved[paired][line] - a[line]) * n, axis=1)
+        jac = np.column_stack(
+            (n[:, 0], n[:, 1], -n[:, 0] * ry[paired][line] + n[:, 1] * rx[paired][line])
+        )
+        step = -np.linalg.solve(jac.T @ jac + 1e-9 * np.eye(3), jac.T @ r)
+        x, y, yaw = x + float(step[0]), y + float(step[1]), yaw + float(step[2])
+        if abs(step[0]) + abs(step[1]) < 1e-5 and abs(step[2]) < 1e-6:
+            break
+    return Pose2D(x, y, yaw)
+
+
+def reference_consistency(records: Sequence[LaserRecord], samples: int = 300) -> dict[str, float]:
+    """How far each logged pose lies from where its scan fits the two scans logged before it
+    (`point_to_line_icp` from the logged pose; about ``samples`` scans at a fixed stride, those
+    whose two predecessors are within `CONSISTENCY_GAP_M`): ``consistency_rms_m`` and
+    ``consistency_rms_rad`` (RMS position and heading) and ``consistency_scans`` (how many);
+    nan where no scan qualifies (logs with a scan every metre rarely have one)."""
+    pairs = []
+    for i in range(2, len(records), max(1, len(records) // samples)):
+        before = records[i - 2 : i]
+        if all(records[i].pose.distance_to(r.pose) <= CONSISTENCY_GAP_M for r in before):
+            pairs.append((records[i], before))
+    return _consistency(pairs)
+
+
+def reference_pass_consistency(
+    records: Sequence[LaserRecord], split: int, samples: int = 300
+) -> dict[str, float]:
+    """`reference_consistency` between passes, the revisit method's floor: each scan after
+    ``split`` (about ``samples`` of them) fitted to the two scans before ``split`` nearest its
+    logged pose, where both lie within `CONSISTENCY_GAP_M` and face within 45 degrees of it
+    (they see the same walls). The revisit's map is built from those scans at those poses: where
+    the two passes' logged poses disagree, no localiser can be nearer the later ones."""
+    earlier = records[:split]
+    if not earlier:
+        return _consistency([])
+    xyt = np.array([(r.pose.x, r.pose.y, r.pose.yaw) for r in earlier])
+    pairs = []
+    for i in range(split, len(records), max(1, (len(records) - split) // samples)):
+        p = records[i].pose
+        turn = np.abs(np.remainder(xyt[:, 2] - p.yaw + math.pi, math.tau) - math.pi)
+        d = np.where(turn < math.radians(45.0), np.hypot(xyt[:, 0] - p.x, xyt[:, 1] - p.y), np.inf)
+        near = np.argsort(d)[:2]
+        if near.size == 2 and d[near[-1]] <= CONSISTENCY_GAP_M:
+            pairs.append((records[i], [earlier[k] for k in near]))
+    return _consistency(pairs)
+
+
+def _consistency(pairs: Sequence[tuple[LaserRecord, Sequence[LaserRecord]]]) -> dict[str, float]:
+    """Each scan of ``pairs`` fitted from its logged pose to its reference scans at theirs
+    (`point_to_line_icp`): the RMS offsets from the logged poses and their number."""
+    offsets = []
+    for cur, others in pairs:
+        reference = np.vstack(
+            [scan_points_in_map(r.scan, r.pose, CONSISTENCY_RANGE_M) for r in others]
+        )
+        fit = point_to_line_icp(reference, cur.scan.points(CONSISTENCY_RANGE_M), cur.pose)
+        if fit is not None:
+            offsets.append((fit.distance_to(cur.pose), wrap_angle(fit.yaw - cur.pose.yaw)))
+    if not offsets:
+        return {
+            "consistency_rms_m": math.nan,
+            "consistency_rms_rad": math.nan,
+            "consistency_scans": 0.0,
+        }
+    o = np.array(offsets)
+    return {
+        "consistency_rms_m": float(np.sqrt(np.mean(o[:, 0] ** 2))),
+        "consistency_rms_rad": float(np.sqrt(np.mean(o[:, 1] ** 2))),
+        "consistency_scans": float(len(offsets)),
+    }
 
 
 def replay_run(
