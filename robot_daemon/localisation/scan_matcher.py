@@ -341,6 +341,31 @@ class LikelihoodLevel:
         )
         return stopped
 
+    def gauss_newton_starts(
+        self,
+        points: FloatArray,
+        states: FloatArray,
+        steps: FloatArray,
+        iterations: npt.NDArray[np.int64],
+        terms: FloatArray,
+    ) -> npt.NDArray[np.bool_]:
+        """`gauss_newton` of each row of ``states`` (k, 3) in one compiled call
+        (`match_kernels.gauss_newton_starts`): ``terms`` (k, `TERM_ROWS`, n), or (1, ...) as
+        a scratch where they are not kept; whether each ended with the final evaluation."""
+        stopped = np.zeros(states.shape[0], dtype=np.bool_)
+        match_kernels.gauss_newton_starts(
+            self._table,
+            self.field.shape[1],
+            self.geometry,
+            points,
+            states,
+            steps,
+            iterations,
+            terms,
+            stopped,
+        )
+        return stopped
+
 
 # The rows of `LikelihoodLevel.gauss_newton_terms`'s terms: M, J (the Jacobian
 # J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component: `_hessian`'s layout, H = J Jᵀ),
@@ -605,8 +630,11 @@ class ScanMatcher:
         if fine.shape[0] > 0:
             first = max(self._first_level(start_level), stop_level)
             stacked = self._level_points(fine, first, stop_level)  # once for every start
-            for state in states:  # each row iterated in place
-                self._iterate(fine, state, first, stop_level, stacked)
+            for li in range(first, stop_level - 1, -1):  # every start a level at a time
+                scratch = np.empty((1, TERM_ROWS, stacked[li].shape[1]))
+                self.levels[li].gauss_newton_starts(
+                    stacked[li], states, self._steps, self._iterations[li], scratch
+                )
         px, py, yaw = (np.ascontiguousarray(states[:, k]) for k in range(3))
         scores = self._level_scores(fine, px, py, yaw, stop_level)
         return CoarseStarts(stop_level, px, py, yaw, scores)
@@ -637,10 +665,25 @@ class ScanMatcher:
             return _best(self.finish(points, starts, ks))
         first = starts.level - 1
         stacked = self._level_points(fine, first, 0)
+        states = np.array([(starts.x[k], starts.y[k], starts.yaw[k]) for k in ks])
+        for li in range(first, 0, -1):  # every start a level at a time, as `coarse_many`
+            scratch = np.empty((1, TERM_ROWS, stacked[li].shape[1]))
+            self.levels[li].gauss_newton_starts(
+                stacked[li], states, self._steps, self._iterations[li], scratch
+            )
+        terms = np.empty((len(ks), TERM_ROWS, fine.shape[0]))
+        stopped = self.levels[0].gauss_newton_starts(
+            stacked[0], states, self._steps, self._iterations[0], terms
+        )
+        if not stopped.all():  # the finest level always ends with its final evaluation
+            raise RuntimeError("scan matcher: the finest level did not finish")
         finished = []
-        for k in ks:
-            state = np.array((starts.x[k], starts.y[k], starts.yaw[k]))
-            finished.append(self._finish(fine, state, first, stacked))
+        for k in range(len(ks)):
+            m = terms[k, _M]
+            score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # as `_finish`
+            px, py, yaw = states[k].tolist()
+            pose = Pose2D(px, py, yaw)
+            finished.append(_Finished(pose, score, int(fine.shape[0]), terms[k], self.levels[0]))
         return _best(finished).result()
 
     def _first_level(self, start_level: int | None) -> int:

@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 
 from interbot_core.geometry import Pose2D
+from robot_daemon import jit
+from robot_daemon.localisation import match_kernels
 from robot_daemon.localisation.localiser import (
     BASIN_RAD,
     Localiser,
@@ -19,6 +21,7 @@ from robot_daemon.localisation.localiser import (
     coarse_basins,
 )
 from robot_daemon.localisation.scan_matcher import (
+    TERM_ROWS,
     CoarseStarts,
     MatchResult,
     ScanMatcher,
@@ -173,3 +176,46 @@ def test_first_match_on_real_logs_picks_the_25_start_optimum(name: str) -> None:
             assert near or fast.score >= full.score, (record.pose, prior, fast, full)
     assert total >= 40
     assert same >= 0.9 * total
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("shared", [True, False])
+def test_starts_iterated_in_one_call_equal_one_call_per_start(compiled: bool, shared: bool) -> None:
+    """`match_kernels.gauss_newton_starts` (compiled, or its plain Python) gives every start
+    the state, terms and stop of `gauss_newton_level` called for it alone, on the finest level
+    (terms kept per start) and a coarse one (one scratch, ``shared``), starts off the map
+    too."""
+    rng = np.random.default_rng(11)
+    loc = Localiser(office_grid())
+    matcher = loc.matcher
+    truth = Pose2D(6.0, 4.0, 1.0)
+    points = loc._scan_points(utm_scan(OFFICE_BOXES, truth, 0.0, rng))
+    sxy = np.ascontiguousarray(subsample_points(points, matcher.config.max_points).T)
+    states = np.array(
+        [
+            (truth.x + 0.2, truth.y, truth.yaw + 0.1),
+            (truth.x, truth.y - 0.3, truth.yaw - 0.15),
+            (-50.0, 3.0, 0.2),
+            (truth.x, truth.y, truth.yaw),
+        ]
+    )
+    li = 1 if shared else 0
+    level = matcher.levels[li]
+    n = sxy.shape[1]
+    kernel = match_kernels.gauss_newton_starts
+    run = kernel if compiled else jit.python_function(kernel)
+    many = states.copy()
+    terms = np.empty((1 if shared else len(states), TERM_ROWS, n))
+    stopped = np.zeros(len(states), dtype=np.bool_)
+    args = (level._table, level.field.shape[1], level.geometry, sxy)
+    run(*args, many, matcher._steps, matcher._iterations[li], terms, stopped)
+    for k, state in enumerate(states):
+        one = state.copy()
+        one_terms = np.empty((1, TERM_ROWS, n))
+        stop = match_kernels.gauss_newton_level(
+            *args, one, matcher._steps, matcher._iterations[li], one_terms
+        )
+        assert one.tolist() == many[k].tolist()
+        assert bool(stopped[k]) == stop == (not shared)
+        if not shared:
+            assert np.array_equal(one_terms[0], terms[k])
