@@ -282,6 +282,32 @@ def gauss_newton_level(
     return stopped
 
 
+@jit.kernel
+def gauss_newton_starts(
+    table: FloatArray,
+    w: int,
+    geometry: FloatArray,
+    points: FloatArray,
+    states: FloatArray,
+    settings: FloatArray,
+    iterations: npt.NDArray[np.int64],
+    terms: FloatArray,
+    stopped: npt.NDArray[np.bool_],
+) -> None:
+    """`gauss_newton_level` of each start in turn: row ``k`` of ``states`` (k, 3) updated in
+    place, its terms in ``terms[k]`` (``terms`` (k, `TERM_ROWS`, n); or (1, ...): one scratch
+    for all where the terms are not kept, a coarse level), whether it stopped with the final
+    evaluation in ``stopped[k]``. The same steps as one call per start, bit for bit (speed: one
+    call from Python per level instead of one per start and level, `ScanMatcher.coarse_many`,
+    `finish_best`)."""
+    shared = terms.shape[0] == 1
+    for k in range(states.shape[0]):
+        row = 0 if shared else k
+        stopped[k] = gauss_newton_level(
+            table, w, geometry, points, states[k], settings, iterations, terms[row : row + 1]
+        )
+
+
 # -- numpy's sums in compiled code ------------------------------------------------------------
 # The steps above need H = J Jᵀ and Σ J r each iteration. Summed in a loop here, their rounding
 # would differ from numpy's (another order of additions) and with it every pose after. So the
@@ -486,4 +512,15 @@ def _warm_up() -> None:
         np.array([1e-3, 0.2, 0.002, 0.001]),
         np.array([2, 3, 1]),
         np.empty((1, TERM_ROWS, 3)),
+    )
+    gauss_newton_starts(
+        table,
+        4,
+        geometry,
+        points,
+        np.zeros((2, 3)),
+        np.array([1e-3, 0.2, 0.002, 0.001]),
+        np.array([2, 3, 1]),
+        np.empty((2, TERM_ROWS, 3)),
+        np.zeros(2, dtype=np.bool_),
     )

@@ -341,6 +341,31 @@ class LikelihoodLevel:
         )
         return stopped
 
+    def gauss_newton_starts(
+        self,
+        points: FloatArray,
+        states: FloatArray,
+        steps: FloatArray,
+        iterations: npt.NDArray[np.int64],
+        terms: FloatArray,
+    ) -> npt.NDArray[np.bool_]:
+        """`gauss_newton` of each row of ``states`` (k, 3) in one compiled call
+        (`match_kernels.gauss_newton_starts`): ``terms`` (k, `TERM_ROWS`, n), or (1, ...) as
+        a scratch where they are not kept; whether each ended with the final evaluation."""
+        stopped = np.zeros(states.shape[0], dtype=np.bool_)
+        match_kernels.gauss_newton_starts(
+            self._table,
+            self.field.shape[1],
+            self.geometry,
+            points,
+            states,
+            steps,
+            iterations,
+            terms,
+            stopped,
+        )
+        return stopped
+
 
 # The rows of `LikelihoodLevel.gauss_newton_terms`'s terms: M, J (the Jacobian
 # J_i = (∂M/∂x, ∂M/∂y, ∇M · ∂S_i/∂ψ) one row per component: `_hessian`'s layout, H = J Jᵀ),
@@ -553,7 +578,8 @@ class ScanMatcher:
         (Session 12 iterated the starts stacked, one numpy call per step for all of them; with
         each level's iterations one compiled call, start by start is faster.)"""
         fine = subsample_points(points, self.config.max_points)
-        return [self._descend(fine, p, start_level).result() for p in initials]
+        stacked = self._level_points(fine, self._first_level(start_level), 0)
+        return [self._descend(fine, p, start_level, stacked).result() for p in initials]
 
     def match_best(
         self,
@@ -574,7 +600,8 @@ class ScanMatcher:
         if not 0 <= keep < len(initials):
             raise ValueError(f"match_best: keep must be 0..{len(initials) - 1}, got {keep}")
         fine = subsample_points(points, self.config.max_points)
-        finished = [self._descend(fine, p, start_level) for p in initials]
+        stacked = self._level_points(fine, self._first_level(start_level), 0)
+        finished = [self._descend(fine, p, start_level, stacked) for p in initials]
         return [f.result() for f in finished[:keep]] + [_best(finished[keep:]).result()]
 
     def coarse_many(
@@ -602,13 +629,14 @@ class ScanMatcher:
         states = np.array([(p.x, p.y, p.yaw) for p in initials]).reshape(-1, 3)
         if fine.shape[0] > 0:
             first = max(self._first_level(start_level), stop_level)
-            for state in states:  # each row iterated in place
-                self._iterate(fine, state, first, stop_level)
+            stacked = self._level_points(fine, first, stop_level)  # once for every start
+            for li in range(first, stop_level - 1, -1):  # every start a level at a time
+                scratch = np.empty((1, TERM_ROWS, stacked[li].shape[1]))
+                self.levels[li].gauss_newton_starts(
+                    stacked[li], states, self._steps, self._iterations[li], scratch
+                )
         px, py, yaw = (np.ascontiguousarray(states[:, k]) for k in range(3))
-        scores = [
-            self._level_score(fine, x, y, t, stop_level)
-            for x, y, t in zip(px.tolist(), py.tolist(), yaw.tolist(), strict=True)
-        ]
+        scores = self._level_scores(fine, px, py, yaw, stop_level)
         return CoarseStarts(stop_level, px, py, yaw, scores)
 
     def finish(
@@ -625,21 +653,68 @@ class ScanMatcher:
             out.append(self._finish(fine, state, starts.level - 1).result())
         return out
 
+    def finish_best(
+        self, points: FloatArray, starts: CoarseStarts, ks: Sequence[int]
+    ) -> MatchResult:
+        """`finish`'s result of the best-scoring of starts ``ks`` (the first of equals), bit for
+        bit; the others' Hessians and information are not computed (as `match_best`)."""
+        if not ks:
+            raise ValueError("finish_best: no start to finish")
+        fine = subsample_points(points, self.config.max_points)
+        if fine.shape[0] == 0:
+            return _best(self.finish(points, starts, ks))
+        first = starts.level - 1
+        stacked = self._level_points(fine, first, 0)
+        states = np.array([(starts.x[k], starts.y[k], starts.yaw[k]) for k in ks])
+        for li in range(first, 0, -1):  # every start a level at a time, as `coarse_many`
+            scratch = np.empty((1, TERM_ROWS, stacked[li].shape[1]))
+            self.levels[li].gauss_newton_starts(
+                stacked[li], states, self._steps, self._iterations[li], scratch
+            )
+        terms = np.empty((len(ks), TERM_ROWS, fine.shape[0]))
+        stopped = self.levels[0].gauss_newton_starts(
+            stacked[0], states, self._steps, self._iterations[0], terms
+        )
+        if not stopped.all():  # the finest level always ends with its final evaluation
+            raise RuntimeError("scan matcher: the finest level did not finish")
+        finished = []
+        for k in range(len(ks)):
+            m = terms[k, _M]
+            score = float(np.add.reduce(m)) / m.size if m.size else 0.0  # as `_finish`
+            px, py, yaw = states[k].tolist()
+            pose = Pose2D(px, py, yaw)
+            finished.append(_Finished(pose, score, int(fine.shape[0]), terms[k], self.levels[0]))
+        return _best(finished).result()
+
     def _first_level(self, start_level: int | None) -> int:
         """The level a match starts on: ``start_level`` clipped to the levels, else the
         coarsest."""
         coarsest = len(self.levels) - 1
         return coarsest if start_level is None else min(max(start_level, 0), coarsest)
 
-    def _descend(self, fine: FloatArray, initial: Pose2D, start_level: int | None) -> _Finished:
-        """One start matched from ``start_level`` (`_first_level`) to the finest level."""
+    def _descend(
+        self,
+        fine: FloatArray,
+        initial: Pose2D,
+        start_level: int | None,
+        stacked: dict[int, FloatArray] | None = None,
+    ) -> _Finished:
+        """One start matched from ``start_level`` (`_first_level`) to the finest level
+        (``stacked``: `_level_points` of ``fine`` from there, when the caller has them)."""
         state = np.array((initial.x, initial.y, initial.yaw))  # ξ, iterated in place
-        return self._finish(fine, state, self._first_level(start_level))
+        return self._finish(fine, state, self._first_level(start_level), stacked)
 
-    def _finish(self, fine: FloatArray, state: FloatArray, first: int) -> _Finished:
+    def _finish(
+        self,
+        fine: FloatArray,
+        state: FloatArray,
+        first: int,
+        stacked: dict[int, FloatArray] | None = None,
+    ) -> _Finished:
         """``state`` (p_x, p_y, ψ) iterated from level ``first`` down to the finest level, and
-        what its result is computed from (the terms of the final evaluation)."""
-        terms = self._iterate(fine, state, first, 0)
+        what its result is computed from (the terms of the final evaluation); ``stacked``:
+        `_level_points` of ``fine``, when the caller has them."""
+        terms = self._iterate(fine, state, first, 0, stacked)
         if terms is None:  # the finest level always ends with its final evaluation
             raise RuntimeError("scan matcher: the finest level did not finish")
         m = terms[_M]
@@ -648,29 +723,63 @@ class ScanMatcher:
         return _Finished(Pose2D(px, py, yaw), score, int(fine.shape[0]), terms, self.levels[0])
 
     def _iterate(
-        self, fine: FloatArray, state: FloatArray, first: int, last: int
+        self,
+        fine: FloatArray,
+        state: FloatArray,
+        first: int,
+        last: int,
+        stacked: dict[int, FloatArray] | None = None,
     ) -> FloatArray | None:
         """Levels ``first`` down to ``last`` (coarse to fine; level ``l`` uses
-        ``max_points >> l`` of the points ``fine``, at least 30) iterated from ``state``
-        (updated in place), one compiled call a level (`LikelihoodLevel.gauss_newton`).
-        Returns the finest level's terms at the solution (`TERM_ROWS`, n) when ``last`` is 0,
-        else None."""
-        cfg = self.config
+        ``max_points >> l`` of the points ``fine``, at least 30: `_level_points`, or
+        ``stacked`` when given) iterated from ``state`` (updated in place), one compiled call a
+        level (`LikelihoodLevel.gauss_newton`). Returns the finest level's terms at the
+        solution (`TERM_ROWS`, n) when ``last`` is 0, else None."""
+        if stacked is None:
+            stacked = self._level_points(fine, first, last)
         for li in range(first, last - 1, -1):
-            level = self.levels[li]
-            pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
-            sxy = np.ascontiguousarray(pts.T)  # the end points s_i, x and y stacked
+            sxy = stacked[li]  # the end points s_i, x and y stacked
             terms = np.empty((1, TERM_ROWS, sxy.shape[1]))
-            if level.gauss_newton(sxy, state, self._steps, self._iterations[li], terms):
+            if self.levels[li].gauss_newton(sxy, state, self._steps, self._iterations[li], terms):
                 solution: FloatArray = terms[0]
                 return solution
         return None
+
+    def _level_points(self, fine: FloatArray, first: int, last: int) -> dict[int, FloatArray]:
+        """The end points each of levels ``first`` down to ``last`` iterates on, x and y
+        stacked (2, n): ``fine`` on the finest level, ``max_points >> l`` of them (at least 30)
+        on level ``l`` (speed: computed once for all the starts of a call)."""
+        cfg = self.config
+        out = {}
+        for li in range(first, last - 1, -1):
+            pts = fine if li == 0 else subsample_points(fine, max(cfg.max_points >> li, 30))
+            out[li] = np.ascontiguousarray(pts.T)
+        return out
 
     def level_score(self, points: FloatArray, pose: Pose2D, level: int) -> float:
         """Mean M of the end points at ``pose`` on ``level``, over the points `match` uses
         there (``max_points >> level`` of them, at least 30)."""
         fine = subsample_points(points, self.config.max_points)
         return self._level_score(fine, pose.x, pose.y, pose.yaw, level)
+
+    def _level_scores(
+        self, fine: FloatArray, x: FloatArray, y: FloatArray, yaw: FloatArray, level: int
+    ) -> list[float]:
+        """`_level_score` at each pose (``x``, ``y``, ``yaw``), the same values: every pose's
+        end points in one interpolation (speed: 25 starts, `Localiser._match_from_starts`)."""
+        cfg = self.config
+        pts = fine if level == 0 else subsample_points(fine, max(cfg.max_points >> level, 30))
+        if pts.shape[0] == 0 or x.size == 0:
+            return [0.0] * x.size
+        # (math's cos and sin, as `_level_score`: numpy's may round differently)
+        c = np.array([math.cos(t) for t in yaw.tolist()])[:, None]
+        s = np.array([math.sin(t) for t in yaw.tolist()])[:, None]
+        pxy = np.empty((2, x.size, pts.shape[0]))
+        np.add(c * pts[:, 0] - s * pts[:, 1], x[:, None], out=pxy[0])
+        np.add(s * pts[:, 0] + c * pts[:, 1], y[:, None], out=pxy[1])
+        m = self.levels[level].value_xy(pxy)
+        out: list[float] = (np.add.reduce(m, axis=1) / pts.shape[0]).tolist()
+        return out
 
     def _level_score(self, fine: FloatArray, x: float, y: float, yaw: float, level: int) -> float:
         cfg = self.config

@@ -95,6 +95,9 @@ class ScanOutcome:
     # the map pose (the building-pose filter `map_offset` off, not started, or lost).
     map_error_m: float = math.nan
     map_nees: float = math.nan
+    # CPU time [s] in Localiser.on_scan by the injected ``cpu_clock`` (this thread's: no other
+    # process's time slices, which the wall clock holds on a shared machine; 0 without one).
+    cpu_seconds: float = 0.0
 
     @property
     def silent(self) -> bool:
@@ -285,10 +288,12 @@ def replay_run(
     reinit_lost: bool = True,
     check_reference: bool = True,
     prototype: Localiser | None = None,
+    cpu_clock: Callable[[], float] | None = None,
 ) -> list[ScanOutcome]:
     """Localise ``run`` in ``grid`` from its first logged pose with noisy, drifting odometry.
 
-    ``clock`` (e.g. ``time.perf_counter``, injected by a benchmark) times each `on_scan`.
+    ``clock`` (e.g. ``time.perf_counter``, injected by a benchmark) times each `on_scan`;
+    ``cpu_clock`` (e.g. ``time.thread_time``) too, in CPU time.
     ``reinit_lost``: after a scan reported ``lost`` the localiser is given the logged pose, as
     the robot's user would give it a new initial pose (each is counted: ``lost_scans`` then
     counts the losses; without it a loss lasts to the end of the run, on odometry alone).
@@ -322,9 +327,11 @@ def replay_run(
         )
         odom = odom.compose(noisy)
         loc.on_odometry(odom, now)
+        c0 = cpu_clock() if cpu_clock is not None else 0.0
         t0 = clock() if clock is not None else 0.0
         est = loc.on_scan(cur.scan, now)
         seconds = clock() - t0 if clock is not None else 0.0
+        cpu_seconds = cpu_clock() - c0 if cpu_clock is not None else 0.0
         # What the robot reports (the building pose, `map_offset`) and the map pose.
         reported = loc.building_pose
         if est.pose is None or reported is None:  # not after set_initial_pose; keeps the types
@@ -350,6 +357,7 @@ def replay_run(
                 map_nees=map_nees,
                 wall_model=loc.wall_model.surface,
                 wall_model_learnt=loc.wall_model.decided,
+                cpu_seconds=cpu_seconds,
             )
         )
         after_set_pose = est.state is LocaliserState.LOST and reinit_lost
@@ -391,7 +399,10 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     ``nees_within_95`` (fraction of scans not lost whose error lies in the covariance's 95 %
     ellipsoid: 0.95 if calibrated), ``ms_median``, ``ms_p99``, ``ms_p99_tracking`` (the p99
     without the scans just after a re-set pose, whose first match runs from 25 starts),
-    ``set_pose_scans`` (how many those are) and ``odometry_only_rms_m``;
+    ``set_pose_scans`` (how many those are), ``cpu_ms_median``, ``cpu_ms_p99`` and
+    ``cpu_ms_p99_tracking`` (the same in CPU time: what the work costs, without the time
+    slices of other processes that a loaded machine adds to the wall clock) and
+    ``odometry_only_rms_m``;
     ``wall_face_scans`` and ``wall_learnt_scans``: the fractions of scans matched with walls on
     the cell faces, and after the wall model was learnt (`Localiser.wall_model`);
     and, on the reference itself (`reference_check`), ``reference_offset_rms_m`` and
@@ -409,6 +420,7 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
     map_nees = np.array([o.map_nees for o in tracked]) if tracked else np.array([math.nan])
     map_err = np.array([o.map_error_m for o in outcomes])
     ms = np.array([o.seconds for o in outcomes]) * 1e3
+    cpu_ms = np.array([o.cpu_seconds for o in outcomes]) * 1e3
     tracking = np.array([not o.after_set_pose for o in outcomes])
     offsets = np.array([o.reference_offset_m for o in outcomes])
     turns = np.array([o.reference_heading_offset_rad for o in outcomes])
@@ -432,6 +444,11 @@ def summarise(outcomes: Sequence[ScanOutcome]) -> dict[str, float]:
         "ms_p99": float(np.percentile(ms, 99)),
         "ms_p99_tracking": float(np.percentile(ms[tracking], 99)) if tracking.any() else math.nan,
         "set_pose_scans": float(np.count_nonzero(~tracking)),
+        "cpu_ms_median": float(np.median(cpu_ms)),
+        "cpu_ms_p99": float(np.percentile(cpu_ms, 99)),
+        "cpu_ms_p99_tracking": float(np.percentile(cpu_ms[tracking], 99))
+        if tracking.any()
+        else math.nan,
         "odometry_only_rms_m": float(np.sqrt(np.mean([o.odometry_error_m**2 for o in outcomes]))),
         "reference_offset_rms_m": float(np.sqrt(np.nanmean(offsets**2)))
         if np.isfinite(offsets).any()
@@ -492,6 +509,7 @@ def localise_revisits(
     records: list[LaserRecord],
     clock: Callable[[], float] | None = None,
     more_seeds: Sequence[int] = (),
+    cpu_clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """Map the first ``split_fraction`` of the log at ``path``, localise the revisits of the rest.
 
@@ -512,7 +530,7 @@ def localise_revisits(
     if not runs:
         raise LogReplayError(f"{path}: no revisit run of >= {10 * loc_stride} scans to localise")
     stats = replay_seeds(
-        map_of(mapping), [run[::loc_stride] for run in runs], seed, more_seeds, clock
+        map_of(mapping), [run[::loc_stride] for run in runs], seed, more_seeds, clock, cpu_clock
     )
     stats["runs"] = float(len(runs))
     return stats
@@ -524,6 +542,7 @@ def replay_seeds(
     seed: int,
     more_seeds: Sequence[int] = (),
     clock: Callable[[], float] | None = None,
+    cpu_clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """`summarise`'s figures of ``runs`` replayed in turn (`replay_run`, one odometry noise
     stream of ``seed`` through them), and ``seeds`` and ``silent_failures_seeds``: how many
@@ -539,7 +558,9 @@ def replay_seeds(
     outcomes: list[ScanOutcome] = []
     rng = np.random.default_rng(seed)
     for run in runs:
-        outcomes += replay_run(grid, run, rng, clock=clock, prototype=prototype)
+        outcomes += replay_run(
+            grid, run, rng, clock=clock, prototype=prototype, cpu_clock=cpu_clock
+        )
     stats = summarise(outcomes)
     silent = stats["silent_failures"]
     for other in more_seeds:
@@ -562,6 +583,7 @@ def localise_interleaved(
     records: list[LaserRecord],
     clock: Callable[[], float] | None = None,
     more_seeds: Sequence[int] = (),
+    cpu_clock: Callable[[], float] | None = None,
 ) -> dict[str, float]:
     """Map every ``stride``-th scan of the log; localise the scans half-way between them
     (index ``≡ stride // 2`` mod ``stride``) forward in one run from the first one's pose.
@@ -578,7 +600,7 @@ def localise_interleaved(
     run = [r for i, r in enumerate(records[start:end], start) if i % stride == stride // 2]
     if len(run) < 10:
         raise LogReplayError(f"{path}: fewer than 10 scans to localise in [{start}, {end})")
-    stats = replay_seeds(grid, [run], seed, more_seeds, clock)
+    stats = replay_seeds(grid, [run], seed, more_seeds, clock, cpu_clock)
     stats["runs"] = 1.0
     return stats
 
