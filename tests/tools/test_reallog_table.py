@@ -44,6 +44,9 @@ def _figures() -> dict[str, float]:
         "ms_median": 0.831,
         "ms_p99": 1.386,
         "ms_p99_tracking": 1.2,
+        "cpu_ms_median": 0.802,
+        "cpu_ms_p99": 1.1,
+        "cpu_ms_p99_tracking": 1.05,
     }
     figures = {f"reallog_intel_revisit_{k}": v for k, v in intel.items()}
     figures["reallog_aces_revisit_scans"] = 0.0  # a log that does not revisit
@@ -66,6 +69,7 @@ def test_a_row_carries_every_figure_in_the_units_of_the_header() -> None:
         "0 / 23",
         "0 (1)",
         "0.83 / 1.39 (1.20)",
+        "0.80 / 1.10 (1.05)",
     ]
     assert len(cells) == table.HEADER.splitlines()[0].count("|") - 1
 
