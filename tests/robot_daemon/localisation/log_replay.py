@@ -98,6 +98,8 @@ class ScanOutcome:
     # CPU time [s] in Localiser.on_scan by the injected ``cpu_clock`` (this thread's: no other
     # process's time slices, which the wall clock holds on a shared machine; 0 without one).
     cpu_seconds: float = 0.0
+    # Why the state is degraded or lost (`LocaliserEstimate.reason`; "" when ok).
+    reason: str = ""
 
     @property
     def silent(self) -> bool:
@@ -135,6 +137,17 @@ def map_fit(loc: Localiser, points: np.ndarray, pose: Pose2D) -> float:
     return float(np.mean(level.value(xs, ys))) if points.size else 0.0
 
 
+def reference_fit(loc: Localiser, record: LaserRecord) -> tuple[Pose2D, np.ndarray] | None:
+    """The map's own best fit of ``record``'s scan near its logged pose (`reference_check`)
+    and the matched end points; None when the scan has fewer than 10 of them."""
+    points = subsample_points(
+        record.scan.points(loc.config.max_range_m), loc.matcher.config.max_points
+    )
+    if points.shape[0] < 10:
+        return None
+    return loc.matcher.match(points, record.pose).pose, points
+
+
 def reference_check(
     loc: Localiser, record: LaserRecord, estimate: Pose2D
 ) -> tuple[float, float, bool]:
@@ -151,12 +164,10 @@ def reference_check(
     matcher's slack; the offsets' RMS is an indication of the floor, not a correction. Neither
     figure feeds the localiser or changes the error figures.
     """
-    points = subsample_points(
-        record.scan.points(loc.config.max_range_m), loc.matcher.config.max_points
-    )
-    if points.shape[0] < 10:
+    fit = reference_fit(loc, record)
+    if fit is None:
         return math.nan, math.nan, False
-    optimum = loc.matcher.match(points, record.pose).pose
+    optimum, points = fit
     better = map_fit(loc, points, estimate) >= map_fit(loc, points, record.pose)
     turn = abs(wrap_angle(optimum.yaw - record.pose.yaw))
     return optimum.distance_to(record.pose), turn, better
@@ -289,6 +300,7 @@ def replay_run(
     check_reference: bool = True,
     prototype: Localiser | None = None,
     cpu_clock: Callable[[], float] | None = None,
+    observe: Callable[[Localiser, LaserRecord, ScanOutcome], None] | None = None,
 ) -> list[ScanOutcome]:
     """Localise ``run`` in ``grid`` from its first logged pose with noisy, drifting odometry.
 
@@ -302,6 +314,8 @@ def replay_run(
     fields are nan and False, every other figure the same.
     ``prototype``: an unused localiser of ``grid`` and ``config`` to copy instead of building
     one (on a large map the distance fields cost seconds; a copy is the same localiser).
+    ``observe``: called after each localised scan with the localiser, the record and its
+    outcome, before a lost scan's re-set (`tools/reallog_decompose.py` looks at the map there).
     """
     if len(run) < 2:
         return []
@@ -341,25 +355,27 @@ def replay_run(
         offset, turn, fits_better = (
             reference_check(loc, cur, est.pose) if check_reference else (math.nan, math.nan, False)
         )
-        out.append(
-            ScanOutcome(
-                float(math.hypot(e[0], e[1])),
-                abs(float(e[2])),
-                est.state,
-                nees,
-                seconds,
-                run[0].pose.compose(odom).distance_to(cur.pose),
-                reference_offset_m=offset,
-                reference_heading_offset_rad=turn,
-                estimate_fits_better=fits_better,
-                after_set_pose=after_set_pose,
-                map_error_m=float(math.hypot(e_map[0], e_map[1])),
-                map_nees=map_nees,
-                wall_model=loc.wall_model.surface,
-                wall_model_learnt=loc.wall_model.decided,
-                cpu_seconds=cpu_seconds,
-            )
+        outcome = ScanOutcome(
+            float(math.hypot(e[0], e[1])),
+            abs(float(e[2])),
+            est.state,
+            nees,
+            seconds,
+            run[0].pose.compose(odom).distance_to(cur.pose),
+            reference_offset_m=offset,
+            reference_heading_offset_rad=turn,
+            estimate_fits_better=fits_better,
+            after_set_pose=after_set_pose,
+            map_error_m=float(math.hypot(e_map[0], e_map[1])),
+            map_nees=map_nees,
+            wall_model=loc.wall_model.surface,
+            wall_model_learnt=loc.wall_model.decided,
+            reason=est.reason,
+            cpu_seconds=cpu_seconds,
         )
+        out.append(outcome)
+        if observe is not None:
+            observe(loc, cur, outcome)
         after_set_pose = est.state is LocaliserState.LOST and reinit_lost
         if after_set_pose:
             # What the robot's user does ("Help me!"): a new initial pose, here the logged one.
@@ -522,6 +538,16 @@ def localise_revisits(
             f"{path}: need 0 < split_fraction < 1 and strides >= 1, got {split_fraction}, "
             f"{map_stride}, {loc_stride}"
         )
+    grid, runs = revisit_case(path, records, split_fraction, map_stride, loc_stride)
+    stats = replay_seeds(grid, runs, seed, more_seeds, clock, cpu_clock)
+    stats["runs"] = float(len(runs))
+    return stats
+
+
+def revisit_case(
+    path: Path, records: list[LaserRecord], split_fraction: float, map_stride: int, loc_stride: int
+) -> tuple[OccupancyGrid, list[list[LaserRecord]]]:
+    """`localise_revisits`'s map and the runs it localises (every ``loc_stride``-th scan)."""
     split = int(split_fraction * len(records))
     mapping = records[:split:map_stride]
     if not mapping:
@@ -529,11 +555,7 @@ def localise_revisits(
     runs = revisit_runs(records, split, 10 * loc_stride)
     if not runs:
         raise LogReplayError(f"{path}: no revisit run of >= {10 * loc_stride} scans to localise")
-    stats = replay_seeds(
-        map_of(mapping), [run[::loc_stride] for run in runs], seed, more_seeds, clock, cpu_clock
-    )
-    stats["runs"] = float(len(runs))
-    return stats
+    return map_of(mapping), [run[::loc_stride] for run in runs]
 
 
 def replay_seeds(
@@ -591,6 +613,16 @@ def localise_interleaved(
     ``start`` and ``count`` restrict the method to a slice of the log (``count`` scans from
     ``start``, mapped and localised: for fast tests). ``more_seeds``: see `replay_seeds`.
     """
+    grid, run = interleaved_case(path, records, stride, start, count)
+    stats = replay_seeds(grid, [run], seed, more_seeds, clock, cpu_clock)
+    stats["runs"] = 1.0
+    return stats
+
+
+def interleaved_case(
+    path: Path, records: list[LaserRecord], stride: int, start: int = 0, count: int | None = None
+) -> tuple[OccupancyGrid, list[LaserRecord]]:
+    """`localise_interleaved`'s map and the run it localises."""
     if stride < 2:
         raise LogReplayError(f"{path}: the interleaved method needs stride >= 2, got {stride}")
     if len(records) < 2 * stride:
@@ -600,9 +632,7 @@ def localise_interleaved(
     run = [r for i, r in enumerate(records[start:end], start) if i % stride == stride // 2]
     if len(run) < 10:
         raise LogReplayError(f"{path}: fewer than 10 scans to localise in [{start}, {end})")
-    stats = replay_seeds(grid, [run], seed, more_seeds, clock, cpu_clock)
-    stats["runs"] = 1.0
-    return stats
+    return grid, run
 
 
 # ------------------------------------------------------------------ maps from logged scans
