@@ -21,6 +21,7 @@ import pytest
 
 from interbot_core.supervisor import GoTo
 from interbot_core.topics import Topic
+from tests.faults.conftest import START_TIMEOUT
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
@@ -100,6 +101,9 @@ def test_station_restart_and_robot_switch(rig) -> None:
     rig.wait(lambda: len(observer.routes_received(A, stopped)) == 1, 10.0, "A's new route")
     new_route = station2.selected.route.route_id
     assert new_route != old_route
+    # The operator switches to a robot the station lists as present: B's daemon started with
+    # A's but nothing waited for it so far (on a loaded machine it may come up seconds later).
+    rig.wait(lambda: B in station2.fleet.online, START_TIMEOUT, "the station to see robot B")
     switched = time.monotonic()
     station2.select_robot(B)
     rig.wait(lambda: station2.robot_online and station2.selected_robot == B, 10.0, "B selected")
