@@ -164,6 +164,22 @@ class Observer:
         odom = [s.message for s in self.of(Topic.ODOM, robot, since) if s.t <= until]
         return sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in itertools.pairwise(odom))
 
+    def travelled_robot_time(self, robot: str, since: float, until: float = math.inf) -> float:
+        """Path length [m] of the robot's odometry stamped (robot clock) in ``[since, until]``."""
+        odom = [s.message for s in self.of(Topic.ODOM, robot) if since <= s.message.stamp <= until]
+        odom.sort(key=lambda o: o.stamp)
+        return sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in itertools.pairwise(odom))
+
+    def zeroed_at(self, robot: str) -> float:
+        """Robot time [s] its multiplexer's output last went to no source (the motors' zero)."""
+        mux = sorted((s.message for s in self.of(Topic.MUX, robot)), key=lambda m: m.stamp)
+        driven = max((m.stamp for m in mux if m.source is not None), default=-math.inf)
+        return min(m.stamp for m in mux if m.source is None and m.stamp > driven)
+
+    def newest_stamp(self, topic: Topic, robot: str) -> float:
+        """The robot's clock [s] as far as its ``topic`` messages received so far tell."""
+        return max((s.message.stamp for s in self.of(topic, robot)), default=-math.inf)
+
     def close(self) -> None:
         self._sub.undeclare()
         self.session.close()
