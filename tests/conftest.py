@@ -42,13 +42,10 @@ def shared_data() -> Path:
 
 
 def _free_tcp_port() -> int:
-    """A TCP port on 127.0.0.1 the OS just handed out (closed again for the caller to use)."""
-    import socket
+    """A TCP port on 127.0.0.1 the OS handed out, held for the caller's server (tests/ports.py)."""
+    from tests.ports import reserve_port
 
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
+    return reserve_port()
 
 
 @pytest.fixture

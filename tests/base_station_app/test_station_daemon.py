@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 
@@ -14,13 +13,12 @@ from base_station_app.station_controller import StationController, Timing
 from base_station_app.teleop import Direction
 from interbot_core.supervisor import GoTo
 from interbot_link import session_config
+from tests.ports import reserve_port
 
 
 def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
+    """Held for the subprocess that listens on it seconds later (tests/ports.py)."""
+    return reserve_port()
 
 
 @pytest.mark.slow

@@ -16,13 +16,12 @@ import zenoh
 
 from base_station_app.main import build_parser, main
 from interbot_link import RobotLink, session_config
+from tests.ports import reserve_port
 
 
 def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
+    """Held for the subprocess that listens on it seconds later (tests/ports.py)."""
+    return reserve_port()
 
 
 def test_parser_defaults():

@@ -10,7 +10,8 @@
   which say what it received: "route N: k goal(s)", "emergency stop released") with the wall
   time it arrived: the figures and the assertions come from it, never from inside a process.
 
-Every endpoint is ``tcp/127.0.0.1:PORT`` on a port the OS handed out; scouting is off.
+Every endpoint is ``tcp/127.0.0.1:PORT`` on a port the OS handed out, held for the daemon until
+it listens (tests/ports.py); scouting is off.
 Waits are generous (a loaded 2-core machine); the safety properties are asserted exactly.
 """
 
@@ -39,6 +40,7 @@ from interbot_core.topics import Topic, decode, parse_key
 from interbot_core.topological_map import TopologicalMap, load_topological_map
 from interbot_link import session_config
 from robot_daemon.config import DEFAULT_TOPO
+from tests.ports import reserve_port
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
@@ -46,28 +48,23 @@ STATION_TIMING = Timing(clock_ms=100, frame_ms=25, ping_ms=500)
 START_TIMEOUT = 40.0  # [s] a daemon process to come up on a loaded machine
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
 class DaemonProcess:
     """``interbot-daemon --sim`` in its own process; start, SIGKILL, SIGSTOP, restart."""
 
     def __init__(self, robot_id: str, log_dir: Path, *extra: str) -> None:
         self.robot_id = robot_id
-        self.endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        self.port = reserve_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.log_dir = log_dir
         self.extra = extra
         self.proc: subprocess.Popen[bytes] | None = None
         self.starts = 0
 
     def start(self) -> None:
+        """Start (or restart) the daemon on its endpoint; the port is held for it (tests/ports.py)
+        from here until it listens, seconds later on a loaded machine."""
         self.starts += 1
+        reserve_port(self.port)  # again after a kill: nobody's bind(0) gets it meanwhile
         # The mux output on every 20 ms loop pass (pose_hz >= the loop rate), so that what the
         # observer sees is when the motors got a command, not when the next 20 Hz report left.
         config = self.log_dir / f"{self.robot_id}.yaml"
@@ -166,6 +163,22 @@ class Observer:
         """Path length [m] of the robot's odometry between ``since`` and ``until``."""
         odom = [s.message for s in self.of(Topic.ODOM, robot, since) if s.t <= until]
         return sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in itertools.pairwise(odom))
+
+    def travelled_robot_time(self, robot: str, since: float, until: float = math.inf) -> float:
+        """Path length [m] of the robot's odometry stamped (robot clock) in ``[since, until]``."""
+        odom = [s.message for s in self.of(Topic.ODOM, robot) if since <= s.message.stamp <= until]
+        odom.sort(key=lambda o: o.stamp)
+        return sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in itertools.pairwise(odom))
+
+    def zeroed_at(self, robot: str) -> float:
+        """Robot time [s] its multiplexer's output last went to no source (the motors' zero)."""
+        mux = sorted((s.message for s in self.of(Topic.MUX, robot)), key=lambda m: m.stamp)
+        driven = max((m.stamp for m in mux if m.source is not None), default=-math.inf)
+        return min(m.stamp for m in mux if m.source is None and m.stamp > driven)
+
+    def newest_stamp(self, topic: Topic, robot: str) -> float:
+        """The robot's clock [s] as far as its ``topic`` messages received so far tell."""
+        return max((s.message.stamp for s in self.of(topic, robot)), default=-math.inf)
 
     def close(self) -> None:
         self._sub.undeclare()
