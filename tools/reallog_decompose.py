@@ -38,6 +38,10 @@ the error where the match helped) and of the last ok estimate carried by the raw
     .venv/bin/python tools/reallog_decompose.py freiburg_campus whole
     .venv/bin/python tools/reallog_decompose.py infinite_corridor revisit --top 5 --scans
 
+``--drift on`` / ``off`` replays with the localiser's heading-drift state
+(`odometry_yaw_bias`) switched on or off whatever its default, to compare the two scan by scan
+(``--json``: each scan's parts as a JSON line).
+
 Not shipped with the robot; a minute or two per log and method.
 """
 
@@ -108,9 +112,10 @@ class ScanPart:
         return "both" if ref else "localiser"
 
 
-def replay(key: str, method: str, seed: int) -> list[ScanPart]:
+def replay(key: str, method: str, seed: int, drift: bool | None = None) -> list[ScanPart]:
     """Every localised scan of log ``key`` (a key of `bench_reallogs.CASES`) by ``method``
-    (``revisit`` or ``whole``), the bench's map, runs and odometry seed (`decompose`)."""
+    (``revisit`` or ``whole``), the bench's map, runs and odometry seed (`decompose`;
+    ``drift``: the heading-drift state on or off, None: the default)."""
     sys.path.insert(0, str(REPO))  # a tool run from the checkout: the bench loads the tests'
     from interbot_cli import bench as bench_cli
     from robot_daemon import jit
@@ -127,18 +132,23 @@ def replay(key: str, method: str, seed: int) -> list[ScanPart]:
         grid, runs = log_replay.revisit_case(path, records, reallogs.SPLIT, *revisit)
     where = {id(r): k for k, r in enumerate(records)}
     jit.warm_up()
-    return decompose(grid, runs, np.random.default_rng(seed), lambda r: where[id(r)])
+    return decompose(grid, runs, np.random.default_rng(seed), lambda r: where[id(r)], drift)
 
 
 def decompose(
-    grid: Any, runs: Sequence[Sequence[Any]], rng: np.random.Generator, index_of: Any
+    grid: Any,
+    runs: Sequence[Sequence[Any]],
+    rng: np.random.Generator,
+    index_of: Any,
+    drift: bool | None = None,
 ) -> list[ScanPart]:
     """`log_replay.replay_run` of each of ``runs`` in ``grid`` in turn (one odometry stream
-    from ``rng``, the localiser of `log_replay.log_config`), every scan's `ScanPart`
-    (``index_of(record)``: its index in the log)."""
+    from ``rng``, the localiser of `log_replay.log_config`, its heading-drift state set to
+    ``drift`` unless None), every scan's `ScanPart` (``index_of(record)``: its index in the
+    log)."""
     from tests.robot_daemon.localisation import log_replay
 
-    prototype = log_replay.Localiser(grid, log_replay.log_config())
+    prototype = log_replay.Localiser(grid, localiser_config(drift))
     parts: list[ScanPart] = []
     for n, run in enumerate(runs):
         watch = _Watch(n, run[0].pose, index_of, parts)
@@ -146,6 +156,20 @@ def decompose(
             grid, run, rng, check_reference=False, prototype=prototype, observe=watch
         )
     return parts
+
+
+def localiser_config(drift: bool | None = None) -> Any:
+    """The replay's localiser configuration (`log_replay.log_config`) with its heading-drift
+    state (`odometry_yaw_bias.enabled`) set to ``drift`` (None: as it is)."""
+    import msgspec
+
+    from tests.robot_daemon.localisation import log_replay
+
+    config = log_replay.log_config()
+    if drift is None:
+        return config
+    yaw_bias = msgspec.structs.replace(config.odometry_yaw_bias, enabled=drift)
+    return msgspec.structs.replace(config, odometry_yaw_bias=yaw_bias)
 
 
 class _Watch:
@@ -296,11 +320,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--top", type=int, default=6, help="stretches printed")
     parser.add_argument("--scans", action="store_true", help="list each stretch's scans")
     parser.add_argument("--json", action="store_true", help="every scan as a JSON line too")
+    parser.add_argument(
+        "--drift",
+        choices=("on", "off"),
+        help="the localiser's heading-drift state (odometry_yaw_bias) on or off (default: as set)",
+    )
     args = parser.parse_args(argv)
-    parts = replay(args.log, args.method, args.seed)
+    drift = None if args.drift is None else args.drift == "on"
+    parts = replay(args.log, args.method, args.seed, drift)
     n = len(parts)
     table = split(parts, args.tau)
-    print(f"{args.log} {args.method} seed {args.seed}: {n} scans, tau {100 * args.tau:.0f} cm")
+    drifting = "" if drift is None else f", heading-drift state {args.drift}"
+    print(
+        f"{args.log} {args.method} seed {args.seed}{drifting}: {n} scans, "
+        f"tau {100 * args.tau:.0f} cm"
+    )
     print("class       scans  RMS part (reported / map pose)  to-fit part  ref-offset part  [cm]")
     for kind, row in table.items():
         print(

@@ -136,3 +136,18 @@ def test_a_reference_moved_off_the_map_is_the_references_share() -> None:
     assert 0.12 < shifted["all"]["rms_part_m"] < 0.18
     assert shifted["reference"]["rms_part_m"] > 0.9 * shifted["all"]["rms_part_m"]
     assert shifted["localiser"]["rms_part_m"] < 0.02
+
+
+def test_the_drift_switch_sets_only_the_heading_drift_state() -> None:
+    """``--drift on`` / ``off`` replays with the heading-drift state on or off and every other
+    setting of the replay's localiser as it is; without it, the configuration is the replay's."""
+    from tests.robot_daemon.localisation.log_replay import log_config
+
+    default = log_config()
+    assert tool.localiser_config(None) == default
+    for drift in (True, False):
+        config = tool.localiser_config(drift)
+        assert config.odometry_yaw_bias.enabled is drift
+        assert config.odometry_yaw_bias.sigma == default.odometry_yaw_bias.sigma
+        assert config.matcher == default.matcher
+        assert config.wall_model == default.wall_model
