@@ -56,6 +56,15 @@ map), not a localiser error; the RMS is still reported against the logged poses.
 also holds the matcher's slack where a scan has no sharp optimum (a corridor, sparse outdoor
 returns): an indication of the floor, not a correction.
 
+``seen_scans`` counts the scans whose view the map holds: at least 35 % of the scan's end
+points (the localiser's own bar for a scan that fits, ``lost_confidence``) fall, at its logged
+pose, on cells the map observed (`log_replay.view_mapped`); ``seen_rms_m``, ``seen_median_m``
+and ``seen_max_m`` are the error figures over those scans alone (absent without any). The
+revisit method picks scans by position, not view: the Freiburg campus's second pass drives
+parts of the first one's path the other way, its 180-degree laser looking where the first pass
+never looked, and those scans measure dead reckoning through an unmapped view, not a revisit.
+Every other figure keeps every scan.
+
 One more checks the logged poses without the map or the localiser's matcher
 (`log_replay.reference_consistency`): ``reallog_<log>_reference_consistency_rms_m`` and
 ``_rms_deg``, the RMS distance and heading from each logged pose to where its scan fits the
@@ -160,6 +169,7 @@ FIGURES = (
     "estimate_fits_better",
     "wall_face_scans",
     "wall_learnt_scans",
+    "seen_scans",
 )
 
 # Figures reported in degrees, from `log_replay.summarise`'s radians.
@@ -169,8 +179,18 @@ DEGREE_FIGURES = {
 }
 
 
+# The figures over the scans whose view the map holds (`log_replay.ScanOutcome.seen`), present
+# only where there are such scans (the figures are finite numbers, `tools/reallog_table.py`).
+SEEN_FIGURES = ("seen_rms_m", "seen_median_m", "seen_max_m")
+
+
 def _figures(prefix: str, stats: dict[str, float]) -> dict[str, float]:
     out = {f"{prefix}_{name}": stats[name] for name in FIGURES}
+    out |= {
+        f"{prefix}_{name}": stats[name]
+        for name in SEEN_FIGURES
+        if math.isfinite(stats.get(name, math.nan))
+    }
     for name, radians in DEGREE_FIGURES.items():
         out[f"{prefix}_{name}"] = math.degrees(stats[radians])
     return out

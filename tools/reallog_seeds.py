@@ -4,7 +4,8 @@
 since session 8, counts silent failures over seeds 0-2); this tool replays every log, both
 methods (``revisit``, ``whole``), for any seeds and prints one JSON line per log, method and
 seed as it goes, with the scans reported ok while more than 0.3 m or 10 degrees off (their
-index in the replayed run, error, state sequence around them and NEES)::
+index in the replayed run, error, state sequence around them and NEES) and the RMS over the
+scans whose view the map holds (``seen_rms_m`` over ``seen_scans``)::
 
     .venv/bin/python tools/reallog_seeds.py                      # every log, seeds 0-4
     .venv/bin/python tools/reallog_seeds.py --seeds 2 infinite_corridor
@@ -47,6 +48,8 @@ def main(argv: list[str] | None = None) -> int:
                     k: round(stats[k], 4)
                     for k in ("scans", "rms_m", "max_m", "silent_failures", "degraded_scans")
                 }
+                # the RMS over the scans whose view the map holds (`log_replay.ScanOutcome.seen`)
+                line |= {k: round(stats[k], 4) for k in ("seen_scans", "seen_rms_m")}
                 line["lost_scans"] = stats["lost_scans"]
                 line["seconds"] = round(time.perf_counter() - t0, 1)
                 print(json.dumps(line), flush=True)  # command-line output

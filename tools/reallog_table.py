@@ -169,6 +169,32 @@ def consistency(figures: Mapping[str, float]) -> str:
     return "\n\n".join(lines)
 
 
+def seen(figures: Mapping[str, float]) -> str:
+    """The line on the scans whose view the map holds (``reallog_<log>_<method>_seen_*``,
+    `bench/bench_reallogs.py`): the RMS over them where some scans of a log and method look
+    where the map was never made; empty where every scan's view is mapped or the output has
+    no such figures."""
+    cells = []
+    for log, name in LOGS.items():
+        for method in METHODS:
+            key = f"reallog_{log}_{method}_"
+            scans, seen_scans = figures.get(key + "scans"), figures.get(key + "seen_scans")
+            if scans and seen_scans is not None and seen_scans < scans:
+                cm = _fmt(100.0, 2)
+                cells.append(
+                    f"{name} {method} {cm(figures.get(key + 'seen_rms_m'))} cm over "
+                    f"{seen_scans:.0f} of {scans:.0f} scans (all: {cm(figures.get(key + 'rms_m'))} cm)"
+                )
+    if not cells:
+        return ""
+    return (
+        "Over the scans whose view the map holds (at least 35 % of the end points, at the "
+        "logged pose, on cells the map observed; every other log and method: all scans): "
+        + ", ".join(cells)
+        + "."
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("json_file", nargs="?", help="the bench's output (default: standard input)")
@@ -185,10 +211,10 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(rows(figures)))
     print()
     print(summary(figures))
-    line = consistency(figures)
-    if line:
-        print()
-        print(line)
+    for line in (seen(figures), consistency(figures)):
+        if line:
+            print()
+            print(line)
     return 0
 
 

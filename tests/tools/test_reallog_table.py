@@ -110,6 +110,24 @@ def test_the_reference_consistency_line_names_the_logs_checked() -> None:
     assert table.consistency(_figures()) == ""
 
 
+def test_the_seen_line_names_only_runs_with_scans_whose_view_is_not_mapped() -> None:
+    """A log and method whose every scan sees its map (Intel revisit here) is not named; one
+    with scans that look where the map was never made gets the RMS over the others beside the
+    RMS over all (`bench_reallogs.SEEN_FIGURES`)."""
+    figures = _figures() | {"reallog_intel_revisit_seen_scans": 172.0}
+    figures |= {
+        "reallog_freiburg_campus_revisit_scans": 238.0,
+        "reallog_freiburg_campus_revisit_rms_m": 0.0581,
+        "reallog_freiburg_campus_revisit_seen_scans": 221.0,
+        "reallog_freiburg_campus_revisit_seen_rms_m": 0.0424,
+    }
+    line = table.seen(figures)
+    assert line.startswith("Over the scans whose view the map holds")
+    assert "Freiburg campus revisit 4.24 cm over 221 of 238 scans (all: 5.81 cm)" in line
+    assert "Intel" not in line
+    assert table.seen(_figures()) == ""
+
+
 def test_main_reads_the_last_line_of_the_bench_output(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
