@@ -288,15 +288,15 @@ class LocaliserConfig(schema.Declared, frozen=True):
     unknown_edges_are_surfaces: bool = True
     initial_starts: bool = True  # first match after set_initial_pose from 25 starts, best wins
     # ... and fused only where the scan fits the map there (`_confirms`): else the set pose
-    # stands. Off by default: it needs the heading-drift state (`odometry_yaw_bias`) to coast
-    # well. Measured (session 15, Freiburg campus, odometry seeds 0-3, RMS cm; every other log
+    # stands. On with the heading-drift state (`odometry_yaw_bias`, on by default), which it
+    # needs to coast well: switch both off together. Measured (session 15, Freiburg campus, odometry seeds 0-3, RMS cm; every other log
     # the same to 0.01 cm, seed 0; silent failures 0 on every log, seeds 0-2): drift state
     # off, revisit 5.81 / 7.92 / 7.67 / 9.09 -> 9.11 / 4.73 / 4.94 / 5.09, whole 12.18 / 9.84 /
     # 8.39 / 8.13 -> 12.98 / 9.96 / 8.75 / 8.89 (seed 0 coasts 0.02 rad/m of uncorrected
     # heading drift through scans that fit nowhere, log 1340-1367: up to 54 cm, degraded,
     # then lost); drift state on, revisit 5.35 / 7.83 / 7.92 / 5.95 -> 4.10 / 4.14 / 4.32 /
     # 4.66, whole 6.68 / 6.62 / 7.23 / 7.22 -> 6.49 / 6.60 / 6.94 / 7.03.
-    set_pose_needs_fit: bool = False
+    set_pose_needs_fit: bool = True
     # ... of which the starts in this many basins of the matcher's level 1 (10 cm cells), the
     # best-fitting there, are matched on to the finest level (`_match_from_starts`; speed,
     # issue 12); 25: every start, always. 3: the 25-start pick on every real-log first match
