@@ -187,9 +187,8 @@ def view_mapped(
     c, s = math.cos(pose.yaw), math.sin(pose.yaw)
     xs = pose.x + c * points[:, 0] - s * points[:, 1]
     ys = pose.y + s * points[:, 0] + c * points[:, 1]
-    col = np.floor((xs - grid.origin_x) / grid.resolution).astype(np.intp)
-    row = np.floor((ys - grid.origin_y) / grid.resolution).astype(np.intp)
-    inside = (col >= 0) & (col < grid.width) & (row >= 0) & (row < grid.height)
+    row, col = grid.world_to_cell(xs, ys)
+    inside = grid.in_bounds(row, col)
     seen = np.zeros(points.shape[0], dtype=bool)
     seen[inside] = observed[row[inside], col[inside]]
     return float(np.count_nonzero(seen)) / points.shape[0]
